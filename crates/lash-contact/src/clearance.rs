@@ -1,0 +1,240 @@
+//! The planar revolute clearance joint (physics.md §1).
+
+use crate::friction::FrictionLaw;
+use crate::law::NormalForce;
+use lash_mech::{BodyId, Pose, Vec2, perp};
+use serde::Serialize;
+
+/// A revolute joint with radial clearance: a journal (pin) on one body inside a bearing (hole) on
+/// another.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClearanceJoint {
+    /// Name used in outputs (usually the joint it replaces).
+    pub name: String,
+    /// Body carrying the journal.
+    pub journal_body: BodyId,
+    /// Journal centre on its body (local, from the centroid) [m].
+    pub journal_point: Vec2,
+    /// Body carrying the bearing.
+    pub bearing_body: BodyId,
+    /// Bearing centre on its body (local, from the centroid) [m].
+    pub bearing_point: Vec2,
+    /// Journal radius R_J [m].
+    pub journal_radius: f64,
+    /// Bearing radius R_B [m].
+    pub bearing_radius: f64,
+    /// Normal contact law.
+    pub law: NormalForce,
+    /// Friction law.
+    pub friction: FrictionLaw,
+    /// Discrete state: contact closed (δ > 0 since the last located onset).
+    pub in_contact: bool,
+    /// Discrete state: approach velocity δ̇⁻ captured at the last onset [m/s].
+    pub onset_velocity: f64,
+}
+
+/// Geometry, kinematics and forces of one clearance joint at one state.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct ContactState {
+    /// Journal centre [m].
+    pub journal_centre: Vec2,
+    /// Eccentricity e = r_J − r_B [m].
+    pub eccentricity: Vec2,
+    /// |e| [m].
+    pub eccentricity_norm: f64,
+    /// Normal n = e/|e| (bearing centre → journal centre).
+    pub normal: Vec2,
+    /// Penetration δ = |e| − c [m] (negative: free flight).
+    pub penetration: f64,
+    /// Penetration rate δ̇ = ė·n [m/s] (positive: approaching).
+    pub penetration_rate: f64,
+    /// Slip velocity v_t = ė·t + ω_J R_J − ω_B R_B [m/s].
+    pub slip_velocity: f64,
+    /// Normal force F_N ≥ 0 [N].
+    pub normal_force: f64,
+    /// Friction force F_T (signed like v_t) [N].
+    pub friction_force: f64,
+    /// Force on the journal f_J = −F_N n − F_T t [N].
+    pub force_on_journal: Vec2,
+}
+
+impl ClearanceJoint {
+    /// Radial clearance c = R_B − R_J [m].
+    pub fn radial_clearance(&self) -> f64 {
+        self.bearing_radius - self.journal_radius
+    }
+
+    /// Geometry and forces for the given body poses. `onset` is the approach velocity of the
+    /// current contact (used by hysteresis-damped laws).
+    #[inline]
+    pub fn evaluate(&self, journal: &Pose, bearing: &Pose, onset: f64) -> ContactState {
+        let aj = journal.rotate(self.journal_point);
+        let ab = bearing.rotate(self.bearing_point);
+        let rj = journal.position + aj;
+        let rb = bearing.position + ab;
+        let e = rj - rb;
+        let e_dot = journal.velocity + perp(aj) * journal.angular_velocity
+            - bearing.velocity
+            - perp(ab) * bearing.angular_velocity;
+        let norm = e.norm();
+        let n = if norm > 0.0 { e / norm } else { Vec2::new(1.0, 0.0) };
+        let t = perp(n);
+        let delta = norm - self.radial_clearance();
+        let delta_dot = e_dot.dot(&n);
+        let slip = e_dot.dot(&t) + journal.angular_velocity * self.journal_radius
+            - bearing.angular_velocity * self.bearing_radius;
+        let fn_ = self.law.force(delta, delta_dot, onset);
+        let ft = self.friction.coefficient(slip) * fn_;
+        ContactState {
+            journal_centre: rj,
+            eccentricity: e,
+            eccentricity_norm: norm,
+            normal: n,
+            penetration: delta,
+            penetration_rate: delta_dot,
+            slip_velocity: slip,
+            normal_force: fn_,
+            friction_force: ft,
+            force_on_journal: -(n * fn_) - t * ft,
+        }
+    }
+
+    /// World-frame arms from the journal body's and the bearing body's centroids to the contact
+    /// points P_J = r_J + R_J n and P_B = r_B + R_B n.
+    #[inline]
+    pub fn arms(&self, journal: &Pose, bearing: &Pose, state: &ContactState) -> (Vec2, Vec2) {
+        let aj = journal.rotate(self.journal_point) + state.normal * self.journal_radius;
+        let ab = bearing.rotate(self.bearing_point) + state.normal * self.bearing_radius;
+        (aj, ab)
+    }
+}
+
+/// One impact (a contact phase from located onset to located exit).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Impact {
+    /// Onset time [s].
+    pub onset_time: f64,
+    /// Approach velocity δ̇⁻ at onset [m/s].
+    pub onset_velocity: f64,
+    /// Exit time [s] (NaN while open).
+    pub exit_time: f64,
+    /// Duration [s] (NaN while open).
+    pub duration: f64,
+    /// Peak normal force [N] (parabolic refinement over accepted steps).
+    pub peak_force: f64,
+    /// Time of the peak [s].
+    pub peak_time: f64,
+    /// Largest penetration [m].
+    pub max_penetration: f64,
+}
+
+/// Follows an open impact and refines its force peak.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ImpactTracker {
+    pub impact: Impact,
+    samples: [(f64, f64); 3],
+    count: usize,
+}
+
+impl ImpactTracker {
+    pub fn open(t: f64, onset_velocity: f64) -> Self {
+        Self {
+            impact: Impact {
+                onset_time: t,
+                onset_velocity,
+                exit_time: f64::NAN,
+                duration: f64::NAN,
+                peak_force: 0.0,
+                peak_time: t,
+                max_penetration: 0.0,
+            },
+            samples: [(t, 0.0); 3],
+            count: 1,
+        }
+    }
+
+    /// Adds a sample of the trajectory (at an accepted step or an event).
+    pub fn sample(&mut self, t: f64, force: f64, penetration: f64) {
+        self.impact.max_penetration = self.impact.max_penetration.max(penetration);
+        if t <= self.samples[2].0 {
+            return;
+        }
+        self.samples = [self.samples[1], self.samples[2], (t, force)];
+        self.count += 1;
+        if force > self.impact.peak_force {
+            self.impact.peak_force = force;
+            self.impact.peak_time = t;
+        }
+        if self.count >= 3 {
+            let [(t0, f0), (t1, f1), (t2, f2)] = self.samples;
+            if f1 >= f0 && f1 >= f2 && (f1 > f0 || f1 > f2) {
+                // Vertex of the parabola through the three samples.
+                let d0 = (f1 - f0) / (t1 - t0);
+                let d1 = (f2 - f1) / (t2 - t1);
+                let curv = (d1 - d0) / (t2 - t0);
+                if curv < 0.0 {
+                    let tv = 0.5 * (t0 + t1) - d0 / (2.0 * curv);
+                    if tv > t0 && tv < t2 {
+                        let fv = f1 + d0 * (tv - t1) + curv * (tv - t0) * (tv - t1);
+                        if fv > self.impact.peak_force {
+                            self.impact.peak_force = fv;
+                            self.impact.peak_time = tv;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    pub fn close(mut self, t: f64) -> Impact {
+        self.sample(t, 0.0, 0.0);
+        self.impact.exit_time = t;
+        self.impact.duration = t - self.impact.onset_time;
+        self.impact
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parabolic_refinement_finds_the_peak_of_a_parabola() {
+        let f = |t: f64| 100.0 - 4.0 * (t - 0.37).powi(2);
+        let mut tr = ImpactTracker::open(0.0, 1.0);
+        for t in [0.1, 0.25, 0.33, 0.41, 0.6, 0.9] {
+            tr.sample(t, f(t), 0.0);
+        }
+        let imp = tr.close(1.0);
+        assert!((imp.peak_force - 100.0).abs() < 1e-9);
+        assert!((imp.peak_time - 0.37).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sign_conventions_of_a_pressed_journal() {
+        // Journal displaced +x by c + δ and moving further +x while spinning: normal force
+        // pushes it back (−x); slip v_t = ė·t + ω_J R_J, t = +y.
+        let joint = ClearanceJoint {
+            name: "j".into(),
+            journal_body: BodyId::Body(0),
+            journal_point: Vec2::zeros(),
+            bearing_body: BodyId::Ground,
+            bearing_point: Vec2::zeros(),
+            journal_radius: 0.0095,
+            bearing_radius: 0.01,
+            law: NormalForce::Power { stiffness: 1e10, exponent: 1.0 },
+            friction: FrictionLaw::Coulomb { coefficient: 0.1 },
+            in_contact: true,
+            onset_velocity: 1.0,
+        };
+        let q = [0.0005 + 1e-6, 0.0, 0.0];
+        let qd = [0.3, 0.2, 10.0];
+        let s = joint.evaluate(&Pose::of(BodyId::Body(0), &q, &qd), &Pose::GROUND, 1.0);
+        assert!((s.penetration - 1e-6).abs() < 1e-15);
+        assert!((s.penetration_rate - 0.3).abs() < 1e-15);
+        assert!((s.slip_velocity - (0.2 + 10.0 * 0.0095)).abs() < 1e-15);
+        assert!((s.normal_force - 1e4).abs() < 1e-6);
+        assert!((s.force_on_journal.x + 1e4).abs() < 1e-6);
+        assert!((s.force_on_journal.y + 1e3).abs() < 1e-6);
+    }
+}

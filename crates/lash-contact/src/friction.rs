@@ -1,0 +1,175 @@
+//! Friction laws: the signed friction coefficient μ(v_t), odd in the slip velocity, so that
+//! F_T = μ(v_t) F_N and the force on the journal is −F_T t.
+
+use crate::law::step;
+use lash_core::Problems;
+use serde::{Deserialize, Serialize};
+
+/// A friction law as written in a scenario file (`law = "ambrosio"`, …).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FrictionLaw {
+    /// No friction.
+    #[default]
+    None,
+    /// μ sign(v_t).
+    Coulomb {
+        /// μ [-].
+        coefficient: f64,
+    },
+    /// Ambrósio's modified Coulomb: μ c_d(|v_t|) sign(v_t), c_d = 0 below v0, linear to 1 at v1.
+    Ambrosio {
+        /// μ [-].
+        coefficient: f64,
+        /// v0 [m/s].
+        v0: f64,
+        /// v1 [m/s].
+        v1: f64,
+    },
+    /// ADAMS stick–slip: STEP(v, −v_s, −μ_s, v_s, μ_s) below v_s, STEP(|v|, v_s, μ_s, v_d, μ_d)
+    /// between v_s and v_d, μ_d above.
+    AdamsStickSlip {
+        /// Static coefficient μ_s [-].
+        static_coefficient: f64,
+        /// Dynamic coefficient μ_d [-].
+        dynamic_coefficient: f64,
+        /// Stiction transition velocity v_s [m/s].
+        stiction_velocity: f64,
+        /// Friction transition velocity v_d [m/s] (> v_s).
+        friction_velocity: f64,
+    },
+    /// Threlfall: μ (1 − exp(−3|v_t|/v0)) sign(v_t).
+    Threlfall {
+        /// μ [-].
+        coefficient: f64,
+        /// v0 [m/s]: 95 % of μ is reached at v0.
+        v0: f64,
+    },
+}
+
+impl FrictionLaw {
+    /// The signed coefficient μ(v_t).
+    #[inline]
+    pub fn coefficient(&self, v: f64) -> f64 {
+        let s = if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        let a = v.abs();
+        match *self {
+            FrictionLaw::None => 0.0,
+            FrictionLaw::Coulomb { coefficient } => coefficient * s,
+            FrictionLaw::Ambrosio { coefficient, v0, v1 } => {
+                let cd = if a <= v0 {
+                    0.0
+                } else if a >= v1 {
+                    1.0
+                } else {
+                    (a - v0) / (v1 - v0)
+                };
+                coefficient * cd * s
+            }
+            FrictionLaw::AdamsStickSlip {
+                static_coefficient: ms,
+                dynamic_coefficient: md,
+                stiction_velocity: vs,
+                friction_velocity: vd,
+            } => {
+                if a < vs {
+                    step(v, -vs, -ms, vs, ms)
+                } else if a <= vd {
+                    step(a, vs, ms, vd, md) * s
+                } else {
+                    md * s
+                }
+            }
+            FrictionLaw::Threlfall { coefficient, v0 } => coefficient * (1.0 - (-3.0 * a / v0).exp()) * s,
+        }
+    }
+
+    /// Problems of the law's numbers.
+    pub fn validate(&self) -> Problems {
+        let mut p = Problems::new();
+        match *self {
+            FrictionLaw::None => {}
+            FrictionLaw::Coulomb { coefficient } => p.non_negative("coefficient", coefficient),
+            FrictionLaw::Ambrosio { coefficient, v0, v1 } => {
+                p.non_negative("coefficient", coefficient);
+                p.non_negative("v0", v0);
+                p.positive("v1", v1);
+                if v1 <= v0 {
+                    p.push("v1", format!("must exceed v0 = {v0}, got {v1}"));
+                }
+            }
+            FrictionLaw::AdamsStickSlip {
+                static_coefficient,
+                dynamic_coefficient,
+                stiction_velocity,
+                friction_velocity,
+            } => {
+                p.non_negative("static_coefficient", static_coefficient);
+                p.non_negative("dynamic_coefficient", dynamic_coefficient);
+                p.positive("stiction_velocity", stiction_velocity);
+                p.positive("friction_velocity", friction_velocity);
+                if friction_velocity <= stiction_velocity {
+                    p.push("friction_velocity", "must exceed stiction_velocity");
+                }
+            }
+            FrictionLaw::Threlfall { coefficient, v0 } => {
+                p.non_negative("coefficient", coefficient);
+                p.positive("v0", v0);
+            }
+        }
+        p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn laws() -> [FrictionLaw; 5] {
+        [
+            FrictionLaw::None,
+            FrictionLaw::Coulomb { coefficient: 0.1 },
+            FrictionLaw::Ambrosio { coefficient: 0.1, v0: 1e-4, v1: 1e-3 },
+            FrictionLaw::AdamsStickSlip {
+                static_coefficient: 0.15,
+                dynamic_coefficient: 0.1,
+                stiction_velocity: 1e-4,
+                friction_velocity: 1e-3,
+            },
+            FrictionLaw::Threlfall { coefficient: 0.1, v0: 1e-3 },
+        ]
+    }
+
+    #[test]
+    fn reference_values() {
+        let a = FrictionLaw::Ambrosio { coefficient: 0.1, v0: 1e-4, v1: 1e-3 };
+        assert_eq!(a.coefficient(5e-5), 0.0);
+        assert!((a.coefficient(5.5e-4) - 0.05).abs() < 1e-15);
+        assert_eq!(a.coefficient(-1.0), -0.1);
+        let s = laws()[3];
+        assert!((s.coefficient(1e-4) - 0.15).abs() < 1e-15);
+        assert!((s.coefficient(-2e-3) + 0.1).abs() < 1e-15);
+        assert_eq!(s.coefficient(0.0), 0.0);
+        let t = laws()[4];
+        assert!((t.coefficient(1e-3) - 0.1 * (1.0 - (-3.0f64).exp())).abs() < 1e-15);
+    }
+
+    proptest! {
+        #[test]
+        fn friction_is_odd_and_bounded(v in -1.0f64..1.0) {
+            for law in laws() {
+                let mu = law.coefficient(v);
+                prop_assert!((mu + law.coefficient(-v)).abs() < 1e-15);
+                prop_assert!(mu * v >= 0.0, "friction must oppose slip");
+                prop_assert!(mu.abs() <= 0.15 + 1e-15);
+            }
+        }
+    }
+}

@@ -1,0 +1,240 @@
+//! The full (monolithic) model: the mechanism's equations of motion with the clearance joints'
+//! contact forces, as an [`OdeSystem`] with one event function per clearance joint.
+//!
+//! State y = [q; q̇]. Event function k is δ_k in free flight and −δ_k in contact, so the adaptive
+//! integrator locates every onset and exit; the approach velocity δ̇⁻ of the hysteresis laws is
+//! captured at the located onset.
+
+use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use lash_mech::constraints::pose_of;
+use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, assemble, kinematics, velocity_analysis};
+use lash_ode::OdeSystem;
+
+/// Errors of building or running the full model.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    /// The mechanics layer failed.
+    #[error(transparent)]
+    Mech(#[from] MechError),
+}
+
+/// Penetrations beyond this fraction of the journal radius are a blow-up, not contact.
+pub const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
+
+/// Mechanism + clearance joints, ready to integrate.
+pub struct FullModel {
+    /// The mechanism with the clearance joints removed (cut system).
+    pub mechanism: Mechanism,
+    /// The clearance joints.
+    pub clearances: Vec<ClearanceJoint>,
+    /// KKT workspace; after an evaluation it holds q̈ and λ.
+    pub solver: Solver,
+    /// Contact states at the last evaluation, one per clearance joint.
+    pub contacts: Vec<ContactState>,
+    /// Completed impacts, per clearance joint.
+    pub impacts: Vec<Vec<Impact>>,
+    open: Vec<Option<ImpactTracker>>,
+    violation: bool,
+    error: Option<String>,
+    n: usize,
+}
+
+impl FullModel {
+    /// Builds the model. The mechanism must already be valid.
+    pub fn new(mechanism: Mechanism, clearances: Vec<ClearanceJoint>) -> Self {
+        let solver = Solver::new(&mechanism);
+        let n = mechanism.coordinate_count();
+        let k = clearances.len();
+        Self {
+            mechanism,
+            clearances,
+            solver,
+            contacts: vec![ContactState::default(); k],
+            impacts: vec![Vec::new(); k],
+            open: vec![None; k],
+            violation: false,
+            error: None,
+            n,
+        }
+    }
+
+    /// The mechanism with every clearance joint replaced by an ideal revolute joint at the bearing
+    /// centre (journal centred).
+    pub fn ideal_mechanism(&self) -> Mechanism {
+        let mut m = self.mechanism.clone();
+        for c in &self.clearances {
+            m.joints.push(Joint {
+                name: c.name.clone(),
+                kind: JointKind::Revolute,
+                body_i: c.journal_body,
+                point_i: c.journal_point,
+                body_j: c.bearing_body,
+                point_j: c.bearing_point,
+            });
+        }
+        m
+    }
+
+    /// Consistent initial state at `t0`: the ideal mechanism (journals centred) assembled from the
+    /// bodies' guesses and driven to its velocities. Resets contact modes and impact records.
+    pub fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, ModelError> {
+        let ideal = self.ideal_mechanism();
+        let mut solver = Solver::new(&ideal);
+        let (mut q, mut qd) = kinematics::initial_guess(&ideal);
+        assemble(&ideal, t0, &mut q, &mut solver, 1e-13)?;
+        velocity_analysis(&ideal, t0, &q, &mut qd, &mut solver)?;
+        for c in &mut self.clearances {
+            c.in_contact = false;
+            c.onset_velocity = 0.0;
+        }
+        self.impacts.iter_mut().for_each(Vec::clear);
+        self.open.iter_mut().for_each(|o| *o = None);
+        self.error = None;
+        q.extend_from_slice(&qd);
+        // Contacts that start closed (a journal placed touching) are opened here.
+        let mut g = vec![0.0; self.clearances.len()];
+        self.events(t0, &q, &mut g);
+        for k in 0..g.len() {
+            if g[k] > 0.0 {
+                self.on_event(k, t0, &q);
+            }
+        }
+        Ok(q)
+    }
+
+    /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts`.
+    pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
+        let (q, qd) = y.split_at(self.n);
+        let FullModel { mechanism, clearances, solver, contacts, violation, .. } = self;
+        solver.set_state(mechanism, t, q, qd);
+        for (c, state) in clearances.iter().zip(contacts.iter_mut()) {
+            let pj = pose_of(&solver.poses, c.journal_body);
+            let pb = pose_of(&solver.poses, c.bearing_body);
+            // Probe geometry first: outside the current mode, take the local approach velocity as
+            // the onset velocity (only stages of a step that the integrator will cut see this).
+            let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
+            let mut s = c.evaluate(&pj, &pb, onset);
+            if (s.penetration > 0.0) != c.in_contact {
+                *violation = true;
+                if !c.in_contact && s.penetration > 0.0 {
+                    s = c.evaluate(&pj, &pb, s.penetration_rate.max(0.0));
+                }
+            }
+            if s.normal_force != 0.0 || s.friction_force != 0.0 {
+                let (arm_j, arm_b) = c.arms(&pj, &pb, &s);
+                solver.add_force(c.journal_body, arm_j, s.force_on_journal);
+                solver.add_force(c.bearing_body, arm_b, -s.force_on_journal);
+            }
+            *state = s;
+        }
+        solver.factor()?;
+        solver.solve(mechanism, qd);
+        Ok(())
+    }
+
+    /// Generalized accelerations of the last evaluation.
+    pub fn accelerations(&self) -> &[f64] {
+        &self.solver.accelerations
+    }
+
+    /// Impacts still open at the end of a run (closed at `t` for reporting).
+    pub fn open_impacts(&self, t: f64) -> Vec<Impact> {
+        self.open
+            .iter()
+            .flatten()
+            .map(|tr| {
+                let mut i = tr.impact;
+                i.exit_time = f64::NAN;
+                i.duration = t - i.onset_time;
+                i
+            })
+            .collect()
+    }
+
+    /// The first error met inside a right-hand-side evaluation, if any.
+    pub fn take_error(&mut self) -> Option<String> {
+        self.error.take()
+    }
+
+    fn contact_state(&self, k: usize, y: &[f64], onset: f64) -> ContactState {
+        let (q, qd) = y.split_at(self.n);
+        let c = &self.clearances[k];
+        let pj = lash_mech::Pose::of(c.journal_body, q, qd);
+        let pb = lash_mech::Pose::of(c.bearing_body, q, qd);
+        c.evaluate(&pj, &pb, onset)
+    }
+}
+
+impl OdeSystem for FullModel {
+    fn dim(&self) -> usize {
+        2 * self.n
+    }
+
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
+        let n = self.n;
+        match self.evaluate(t, y) {
+            Ok(()) => {
+                dydt[..n].copy_from_slice(&y[n..]);
+                dydt[n..].copy_from_slice(&self.solver.accelerations);
+            }
+            Err(e) => {
+                if self.error.is_none() {
+                    self.error = Some(e.to_string());
+                }
+                dydt.fill(f64::NAN);
+            }
+        }
+    }
+
+    fn event_count(&self) -> usize {
+        self.clearances.len()
+    }
+
+    fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
+        for k in 0..self.clearances.len() {
+            let delta = self.contact_state(k, y, 0.0).penetration;
+            g[k] = if self.clearances[k].in_contact { -delta } else { delta };
+        }
+    }
+
+    fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
+        let s = self.contact_state(k, y, 0.0);
+        let c = &mut self.clearances[k];
+        if c.in_contact {
+            c.in_contact = false;
+            if let Some(tr) = self.open[k].take() {
+                self.impacts[k].push(tr.close(t));
+            }
+        } else {
+            c.in_contact = true;
+            c.onset_velocity = s.penetration_rate.max(0.0);
+            self.open[k] = Some(ImpactTracker::open(t, s.penetration_rate));
+        }
+    }
+
+    fn take_mode_violation(&mut self) -> bool {
+        std::mem::take(&mut self.violation)
+    }
+
+    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        for k in 0..self.clearances.len() {
+            let onset = self.clearances[k].onset_velocity;
+            let s = self.contact_state(k, y, onset);
+            let c = &self.clearances[k];
+            if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
+                return Err(format!(
+                    "penetration {:.6e} m of clearance joint {:?} exceeds {} × the journal radius: the simulation blew up \
+                     (step too large for the contact stiffness?)",
+                    s.penetration, c.name, PENETRATION_LIMIT_FRACTION
+                ));
+            }
+            if let Some(tr) = self.open[k].as_mut() {
+                tr.sample(t, s.normal_force, s.penetration);
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,427 @@
+//! Normal contact force laws (F_N ≥ 0 always).
+
+use lash_core::Problems;
+use serde::{Deserialize, Serialize};
+
+/// ADAMS STEP: a cubic from (x0, h0) to (x1, h1) with zero slope at both ends, constant outside.
+pub fn step(x: f64, x0: f64, h0: f64, x1: f64, h1: f64) -> f64 {
+    if x <= x0 {
+        h0
+    } else if x >= x1 {
+        h1
+    } else {
+        let d = (x - x0) / (x1 - x0);
+        h0 + (h1 - h0) * d * d * (3.0 - 2.0 * d)
+    }
+}
+
+/// An isotropic elastic material.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Young's modulus E [Pa].
+    pub young_modulus: f64,
+    /// Poisson's ratio ν [-].
+    pub poisson_ratio: f64,
+}
+
+impl Material {
+    /// Structural steel as in the benchmarks: E = 207 GPa, ν = 0.3.
+    pub const STEEL: Material = Material { young_modulus: 207e9, poisson_ratio: 0.3 };
+
+    /// Problems of the material's numbers.
+    pub fn validate(&self) -> Problems {
+        let mut p = Problems::new();
+        p.positive("young_modulus", self.young_modulus);
+        if !(self.poisson_ratio.is_finite() && self.poisson_ratio > -1.0 && self.poisson_ratio < 0.5) {
+            p.push("poisson_ratio", format!("must lie in (-1, 0.5), got {}", self.poisson_ratio));
+        }
+        p
+    }
+}
+
+/// Effective modulus E* with 1/E* = (1−ν_J²)/E_J + (1−ν_B²)/E_B [Pa].
+pub fn effective_modulus(journal: &Material, bearing: &Material) -> f64 {
+    1.0 / ((1.0 - journal.poisson_ratio.powi(2)) / journal.young_modulus
+        + (1.0 - bearing.poisson_ratio.powi(2)) / bearing.young_modulus)
+}
+
+/// Hertz stiffness of a journal inside a bearing (sphere approximation):
+/// K = (4/3) E* √R*, R* = R_J R_B / (R_B − R_J) [N/m^1.5].
+pub fn hertz_stiffness(journal: &Material, bearing: &Material, journal_radius: f64, bearing_radius: f64) -> f64 {
+    let r_star = journal_radius * bearing_radius / (bearing_radius - journal_radius);
+    4.0 / 3.0 * effective_modulus(journal, bearing) * r_star.sqrt()
+}
+
+fn default_exponent() -> f64 {
+    1.5
+}
+fn default_floor() -> f64 {
+    1e-4
+}
+
+/// A contact law as written in a scenario file (`law = "lankarani_nikravesh"`, …). Stiffness left
+/// out means: Hertz stiffness from the materials and radii.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ContactLaw {
+    /// F = K δⁿ, no dissipation.
+    Hertz {
+        /// K [N/m^n]; default from materials.
+        stiffness: Option<f64>,
+        /// n [-].
+        #[serde(default = "default_exponent")]
+        exponent: f64,
+    },
+    /// F = K δ + D δ̇.
+    KelvinVoigt {
+        /// K [N/m] (required: a linear stiffness does not follow from Hertz theory).
+        stiffness: f64,
+        /// D [N s/m].
+        damping: f64,
+    },
+    /// F = K δⁿ (1 + χ δ̇/δ̇⁻), χ = 3(1−c_e)/2.
+    HuntCrossley(HysteresisParams),
+    /// χ = 3(1−c_e²)/4.
+    LankaraniNikravesh(HysteresisParams),
+    /// χ = (1−c_e²)/c_e.
+    Gonthier(HysteresisParams),
+    /// χ = 8(1−c_e)/(5 c_e).
+    Flores(HysteresisParams),
+    /// χ = 3(1−c_e)/(2 c_e).
+    HuGuo(HysteresisParams),
+    /// ADAMS IMPACT: F = K δⁿ + STEP(δ, 0, 0, d_max, C_max) δ̇.
+    AdamsImpact {
+        /// K [N/m^n]; default from materials.
+        stiffness: Option<f64>,
+        /// n [-].
+        #[serde(default = "default_exponent")]
+        exponent: f64,
+        /// C_max [N s/m].
+        max_damping: f64,
+        /// d_max [m], penetration at which full damping is reached.
+        damping_depth: f64,
+    },
+    /// Cylindrical line contact (Liu et al.): F = (π/2) E* L δ √(δ / (2(c + δ))), optionally times
+    /// the Lankarani–Nikravesh hysteresis factor (1 + χ δ̇/δ̇⁻).
+    Liu {
+        /// Axial contact length L [m].
+        length: f64,
+        /// Restitution for the hysteresis factor; none means elastic.
+        restitution: Option<f64>,
+        /// Floor of the onset velocity [m/s].
+        #[serde(default = "default_floor")]
+        velocity_floor: f64,
+    },
+}
+
+/// Parameters of the hysteresis-damped family.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HysteresisParams {
+    /// Nominal coefficient of restitution c_e, in (0, 1].
+    pub restitution: f64,
+    /// K [N/m^n]; default from materials.
+    pub stiffness: Option<f64>,
+    /// n [-].
+    #[serde(default = "default_exponent")]
+    pub exponent: f64,
+    /// Floor of the onset (approach) velocity δ̇⁻ [m/s].
+    #[serde(default = "default_floor")]
+    pub velocity_floor: f64,
+}
+
+/// A contact law resolved to numbers, ready to evaluate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NormalForce {
+    /// K δⁿ.
+    Power {
+        /// K.
+        stiffness: f64,
+        /// n.
+        exponent: f64,
+    },
+    /// K δ + D δ̇.
+    KelvinVoigt {
+        /// K.
+        stiffness: f64,
+        /// D.
+        damping: f64,
+    },
+    /// K δⁿ (1 + χ δ̇/max(δ̇⁻, floor)).
+    Hysteresis {
+        /// K.
+        stiffness: f64,
+        /// n.
+        exponent: f64,
+        /// χ.
+        chi: f64,
+        /// Onset velocity floor.
+        floor: f64,
+    },
+    /// K δⁿ + STEP(δ, 0, 0, d_max, C_max) δ̇.
+    AdamsImpact {
+        /// K.
+        stiffness: f64,
+        /// n.
+        exponent: f64,
+        /// C_max.
+        max_damping: f64,
+        /// d_max.
+        damping_depth: f64,
+    },
+    /// (π/2) E* L δ √(δ/(2(c+δ))) (1 + χ δ̇/max(δ̇⁻, floor)).
+    Liu {
+        /// (π/2) E* L.
+        factor: f64,
+        /// Radial clearance c.
+        clearance: f64,
+        /// χ (0 for elastic).
+        chi: f64,
+        /// Onset velocity floor.
+        floor: f64,
+    },
+}
+
+impl NormalForce {
+    /// Normal force for penetration `delta` > 0, rate `delta_dot` (> 0 approaching) and onset
+    /// velocity `onset` (the δ̇ captured when this contact began). Clipped at 0.
+    #[inline]
+    pub fn force(&self, delta: f64, delta_dot: f64, onset: f64) -> f64 {
+        if delta <= 0.0 {
+            return 0.0;
+        }
+        let f = match *self {
+            NormalForce::Power { stiffness, exponent } => stiffness * pow(delta, exponent),
+            NormalForce::KelvinVoigt { stiffness, damping } => stiffness * delta + damping * delta_dot,
+            NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
+                stiffness * pow(delta, exponent) * (1.0 + chi * delta_dot / onset.max(floor))
+            }
+            NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
+                stiffness * pow(delta, exponent) + step(delta, 0.0, 0.0, damping_depth, max_damping) * delta_dot
+            }
+            NormalForce::Liu { factor, clearance, chi, floor } => {
+                factor
+                    * delta
+                    * (delta / (2.0 * (clearance + delta))).sqrt()
+                    * (1.0 + chi * delta_dot / onset.max(floor))
+            }
+        };
+        f.max(0.0)
+    }
+}
+
+/// δⁿ with a fast path for the common n = 1.5 (no powf in the hot loop).
+#[inline]
+fn pow(delta: f64, n: f64) -> f64 {
+    if n == 1.5 {
+        delta * delta.sqrt()
+    } else if n == 1.0 {
+        delta
+    } else {
+        delta.powf(n)
+    }
+}
+
+impl ContactLaw {
+    /// The hysteresis factor χ for the law's nominal restitution, where the law has one.
+    pub fn chi(&self) -> Option<f64> {
+        let h = |p: &HysteresisParams| p.restitution;
+        Some(match self {
+            ContactLaw::HuntCrossley(p) => 1.5 * (1.0 - h(p)),
+            ContactLaw::LankaraniNikravesh(p) => 0.75 * (1.0 - h(p) * h(p)),
+            ContactLaw::Gonthier(p) => (1.0 - h(p) * h(p)) / h(p),
+            ContactLaw::Flores(p) => 8.0 * (1.0 - h(p)) / (5.0 * h(p)),
+            ContactLaw::HuGuo(p) => 3.0 * (1.0 - h(p)) / (2.0 * h(p)),
+            ContactLaw::Liu { restitution: Some(e), .. } => 0.75 * (1.0 - e * e),
+            _ => return None,
+        })
+    }
+
+    /// Problems of the law's numbers.
+    pub fn validate(&self) -> Problems {
+        let mut p = Problems::new();
+        let stiff = |p: &mut Problems, k: &Option<f64>| {
+            if let Some(k) = k {
+                p.positive("stiffness", *k);
+            }
+        };
+        match self {
+            ContactLaw::Hertz { stiffness, exponent } => {
+                stiff(&mut p, stiffness);
+                p.positive("exponent", *exponent);
+            }
+            ContactLaw::KelvinVoigt { stiffness, damping } => {
+                p.positive("stiffness", *stiffness);
+                p.non_negative("damping", *damping);
+            }
+            ContactLaw::HuntCrossley(h)
+            | ContactLaw::LankaraniNikravesh(h)
+            | ContactLaw::Gonthier(h)
+            | ContactLaw::Flores(h)
+            | ContactLaw::HuGuo(h) => {
+                stiff(&mut p, &h.stiffness);
+                p.positive("exponent", h.exponent);
+                p.positive("velocity_floor", h.velocity_floor);
+                if !(h.restitution.is_finite() && h.restitution > 0.0 && h.restitution <= 1.0) {
+                    p.push("restitution", format!("must lie in (0, 1], got {}", h.restitution));
+                }
+            }
+            ContactLaw::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
+                stiff(&mut p, stiffness);
+                p.positive("exponent", *exponent);
+                p.non_negative("max_damping", *max_damping);
+                p.positive("damping_depth", *damping_depth);
+            }
+            ContactLaw::Liu { length, restitution, velocity_floor } => {
+                p.positive("length", *length);
+                p.positive("velocity_floor", *velocity_floor);
+                if let Some(e) = restitution
+                    && !(e.is_finite() && *e > 0.0 && *e <= 1.0)
+                {
+                    p.push("restitution", format!("must lie in (0, 1], got {e}"));
+                }
+            }
+        }
+        p
+    }
+
+    /// Resolves the law to numbers for a journal of radius `journal_radius` in a bearing of radius
+    /// `bearing_radius`, of the given materials.
+    pub fn resolve(
+        &self,
+        journal: &Material,
+        bearing: &Material,
+        journal_radius: f64,
+        bearing_radius: f64,
+    ) -> NormalForce {
+        let hertz = || hertz_stiffness(journal, bearing, journal_radius, bearing_radius);
+        let chi = self.chi().unwrap_or(0.0);
+        match self {
+            ContactLaw::Hertz { stiffness, exponent } => {
+                NormalForce::Power { stiffness: stiffness.unwrap_or_else(hertz), exponent: *exponent }
+            }
+            ContactLaw::KelvinVoigt { stiffness, damping } => {
+                NormalForce::KelvinVoigt { stiffness: *stiffness, damping: *damping }
+            }
+            ContactLaw::HuntCrossley(h)
+            | ContactLaw::LankaraniNikravesh(h)
+            | ContactLaw::Gonthier(h)
+            | ContactLaw::Flores(h)
+            | ContactLaw::HuGuo(h) => NormalForce::Hysteresis {
+                stiffness: h.stiffness.unwrap_or_else(hertz),
+                exponent: h.exponent,
+                chi,
+                floor: h.velocity_floor,
+            },
+            ContactLaw::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => NormalForce::AdamsImpact {
+                stiffness: stiffness.unwrap_or_else(hertz),
+                exponent: *exponent,
+                max_damping: *max_damping,
+                damping_depth: *damping_depth,
+            },
+            ContactLaw::Liu { length, velocity_floor, .. } => NormalForce::Liu {
+                factor: std::f64::consts::FRAC_PI_2 * effective_modulus(journal, bearing) * length,
+                clearance: bearing_radius - journal_radius,
+                chi,
+                floor: *velocity_floor,
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn hertz_stiffness_of_the_benchmark() {
+        let k = hertz_stiffness(&Material::STEEL, &Material::STEEL, 0.0095, 0.010);
+        // physics.md: ≈ 6.61e10 N/m^1.5; independent arithmetic: E* = E/(2(1−ν²)), R* = 0.19 m.
+        let e_star = 207e9 / (2.0 * (1.0 - 0.09));
+        let expected = 4.0 / 3.0 * e_star * 0.19f64.sqrt();
+        assert!((k - expected).abs() < 1e-6 * expected);
+        assert!((k / 6.61e10 - 1.0).abs() < 2e-3);
+    }
+
+    #[test]
+    fn step_matches_its_definition() {
+        assert_eq!(step(-1.0, 0.0, 0.0, 1.0, 5.0), 0.0);
+        assert_eq!(step(2.0, 0.0, 0.0, 1.0, 5.0), 5.0);
+        assert!((step(0.5, 0.0, 0.0, 1.0, 5.0) - 2.5).abs() < 1e-15);
+        assert!((step(0.25, 0.0, 1.0, 1.0, 3.0) - (1.0 + 2.0 * 0.0625 * 2.5)).abs() < 1e-15);
+    }
+
+    fn hyst(restitution: f64) -> HysteresisParams {
+        HysteresisParams { restitution, stiffness: Some(1e9), exponent: 1.5, velocity_floor: 1e-4 }
+    }
+
+    #[test]
+    fn chi_values_follow_the_published_formulas() {
+        let ce = 0.5;
+        let cases = [
+            (ContactLaw::HuntCrossley(hyst(ce)), 0.75),
+            (ContactLaw::LankaraniNikravesh(hyst(ce)), 0.5625),
+            (ContactLaw::Gonthier(hyst(ce)), 1.5),
+            (ContactLaw::Flores(hyst(ce)), 1.6),
+            (ContactLaw::HuGuo(hyst(ce)), 1.5),
+        ];
+        for (law, chi) in cases {
+            assert!((law.chi().unwrap() - chi).abs() < 1e-15, "{law:?}");
+        }
+    }
+
+    #[test]
+    fn validation_names_fields() {
+        let p = ContactLaw::LankaraniNikravesh(HysteresisParams {
+            restitution: 1.5,
+            stiffness: Some(-1.0),
+            exponent: f64::NAN,
+            velocity_floor: 0.0,
+        })
+        .validate();
+        let fields: Vec<_> = p.0.iter().map(|x| x.field.as_str()).collect();
+        assert_eq!(fields, ["stiffness", "exponent", "velocity_floor", "restitution"]);
+    }
+
+    fn all_laws() -> Vec<NormalForce> {
+        let m = Material::STEEL;
+        let mut v: Vec<NormalForce> = [
+            ContactLaw::Hertz { stiffness: None, exponent: 1.5 },
+            ContactLaw::KelvinVoigt { stiffness: 1e8, damping: 1e3 },
+            ContactLaw::HuntCrossley(hyst(0.7)),
+            ContactLaw::LankaraniNikravesh(hyst(0.7)),
+            ContactLaw::Gonthier(hyst(0.7)),
+            ContactLaw::Flores(hyst(0.7)),
+            ContactLaw::HuGuo(hyst(0.7)),
+            ContactLaw::AdamsImpact { stiffness: None, exponent: 1.5, max_damping: 1e4, damping_depth: 1e-5 },
+            ContactLaw::Liu { length: 0.02, restitution: Some(0.8), velocity_floor: 1e-4 },
+        ]
+        .iter()
+        .map(|l| l.resolve(&m, &m, 0.0095, 0.01))
+        .collect();
+        v.push(NormalForce::Power { stiffness: 1e9, exponent: 1.3 });
+        v
+    }
+
+    proptest! {
+        #[test]
+        fn forces_are_never_negative_and_vanish_outside_contact(
+            delta in -1e-3f64..1e-3, rate in -10.0f64..10.0, onset in 0.0f64..10.0
+        ) {
+            for law in all_laws() {
+                let f = law.force(delta, rate, onset);
+                prop_assert!(f >= 0.0 && f.is_finite());
+                if delta <= 0.0 { prop_assert_eq!(f, 0.0); }
+            }
+        }
+
+        #[test]
+        fn approaching_pushes_harder_than_separating(delta in 1e-7f64..1e-4, rate in 1e-3f64..5.0) {
+            for law in all_laws() {
+                prop_assert!(law.force(delta, rate, rate) >= law.force(delta, -rate, rate));
+            }
+        }
+    }
+}

@@ -1,0 +1,17 @@
+//! Contact mechanics of lash: normal contact laws, friction laws, the planar revolute clearance
+//! joint, and the full (monolithic) model of a mechanism with clearance joints.
+//!
+//! Sign conventions (docs/theory.md): eccentricity e = r_J − r_B (journal centre minus bearing
+//! centre), penetration δ = |e| − c, normal n = e/|e|, tangent t = ⊥n, penetration rate δ̇ = ė·n,
+//! slip v_t = ė·t + ω_J R_J − ω_B R_B; the force on the journal is f_J = −F_N n − F_T t, applied at
+//! P_J = r_J + R_J n; the bearing receives −f_J at P_B = r_B + R_B n.
+
+pub mod clearance;
+pub mod friction;
+pub mod full_model;
+pub mod law;
+
+pub use clearance::{ClearanceJoint, ContactState, Impact};
+pub use friction::FrictionLaw;
+pub use full_model::{FullModel, ModelError};
+pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};

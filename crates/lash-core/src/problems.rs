@@ -1,0 +1,124 @@
+//! Validation problems that name the field they concern, collected so that every problem of an
+//! input is reported at once.
+
+use std::fmt;
+
+/// One problem of an input: the path of the field (`bodies[2].mass`) and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Problem {
+    /// Path of the offending field, e.g. `clearances[0].journal_radius`.
+    pub field: String,
+    /// What is wrong, in words.
+    pub message: String,
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.field, self.message)
+    }
+}
+
+/// All problems found in one input. Empty means valid.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Problems(pub Vec<Problem>);
+
+impl Problems {
+    /// An empty list.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Records a problem with `field`.
+    pub fn push(&mut self, field: impl Into<String>, message: impl Into<String>) {
+        self.0.push(Problem { field: field.into(), message: message.into() });
+    }
+
+    /// Records a problem unless `value` is finite and strictly positive.
+    pub fn positive(&mut self, field: impl Into<String>, value: f64) {
+        if !value.is_finite() {
+            self.push(field, format!("must be a finite number, got {value}"));
+        } else if value <= 0.0 {
+            self.push(field, format!("must be > 0, got {value}"));
+        }
+    }
+
+    /// Records a problem unless `value` is finite and ≥ 0.
+    pub fn non_negative(&mut self, field: impl Into<String>, value: f64) {
+        if !value.is_finite() {
+            self.push(field, format!("must be a finite number, got {value}"));
+        } else if value < 0.0 {
+            self.push(field, format!("must be ≥ 0, got {value}"));
+        }
+    }
+
+    /// Records a problem unless `value` is finite.
+    pub fn finite(&mut self, field: impl Into<String>, value: f64) {
+        if !value.is_finite() {
+            self.push(field, format!("must be a finite number, got {value}"));
+        }
+    }
+
+    /// Records a problem unless `lo ≤ value ≤ hi` (and finite).
+    pub fn in_range(&mut self, field: impl Into<String>, value: f64, lo: f64, hi: f64) {
+        if !value.is_finite() || value < lo || value > hi {
+            self.push(field, format!("must lie in [{lo}, {hi}], got {value}"));
+        }
+    }
+
+    /// Moves all problems of `other` in, prefixing their field paths with `prefix`.
+    pub fn extend_prefixed(&mut self, prefix: &str, other: Problems) {
+        for p in other.0 {
+            let field = if p.field.is_empty() {
+                prefix.to_string()
+            } else if p.field.starts_with('[') {
+                format!("{prefix}{}", p.field)
+            } else {
+                format!("{prefix}.{}", p.field)
+            };
+            self.0.push(Problem { field, message: p.message });
+        }
+    }
+
+    /// True when no problem was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// `Ok(())` when empty, else `Err(self)`.
+    pub fn into_result(self) -> Result<(), Problems> {
+        if self.is_empty() { Ok(()) } else { Err(self) }
+    }
+}
+
+impl fmt::Display for Problems {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.0.len();
+        writeln!(f, "{n} problem{} found:", if n == 1 { "" } else { "s" })?;
+        for p in &self.0 {
+            writeln!(f, "  - {p}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Problems {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn collects_and_prefixes() {
+        let mut inner = Problems::new();
+        inner.positive("mass", -1.0);
+        inner.finite("angle", f64::NAN);
+        inner.in_range("restitution", 1.5, 0.0, 1.0);
+        let mut outer = Problems::new();
+        outer.extend_prefixed("bodies[1]", inner);
+        assert_eq!(outer.0.len(), 3);
+        assert_eq!(outer.0[0].field, "bodies[1].mass");
+        assert!(outer.to_string().contains("3 problems"));
+        assert!(outer.clone().into_result().is_err());
+        assert!(Problems::new().into_result().is_ok());
+    }
+}

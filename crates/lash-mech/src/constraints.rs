@@ -1,0 +1,124 @@
+//! Constraint equations Φ(q, t) = 0 joint by joint, with Φ_q, ν (Φ_q q̇ = ν) and γ (Φ_q q̈ = γ).
+//!
+//! Planar identities used throughout: a body-fixed vector a = A(θ)s has ȧ = θ̇ ⊥a and
+//! ä = θ̈ ⊥a − θ̇² a, with ⊥(x, y) = (−y, x).
+
+use crate::model::{BodyId, JointKind, Mechanism};
+use crate::{Pose, Vec2, perp};
+
+/// The Jacobian entries of one body in one constraint row: ∂Φ_row/∂(x, y, θ) of that body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Block {
+    /// Moving body index, or [`Block::NONE`] for the ground (no coordinates).
+    pub body: usize,
+    /// ∂Φ/∂x, ∂Φ/∂y, ∂Φ/∂θ.
+    pub d: [f64; 3],
+}
+
+impl Block {
+    /// Marker of an unused block (the ground side of a joint).
+    pub const NONE: usize = usize::MAX;
+    /// An empty block.
+    pub const EMPTY: Block = Block { body: Block::NONE, d: [0.0; 3] };
+}
+
+/// One row of Φ_q: a planar constraint touches at most two bodies.
+pub type JacobianRow = [Block; 2];
+
+/// Pose of `id` from a slice of body poses.
+#[inline]
+pub fn pose_of(poses: &[Pose], id: BodyId) -> Pose {
+    match id {
+        BodyId::Ground => Pose::GROUND,
+        BodyId::Body(k) => poses[k],
+    }
+}
+
+/// Fills `poses` (one per moving body) from coordinates and velocities.
+pub fn fill_poses(q: &[f64], qd: &[f64], poses: &mut [Pose]) {
+    for (k, p) in poses.iter_mut().enumerate() {
+        *p = Pose::of(BodyId::Body(k), q, qd);
+    }
+}
+
+/// The Jacobian block of one body.
+#[inline]
+fn blk(id: BodyId, dr: Vec2, dtheta: f64) -> Block {
+    match id {
+        BodyId::Body(k) => Block { body: k, d: [dr.x, dr.y, dtheta] },
+        BodyId::Ground => Block::EMPTY,
+    }
+}
+
+/// The constraint terms at one state.
+pub struct ConstraintTerms<'a> {
+    /// Φ_q by rows (sparse: two body blocks per row); every row is overwritten.
+    pub jacobian: &'a mut [JacobianRow],
+    /// Φ (one per equation).
+    pub phi: &'a mut [f64],
+    /// ν, the velocity right side.
+    pub nu: &'a mut [f64],
+    /// γ, the acceleration right side (without stabilisation).
+    pub gamma: &'a mut [f64],
+}
+
+/// Evaluates Φ, Φ_qᵀ, ν and γ of all joints (then drivers) at time `t`.
+pub fn evaluate(mech: &Mechanism, t: f64, poses: &[Pose], out: ConstraintTerms<'_>) {
+    let ConstraintTerms { jacobian: jac, phi, nu, gamma } = out;
+    let mut row = 0;
+    for joint in &mech.joints {
+        let pi = pose_of(poses, joint.body_i);
+        let pj = pose_of(poses, joint.body_j);
+        let ai = pi.rotate(joint.point_i);
+        let aj = pj.rotate(joint.point_j);
+        let (wi, wj) = (pi.angular_velocity, pj.angular_velocity);
+        match &joint.kind {
+            JointKind::Revolute => {
+                let d = pi.position + ai - pj.position - aj;
+                let (pai, paj) = (perp(ai), perp(aj));
+                jac[row] =
+                    [blk(joint.body_i, Vec2::new(1.0, 0.0), pai.x), blk(joint.body_j, Vec2::new(-1.0, 0.0), -paj.x)];
+                jac[row + 1] =
+                    [blk(joint.body_i, Vec2::new(0.0, 1.0), pai.y), blk(joint.body_j, Vec2::new(0.0, -1.0), -paj.y)];
+                let g = ai * (wi * wi) - aj * (wj * wj);
+                phi[row] = d.x;
+                phi[row + 1] = d.y;
+                nu[row] = 0.0;
+                nu[row + 1] = 0.0;
+                gamma[row] = g.x;
+                gamma[row + 1] = g.y;
+            }
+            JointKind::Prismatic { axis_j, angle_offset } => {
+                // Φ1 = θ_i − θ_j − θ0
+                jac[row] = [blk(joint.body_i, Vec2::zeros(), 1.0), blk(joint.body_j, Vec2::zeros(), -1.0)];
+                phi[row] = pi.angle - pj.angle - angle_offset;
+                nu[row] = 0.0;
+                gamma[row] = 0.0;
+                // Φ2 = v·d, v = A_j ⊥u (unit normal to the axis), d = r_i + a_i − r_j − a_j
+                let u = axis_j / axis_j.norm();
+                let v = pj.rotate(perp(u));
+                let d = pi.position + ai - pj.position - aj;
+                let d_dot = pi.velocity + perp(ai) * wi - pj.velocity - perp(aj) * wj;
+                let pv = perp(v);
+                jac[row + 1] =
+                    [blk(joint.body_i, v, v.dot(&perp(ai))), blk(joint.body_j, -v, pv.dot(&d) - v.dot(&perp(aj)))];
+                phi[row + 1] = v.dot(&d);
+                nu[row + 1] = 0.0;
+                gamma[row + 1] =
+                    wj * wj * v.dot(&d) - 2.0 * wj * pv.dot(&d_dot) + wi * wi * v.dot(&ai) - wj * wj * v.dot(&aj);
+            }
+        }
+        row += joint.equations();
+    }
+    for driver in &mech.drivers {
+        let pi = pose_of(poses, driver.body);
+        let pj = pose_of(poses, driver.reference);
+        let (f, fd, fdd) = driver.motion.eval(t);
+        jac[row] = [blk(driver.body, Vec2::zeros(), 1.0), blk(driver.reference, Vec2::zeros(), -1.0)];
+        phi[row] = pi.angle - pj.angle - f;
+        nu[row] = fd;
+        gamma[row] = fdd;
+        row += 1;
+    }
+    debug_assert_eq!(row, mech.constraint_count());
+}

@@ -1,0 +1,349 @@
+//! The mechanism as data: bodies, joints, drivers, loads.
+
+use crate::Vec2;
+use lash_core::Problems;
+use serde::{Deserialize, Serialize};
+
+/// A body reference: the ground or a moving body by index.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum BodyId {
+    /// The fixed ground frame.
+    Ground,
+    /// Moving body number `k` (`Mechanism::bodies[k]`).
+    Body(usize),
+}
+
+/// A rigid planar body. Local points are given relative to its centroid, in its own frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Body {
+    /// Name used in outputs and errors.
+    pub name: String,
+    /// Mass [kg].
+    pub mass: f64,
+    /// Moment of inertia about the centroid [kg m²].
+    pub inertia: f64,
+    /// Initial guess of the centroid position [m] (assembly corrects it).
+    pub position: Vec2,
+    /// Initial guess of the angle [rad].
+    pub angle: f64,
+    /// Initial guess of the centroid velocity [m/s] (velocity analysis corrects it).
+    pub velocity: Vec2,
+    /// Initial guess of the angular velocity [rad/s].
+    pub angular_velocity: f64,
+}
+
+/// Kind of an ideal joint between body `i` and body `j`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum JointKind {
+    /// Point `point_i` of body i coincides with point `point_j` of body j (2 equations).
+    Revolute,
+    /// Body i slides along the axis `axis_j` (unit, in j's frame) through `point_j`, at a fixed
+    /// relative angle `angle_offset` = θ_i − θ_j (2 equations).
+    Prismatic {
+        /// Sliding direction in body j's frame (normalised on use).
+        axis_j: Vec2,
+        /// Fixed relative angle θ_i − θ_j [rad].
+        angle_offset: f64,
+    },
+}
+
+/// An ideal joint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Joint {
+    /// Name used in outputs and errors.
+    pub name: String,
+    /// Kind and kind-specific data.
+    pub kind: JointKind,
+    /// First body.
+    pub body_i: BodyId,
+    /// Joint point on body i (local, from its centroid) [m].
+    pub point_i: Vec2,
+    /// Second body.
+    pub body_j: BodyId,
+    /// Joint point on body j (local, from its centroid) [m].
+    pub point_j: Vec2,
+}
+
+impl Joint {
+    /// Number of scalar constraint equations.
+    pub fn equations(&self) -> usize {
+        2
+    }
+}
+
+/// Prescribed relative angle θ_i − θ_j = f(t).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Motion {
+    /// f(t) = angle0 + ω t.
+    ConstantSpeed {
+        /// Angle at t = 0 [rad].
+        #[serde(default)]
+        angle0: f64,
+        /// Angular speed ω [rad/s].
+        omega: f64,
+    },
+    /// f(t) = Σ c_k t^k.
+    Polynomial {
+        /// Coefficients c_0, c_1, … [rad, rad/s, rad/s², …].
+        coefficients: Vec<f64>,
+    },
+    /// f(t) = angle0 + ω t + A sin(Ω t + φ): a speed ripple on a constant speed.
+    Harmonic {
+        /// Angle at t = 0 of the mean motion [rad].
+        #[serde(default)]
+        angle0: f64,
+        /// Mean angular speed ω [rad/s].
+        omega: f64,
+        /// Ripple amplitude A [rad].
+        amplitude: f64,
+        /// Ripple circular frequency Ω [rad/s].
+        frequency: f64,
+        /// Ripple phase φ [rad].
+        #[serde(default)]
+        phase: f64,
+    },
+}
+
+impl Motion {
+    /// (f, f', f'') at time t.
+    pub fn eval(&self, t: f64) -> (f64, f64, f64) {
+        match self {
+            Motion::ConstantSpeed { angle0, omega } => (angle0 + omega * t, *omega, 0.0),
+            Motion::Polynomial { coefficients } => (
+                derivative_horner(coefficients, t, 0),
+                derivative_horner(coefficients, t, 1),
+                derivative_horner(coefficients, t, 2),
+            ),
+            Motion::Harmonic { angle0, omega, amplitude, frequency, phase } => {
+                let (s, c) = (frequency * t + phase).sin_cos();
+                (
+                    angle0 + omega * t + amplitude * s,
+                    omega + amplitude * frequency * c,
+                    -amplitude * frequency * frequency * s,
+                )
+            }
+        }
+    }
+
+    /// Problems of the motion's numbers.
+    pub fn validate(&self) -> Problems {
+        let mut p = Problems::new();
+        match self {
+            Motion::ConstantSpeed { angle0, omega } => {
+                p.finite("angle0", *angle0);
+                p.finite("omega", *omega);
+            }
+            Motion::Polynomial { coefficients } => {
+                if coefficients.is_empty() {
+                    p.push("coefficients", "needs at least one coefficient");
+                }
+                for (k, c) in coefficients.iter().enumerate() {
+                    p.finite(format!("coefficients[{k}]"), *c);
+                }
+            }
+            Motion::Harmonic { angle0, omega, amplitude, frequency, phase } => {
+                p.finite("angle0", *angle0);
+                p.finite("omega", *omega);
+                p.finite("amplitude", *amplitude);
+                p.finite("frequency", *frequency);
+                p.finite("phase", *phase);
+            }
+        }
+        p
+    }
+}
+
+/// d-th derivative of the polynomial Σ c_k t^k at t.
+fn derivative_horner(c: &[f64], t: f64, d: usize) -> f64 {
+    let mut acc = 0.0;
+    for k in (d..c.len()).rev() {
+        let factor: usize = ((k - d + 1)..=k).product();
+        acc = acc * t + factor as f64 * c[k];
+    }
+    acc
+}
+
+/// A rotational driver: θ_body − θ_reference = motion(t).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Driver {
+    /// Name used in outputs and errors.
+    pub name: String,
+    /// Driven body.
+    pub body: BodyId,
+    /// Reference body (usually the ground).
+    pub reference: BodyId,
+    /// Prescribed relative angle.
+    pub motion: Motion,
+}
+
+/// An applied load.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Load {
+    /// A constant force (world frame) at a body point.
+    Force {
+        /// Loaded body.
+        body: usize,
+        /// Point of application (local, from the centroid) [m].
+        point: Vec2,
+        /// Force in the world frame [N].
+        force: Vec2,
+    },
+    /// A constant torque about +z [N m].
+    Torque {
+        /// Loaded body.
+        body: usize,
+        /// Torque [N m].
+        torque: f64,
+    },
+}
+
+/// Baumgarte constraint stabilisation: Φ̈ + 2α Φ̇ + β² Φ = 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Baumgarte {
+    /// Velocity-error gain α [1/s].
+    pub alpha: f64,
+    /// Position-error gain β [1/s].
+    pub beta: f64,
+}
+
+impl Default for Baumgarte {
+    fn default() -> Self {
+        // Critically damped drift correction with a time constant of ~1 ms: far slower than the
+        // smallest adaptive steps, fast against drift growth over a crank turn.
+        Self { alpha: 1.0e3, beta: 1.0e3 }
+    }
+}
+
+/// A planar mechanism.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Mechanism {
+    /// Moving bodies.
+    pub bodies: Vec<Body>,
+    /// Ideal joints.
+    pub joints: Vec<Joint>,
+    /// Rotational drivers.
+    pub drivers: Vec<Driver>,
+    /// Applied loads.
+    pub loads: Vec<Load>,
+    /// Gravity acceleration [m/s²].
+    pub gravity: Vec2,
+    /// Constraint stabilisation gains.
+    pub baumgarte: Baumgarte,
+}
+
+impl Mechanism {
+    /// Number of coordinates (3 per moving body).
+    pub fn coordinate_count(&self) -> usize {
+        3 * self.bodies.len()
+    }
+
+    /// Number of scalar constraint equations (joints, then drivers).
+    pub fn constraint_count(&self) -> usize {
+        self.joints.iter().map(Joint::equations).sum::<usize>() + self.drivers.len()
+    }
+
+    /// Index of the first equation of joint `k` among all constraint rows.
+    pub fn joint_row(&self, k: usize) -> usize {
+        self.joints[..k].iter().map(Joint::equations).sum()
+    }
+
+    /// Row of driver `k`.
+    pub fn driver_row(&self, k: usize) -> usize {
+        self.joints.iter().map(Joint::equations).sum::<usize>() + k
+    }
+
+    /// Index of the body called `name`, or the ground for `"ground"`.
+    pub fn body_id(&self, name: &str) -> Option<BodyId> {
+        if name == "ground" {
+            return Some(BodyId::Ground);
+        }
+        self.bodies.iter().position(|b| b.name == name).map(BodyId::Body)
+    }
+
+    /// Every problem of the mechanism's data, with field paths.
+    pub fn validate(&self) -> Problems {
+        let mut p = Problems::new();
+        let check_body = |p: &mut Problems, field: String, id: BodyId| {
+            if let BodyId::Body(k) = id
+                && k >= self.bodies.len()
+            {
+                p.push(field, format!("body index {k} does not exist"));
+            }
+        };
+        if self.bodies.is_empty() {
+            p.push("bodies", "a mechanism needs at least one moving body");
+        }
+        for (k, b) in self.bodies.iter().enumerate() {
+            let f = |s: &str| format!("bodies[{k}].{s}");
+            p.positive(f("mass"), b.mass);
+            p.positive(f("inertia"), b.inertia);
+            p.finite(f("position.x"), b.position.x);
+            p.finite(f("position.y"), b.position.y);
+            p.finite(f("angle"), b.angle);
+            p.finite(f("velocity.x"), b.velocity.x);
+            p.finite(f("velocity.y"), b.velocity.y);
+            p.finite(f("angular_velocity"), b.angular_velocity);
+            if self.bodies[..k].iter().any(|o| o.name == b.name) || b.name == "ground" {
+                p.push(f("name"), format!("name {:?} is used twice (or is the reserved \"ground\")", b.name));
+            }
+        }
+        for (k, j) in self.joints.iter().enumerate() {
+            let f = |s: &str| format!("joints[{k}].{s}");
+            check_body(&mut p, f("body1"), j.body_i);
+            check_body(&mut p, f("body2"), j.body_j);
+            if j.body_i == j.body_j {
+                p.push(f("body2"), "a joint needs two different bodies");
+            }
+            for (name, v) in [("point1", j.point_i), ("point2", j.point_j)] {
+                p.finite(format!("joints[{k}].{name}.x"), v.x);
+                p.finite(format!("joints[{k}].{name}.y"), v.y);
+            }
+            if let JointKind::Prismatic { axis_j, angle_offset } = &j.kind {
+                if !(axis_j.norm() > 0.0 && axis_j.norm().is_finite()) {
+                    p.push(f("axis"), "must be a finite non-zero vector");
+                }
+                p.finite(f("angle_offset"), *angle_offset);
+            }
+        }
+        for (k, d) in self.drivers.iter().enumerate() {
+            check_body(&mut p, format!("drivers[{k}].body"), d.body);
+            check_body(&mut p, format!("drivers[{k}].reference"), d.reference);
+            if d.body == d.reference {
+                p.push(format!("drivers[{k}].reference"), "must differ from the driven body");
+            }
+            p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
+        }
+        for (k, l) in self.loads.iter().enumerate() {
+            match l {
+                Load::Force { body, point, force } => {
+                    check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
+                    for (n, v) in [("point", point), ("force", force)] {
+                        p.finite(format!("loads[{k}].{n}.x"), v.x);
+                        p.finite(format!("loads[{k}].{n}.y"), v.y);
+                    }
+                }
+                Load::Torque { body, torque } => {
+                    check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
+                    p.finite(format!("loads[{k}].torque"), *torque);
+                }
+            }
+        }
+        p.finite("gravity.x", self.gravity.x);
+        p.finite("gravity.y", self.gravity.y);
+        p.non_negative("baumgarte.alpha", self.baumgarte.alpha);
+        p.non_negative("baumgarte.beta", self.baumgarte.beta);
+        if self.constraint_count() > self.coordinate_count() {
+            p.push(
+                "joints",
+                format!(
+                    "{} constraint equations for {} coordinates: the mechanism is over-constrained",
+                    self.constraint_count(),
+                    self.coordinate_count()
+                ),
+            );
+        }
+        p
+    }
+}

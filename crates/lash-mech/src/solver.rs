@@ -1,0 +1,360 @@
+//! The index-1 KKT solve by Schur complement, allocation-free after construction.
+//!
+//! With M block diagonal (m, m, I per body) the system `M q̈ + Φ_qᵀλ = Q`, `Φ_q q̈ = γ̂` reduces to
+//! `S λ = Φ_q M⁻¹ Q − γ̂` with the SPD matrix `S = Φ_q M⁻¹ Φ_qᵀ` (equations × equations, 7×7 for
+//! the slider-crank with a clearance joint), factored by Cholesky; then `q̈ = M⁻¹(Q − Φ_qᵀλ)`.
+//! Φ_q is kept sparse (each row touches at most two bodies) and the structural non-zeros of S are
+//! listed once. Rows that pin a single coordinate (a driver or a prismatic angle relative to the
+//! ground: θ_k = f(t)) are eliminated exactly before the Schur complement: their coordinate's
+//! acceleration is γ̂/c, it moves to the right side of the other rows, and their multiplier is
+//! recovered from that coordinate's equation of motion. For the slider-crank this shrinks S from
+//! 7×7 to 5×5. The factor is kept, so further right-hand sides (the reduced model's [Jᵀ | Q]
+//! columns) cost two triangular solves each.
+
+use crate::constraints::{self, Block, ConstraintTerms, JacobianRow};
+use crate::dense::SmallCholesky;
+use crate::model::{BodyId, Load, Mechanism};
+use crate::{Pose, cross};
+use nalgebra::DVector;
+
+/// Errors of the mechanics layer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MechError {
+    /// Φ_q lost full row rank: redundant constraints or a singular configuration.
+    #[error("constraint Jacobian is rank deficient at t = {t} s (redundant joints or a singular position)")]
+    SingularConstraints {
+        /// Time of the failed solve.
+        t: f64,
+    },
+    /// Assembly (position analysis) did not converge.
+    #[error(
+        "assembly did not converge at t = {t} s: constraint error {residual:e} after {iterations} Newton iterations"
+    )]
+    AssemblyFailed {
+        /// Time of the analysis.
+        t: f64,
+        /// Remaining max |Φ|.
+        residual: f64,
+        /// Iterations spent.
+        iterations: usize,
+    },
+}
+
+/// Workspace and results of KKT solves for one mechanism.
+pub struct Solver {
+    /// Body poses of the current state.
+    pub poses: Vec<Pose>,
+    /// Φ_q by rows (sparse body blocks).
+    pub jacobian: Vec<JacobianRow>,
+    /// Φ at the current state.
+    pub phi: Vec<f64>,
+    /// ν at the current state.
+    pub nu: Vec<f64>,
+    /// γ at the current state (before stabilisation).
+    pub gamma: Vec<f64>,
+    /// Generalized applied forces Q; [`Solver::set_state`] fills gravity and loads, callers may add.
+    pub forces: Vec<f64>,
+    /// Generalized accelerations q̈ after [`Solver::solve`].
+    pub accelerations: Vec<f64>,
+    /// Lagrange multipliers λ after [`Solver::solve`] (reaction = −Φ_qᵀλ).
+    pub lambda: DVector<f64>,
+    inverse_mass: Vec<f64>,
+    gamma_hat: Vec<f64>,
+    structure: Structure,
+    scratch: Scratch,
+    schur: SmallCholesky,
+    factored: bool,
+    time: f64,
+}
+
+/// Topology-fixed data of the Schur solve.
+struct Structure {
+    /// Rows pinning one coordinate: (row, coordinate, coefficient ±1).
+    fixed: Vec<(usize, usize, f64)>,
+    /// Rows kept in S, in order (compact index → row).
+    free_rows: Vec<usize>,
+    /// Pairs of Jacobian blocks (compact a, block ia, compact b ≤ a, block ib) that share a body:
+    /// the structural non-zeros of S.
+    pairs: Vec<(usize, usize, usize, usize)>,
+    /// M⁻¹ with the pinned coordinates zeroed.
+    free_inverse_mass: Vec<f64>,
+}
+
+/// Buffers of one solve.
+struct Scratch {
+    lambda: Vec<f64>,
+    reaction: Vec<f64>,
+}
+
+#[inline]
+fn dot3(a: &[f64; 3], b: &[f64]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl Solver {
+    /// A workspace sized for `mech`.
+    pub fn new(mech: &Mechanism) -> Self {
+        let n = mech.coordinate_count();
+        let m = mech.constraint_count();
+        let mut inverse_mass = Vec::with_capacity(n);
+        for b in &mech.bodies {
+            inverse_mass.extend_from_slice(&[1.0 / b.mass, 1.0 / b.mass, 1.0 / b.inertia]);
+        }
+        let body = |id: BodyId| match id {
+            BodyId::Body(k) => k,
+            BodyId::Ground => Block::NONE,
+        };
+        let mut row_bodies = Vec::with_capacity(m);
+        for j in &mech.joints {
+            for _ in 0..j.equations() {
+                row_bodies.push([body(j.body_i), body(j.body_j)]);
+            }
+        }
+        for d in &mech.drivers {
+            row_bodies.push([body(d.body), body(d.reference)]);
+        }
+        // Rows that pin one coordinate: the angle rows of drivers and prismatic joints whose other
+        // side is the ground.
+        let mut fixed: Vec<(usize, usize, f64)> = Vec::new();
+        let pin = |row: usize, a: BodyId, b: BodyId, fixed: &mut Vec<(usize, usize, f64)>| {
+            let (coord, c) = match (a, b) {
+                (BodyId::Body(k), BodyId::Ground) => (3 * k + 2, 1.0),
+                (BodyId::Ground, BodyId::Body(k)) => (3 * k + 2, -1.0),
+                _ => return,
+            };
+            if !fixed.iter().any(|f| f.1 == coord) {
+                fixed.push((row, coord, c));
+            }
+        };
+        let mut row = 0;
+        for j in &mech.joints {
+            if matches!(j.kind, crate::model::JointKind::Prismatic { .. }) {
+                pin(row, j.body_i, j.body_j, &mut fixed);
+            }
+            row += j.equations();
+        }
+        for d in &mech.drivers {
+            pin(row, d.body, d.reference, &mut fixed);
+            row += 1;
+        }
+        let free_rows: Vec<usize> = (0..m).filter(|r| !fixed.iter().any(|f| f.0 == *r)).collect();
+        let mut free_inverse_mass = inverse_mass.clone();
+        for f in &fixed {
+            free_inverse_mass[f.1] = 0.0;
+        }
+        let mut pairs = Vec::new();
+        for (ca, &a) in free_rows.iter().enumerate() {
+            for (cb, &b) in free_rows[..=ca].iter().enumerate() {
+                for ia in 0..2 {
+                    for ib in 0..2 {
+                        let k = row_bodies[a][ia];
+                        if k != Block::NONE && k == row_bodies[b][ib] {
+                            pairs.push((ca, ia, cb, ib));
+                        }
+                    }
+                }
+            }
+        }
+        let mf = free_rows.len();
+        let structure = Structure { fixed, free_rows, pairs, free_inverse_mass };
+        Self {
+            poses: vec![Pose::GROUND; mech.bodies.len()],
+            jacobian: vec![[Block::EMPTY; 2]; m],
+            phi: vec![0.0; m],
+            nu: vec![0.0; m],
+            gamma: vec![0.0; m],
+            forces: vec![0.0; n],
+            accelerations: vec![0.0; n],
+            lambda: DVector::zeros(m),
+            inverse_mass,
+            gamma_hat: vec![0.0; m],
+            structure,
+            scratch: Scratch { lambda: vec![0.0; mf], reaction: vec![0.0; n] },
+            schur: SmallCholesky::new(mf),
+            factored: false,
+            time: 0.0,
+        }
+    }
+
+    /// Diagonal of M⁻¹ (per coordinate).
+    pub fn inverse_mass(&self) -> &[f64] {
+        &self.inverse_mass
+    }
+
+    /// Evaluates poses, constraint terms and the applied forces (gravity, loads) at `(t, q, q̇)`.
+    pub fn set_state(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
+        self.time = t;
+        constraints::fill_poses(q, qd, &mut self.poses);
+        constraints::evaluate(
+            mech,
+            t,
+            &self.poses,
+            ConstraintTerms {
+                jacobian: &mut self.jacobian,
+                phi: &mut self.phi,
+                nu: &mut self.nu,
+                gamma: &mut self.gamma,
+            },
+        );
+        for (k, b) in mech.bodies.iter().enumerate() {
+            self.forces[3 * k] = b.mass * mech.gravity.x;
+            self.forces[3 * k + 1] = b.mass * mech.gravity.y;
+            self.forces[3 * k + 2] = 0.0;
+        }
+        for load in &mech.loads {
+            match load {
+                Load::Force { body, point, force } => {
+                    let a = self.poses[*body].rotate(*point);
+                    self.forces[3 * body] += force.x;
+                    self.forces[3 * body + 1] += force.y;
+                    self.forces[3 * body + 2] += cross(a, *force);
+                }
+                Load::Torque { body, torque } => self.forces[3 * body + 2] += torque,
+            }
+        }
+    }
+
+    /// Adds a force `f` (world frame) acting at world offset `arm` from the centroid of `body`.
+    #[inline]
+    pub fn add_force(&mut self, body: BodyId, arm: crate::Vec2, f: crate::Vec2) {
+        if let BodyId::Body(k) = body {
+            self.forces[3 * k] += f.x;
+            self.forces[3 * k + 1] += f.y;
+            self.forces[3 * k + 2] += cross(arm, f);
+        }
+    }
+
+    /// Forms and factors S = Φ_q M⁻¹ Φ_qᵀ (over the rows that are not eliminated) at the current
+    /// state.
+    pub fn factor(&mut self) -> Result<(), MechError> {
+        let st = &self.structure;
+        let m = st.free_rows.len();
+        let im = &st.free_inverse_mass;
+        let s = &mut self.schur.matrix_mut()[..m * m];
+        s.fill(0.0);
+        for &(a, ia, b, ib) in &st.pairs {
+            let (pa, pb) = (&self.jacobian[st.free_rows[a]][ia], &self.jacobian[st.free_rows[b]][ib]);
+            let k = 3 * pa.body;
+            s[a * m + b] += pa.d[0] * pb.d[0] * im[k] + pa.d[1] * pb.d[1] * im[k + 1] + pa.d[2] * pb.d[2] * im[k + 2];
+        }
+        self.factored = self.schur.factor();
+        if self.factored { Ok(()) } else { Err(MechError::SingularConstraints { t: self.time }) }
+    }
+
+    /// Φ_q v for a coordinate-space vector `v`, row `a`.
+    #[inline]
+    pub fn jacobian_times(&self, a: usize, v: &[f64]) -> f64 {
+        self.jacobian[a].iter().filter(|b| b.body != Block::NONE).map(|b| dot3(&b.d, &v[3 * b.body..])).sum()
+    }
+
+    /// Solves for q̈ and λ with the current forces, the stabilised γ̂ and the current factor.
+    pub fn solve(&mut self, mech: &Mechanism, qd: &[f64]) {
+        let (alpha, beta) = (mech.baumgarte.alpha, mech.baumgarte.beta);
+        for a in 0..self.jacobian.len() {
+            let jqd = self.jacobian_times(a, qd);
+            self.gamma_hat[a] = self.gamma[a] - 2.0 * alpha * (jqd - self.nu[a]) - beta * beta * self.phi[a];
+        }
+        let Solver {
+            jacobian,
+            forces,
+            accelerations,
+            lambda,
+            inverse_mass,
+            gamma_hat,
+            structure,
+            scratch,
+            schur,
+            factored,
+            ..
+        } = self;
+        assert!(*factored, "Solver::factor must succeed before a solve");
+        solve_rhs(jacobian, inverse_mass, structure, scratch, schur, forces, gamma_hat, accelerations, lambda);
+    }
+
+    /// Sets the state, factors and solves: q̈ and λ of the mechanism with only gravity and loads,
+    /// plus whatever `extra` adds to the generalized forces.
+    pub fn accelerations(
+        &mut self,
+        mech: &Mechanism,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        extra: impl FnOnce(&mut Solver),
+    ) -> Result<(), MechError> {
+        self.set_state(mech, t, q, qd);
+        extra(self);
+        self.factor()?;
+        self.solve(mech, qd);
+        Ok(())
+    }
+
+    /// Solves the KKT system for an arbitrary right side `[forces; gamma]` with the current factor,
+    /// writing q̈ into `qdd` and λ into `lambda`. Used for effective interface terms.
+    pub fn solve_with(&mut self, forces: &[f64], gamma: &[f64], qdd: &mut [f64], lambda: &mut DVector<f64>) {
+        assert!(self.factored, "Solver::factor must succeed before a solve");
+        solve_rhs(
+            &self.jacobian,
+            &self.inverse_mass,
+            &self.structure,
+            &mut self.scratch,
+            &self.schur,
+            forces,
+            gamma,
+            qdd,
+            lambda,
+        );
+    }
+
+    /// max |Φ| at the current state [m or rad].
+    pub fn constraint_error(&self) -> f64 {
+        self.phi.iter().fold(0.0, |m, v| m.max(v.abs()))
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn solve_rhs(
+    jacobian: &[JacobianRow],
+    inverse_mass: &[f64],
+    st: &Structure,
+    scratch: &mut Scratch,
+    factor: &SmallCholesky,
+    forces: &[f64],
+    gamma: &[f64],
+    qdd: &mut [f64],
+    lambda: &mut DVector<f64>,
+) {
+    let im = &st.free_inverse_mass;
+    // q̈ first holds M⁻¹Q on free coordinates and the pinned accelerations γ/c.
+    for k in 0..qdd.len() {
+        qdd[k] = im[k] * forces[k];
+    }
+    for &(row, k, c) in &st.fixed {
+        qdd[k] = gamma[row] / c;
+    }
+    // λ' = S⁻¹ (Φ_q q̈₀ − γ) over the free rows.
+    for (a, &row) in st.free_rows.iter().enumerate() {
+        let mut s = -gamma[row];
+        for b in jacobian[row].iter().filter(|b| b.body != Block::NONE) {
+            s += dot3(&b.d, &qdd[3 * b.body..]);
+        }
+        scratch.lambda[a] = s;
+    }
+    factor.solve_mut(&mut scratch.lambda);
+    // q̈ = M⁻¹ (Q − Φ_qᵀ λ) on free coordinates; Φ_qᵀλ kept for the pinned rows.
+    scratch.reaction.fill(0.0);
+    for (a, &row) in st.free_rows.iter().enumerate() {
+        let l = scratch.lambda[a];
+        lambda[row] = l;
+        for b in jacobian[row].iter().filter(|b| b.body != Block::NONE) {
+            let k = 3 * b.body;
+            for i in 0..3 {
+                scratch.reaction[k + i] += b.d[i] * l;
+                qdd[k + i] -= im[k + i] * b.d[i] * l;
+            }
+        }
+    }
+    // Pinned rows: c λ = Q_k − m_k q̈_k − (Φ_qᵀλ)_k.
+    for &(row, k, c) in &st.fixed {
+        lambda[row] = (forces[k] - qdd[k] / inverse_mass[k] - scratch.reaction[k]) / c;
+    }
+}

@@ -1,0 +1,122 @@
+//! From a validated scenario to a runnable full model.
+
+use crate::schema::*;
+use lash_contact::{ClearanceJoint, FullModel, Material};
+use lash_mech::{Body, BodyId, Driver, Joint, JointKind, Load, Mechanism, Vec2};
+
+fn v2(a: [f64; 2]) -> Vec2 {
+    Vec2::new(a[0], a[1])
+}
+
+/// Options of a build.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BuildOptions {
+    /// Treat every clearance joint as an ideal revolute joint.
+    pub ideal: bool,
+}
+
+/// The mechanism with the clearance joints cut out (or kept ideal), and the clearance joints.
+pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
+    let id = |name: &str| -> BodyId {
+        if name == "ground" {
+            BodyId::Ground
+        } else {
+            BodyId::Body(s.bodies.iter().position(|b| b.name == name).expect("validated body name"))
+        }
+    };
+    let guess_angle = |name: &str| s.bodies.iter().find(|b| b.name == name).map_or(0.0, |b| b.angle);
+    let bodies = s
+        .bodies
+        .iter()
+        .map(|b| Body {
+            name: b.name.clone(),
+            mass: b.mass,
+            inertia: b.inertia,
+            position: v2(b.position),
+            angle: b.angle,
+            velocity: v2(b.velocity),
+            angular_velocity: b.angular_velocity,
+        })
+        .collect();
+    let is_clearance = |j: &JointSpec| !options.ideal && s.clearances.iter().any(|c| c.joint == j.name);
+    let joints = s
+        .joints
+        .iter()
+        .filter(|j| !is_clearance(j))
+        .map(|j| Joint {
+            name: j.name.clone(),
+            kind: match j.kind {
+                JointType::Revolute => JointKind::Revolute,
+                JointType::Prismatic => JointKind::Prismatic {
+                    axis_j: v2(j.axis.unwrap_or([1.0, 0.0])),
+                    angle_offset: j.angle_offset.unwrap_or(guess_angle(&j.body1) - guess_angle(&j.body2)),
+                },
+            },
+            body_i: id(&j.body1),
+            point_i: v2(j.point1),
+            body_j: id(&j.body2),
+            point_j: v2(j.point2),
+        })
+        .collect();
+    let drivers = s
+        .drivers
+        .iter()
+        .map(|d| Driver {
+            name: d.name.clone(),
+            body: id(&d.body),
+            reference: id(&d.reference),
+            motion: d.motion.clone(),
+        })
+        .collect();
+    let body_index = |name: &str| match id(name) {
+        BodyId::Body(k) => k,
+        BodyId::Ground => unreachable!("validated: loads act on moving bodies"),
+    };
+    let loads = s
+        .loads
+        .iter()
+        .map(|l| match l {
+            LoadSpec::Force { body, point, force } => {
+                Load::Force { body: body_index(body), point: v2(*point), force: v2(*force) }
+            }
+            LoadSpec::Torque { body, torque } => Load::Torque { body: body_index(body), torque: *torque },
+        })
+        .collect();
+    let mechanism =
+        Mechanism { bodies, joints, drivers, loads, gravity: v2(s.gravity), baumgarte: s.simulation.baumgarte };
+    let clearances = if options.ideal {
+        Vec::new()
+    } else {
+        s.clearances
+            .iter()
+            .map(|c| {
+                let j = s.joints.iter().find(|j| j.name == c.joint).expect("validated clearance joint");
+                let (jb, jp, bb, bp) = if c.journal == j.body1 {
+                    (&j.body1, j.point1, &j.body2, j.point2)
+                } else {
+                    (&j.body2, j.point2, &j.body1, j.point1)
+                };
+                let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| s.materials[n]);
+                ClearanceJoint {
+                    name: c.joint.clone(),
+                    journal_body: id(jb),
+                    journal_point: v2(jp),
+                    bearing_body: id(bb),
+                    bearing_point: v2(bp),
+                    journal_radius: c.journal_radius,
+                    bearing_radius: c.bearing_radius,
+                    law: c.contact.resolve(
+                        &material(&c.journal_material),
+                        &material(&c.bearing_material),
+                        c.journal_radius,
+                        c.bearing_radius,
+                    ),
+                    friction: c.friction,
+                    in_contact: false,
+                    onset_velocity: 0.0,
+                }
+            })
+            .collect()
+    };
+    FullModel::new(mechanism, clearances)
+}

@@ -1,0 +1,90 @@
+//! Output channels: names and units, in CSV column order.
+
+use crate::schema::Scenario;
+
+/// One output channel.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Channel {
+    /// Name, e.g. `slider.ax`.
+    pub name: String,
+    /// SI unit, e.g. `m/s^2`.
+    pub unit: &'static str,
+}
+
+/// What a channel measures (how the runner computes it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Source {
+    /// Sensor k, quantity (0..6: x, y, vx, vy, ax, ay).
+    Sensor(usize, u8),
+    /// Clearance k, quantity (see CLEARANCE_QUANTITIES).
+    Clearance(usize, u8),
+    /// Driver k torque.
+    DriverTorque(usize),
+    /// Ideal joint k (of the cut or ideal mechanism) reaction on body1, component 0/1.
+    JointReaction(usize, u8),
+    /// max |Φ|.
+    ConstraintError,
+}
+
+const SENSOR_QUANTITIES: [(&str, &str); 6] =
+    [("x", "m"), ("y", "m"), ("vx", "m/s"), ("vy", "m/s"), ("ax", "m/s^2"), ("ay", "m/s^2")];
+
+pub(crate) const CLEARANCE_QUANTITIES: [(&str, &str); 11] = [
+    ("fx", "N"),
+    ("fy", "N"),
+    ("force", "N"),
+    ("normal_force", "N"),
+    ("friction_force", "N"),
+    ("ex", "m"),
+    ("ey", "m"),
+    ("eccentricity", "m"),
+    ("penetration", "m"),
+    ("penetration_rate", "m/s"),
+    ("slip_velocity", "m/s"),
+];
+
+/// Channels of a scenario (time excluded), with what computes them.
+pub(crate) fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
+    let mut out = Vec::new();
+    for (k, sen) in s.sensors.iter().enumerate() {
+        for (q, (name, unit)) in SENSOR_QUANTITIES.iter().enumerate() {
+            out.push((Channel { name: format!("{}.{name}", sen.name), unit }, Source::Sensor(k, q as u8)));
+        }
+    }
+    if !ideal {
+        for (k, c) in s.clearances.iter().enumerate() {
+            for (q, (name, unit)) in CLEARANCE_QUANTITIES.iter().enumerate() {
+                out.push((Channel { name: format!("{}.{name}", c.joint), unit }, Source::Clearance(k, q as u8)));
+            }
+        }
+    }
+    for (k, d) in s.drivers.iter().enumerate() {
+        out.push((Channel { name: format!("{}.torque", d.name), unit: "N m" }, Source::DriverTorque(k)));
+    }
+    let mut k = 0;
+    for j in &s.joints {
+        if !ideal && s.clearances.iter().any(|c| c.joint == j.name) {
+            continue;
+        }
+        if j.kind == crate::schema::JointType::Revolute {
+            out.push((Channel { name: format!("{}.fx", j.name), unit: "N" }, Source::JointReaction(k, 0)));
+            out.push((Channel { name: format!("{}.fy", j.name), unit: "N" }, Source::JointReaction(k, 1)));
+        } else {
+            out.push((Channel { name: format!("{}.normal_force_x", j.name), unit: "N" }, Source::JointReaction(k, 0)));
+            out.push((Channel { name: format!("{}.normal_force_y", j.name), unit: "N" }, Source::JointReaction(k, 1)));
+        }
+        k += 1;
+    }
+    out.push((Channel { name: "constraint_error".into(), unit: "m" }, Source::ConstraintError));
+    out
+}
+
+/// Names of all channels of a scenario (time excluded).
+pub fn channel_names(s: &Scenario, ideal: bool) -> Vec<String> {
+    channel_sources(s, ideal).into_iter().map(|(c, _)| c.name).collect()
+}
+
+/// All channels of a scenario (time excluded), in column order.
+pub fn channels(s: &Scenario, ideal: bool) -> Vec<Channel> {
+    channel_sources(s, ideal).into_iter().map(|(c, _)| c).collect()
+}

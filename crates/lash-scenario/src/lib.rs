@@ -1,0 +1,22 @@
+//! Scenario files of lash and the full-model runner.
+//!
+//! * [`schema`]: the TOML format (serde structs, units documented).
+//! * [`parse`]: reads a file and returns either a valid [`Scenario`] or every problem, each with
+//!   its field path (`bodies[1].mass: must be > 0, got -1`).
+//! * [`builtin`]: scenarios A and B of physics.md §6 by name.
+//! * [`Run`]: builds the full (or ideal) model, integrates it, samples every output channel and
+//!   returns a [`Summary`].
+
+pub mod bench;
+pub mod build;
+pub mod builtin;
+pub mod channels;
+mod load;
+pub mod run;
+pub mod schema;
+
+pub use build::{BuildOptions, build_model};
+pub use channels::{Channel, channel_names, channels};
+pub use load::{parse, validate};
+pub use run::{ChannelStats, ClearanceSummary, Run, RunError, Summary};
+pub use schema::Scenario;

@@ -1,0 +1,468 @@
+//! Reading a scenario file: every problem of the file at once, each with its field path.
+
+use crate::schema::*;
+use lash_core::Problems;
+use serde::de::DeserializeOwned;
+use std::collections::HashSet;
+
+/// Top-level keys of a scenario file.
+const TOP_KEYS: [&str; 12] = [
+    "name",
+    "description",
+    "gravity",
+    "materials",
+    "bodies",
+    "joints",
+    "drivers",
+    "loads",
+    "clearances",
+    "sensors",
+    "simulation",
+    "output",
+];
+
+/// Parses and validates a scenario from TOML text. On failure, returns every problem found.
+pub fn parse(text: &str) -> Result<Scenario, Problems> {
+    let table: toml::Table = toml::from_str(text).map_err(|e| {
+        let mut p = Problems::new();
+        p.push("(file)", format!("not valid TOML: {}", e.to_string().trim_end()));
+        p
+    })?;
+    let mut problems = Problems::new();
+    for key in table.keys() {
+        if !TOP_KEYS.contains(&key.as_str()) {
+            problems.push(key.clone(), format!("unknown section; expected one of {}", TOP_KEYS.join(", ")));
+        }
+    }
+    for key in ["name", "bodies", "simulation"] {
+        if !table.contains_key(key) {
+            problems.push(key, "missing (required)");
+        }
+    }
+    // Element by element, so that one bad body does not hide the problems of the others.
+    let structural_before = problems.0.len();
+    element::<String>(&table, "name", &mut problems);
+    element::<String>(&table, "description", &mut problems);
+    element::<[f64; 2]>(&table, "gravity", &mut problems);
+    element::<std::collections::BTreeMap<String, lash_contact::Material>>(&table, "materials", &mut problems);
+    element::<SimulationSpec>(&table, "simulation", &mut problems);
+    element::<OutputSpec>(&table, "output", &mut problems);
+    array::<BodySpec>(&table, "bodies", &mut problems);
+    array::<JointSpec>(&table, "joints", &mut problems);
+    array::<DriverSpec>(&table, "drivers", &mut problems);
+    array::<LoadSpec>(&table, "loads", &mut problems);
+    array::<ClearanceSpec>(&table, "clearances", &mut problems);
+    array::<SensorSpec>(&table, "sensors", &mut problems);
+    let structural_ok = problems.0.len() == structural_before && problems.is_empty();
+
+    // Value checks of every element that parsed.
+    for_each_ok::<BodySpec>(&table, "bodies", &mut problems, validate_body);
+    for_each_ok::<JointSpec>(&table, "joints", &mut problems, validate_joint);
+    for_each_ok::<DriverSpec>(&table, "drivers", &mut problems, |d| d.motion.validate().prefixed("motion"));
+    for_each_ok::<LoadSpec>(&table, "loads", &mut problems, validate_load);
+    for_each_ok::<ClearanceSpec>(&table, "clearances", &mut problems, validate_clearance);
+    for_each_ok::<SensorSpec>(&table, "sensors", &mut problems, |s| finite2("point", s.point));
+    if let Some(Ok(sim)) = table.get("simulation").map(|v| v.clone().try_into::<SimulationSpec>()) {
+        problems.extend_prefixed("simulation", validate_simulation(&sim));
+    }
+    if let Some(Ok(m)) = table
+        .get("materials")
+        .map(|v| v.clone().try_into::<std::collections::BTreeMap<String, lash_contact::Material>>())
+    {
+        for (name, mat) in &m {
+            problems.extend_prefixed(&format!("materials.{name}"), mat.validate());
+        }
+    }
+    if let Some(Ok(g)) = table.get("gravity").map(|v| v.clone().try_into::<[f64; 2]>()) {
+        problems.0.extend(finite2("gravity", g).0);
+    }
+
+    if !structural_ok {
+        return Err(problems);
+    }
+    let scenario: Scenario = match toml::Value::Table(table).try_into() {
+        Ok(s) => s,
+        Err(e) => {
+            problems.push("(file)", e.to_string().trim_end().to_string());
+            return Err(problems);
+        }
+    };
+    problems.0.extend(cross_check(&scenario).0);
+    problems.into_result().map(|()| scenario)
+}
+
+/// Validates a scenario built in code (the same checks as [`parse`]).
+pub fn validate(s: &Scenario) -> Problems {
+    let mut p = Problems::new();
+    for (k, b) in s.bodies.iter().enumerate() {
+        p.extend_prefixed(&format!("bodies[{k}]"), validate_body(b));
+    }
+    for (k, j) in s.joints.iter().enumerate() {
+        p.extend_prefixed(&format!("joints[{k}]"), validate_joint(j));
+    }
+    for (k, d) in s.drivers.iter().enumerate() {
+        p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
+    }
+    for (k, l) in s.loads.iter().enumerate() {
+        p.extend_prefixed(&format!("loads[{k}]"), validate_load(l));
+    }
+    for (k, c) in s.clearances.iter().enumerate() {
+        p.extend_prefixed(&format!("clearances[{k}]"), validate_clearance(c));
+    }
+    for (name, m) in &s.materials {
+        p.extend_prefixed(&format!("materials.{name}"), m.validate());
+    }
+    p.extend_prefixed("simulation", validate_simulation(&s.simulation));
+    p.0.extend(finite2("gravity", s.gravity).0);
+    p.0.extend(cross_check(s).0);
+    p
+}
+
+trait Prefixed {
+    fn prefixed(self, prefix: &str) -> Problems;
+}
+impl Prefixed for Problems {
+    fn prefixed(self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.extend_prefixed(prefix, self);
+        p
+    }
+}
+
+/// Turns a serde message into (field suffix, message).
+fn split_serde_message(msg: &str) -> (Option<String>, String) {
+    let msg = msg.trim_end();
+    let quoted = |prefix: &str| -> Option<String> {
+        let start = msg.find(prefix)? + prefix.len();
+        let end = msg[start..].find('`')? + start;
+        Some(msg[start..end].to_string())
+    };
+    if let Some(f) = quoted("missing field `") {
+        return (Some(f), "missing (required)".into());
+    }
+    if let Some(f) = quoted("unknown field `") {
+        let rest = msg.split_once(", expected").map(|(_, r)| format!("unknown field; expected{r}"));
+        return (Some(f), rest.unwrap_or_else(|| "unknown field".into()));
+    }
+    if let Some((head, tail)) = msg.rsplit_once("\nin `") {
+        let field = tail.trim_end_matches('`').to_string();
+        return (Some(field), head.to_string());
+    }
+    (None, msg.to_string())
+}
+
+fn push_serde(problems: &mut Problems, path: &str, err: impl std::fmt::Display) {
+    let (field, message) = split_serde_message(&err.to_string());
+    match field {
+        Some(f) => problems.push(format!("{path}.{f}"), message),
+        None => problems.push(path, message),
+    }
+}
+
+fn element<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Problems) {
+    if let Some(v) = table.get(key)
+        && let Err(e) = v.clone().try_into::<T>()
+    {
+        push_serde(problems, key, e);
+    }
+}
+
+fn array<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Problems) {
+    match table.get(key) {
+        None => {}
+        Some(toml::Value::Array(items)) => {
+            for (k, v) in items.iter().enumerate() {
+                if let Err(e) = v.clone().try_into::<T>() {
+                    push_serde(problems, &format!("{key}[{k}]"), e);
+                }
+            }
+        }
+        Some(_) => problems.push(key, format!("must be an array of tables ([[{key}]])")),
+    }
+}
+
+fn for_each_ok<T: DeserializeOwned>(
+    table: &toml::Table,
+    key: &str,
+    problems: &mut Problems,
+    check: impl Fn(&T) -> Problems,
+) {
+    if let Some(toml::Value::Array(items)) = table.get(key) {
+        for (k, v) in items.iter().enumerate() {
+            if let Ok(item) = v.clone().try_into::<T>() {
+                problems.extend_prefixed(&format!("{key}[{k}]"), check(&item));
+            }
+        }
+    }
+}
+
+fn finite2(field: &str, v: [f64; 2]) -> Problems {
+    let mut p = Problems::new();
+    if !(v[0].is_finite() && v[1].is_finite()) {
+        p.push(field, format!("must be finite, got [{}, {}]", v[0], v[1]));
+    }
+    p
+}
+
+fn validate_body(b: &BodySpec) -> Problems {
+    let mut p = Problems::new();
+    p.positive("mass", b.mass);
+    p.positive("inertia", b.inertia);
+    p.0.extend(finite2("position", b.position).0);
+    p.0.extend(finite2("velocity", b.velocity).0);
+    p.finite("angle", b.angle);
+    p.finite("angular_velocity", b.angular_velocity);
+    if b.name == "ground" || b.name.is_empty() {
+        p.push("name", "must be non-empty and not the reserved \"ground\"");
+    }
+    p
+}
+
+fn validate_joint(j: &JointSpec) -> Problems {
+    let mut p = Problems::new();
+    p.0.extend(finite2("point1", j.point1).0);
+    p.0.extend(finite2("point2", j.point2).0);
+    match j.kind {
+        JointType::Revolute => {
+            if j.axis.is_some() {
+                p.push("axis", "only a prismatic joint has an axis");
+            }
+            if j.angle_offset.is_some() {
+                p.push("angle_offset", "only a prismatic joint has an angle_offset");
+            }
+        }
+        JointType::Prismatic => match j.axis {
+            None => p.push("axis", "missing (required for a prismatic joint)"),
+            Some(a) => {
+                if !(a[0].is_finite() && a[1].is_finite() && a[0].hypot(a[1]) > 0.0) {
+                    p.push("axis", format!("must be a finite non-zero vector, got [{}, {}]", a[0], a[1]));
+                }
+            }
+        },
+    }
+    if let Some(o) = j.angle_offset {
+        p.finite("angle_offset", o);
+    }
+    if j.body1 == j.body2 {
+        p.push("body2", "must differ from body1");
+    }
+    p
+}
+
+fn validate_load(l: &LoadSpec) -> Problems {
+    let mut p = Problems::new();
+    match l {
+        LoadSpec::Force { point, force, .. } => {
+            p.0.extend(finite2("point", *point).0);
+            p.0.extend(finite2("force", *force).0);
+        }
+        LoadSpec::Torque { torque, .. } => p.finite("torque", *torque),
+    }
+    p
+}
+
+fn validate_clearance(c: &ClearanceSpec) -> Problems {
+    let mut p = Problems::new();
+    p.positive("journal_radius", c.journal_radius);
+    p.positive("bearing_radius", c.bearing_radius);
+    if c.journal_radius.is_finite() && c.bearing_radius.is_finite() && c.journal_radius >= c.bearing_radius {
+        p.push(
+            "journal_radius",
+            format!(
+                "must be smaller than bearing_radius ({} m), got {} m: the clearance c = R_B − R_J must be > 0",
+                c.bearing_radius, c.journal_radius
+            ),
+        );
+    }
+    p.extend_prefixed("contact", c.contact.validate());
+    p.extend_prefixed("friction", c.friction.validate());
+    p
+}
+
+fn validate_simulation(s: &SimulationSpec) -> Problems {
+    let mut p = Problems::new();
+    p.finite("start_time", s.start_time);
+    p.positive("horizon", s.horizon);
+    p.positive("output_interval", s.output_interval);
+    if s.output_interval.is_finite() && s.horizon.is_finite() && s.output_interval > s.horizon {
+        p.push("output_interval", format!("must not exceed the horizon ({} s)", s.horizon));
+    }
+    match &s.integrator {
+        lash_ode::Method::Rk4 { step } => {
+            p.positive("integrator.step", *step);
+            if *step > 0.0 && s.output_interval > 0.0 {
+                let r = s.output_interval / step;
+                if (r - r.round()).abs() > 1e-9 * r || r.round() < 1.0 {
+                    p.push(
+                        "integrator.step",
+                        format!(
+                            "output_interval {} s must be a whole multiple of the step {step} s",
+                            s.output_interval
+                        ),
+                    );
+                }
+                let r = s.horizon / step;
+                if (r - r.round()).abs() > 1e-9 * r {
+                    p.push(
+                        "integrator.step",
+                        format!("horizon {} s must be a whole multiple of the step {step} s", s.horizon),
+                    );
+                }
+            }
+        }
+        lash_ode::Method::Dopri5(o) => {
+            p.positive("integrator.rtol", o.rtol);
+            p.positive("integrator.atol", o.atol);
+            p.positive("integrator.initial_step", o.initial_step);
+            p.positive("integrator.max_step", o.max_step);
+            p.positive("integrator.min_step", o.min_step);
+            if o.min_step > o.max_step {
+                p.push("integrator.min_step", "must not exceed max_step");
+            }
+        }
+    }
+    p.non_negative("baumgarte.alpha", s.baumgarte.alpha);
+    p.non_negative("baumgarte.beta", s.baumgarte.beta);
+    p
+}
+
+/// Names, references and counts across the file.
+fn cross_check(s: &Scenario) -> Problems {
+    let mut p = Problems::new();
+    let bodies: HashSet<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
+    let body_ok = |name: &str| name == "ground" || bodies.contains(name);
+    let mut seen = HashSet::new();
+    for (k, b) in s.bodies.iter().enumerate() {
+        if !seen.insert(b.name.as_str()) {
+            p.push(format!("bodies[{k}].name"), format!("{:?} is used by another body", b.name));
+        }
+    }
+    let mut joint_names = HashSet::new();
+    for (k, j) in s.joints.iter().enumerate() {
+        if !joint_names.insert(j.name.as_str()) {
+            p.push(format!("joints[{k}].name"), format!("{:?} is used by another joint", j.name));
+        }
+        for (field, name) in [("body1", &j.body1), ("body2", &j.body2)] {
+            if !body_ok(name) {
+                p.push(format!("joints[{k}].{field}"), format!("no body called {name:?}"));
+            }
+        }
+    }
+    for (k, d) in s.drivers.iter().enumerate() {
+        for (field, name) in [("body", &d.body), ("reference", &d.reference)] {
+            if !body_ok(name) {
+                p.push(format!("drivers[{k}].{field}"), format!("no body called {name:?}"));
+            }
+        }
+        if d.body == d.reference {
+            p.push(format!("drivers[{k}].reference"), "must differ from the driven body");
+        }
+    }
+    for (k, l) in s.loads.iter().enumerate() {
+        let (LoadSpec::Force { body, .. } | LoadSpec::Torque { body, .. }) = l;
+        if !bodies.contains(body.as_str()) {
+            p.push(format!("loads[{k}].body"), format!("no moving body called {body:?}"));
+        }
+    }
+    let mut sensor_names = HashSet::new();
+    for (k, sen) in s.sensors.iter().enumerate() {
+        if !body_ok(&sen.body) {
+            p.push(format!("sensors[{k}].body"), format!("no body called {:?}", sen.body));
+        }
+        if !sensor_names.insert(sen.name.as_str()) {
+            p.push(format!("sensors[{k}].name"), format!("{:?} is used by another sensor", sen.name));
+        }
+    }
+    let mut clearance_joints = HashSet::new();
+    for (k, c) in s.clearances.iter().enumerate() {
+        let f = |x: &str| format!("clearances[{k}].{x}");
+        match s.joints.iter().find(|j| j.name == c.joint) {
+            None => p.push(f("joint"), format!("no joint called {:?}", c.joint)),
+            Some(j) => {
+                if j.kind != JointType::Revolute {
+                    p.push(
+                        f("joint"),
+                        format!("joint {:?} is not revolute; only revolute joints can have clearance", c.joint),
+                    );
+                }
+                if c.journal != j.body1 && c.journal != j.body2 {
+                    p.push(
+                        f("journal"),
+                        format!(
+                            "must name one of joint {:?}'s bodies ({:?} or {:?}), got {:?}",
+                            j.name, j.body1, j.body2, c.journal
+                        ),
+                    );
+                }
+            }
+        }
+        if !clearance_joints.insert(c.joint.as_str()) {
+            p.push(f("joint"), format!("joint {:?} already has a clearance", c.joint));
+        }
+        let needs_materials = c.contact.needs_materials();
+        for (field, m) in [("journal_material", &c.journal_material), ("bearing_material", &c.bearing_material)] {
+            match m {
+                Some(name) if !s.materials.contains_key(name) => {
+                    p.push(f(field), format!("no material called {name:?} in [materials]"));
+                }
+                None if needs_materials => {
+                    p.push(
+                        f(field),
+                        "missing: the contact law takes its stiffness from the materials (or give contact.stiffness)",
+                    );
+                }
+                _ => {}
+            }
+        }
+    }
+    let coords = 3 * s.bodies.len();
+    let equations = 2 * s.joints.len() + s.drivers.len();
+    if equations > coords {
+        p.push("joints", format!("{equations} constraint equations for {coords} coordinates: over-constrained"));
+    }
+    if !s.output.channels.is_empty() {
+        let names = crate::channels::channel_names(s, false);
+        for (k, c) in s.output.channels.iter().enumerate() {
+            if !names.iter().any(|n| n == c) {
+                p.push(
+                    format!("output.channels[{k}]"),
+                    format!("no channel called {c:?}; see `lash channels <scenario>`"),
+                );
+            }
+        }
+    }
+    p
+}
+
+/// Helpers on contact laws used by validation.
+pub(crate) trait NeedsMaterials {
+    fn needs_materials(&self) -> bool;
+}
+
+impl NeedsMaterials for lash_contact::ContactLaw {
+    fn needs_materials(&self) -> bool {
+        use lash_contact::ContactLaw as L;
+        match self {
+            L::Hertz { stiffness, .. } | L::AdamsImpact { stiffness, .. } => stiffness.is_none(),
+            L::KelvinVoigt { .. } => false,
+            L::HuntCrossley(h) | L::LankaraniNikravesh(h) | L::Gonthier(h) | L::Flores(h) | L::HuGuo(h) => {
+                h.stiffness.is_none()
+            }
+            L::Liu { .. } => true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn serde_messages_become_field_paths() {
+        assert_eq!(split_serde_message("missing field `mass`\n").0.as_deref(), Some("mass"));
+        let (f, m) = split_serde_message("invalid type: string \"x\", expected f64\nin `mass`\n");
+        assert_eq!(f.as_deref(), Some("mass"));
+        assert!(m.contains("expected f64"));
+        assert_eq!(split_serde_message("unknown field `mas`, expected one of `a`").0.as_deref(), Some("mas"));
+    }
+}

@@ -1,0 +1,213 @@
+//! The scenario file format (TOML). Units are SI throughout: m, kg, kg m², s, rad, N, Pa.
+
+use lash_contact::{ContactLaw, FrictionLaw, Material};
+use lash_mech::{Baumgarte, Motion};
+use lash_ode::Method;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A whole scenario file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name (used in outputs).
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Gravity [m/s²].
+    #[serde(default)]
+    pub gravity: [f64; 2],
+    /// Named materials.
+    #[serde(default)]
+    pub materials: BTreeMap<String, Material>,
+    /// Moving bodies.
+    pub bodies: Vec<BodySpec>,
+    /// Ideal joints (a clearance turns one revolute joint into a clearance joint).
+    #[serde(default)]
+    pub joints: Vec<JointSpec>,
+    /// Rotational drivers.
+    #[serde(default)]
+    pub drivers: Vec<DriverSpec>,
+    /// Applied loads.
+    #[serde(default)]
+    pub loads: Vec<LoadSpec>,
+    /// Clearance joints.
+    #[serde(default)]
+    pub clearances: Vec<ClearanceSpec>,
+    /// Body points whose position, velocity and acceleration are output.
+    #[serde(default)]
+    pub sensors: Vec<SensorSpec>,
+    /// Time span, integrator, sampling.
+    pub simulation: SimulationSpec,
+    /// Output selection.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+/// A rigid body. Points elsewhere in the file are given from its centroid, in its frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Unique name ("ground" is reserved).
+    pub name: String,
+    /// Mass [kg].
+    pub mass: f64,
+    /// Moment of inertia about the centroid [kg m²].
+    pub inertia: f64,
+    /// Initial guess of the centroid position [m]; assembly makes it consistent.
+    pub position: [f64; 2],
+    /// Initial guess of the angle [rad].
+    #[serde(default)]
+    pub angle: f64,
+    /// Initial guess of the centroid velocity [m/s]; velocity analysis makes it consistent.
+    #[serde(default)]
+    pub velocity: [f64; 2],
+    /// Initial guess of the angular velocity [rad/s].
+    #[serde(default)]
+    pub angular_velocity: f64,
+}
+
+/// Joint kinds of the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JointType {
+    /// Pin joint.
+    Revolute,
+    /// Slider joint.
+    Prismatic,
+}
+
+/// An ideal joint between `body1` and `body2` (either may be "ground").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    /// Unique name.
+    pub name: String,
+    /// Kind.
+    #[serde(rename = "type")]
+    pub kind: JointType,
+    /// First body.
+    pub body1: String,
+    /// Joint point on body1 [m].
+    #[serde(default)]
+    pub point1: [f64; 2],
+    /// Second body.
+    pub body2: String,
+    /// Joint point on body2 [m].
+    #[serde(default)]
+    pub point2: [f64; 2],
+    /// Prismatic only: sliding axis in body2's frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 2]>,
+    /// Prismatic only: fixed angle θ1 − θ2 [rad].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_offset: Option<f64>,
+}
+
+/// A rotational driver.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriverSpec {
+    /// Unique name (the torque channel is `<name>.torque`).
+    pub name: String,
+    /// Driven body.
+    pub body: String,
+    /// Reference body.
+    #[serde(default = "ground")]
+    pub reference: String,
+    /// Prescribed angle θ_body − θ_reference.
+    pub motion: Motion,
+}
+
+fn ground() -> String {
+    "ground".into()
+}
+
+/// An applied load.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LoadSpec {
+    /// Constant force in the world frame at a body point.
+    Force {
+        /// Loaded body.
+        body: String,
+        /// Point [m].
+        #[serde(default)]
+        point: [f64; 2],
+        /// Force [N].
+        force: [f64; 2],
+    },
+    /// Constant torque about +z.
+    Torque {
+        /// Loaded body.
+        body: String,
+        /// Torque [N m].
+        torque: f64,
+    },
+}
+
+/// Turns the revolute joint `joint` into a clearance joint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClearanceSpec {
+    /// Name of a revolute joint in `joints`.
+    pub joint: String,
+    /// Which of that joint's bodies carries the journal (pin); the other has the bearing (hole).
+    pub journal: String,
+    /// Journal radius R_J [m].
+    pub journal_radius: f64,
+    /// Bearing radius R_B [m] (> R_J).
+    pub bearing_radius: f64,
+    /// Journal material (name in `materials`), used for Hertz stiffness.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub journal_material: Option<String>,
+    /// Bearing material (name in `materials`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bearing_material: Option<String>,
+    /// Normal contact law.
+    pub contact: ContactLaw,
+    /// Friction law (default: none).
+    #[serde(default)]
+    pub friction: FrictionLaw,
+}
+
+/// A body point to observe.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSpec {
+    /// Channel prefix.
+    pub name: String,
+    /// Body.
+    pub body: String,
+    /// Point on the body [m].
+    #[serde(default)]
+    pub point: [f64; 2],
+}
+
+/// Time span and integrator.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationSpec {
+    /// Start time [s].
+    #[serde(default)]
+    pub start_time: f64,
+    /// Length of the run [s].
+    pub horizon: f64,
+    /// Output sampling interval [s].
+    pub output_interval: f64,
+    /// Integration method.
+    pub integrator: Method,
+    /// Constraint stabilisation (default α = β = 1000 1/s).
+    #[serde(default)]
+    pub baumgarte: Baumgarte,
+}
+
+/// Output selection.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Channels to write (by name, e.g. "slider.ax"); empty writes all.
+    #[serde(default)]
+    pub channels: Vec<String>,
+}
