@@ -83,6 +83,15 @@ impl FullModel {
         let (mut q, mut qd) = kinematics::initial_guess(&ideal);
         assemble(&ideal, t0, &mut q, &mut solver, 1e-13)?;
         velocity_analysis(&ideal, t0, &q, &mut qd, &mut solver)?;
+        q.extend_from_slice(&qd);
+        self.reset(t0, &q);
+        Ok(q)
+    }
+
+    /// Prepares a run from a state `y = [q; q̇]` chosen by the caller: clears impact records and
+    /// sets each contact mode from the state (a journal already penetrating starts in contact,
+    /// with its current approach velocity as onset velocity).
+    pub fn reset(&mut self, t0: f64, y: &[f64]) {
         for c in &mut self.clearances {
             c.in_contact = false;
             c.onset_velocity = 0.0;
@@ -90,16 +99,14 @@ impl FullModel {
         self.impacts.iter_mut().for_each(Vec::clear);
         self.open.iter_mut().for_each(|o| *o = None);
         self.error = None;
-        q.extend_from_slice(&qd);
-        // Contacts that start closed (a journal placed touching) are opened here.
+        self.violation = false;
         let mut g = vec![0.0; self.clearances.len()];
-        self.events(t0, &q, &mut g);
+        self.events(t0, y, &mut g);
         for k in 0..g.len() {
             if g[k] > 0.0 {
-                self.on_event(k, t0, &q);
+                self.on_event(k, t0, y);
             }
         }
-        Ok(q)
     }
 
     /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts`.

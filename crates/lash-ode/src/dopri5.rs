@@ -19,7 +19,8 @@ pub struct Dopri5Options {
     /// Largest step allowed [s].
     #[serde(default = "default_max_step")]
     pub max_step: f64,
-    /// Smallest step allowed before giving up [s].
+    /// Smallest step allowed before giving up [s]. A right side that jumps without an event (pure
+    /// Coulomb friction at sticking) drives the step size down here instead of hanging the run.
     #[serde(default = "default_min_step")]
     pub min_step: f64,
 }
@@ -31,7 +32,7 @@ fn default_max_step() -> f64 {
     1e-3
 }
 fn default_min_step() -> f64 {
-    1e-14
+    1e-12
 }
 
 impl Default for Dopri5Options {
@@ -91,6 +92,7 @@ struct Work {
     err: Vec<f64>,
     dense: [Vec<f64>; 5],
     y_dense: Vec<f64>,
+    y_event: Vec<f64>,
     g_start: Vec<f64>,
     g_end: Vec<f64>,
     g_probe: Vec<f64>,
@@ -106,6 +108,7 @@ impl Work {
             err: v(),
             dense: [v(), v(), v(), v(), v()],
             y_dense: v(),
+            y_event: v(),
             g_start: vec![0.0; m],
             g_end: vec![0.0; m],
             g_probe: vec![0.0; m],
@@ -241,10 +244,25 @@ pub(crate) fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
         if first_event.is_some() {
             // Locate the earliest crossing among all events that fired.
             let (theta_event, k_event) = locate(system, t, h, &mut w, m);
-            let t_event = t + theta_event * h;
-            emit_outputs(system, observer, &mut w, t, h, t_event, &mut next_out, n_out, &out_time)?;
+            let h_event = theta_event * h;
+            let t_event = t + h_event;
             w.interpolate(theta_event);
-            y.copy_from_slice(&w.y_dense);
+            w.y_event.copy_from_slice(&w.y_dense);
+            // Step again, exactly to the event: none of the new stages lies beyond the switching
+            // surface, so a right side that jumps there (Kelvin–Voigt onset, say) cannot leak
+            // into the state at the event or the outputs before it.
+            if h_event > 0.0 {
+                stages(system, t, y, h_event, &mut w);
+                stats.rhs_evaluations += 6;
+                system.take_mode_violation();
+                system.events(t_event, &w.y_new, &mut w.g_probe);
+                if w.g_probe[k_event] > 0.0 && w.y_new.iter().all(|v| v.is_finite()) {
+                    w.y_event.copy_from_slice(&w.y_new);
+                }
+                w.build_dense(y, h_event);
+                emit_outputs(system, observer, &mut w, t, h_event, t_event, &mut next_out, n_out, &out_time)?;
+            }
+            y.copy_from_slice(&w.y_event);
             t = t_event;
             check_finite(t, y)?;
             system.on_event(k_event, t, y);

@@ -336,7 +336,11 @@ impl Run {
             OdeError::System { t, message } => RunError::Simulation { t, message },
             OdeError::StepSizeUnderflow { t, step } => RunError::Simulation {
                 t,
-                message: format!("step size fell to {step:e} s: the tolerances cannot be met (stiffness or a blow-up)"),
+                message: format!(
+                    "step size fell to {step:e} s: the tolerances cannot be met (a blow-up, or a force that jumps \
+                     without an event, such as pure Coulomb friction once the slip stops: prefer the ambrosio or \
+                     adams_stick_slip friction laws)"
+                ),
             },
             OdeError::Observer { t, message } => {
                 if message.starts_with("output:") {
