@@ -3,7 +3,7 @@
 //! Coefficients and the continuous extension follow Hairer, Nørsett & Wanner, *Solving Ordinary
 //! Differential Equations I*, §II.5–II.6 (the DOPRI5 code's `contd5`).
 
-use crate::{Observer, OdeError, OdeSystem, Stats, check_finite, output_count};
+use crate::{Dense, Observer, OdeError, OdeSystem, Stats, check_finite, output_count};
 
 /// Options of the adaptive Dormand–Prince integrator.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -132,11 +132,7 @@ impl Work {
 
     /// Dense output at fraction `theta` of the step into `y_dense`.
     fn interpolate(&mut self, theta: f64) {
-        let [r1, r2, r3, r4, r5] = &self.dense;
-        let th1 = 1.0 - theta;
-        for j in 0..r1.len() {
-            self.y_dense[j] = r1[j] + theta * (r2[j] + th1 * (r3[j] + theta * (r4[j] + th1 * r5[j])));
-        }
+        Dense { coefficients: &self.dense }.eval(theta, &mut self.y_dense);
     }
 }
 
@@ -261,6 +257,7 @@ pub(crate) fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
                 }
                 w.build_dense(y, h_event);
                 emit_outputs(system, observer, &mut w, t, h_event, t_event, &mut next_out, n_out, &out_time)?;
+                system.accept_dense(t, h_event, &Dense { coefficients: &w.dense });
             }
             y.copy_from_slice(&w.y_event);
             t = t_event;
@@ -276,6 +273,7 @@ pub(crate) fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
         }
 
         emit_outputs(system, observer, &mut w, t, h, t + h, &mut next_out, n_out, &out_time)?;
+        system.accept_dense(t, h, &Dense { coefficients: &w.dense });
         t = if last { t_end } else { t + h };
         y.copy_from_slice(&w.y_new);
         check_finite(t, y)?;

@@ -16,6 +16,22 @@
 mod dopri5;
 mod rk4;
 
+/// The continuous extension of one accepted step `[t, t + h]` (4th order for DOPRI5).
+pub struct Dense<'a> {
+    coefficients: &'a [Vec<f64>; 5],
+}
+
+impl Dense<'_> {
+    /// The state at `t + theta·h`, `theta` in [0, 1], written into `out`.
+    pub fn eval(&self, theta: f64, out: &mut [f64]) {
+        let [r1, r2, r3, r4, r5] = self.coefficients;
+        let th1 = 1.0 - theta;
+        for j in 0..r1.len() {
+            out[j] = r1[j] + theta * (r2[j] + th1 * (r3[j] + theta * (r4[j] + th1 * r5[j])));
+        }
+    }
+}
+
 pub use dopri5::Dopri5Options;
 
 /// A first-order system y' = f(t, y) with optional discrete modes and events.
@@ -42,6 +58,10 @@ pub trait OdeSystem {
     fn take_mode_violation(&mut self) -> bool {
         false
     }
+
+    /// Called after every accepted adaptive step with its continuous extension, before
+    /// [`OdeSystem::accept_step`]: a place to sample the trajectory inside the step (a force peak).
+    fn accept_dense(&mut self, _t: f64, _h: f64, _dense: &Dense<'_>) {}
 
     /// Called after every accepted step: a place to check for blow-up. An error stops the run.
     fn accept_step(&mut self, _t: f64, _y: &[f64]) -> Result<(), String> {
