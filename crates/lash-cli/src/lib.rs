@@ -183,6 +183,8 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     lash_scenario::builtin::NAMES.join(", ")
                 ))
             })?;
+            println!("# lash scenario {name}: {}", s.description.split(':').next().unwrap_or(""));
+            println!("# SI units throughout (m, kg, kg m^2, s, rad, N, Pa). Written by `lash show {name}`.");
             print!("{}", toml::to_string(&s).map_err(|e| CliError::Failure(e.to_string()))?);
             Ok(())
         }

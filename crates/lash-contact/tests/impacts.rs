@@ -62,9 +62,15 @@ fn library_restitution(law: &ContactLaw, v_in: f64) -> f64 {
     let mut y = start(&mut model, Vec2::new(v_in, 0.0));
     // Reaches the wall at C / v_in; the contact lasts well under 1 ms.
     let t_end = C / v_in + 1e-3;
-    integrate(&tight(), &mut model, 0.0, &mut y, t_end, t_end / 4.0, &mut |_: &mut FullModel, _: f64, _: &[f64]| {
-        Ok(())
-    })
+    integrate(
+        &tight(),
+        &mut model,
+        0.0,
+        &mut y,
+        t_end,
+        t_end / 4.0,
+        &mut |_: &mut FullModel, _: f64, _: &[f64]| Ok(()),
+    )
     .unwrap();
     assert_eq!(model.impacts[0].len(), 1, "one impact expected");
     -y[3] / v_in
@@ -102,7 +108,12 @@ fn reference_restitution(law: &ContactLaw, v_in: f64) -> f64 {
             }
             ContactLaw::Liu { length, restitution, .. } => {
                 let chi = restitution.map_or(0.0, |e| 0.75 * (1.0 - e * e));
-                std::f64::consts::FRAC_PI_2 * e_star * length * d * (d / (2.0 * (C + d))).sqrt() * (1.0 + chi * v / v_in)
+                std::f64::consts::FRAC_PI_2
+                    * e_star
+                    * length
+                    * d
+                    * (d / (2.0 * (C + d))).sqrt()
+                    * (1.0 + chi * v / v_in)
             }
         };
         f.max(0.0)
@@ -117,7 +128,8 @@ fn reference_restitution(law: &ContactLaw, v_in: f64) -> f64 {
         let (k2d, k2v) = (v + 0.5 * h * k1v, acc(d + 0.5 * h * k1d, v + 0.5 * h * k1v));
         let (k3d, k3v) = (v + 0.5 * h * k2v, acc(d + 0.5 * h * k2d, v + 0.5 * h * k2v));
         let (k4d, k4v) = (v + h * k3v, acc(d + h * k3d, v + h * k3v));
-        let (dn, vn) = (d + h / 6.0 * (k1d + 2.0 * k2d + 2.0 * k3d + k4d), v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v));
+        let (dn, vn) =
+            (d + h / 6.0 * (k1d + 2.0 * k2d + 2.0 * k3d + k4d), v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v));
         if dn <= 0.0 && vn < 0.0 {
             // Exit inside this step: the force vanishes at δ = 0; interpolate the velocity there.
             let frac = d / (d - dn);
@@ -204,13 +216,17 @@ fn friction_turns_a_spinning_journal() {
     // Coulomb friction at an oblique impact spins the journal with the right sign. It hits the
     // wall at n ≈ (0.8, 0.6) moving along +x: ė·t = 0.8·(−0.6) < 0, so v_t < 0, F_T < 0 and the
     // friction moment about the centre, R_J n × (−F_T t) = −R_J F_T, is positive.
-    let mut model =
-        free_journal(&ContactLaw::LankaraniNikravesh(hyst(0.8)), FrictionLaw::Coulomb { coefficient: 0.05 }, Vec2::zeros());
+    let mut model = free_journal(
+        &ContactLaw::LankaraniNikravesh(hyst(0.8)),
+        FrictionLaw::Coulomb { coefficient: 0.05 },
+        Vec2::zeros(),
+    );
     // Thrown along x from 0.3 mm above the centre: the impact is oblique.
     let mut y = vec![0.0, 3e-4, 0.0, 0.8, 0.0, 0.0];
     model.reset(0.0, &y);
     let t_end = 4e-4 / 0.8 + 3e-4;
-    integrate(&tight(), &mut model, 0.0, &mut y, t_end, t_end, &mut |_: &mut FullModel, _: f64, _: &[f64]| Ok(())).unwrap();
+    integrate(&tight(), &mut model, 0.0, &mut y, t_end, t_end, &mut |_: &mut FullModel, _: f64, _: &[f64]| Ok(()))
+        .unwrap();
     assert_eq!(model.impacts[0].len(), 1);
     assert!(y[5] > 1.0, "spin after the impact: {} rad/s", y[5]);
     // Angular impulse equals the friction moment integrated: I Δω = R_J ∫ −F_T dt, and

@@ -50,7 +50,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
 
 /// The integrator settings that converge the full model (docs/validation.md, convergence study).
 pub fn converged_integrator() -> Method {
-    Method::Dopri5(Dopri5Options { rtol: 1e-9, atol: 1e-12, initial_step: 1e-6, max_step: 1e-4, min_step: 1e-14 })
+    Method::Dopri5(Dopri5Options { rtol: 1e-9, atol: 1e-12, initial_step: 1e-6, max_step: 1e-4, min_step: 1e-12 })
 }
 
 fn slider_crank(name: &str, description: &str) -> Scenario {

@@ -1,0 +1,233 @@
+//! The `lash` binary end to end: the main job, bad input, blow-ups, example files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lash(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lash")).args(args).output().expect("lash runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lash-cli-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .map(|d| d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect())
+        .unwrap_or_default()
+}
+
+#[test]
+fn main_job_writes_csv_and_summary() {
+    let dir = scratch("main");
+    let out = dir.join("A");
+    let o = lash(&["run", "A", "--out", out.to_str().unwrap(), "--horizon", "0.004", "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    for col in
+        ["time [s]", "slider.ax [m/s^2]", "crank_pivot.force [N]", "crank_pivot.eccentricity [m]", "motor.torque [N m]"]
+    {
+        assert!(header.contains(col), "header lacks {col}: {header}");
+    }
+    assert_eq!(csv.lines().count(), 1 + 401, "401 samples at 1e-5 s over 4 ms");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in ["cpu_time_s", "steps", "rejected_steps", "channels", "clearances"] {
+        assert!(summary.get(key).is_some(), "summary lacks {key}");
+    }
+    assert!(summary["clearances"][0]["impacts"].as_u64().unwrap() > 0);
+    assert!(out.join("scenario.toml").exists());
+    assert!(!out.join("timeseries.csv.partial").exists());
+}
+
+const VALID_BASE: &str = r#"
+name = "test"
+[materials.steel]
+young_modulus = 207e9
+poisson_ratio = 0.3
+[[bodies]]
+name = "crank"
+mass = 0.17
+inertia = 1e-4
+position = [0.025, 0.0]
+[[bodies]]
+name = "rod"
+mass = 0.15
+inertia = 2.5e-4
+position = [0.11, 0.0]
+[[bodies]]
+name = "slider"
+mass = 0.06
+inertia = 1e-5
+position = [0.17, 0.0]
+[[joints]]
+name = "crank_pivot"
+type = "revolute"
+body1 = "crank"
+point1 = [-0.025, 0.0]
+body2 = "ground"
+[[joints]]
+name = "crank_rod"
+type = "revolute"
+body1 = "crank"
+point1 = [0.025, 0.0]
+body2 = "rod"
+point2 = [-0.06, 0.0]
+[[joints]]
+name = "rod_slider"
+type = "revolute"
+body1 = "slider"
+body2 = "rod"
+point2 = [0.06, 0.0]
+[[joints]]
+name = "guide"
+type = "prismatic"
+body1 = "slider"
+body2 = "ground"
+axis = [1.0, 0.0]
+[[drivers]]
+name = "motor"
+body = "crank"
+motion = { type = "constant_speed", omega = 523.5987755982989 }
+[[sensors]]
+name = "slider"
+body = "slider"
+[[clearances]]
+joint = "rod_slider"
+journal = "slider"
+journal_radius = 0.0095
+bearing_radius = 0.010
+journal_material = "steel"
+bearing_material = "steel"
+contact = { law = "lankarani_nikravesh", restitution = 0.9, velocity_floor = 1e-5 }
+friction = { law = "ambrosio", coefficient = 0.01, v0 = 1e-4, v1 = 1e-3 }
+[simulation]
+horizon = 0.002
+output_interval = 1e-5
+integrator = { method = "dopri5", rtol = 1e-9, atol = 1e-12 }
+"#;
+
+/// Runs `lash run` on a scenario text; returns the output and the (would-be) output folder.
+fn run_text(name: &str, text: &str) -> (Output, PathBuf) {
+    let dir = scratch(name);
+    let file = dir.join("scenario.toml");
+    std::fs::write(&file, text).unwrap();
+    let out = dir.join("out");
+    let o = lash(&["run", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+    (o, out)
+}
+
+#[test]
+fn the_valid_base_file_runs() {
+    let (o, out) = run_text("base", VALID_BASE);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("summary.json").exists());
+}
+
+#[test]
+fn value_problems_are_all_listed_with_their_fields() {
+    let text = VALID_BASE
+        .replace("mass = 0.17", "mass = -0.17")
+        .replace("inertia = 2.5e-4", "inertia = nan")
+        .replace("position = [0.17, 0.0]", "position = [inf, 0.0]")
+        .replace("journal_radius = 0.0095", "journal_radius = 0.0105")
+        .replace("restitution = 0.9", "restitution = 1.5");
+    let (o, out) = run_text("values", &text);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    for field in [
+        "bodies[0].mass",
+        "bodies[1].inertia",
+        "bodies[2].position",
+        "clearances[0].journal_radius",
+        "clearances[0].contact.restitution",
+    ] {
+        assert!(err.contains(field), "error does not name {field}:\n{err}");
+    }
+    assert!(err.contains("5 problems"), "{err}");
+    assert!(files_in(&out).is_empty(), "output left behind: {:?}", files_in(&out));
+}
+
+#[test]
+fn structural_problems_are_all_listed_with_their_fields() {
+    let text = VALID_BASE
+        .replace("law = \"lankarani_nikravesh\"", "law = \"lankarani_nikravezh\"")
+        .replacen("mass = 0.15\n", "", 1)
+        .replace("horizon = 0.002", "horizon = 0.002\nhorizont = 1.0");
+    let (o, out) = run_text("structure", &text);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    for needle in ["clearances[0].contact", "lankarani_nikravezh", "bodies[1].mass", "simulation.horizont"] {
+        assert!(err.contains(needle), "error does not mention {needle}:\n{err}");
+    }
+    assert!(files_in(&out).is_empty());
+}
+
+#[test]
+fn clearance_on_a_missing_joint_is_named() {
+    let text = VALID_BASE.replace("joint = \"rod_slider\"", "joint = \"rod_slidr\"");
+    let (o, _) = run_text("joint", &text);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("clearances[0].joint") && err.contains("rod_slidr"), "{err}");
+}
+
+#[test]
+fn syntax_errors_and_unknown_names_fail_cleanly() {
+    let (o, _) = run_text("syntax", "name = \"x\"\n[[bodies]\n");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("not valid TOML"), "{}", stderr(&o));
+    let o = lash(&["run", "no-such-scenario", "--out", scratch("none").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("neither a file nor a built-in"));
+    let o = lash(&["run", "A", "--model", "reduced", "--out", scratch("reduced").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = lash(&["run", "A", "--horizon=-1", "--out", scratch("horizon").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("simulation.horizon"), "{}", stderr(&o));
+    let o = lash(&["run", "A", "--frobnicate"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!stderr(&o).contains("panicked"));
+}
+
+#[test]
+fn a_blow_up_stops_with_time_and_quantity() {
+    // RK4 at 1e-4 s against a contact stiffness of ~1e11 N/m^1.5: the journal tunnels through.
+    let text = VALID_BASE
+        .replace(
+            "integrator = { method = \"dopri5\", rtol = 1e-9, atol = 1e-12 }",
+            "integrator = { method = \"rk4\", step = 1e-4 }",
+        )
+        .replace("output_interval = 1e-5", "output_interval = 1e-4")
+        .replace("horizon = 0.002", "horizon = 0.01");
+    let (o, out) = run_text("blowup", &text);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("t = "), "{err}");
+    assert!(err.contains("penetration") || err.contains("became"), "{err}");
+    assert!(!out.join("summary.json").exists());
+    assert!(!out.join("timeseries.csv").exists());
+    assert!(out.join("timeseries.csv.partial").exists());
+}
+
+#[test]
+fn example_files_are_the_builtin_scenarios() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    for name in lash_scenario::builtin::NAMES {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+        let parsed = lash_scenario::parse(&text).unwrap_or_else(|p| panic!("{name}: {p}"));
+        assert_eq!(
+            parsed,
+            lash_scenario::builtin::by_name(name).unwrap(),
+            "examples/{name}.toml differs from the built-in"
+        );
+    }
+}
