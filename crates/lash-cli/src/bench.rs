@@ -1,5 +1,84 @@
-//! `lash bench`: placeholder replaced below.
+//! `lash bench`: the speed figures of docs/performance.md, measured in one process.
+//!
+//! * cost of one right-hand-side evaluation and of one fixed RK4 step (h = 1e-5 s) of the full
+//!   model of scenario B, stepping along the real trajectory (free flight and impacts);
+//! * wall time of the converged adaptive run of scenario B over 0.036 s with every channel sampled
+//!   every 1e-5 s (rows discarded: no file output);
+//! * the same for the ideal mechanism, for scale.
+//!
+//! Each figure is the median of several repetitions; ratios are only meaningful within one run.
+
 use crate::CliError;
-pub fn run(_quick: bool) -> Result<(), CliError> {
-    Err(CliError::Failure("not yet".into()))
+use lash_ode::OdeSystem;
+use lash_scenario::{BuildOptions, Run, bench::Rk4Stepper, builtin};
+use std::hint::black_box;
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+pub fn run(quick: bool) -> Result<(), CliError> {
+    let reps = if quick { 3 } else { 7 };
+    let s = builtin::by_name("B").expect("built-in");
+
+    let mut model = lash_scenario::build_model(&s, BuildOptions::default());
+    let y0 = model.initial_state(0.0).map_err(|e| CliError::Failure(e.to_string()))?;
+    let mut dydt = vec![0.0; y0.len()];
+    let n_eval = if quick { 100_000 } else { 400_000 };
+    let rhs_ns = median(
+        (0..reps)
+            .map(|_| {
+                let t = Instant::now();
+                for i in 0..n_eval {
+                    model.rhs(black_box(1e-4 + i as f64 * 1e-12), black_box(&y0), &mut dydt);
+                }
+                black_box(&dydt);
+                t.elapsed().as_secs_f64() / n_eval as f64 * 1e9
+            })
+            .collect(),
+    );
+
+    let n_steps = if quick { 36_000 } else { 144_000 };
+    let rk4_ns = median(
+        (0..reps)
+            .map(|_| {
+                let mut stepper = Rk4Stepper::new(&mut model, 1e-5);
+                let t = Instant::now();
+                for _ in 0..n_steps {
+                    black_box(stepper.step());
+                }
+                t.elapsed().as_secs_f64() / n_steps as f64 * 1e9
+            })
+            .collect(),
+    );
+
+    let time_run = |ideal: bool| -> Result<(f64, lash_scenario::Summary), CliError> {
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..reps {
+            let mut r = Run::new(&s, BuildOptions { ideal });
+            let t = Instant::now();
+            let summary = r.execute(&mut |row| Ok(black_box(row).len()).map(|_| ()), &mut |_| {});
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            last = Some(summary.map_err(|e| CliError::Failure(e.to_string()))?);
+        }
+        Ok((median(times), last.expect("reps > 0")))
+    };
+    let (full_ms, full) = time_run(false)?;
+    let (ideal_ms, ideal) = time_run(true)?;
+
+    println!("lash bench (median of {reps}; scenario B, c = 0.5 mm, 5000 rpm)");
+    println!("  full model, one right-hand-side evaluation     {rhs_ns:9.1} ns");
+    println!("  full model, one RK4 step (h = 1e-5 s)          {rk4_ns:9.1} ns   (target ≤ 2000 ns)");
+    println!(
+        "  full model, converged adaptive run of 0.036 s  {full_ms:9.2} ms   (target ≤ 50 ms; {} steps, {} rejected, {} rhs, {} events)",
+        full.steps, full.rejected_steps, full.rhs_evaluations, full.events
+    );
+    println!(
+        "  ideal mechanism, adaptive run of 0.036 s       {ideal_ms:9.2} ms   ({} steps, {} rhs)",
+        ideal.steps, ideal.rhs_evaluations
+    );
+    Ok(())
 }

@@ -230,11 +230,11 @@ impl OdeSystem for FullModel {
             return;
         }
         // Sample open contacts inside the step: the force peak is then refined from points
-        // h/8 apart on the 4th-order continuous extension, not from the step ends alone.
+        // h/5 apart on the 4th-order continuous extension, not from the step ends alone.
         let mut y = std::mem::take(&mut self.dense_buffer);
         y.resize(2 * self.n, 0.0);
-        for i in 1..8 {
-            let theta = i as f64 / 8.0;
+        for i in 1..5 {
+            let theta = i as f64 / 5.0;
             dense.eval(theta, &mut y);
             for k in 0..self.clearances.len() {
                 if self.open[k].is_some() {

@@ -78,12 +78,16 @@ struct Structure {
     pairs: Vec<(usize, usize, usize, usize)>,
     /// M⁻¹ with the pinned coordinates zeroed.
     free_inverse_mass: Vec<f64>,
+    /// Per row, the coordinate offsets of its two blocks (the ground maps to the padding slot n).
+    offsets: Vec<[usize; 2]>,
 }
 
-/// Buffers of one solve.
+/// Buffers of one solve (coordinate-sized ones padded with three ground slots).
 struct Scratch {
     lambda: Vec<f64>,
+    acc: Vec<f64>,
     reaction: Vec<f64>,
+    velocity: Vec<f64>,
 }
 
 #[inline]
@@ -156,7 +160,8 @@ impl Solver {
             }
         }
         let mf = free_rows.len();
-        let structure = Structure { fixed, free_rows, pairs, free_inverse_mass };
+        let offsets = row_bodies.iter().map(|r| r.map(|b| if b == Block::NONE { n } else { 3 * b })).collect();
+        let structure = Structure { fixed, free_rows, pairs, free_inverse_mass, offsets };
         Self {
             poses: vec![Pose::GROUND; mech.bodies.len()],
             jacobian: vec![[Block::EMPTY; 2]; m],
@@ -169,7 +174,12 @@ impl Solver {
             inverse_mass,
             gamma_hat: vec![0.0; m],
             structure,
-            scratch: Scratch { lambda: vec![0.0; mf], reaction: vec![0.0; n] },
+            scratch: Scratch {
+                lambda: vec![0.0; mf],
+                acc: vec![0.0; n + 3],
+                reaction: vec![0.0; n + 3],
+                velocity: vec![0.0; n + 3],
+            },
             schur: SmallCholesky::new(mf),
             factored: false,
             time: 0.0,
@@ -250,8 +260,17 @@ impl Solver {
     /// Solves for q̈ and λ with the current forces, the stabilised γ̂ and the current factor.
     pub fn solve(&mut self, mech: &Mechanism, qd: &[f64]) {
         let (alpha, beta) = (mech.baumgarte.alpha, mech.baumgarte.beta);
-        for a in 0..self.jacobian.len() {
-            let jqd = self.jacobian_times(a, qd);
+        let n = qd.len();
+        let v = &mut self.scratch.velocity[..n + 3];
+        v[..n].copy_from_slice(qd);
+        for (a, (row, [o0, o1])) in self.jacobian.iter().zip(&self.structure.offsets).enumerate() {
+            let [b0, b1] = row;
+            let jqd = b0.d[0] * v[*o0]
+                + b0.d[1] * v[o0 + 1]
+                + b0.d[2] * v[o0 + 2]
+                + b1.d[0] * v[*o1]
+                + b1.d[1] * v[o1 + 1]
+                + b1.d[2] * v[o1 + 2];
             self.gamma_hat[a] = self.gamma[a] - 2.0 * alpha * (jqd - self.nu[a]) - beta * beta * self.phi[a];
         }
         let Solver {
@@ -323,38 +342,50 @@ fn solve_rhs(
     qdd: &mut [f64],
     lambda: &mut DVector<f64>,
 ) {
-    let im = &st.free_inverse_mass;
-    // q̈ first holds M⁻¹Q on free coordinates and the pinned accelerations γ/c.
-    for k in 0..qdd.len() {
-        qdd[k] = im[k] * forces[k];
+    // Work vectors carry three padding slots (index n..n+3, always 0) that stand for the ground,
+    // so every row has exactly two blocks and the loops need no branch.
+    let n = qdd.len();
+    let im = &st.free_inverse_mass[..n];
+    let acc = &mut scratch.acc[..n + 3];
+    // acc = M⁻¹Q on free coordinates and the pinned accelerations γ/c (c = ±1).
+    for k in 0..n {
+        acc[k] = im[k] * forces[k];
     }
     for &(row, k, c) in &st.fixed {
-        qdd[k] = gamma[row] / c;
+        acc[k] = gamma[row] * c;
     }
-    // λ' = S⁻¹ (Φ_q q̈₀ − γ) over the free rows.
+    // λ' = S⁻¹ (Φ_q acc − γ) over the free rows.
+    let lam = &mut scratch.lambda;
     for (a, &row) in st.free_rows.iter().enumerate() {
-        let mut s = -gamma[row];
-        for b in jacobian[row].iter().filter(|b| b.body != Block::NONE) {
-            s += dot3(&b.d, &qdd[3 * b.body..]);
-        }
-        scratch.lambda[a] = s;
+        let [o0, o1] = st.offsets[row];
+        let [b0, b1] = &jacobian[row];
+        lam[a] = b0.d[0] * acc[o0]
+            + b0.d[1] * acc[o0 + 1]
+            + b0.d[2] * acc[o0 + 2]
+            + b1.d[0] * acc[o1]
+            + b1.d[1] * acc[o1 + 1]
+            + b1.d[2] * acc[o1 + 2]
+            - gamma[row];
     }
-    factor.solve_mut(&mut scratch.lambda);
-    // q̈ = M⁻¹ (Q − Φ_qᵀ λ) on free coordinates; Φ_qᵀλ kept for the pinned rows.
-    scratch.reaction.fill(0.0);
+    factor.solve_mut(lam);
+    // reaction = Φ_qᵀλ over the free rows; q̈ = acc − M⁻¹ reaction (pinned: M⁻¹ entry is 0).
+    let reaction = &mut scratch.reaction[..n + 3];
+    reaction.fill(0.0);
     for (a, &row) in st.free_rows.iter().enumerate() {
-        let l = scratch.lambda[a];
+        let l = lam[a];
         lambda[row] = l;
-        for b in jacobian[row].iter().filter(|b| b.body != Block::NONE) {
-            let k = 3 * b.body;
-            for i in 0..3 {
-                scratch.reaction[k + i] += b.d[i] * l;
-                qdd[k + i] -= im[k + i] * b.d[i] * l;
-            }
+        let [o0, o1] = st.offsets[row];
+        let [b0, b1] = &jacobian[row];
+        for i in 0..3 {
+            reaction[o0 + i] += b0.d[i] * l;
+            reaction[o1 + i] += b1.d[i] * l;
         }
     }
-    // Pinned rows: c λ = Q_k − m_k q̈_k − (Φ_qᵀλ)_k.
+    for k in 0..n {
+        qdd[k] = acc[k] - im[k] * reaction[k];
+    }
+    // Pinned rows: c λ = Q_k − m_k q̈_k − (Φ_qᵀλ)_k, with 1/c = c.
     for &(row, k, c) in &st.fixed {
-        lambda[row] = (forces[k] - qdd[k] / inverse_mass[k] - scratch.reaction[k]) / c;
+        lambda[row] = (forces[k] - qdd[k] / inverse_mass[k] - reaction[k]) * c;
     }
 }

@@ -169,6 +169,7 @@ impl Run {
             .map(|s| (self.model.mechanism.body_id(&s.body).expect("validated"), Vec2::new(s.point[0], s.point[1])))
             .collect();
         let n_ch = self.sources.len();
+        let mut sensor_values = vec![[0.0; 6]; sensors.len()];
         let mut values = vec![0.0; n_ch];
         let mut row = vec![0.0; self.selected.len() + 1];
         let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64); n_ch];
@@ -185,13 +186,14 @@ impl Run {
             model.evaluate(t, y).map_err(|e| e.to_string())?;
             let (q, qd) = y.split_at(n);
             let qdd = &model.solver.accelerations;
+            for (k, (body, point)) in sensors.iter().enumerate() {
+                let p = point_kinematics(q, qd, qdd, *body, *point);
+                sensor_values[k] =
+                    [p.position.x, p.position.y, p.velocity.x, p.velocity.y, p.acceleration.x, p.acceleration.y];
+            }
             for (v, (_, src)) in values.iter_mut().zip(sources) {
                 *v = match *src {
-                    Source::Sensor(k, quantity) => {
-                        let p = point_kinematics(q, qd, qdd, sensors[k].0, sensors[k].1);
-                        [p.position.x, p.position.y, p.velocity.x, p.velocity.y, p.acceleration.x, p.acceleration.y]
-                            [quantity as usize]
-                    }
+                    Source::Sensor(k, quantity) => sensor_values[k][quantity as usize],
                     Source::Clearance(k, quantity) => {
                         let c = &model.contacts[k];
                         [
