@@ -35,51 +35,110 @@ impl SmallCholesky {
     /// (numerically: a pivot ≤ 1e-14 × the largest diagonal entry).
     pub fn factor(&mut self) -> bool {
         let n = self.n;
-        let a = &mut self.a[..n * n];
-        let scale = (0..n).map(|i| a[i * n + i].abs()).fold(0.0, f64::max);
-        let tiny = 1e-14 * scale;
-        for j in 0..n {
-            let (above, rest) = a.split_at_mut(j * n + n);
-            let row_j = &above[j * n..];
-            let d = row_j[j] - dot(&row_j[..j], &row_j[..j]);
-            if !(d > tiny) {
-                return false;
-            }
-            let d = d.sqrt();
-            let inv = 1.0 / d;
-            self.inv_diag[j] = inv;
-            for row_i in rest.chunks_exact_mut(n) {
-                row_i[j] = (row_i[j] - dot(&row_i[..j], &row_j[..j])) * inv;
-            }
-            above[j * n + j] = d;
+        let (a, inv) = (&mut self.a[..], &mut self.inv_diag[..]);
+        // Orders of planar mechanisms are small: a copy of the kernel per order up to 12 lets the
+        // compiler unroll the loops and drop the bounds checks.
+        match n {
+            0 => true,
+            1 => factor_n::<1>(a, inv),
+            2 => factor_n::<2>(a, inv),
+            3 => factor_n::<3>(a, inv),
+            4 => factor_n::<4>(a, inv),
+            5 => factor_n::<5>(a, inv),
+            6 => factor_n::<6>(a, inv),
+            7 => factor_n::<7>(a, inv),
+            8 => factor_n::<8>(a, inv),
+            9 => factor_n::<9>(a, inv),
+            10 => factor_n::<10>(a, inv),
+            11 => factor_n::<11>(a, inv),
+            12 => factor_n::<12>(a, inv),
+            _ => factor_dyn(n, a, inv),
         }
-        true
     }
 
     /// Solves (L Lᵀ) x = b in place.
     pub fn solve_mut(&self, b: &mut [f64]) {
-        let n = self.n;
-        let a = &self.a[..n * n];
-        let b = &mut b[..n];
-        for i in 0..n {
-            let row = &a[i * n..i * n + i];
-            b[i] = (b[i] - dot(row, &b[..i])) * self.inv_diag[i];
-        }
-        for i in (0..n).rev() {
-            let xi = b[i] * self.inv_diag[i];
-            b[i] = xi;
-            // Column i of L above the diagonal is row i of Lᵀ: subtract its contribution.
-            let row = &a[i * n..i * n + i];
-            for (bk, l) in b[..i].iter_mut().zip(row) {
-                *bk -= l * xi;
-            }
+        let (a, inv) = (&self.a[..], &self.inv_diag[..]);
+        match self.n {
+            0 => {}
+            1 => solve_n::<1>(a, inv, b),
+            2 => solve_n::<2>(a, inv, b),
+            3 => solve_n::<3>(a, inv, b),
+            4 => solve_n::<4>(a, inv, b),
+            5 => solve_n::<5>(a, inv, b),
+            6 => solve_n::<6>(a, inv, b),
+            7 => solve_n::<7>(a, inv, b),
+            8 => solve_n::<8>(a, inv, b),
+            9 => solve_n::<9>(a, inv, b),
+            10 => solve_n::<10>(a, inv, b),
+            11 => solve_n::<11>(a, inv, b),
+            12 => solve_n::<12>(a, inv, b),
+            n => solve_dyn(n, a, inv, b),
         }
     }
 }
 
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+#[inline(always)]
+fn factor_n<const N: usize>(a: &mut [f64], inv: &mut [f64]) -> bool {
+    factor_dyn(N, a, inv)
+}
+
+#[inline(always)]
+fn solve_n<const N: usize>(a: &[f64], inv: &[f64], b: &mut [f64]) {
+    solve_dyn(N, a, inv, b)
+}
+
+#[inline(always)]
+fn factor_dyn(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
+    let a = &mut a[..n * n];
+    let inv = &mut inv[..n];
+    let mut scale = 0.0f64;
+    for i in 0..n {
+        scale = scale.max(a[i * n + i].abs());
+    }
+    let tiny = 1e-14 * scale;
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        if !(d > tiny) {
+            return false;
+        }
+        let d = d.sqrt();
+        let r = 1.0 / d;
+        a[j * n + j] = d;
+        inv[j] = r;
+        for i in (j + 1)..n {
+            let mut s = a[i * n + j];
+            for k in 0..j {
+                s -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = s * r;
+        }
+    }
+    true
+}
+
+#[inline(always)]
+fn solve_dyn(n: usize, a: &[f64], inv: &[f64], b: &mut [f64]) {
+    let a = &a[..n * n];
+    let inv = &inv[..n];
+    let b = &mut b[..n];
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[i * n + k] * b[k];
+        }
+        b[i] = s * inv[i];
+    }
+    for i in (0..n).rev() {
+        let xi = b[i] * inv[i];
+        b[i] = xi;
+        for k in 0..i {
+            b[k] -= a[i * n + k] * xi;
+        }
+    }
 }
 
 #[cfg(test)]

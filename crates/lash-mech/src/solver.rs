@@ -73,8 +73,8 @@ struct Structure {
     fixed: Vec<(usize, usize, f64)>,
     /// Rows kept in S, in order (compact index → row).
     free_rows: Vec<usize>,
-    /// Pairs of Jacobian blocks (compact a, block ia, compact b ≤ a, block ib) that share a body:
-    /// the structural non-zeros of S.
+    /// Pairs of Jacobian blocks that share a body — the structural non-zeros of S — as
+    /// (flat block index in row a, flat block index in row b, index of S[a][b], coordinate offset).
     pairs: Vec<(usize, usize, usize, usize)>,
     /// M⁻¹ with the pinned coordinates zeroed.
     free_inverse_mass: Vec<f64>,
@@ -153,7 +153,7 @@ impl Solver {
                     for ib in 0..2 {
                         let k = row_bodies[a][ia];
                         if k != Block::NONE && k == row_bodies[b][ib] {
-                            pairs.push((ca, ia, cb, ib));
+                            pairs.push((2 * a + ia, 2 * b + ib, ca * free_rows.len() + cb, 3 * k));
                         }
                     }
                 }
@@ -240,12 +240,13 @@ impl Solver {
         let st = &self.structure;
         let m = st.free_rows.len();
         let im = &st.free_inverse_mass;
+        let blocks = self.jacobian.as_flattened();
         let s = &mut self.schur.matrix_mut()[..m * m];
         s.fill(0.0);
-        for &(a, ia, b, ib) in &st.pairs {
-            let (pa, pb) = (&self.jacobian[st.free_rows[a]][ia], &self.jacobian[st.free_rows[b]][ib]);
-            let k = 3 * pa.body;
-            s[a * m + b] += pa.d[0] * pb.d[0] * im[k] + pa.d[1] * pb.d[1] * im[k + 1] + pa.d[2] * pb.d[2] * im[k + 2];
+        for &(ja, jb, index, k) in &st.pairs {
+            let (pa, pb) = (&blocks[ja].d, &blocks[jb].d);
+            let w = &im[k..k + 3];
+            s[index] += pa[0] * pb[0] * w[0] + pa[1] * pb[1] * w[1] + pa[2] * pb[2] * w[2];
         }
         self.factored = self.schur.factor();
         if self.factored { Ok(()) } else { Err(MechError::SingularConstraints { t: self.time }) }
