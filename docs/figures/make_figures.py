@@ -36,7 +36,7 @@ def overlay(full, ideal, title, out, channel="slider.ax"):
 
 overlay("out/B/timeseries.csv", "out/B-ideal/timeseries.csv", "Scenario B, c = 0.5 mm, 5000 rpm", "docs/figures/B_slider_acceleration.png")
 overlay("out/A/timeseries.csv", "out/A-ideal/timeseries.csv", "Scenario A, c = 100 µm at the crank pivot", "docs/figures/A_slider_acceleration.png")
-overlay("out/B002/timeseries.csv", "out/B002-ideal/timeseries.csv", "Scenario B, c = 0.02 mm", "docs/figures/B002_slider_acceleration.png")
+overlay("out/B-0.02mm/timeseries.csv", "out/B-0.02mm-ideal/timeseries.csv", "Scenario B, c = 0.02 mm", "docs/figures/B002_slider_acceleration.png")
 
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
 for name, label, style in [
