@@ -220,3 +220,34 @@ fn bead_on_spinning_rod_follows_cosh() {
         assert!((y[4].atan2(y[3]) - w * t_end).abs() < 1e-8);
     }
 }
+
+#[test]
+fn applied_loads_and_revolute_reaction() {
+    use BodyId::*;
+    // A rod (m, I about its centroid) pinned to the ground at its end, at rest, horizontal, under
+    // gravity, a torque τ and a vertical tip force F: the angular acceleration about the pin is
+    // (τ + F·L − m g L/2) / (I + m L²/4), and the pin carries the rest of the load.
+    let (m, i, l, tau, f, g) = (2.0, 0.05, 0.6, 3.0, 4.0, 9.81);
+    let mech = Mechanism {
+        bodies: vec![body("rod", m, i, l / 2.0, 0.0, 0.0)],
+        joints: vec![revolute("pin", Body(0), [-l / 2.0, 0.0], Ground, [0.0, 0.0])],
+        drivers: vec![],
+        loads: vec![
+            Load::Torque { body: 0, torque: tau },
+            Load::Force { body: 0, point: Vec2::new(l / 2.0, 0.0), force: Vec2::new(0.0, f) },
+        ],
+        gravity: Vec2::new(0.0, -g),
+        baumgarte: Baumgarte::default(),
+    };
+    assert!(mech.validate().is_empty());
+    let mut s = Solver::new(&mech);
+    s.accelerations(&mech, 0.0, &[l / 2.0, 0.0, 0.0], &[0.0; 3], |_| {}).unwrap();
+    let alpha = (tau + f * l - m * g * l / 2.0) / (i + m * l * l / 4.0);
+    assert!((s.accelerations[2] - alpha).abs() < 1e-12 * alpha.abs().max(1.0), "{} vs {alpha}", s.accelerations[2]);
+    // Centroid acceleration of a pinned rod at rest: a = α × r = (0, α L/2).
+    assert!((s.accelerations[1] - alpha * l / 2.0).abs() < 1e-12);
+    // Newton for the rod: m a = F_pin + F + m g ⇒ F_pin = m a − F − m g.
+    let r = joint_reaction(&mech, &s, 0);
+    assert!(r.x.abs() < 1e-12);
+    assert!((r.y - (m * alpha * l / 2.0 - f + m * g)).abs() < 1e-10, "{r:?}");
+}
