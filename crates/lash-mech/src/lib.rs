@@ -19,10 +19,12 @@
 
 pub mod constraints;
 pub mod dense;
+pub mod interface;
 pub mod kinematics;
 pub mod model;
 pub mod solver;
 
+pub use interface::{EffectiveTerms, Interface, effective_terms};
 pub use kinematics::{
     PointKinematics, assemble, driver_torque, initial_guess, joint_reaction, kinetic_energy, point_kinematics,
     velocity_analysis,
