@@ -126,6 +126,18 @@ fn run_text(name: &str, text: &str) -> (Output, PathBuf) {
 }
 
 #[test]
+fn reduced_model_runs_from_the_command_line() {
+    let dir = scratch("reduced-run");
+    let out = dir.join("A");
+    let o = lash(&["run", "A", "--model", "reduced", "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["model"], "reduced");
+    assert_eq!(summary["samples"], 3601);
+}
+
+#[test]
 fn the_valid_base_file_runs() {
     let (o, out) = run_text("base", VALID_BASE);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -188,8 +200,12 @@ fn syntax_errors_and_unknown_names_fail_cleanly() {
     let o = lash(&["run", "no-such-scenario", "--out", scratch("none").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("neither a file nor a built-in"));
-    let o = lash(&["run", "A", "--model", "reduced", "--out", scratch("reduced").to_str().unwrap()]);
+    let o = lash(&["run", "A", "--model", "reduced", "--ideal", "--out", scratch("reduced").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
+    let o =
+        lash(&["run", "A", "--model", "reduced", "--micro-step", "3e-5", "--out", scratch("micro").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("whole multiple"), "{}", stderr(&o));
     let o = lash(&["run", "A", "--horizon=-1", "--out", scratch("horizon").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("simulation.horizon"), "{}", stderr(&o));

@@ -34,6 +34,15 @@ pub enum ModelKind {
     Reduced,
 }
 
+/// Interpolation across the macro step (reduced model).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InterpolationArg {
+    /// Linear between the nodes at both ends (default).
+    Linear,
+    /// Zero-order hold (for study: produces spurious impacts).
+    Zoh,
+}
+
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Run a scenario and write timeseries.csv, summary.json and scenario.toml to --out.
@@ -52,6 +61,15 @@ enum Command {
         /// Override the horizon [s].
         #[arg(long)]
         horizon: Option<f64>,
+        /// Reduced model: macro step h_m [s].
+        #[arg(long, default_value_t = 1e-3)]
+        macro_step: f64,
+        /// Reduced model: micro step h_r [s].
+        #[arg(long, default_value_t = 1e-5)]
+        micro_step: f64,
+        /// Reduced model: interpolation of the macro terms across a macro step.
+        #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
+        interpolation: InterpolationArg,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -141,7 +159,7 @@ pub fn main() -> ExitCode {
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, quiet } => {
+        Command::Run { scenario, model, ideal, out, horizon, macro_step, micro_step, interpolation, quiet } => {
             let mut s = load_scenario(&scenario)?;
             if let Some(h) = horizon {
                 s.simulation.horizon = h;
@@ -150,13 +168,28 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     return Err(CliError::Input(format!("--horizon {h}: {p}")));
                 }
             }
-            if model == ModelKind::Reduced {
-                return Err(CliError::Input(
-                    "--model reduced: the reduced interface model is not available yet in this build; use --model full"
-                        .into(),
-                ));
+            match model {
+                ModelKind::Full => {
+                    let mut r = lash_scenario::Run::new(&s, lash_scenario::BuildOptions { ideal });
+                    run::run(&s, &mut r, &out, quiet)
+                }
+                ModelKind::Reduced => {
+                    if ideal {
+                        return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
+                    }
+                    let options = lash_scenario::ReducedOptions {
+                        macro_step,
+                        micro_step,
+                        interpolation: match interpolation {
+                            InterpolationArg::Linear => lash_contact::micro::Interpolation::Linear,
+                            InterpolationArg::Zoh => lash_contact::micro::Interpolation::ZeroOrderHold,
+                        },
+                    };
+                    let mut r = lash_scenario::ReducedRun::new(&s, options)
+                        .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
+                    run::run(&s, &mut r, &out, quiet)
+                }
             }
-            run::run(&s, ideal, &out, quiet)
         }
         Command::Validate { scenario } => {
             let s = load_scenario(&scenario)?;

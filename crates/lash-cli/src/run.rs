@@ -3,12 +3,12 @@
 
 use crate::CliError;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lash_scenario::{BuildOptions, Run, Scenario};
+use lash_scenario::{Runner, Scenario};
 use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-pub fn run(s: &Scenario, ideal: bool, out: &Path, quiet: bool) -> Result<(), CliError> {
+pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<(), CliError> {
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     std::fs::create_dir_all(out).map_err(|e| fail(&format!("cannot create {}", out.display()), e))?;
     let csv_path = out.join("timeseries.csv");
@@ -22,7 +22,6 @@ pub fn run(s: &Scenario, ideal: bool, out: &Path, quiet: bool) -> Result<(), Cli
     }
     let file = std::fs::File::create(&partial).map_err(|e| fail(&format!("cannot create {}", partial.display()), e))?;
     let mut w = std::io::BufWriter::new(file);
-    let mut runner = Run::new(s, BuildOptions { ideal });
     writeln!(w, "{}", runner.header().join(",")).map_err(|e| fail("writing the CSV header", e))?;
 
     let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());

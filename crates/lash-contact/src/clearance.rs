@@ -72,21 +72,35 @@ impl ClearanceJoint {
         let ab = bearing.rotate(self.bearing_point);
         let rj = journal.position + aj;
         let rb = bearing.position + ab;
-        let e = rj - rb;
         let e_dot = journal.velocity + perp(aj) * journal.angular_velocity
             - bearing.velocity
             - perp(ab) * bearing.angular_velocity;
+        let mut s = self.evaluate_relative(rj - rb, e_dot, journal.angular_velocity, bearing.angular_velocity, onset);
+        s.journal_centre = rj;
+        s
+    }
+
+    /// Geometry and forces from the eccentricity `e`, its rate `e_dot` and the two bodies' angular
+    /// velocities (the interface view of the reduced model). `journal_centre` is left at zero.
+    #[inline]
+    pub fn evaluate_relative(
+        &self,
+        e: Vec2,
+        e_dot: Vec2,
+        omega_journal: f64,
+        omega_bearing: f64,
+        onset: f64,
+    ) -> ContactState {
         let norm = e.norm();
         let n = if norm > 0.0 { e / norm } else { Vec2::new(1.0, 0.0) };
         let t = perp(n);
         let delta = norm - self.radial_clearance();
         let delta_dot = e_dot.dot(&n);
-        let slip = e_dot.dot(&t) + journal.angular_velocity * self.journal_radius
-            - bearing.angular_velocity * self.bearing_radius;
+        let slip = e_dot.dot(&t) + omega_journal * self.journal_radius - omega_bearing * self.bearing_radius;
         let fn_ = self.law.force(delta, delta_dot, onset);
         let ft = self.friction.coefficient(slip) * fn_;
         ContactState {
-            journal_centre: rj,
+            journal_centre: Vec2::zeros(),
             eccentricity: e,
             eccentricity_norm: norm,
             normal: n,

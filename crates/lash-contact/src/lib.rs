@@ -10,6 +10,7 @@ pub mod clearance;
 pub mod friction;
 pub mod full_model;
 pub mod law;
+pub mod micro;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact};
 pub use friction::FrictionLaw;

@@ -12,11 +12,14 @@ pub mod build;
 pub mod builtin;
 pub mod channels;
 mod load;
+mod record;
+pub mod reduced;
 pub mod run;
 pub mod schema;
 
 pub use build::{BuildOptions, build_model};
 pub use channels::{Channel, channel_names, channels};
 pub use load::{parse, validate};
-pub use run::{ChannelStats, ClearanceSummary, Run, RunError, Summary};
+pub use reduced::{ReducedOptions, ReducedRun};
+pub use run::{ChannelStats, ClearanceSummary, Run, RunError, Runner, Summary};
 pub use schema::Scenario;

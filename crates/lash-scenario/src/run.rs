@@ -3,9 +3,10 @@
 
 use crate::build::{BuildOptions, build_model};
 use crate::channels::{Channel, Source, channel_sources};
+use crate::record::Recorder;
 use crate::schema::Scenario;
 use lash_contact::{FullModel, Impact};
-use lash_mech::{BodyId, Motion, Vec2, driver_torque, kinematics, point_kinematics};
+use lash_mech::{BodyId, Motion, Vec2};
 use lash_ode::{OdeError, OdeSystem};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -27,6 +28,9 @@ pub enum RunError {
     /// The sink refused a row.
     #[error("writing output failed: {0}")]
     Output(String),
+    /// The scenario is outside what the chosen model covers.
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 /// Statistics of one channel over all samples.
@@ -76,7 +80,7 @@ pub struct ClearanceSummary {
 pub struct Summary {
     /// Scenario name.
     pub scenario: String,
-    /// "full" or "ideal".
+    /// "full", "ideal" or "reduced".
     pub model: &'static str,
     /// Integrator used.
     pub integrator: lash_ode::Method,
@@ -162,79 +166,14 @@ impl Run {
         let (t0, t_end) = (sim.start_time, sim.start_time + sim.horizon);
         let mut y = self.model.initial_state(t0)?;
         let n = self.model.mechanism.coordinate_count();
-        let sensors: Vec<(BodyId, Vec2)> = self
-            .scenario
-            .sensors
-            .iter()
-            .map(|s| (self.model.mechanism.body_id(&s.body).expect("validated"), Vec2::new(s.point[0], s.point[1])))
-            .collect();
-        let n_ch = self.sources.len();
-        let mut sensor_values = vec![[0.0; 6]; sensors.len()];
-        let mut values = vec![0.0; n_ch];
-        let mut row = vec![0.0; self.selected.len() + 1];
-        let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64); n_ch];
-        let mut samples = 0u64;
-        let mut max_phi = 0.0f64;
+        let sensors = sensor_points(&self.scenario, &self.model.mechanism);
         let nc = self.model.clearances.len();
-        let mut max_ecc = vec![0.0f64; nc];
-        let mut sum_force = vec![0.0f64; nc];
         let horizon = sim.horizon;
-        let sources = &self.sources;
-        let selected = &self.selected;
-
+        let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, nc);
         let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), String> {
             model.evaluate(t, y).map_err(|e| e.to_string())?;
             let (q, qd) = y.split_at(n);
-            let qdd = &model.solver.accelerations;
-            for (k, (body, point)) in sensors.iter().enumerate() {
-                let p = point_kinematics(q, qd, qdd, *body, *point);
-                sensor_values[k] =
-                    [p.position.x, p.position.y, p.velocity.x, p.velocity.y, p.acceleration.x, p.acceleration.y];
-            }
-            for (v, (_, src)) in values.iter_mut().zip(sources) {
-                *v = match *src {
-                    Source::Sensor(k, quantity) => sensor_values[k][quantity as usize],
-                    Source::Clearance(k, quantity) => {
-                        let c = &model.contacts[k];
-                        [
-                            c.force_on_journal.x,
-                            c.force_on_journal.y,
-                            c.force_on_journal.norm(),
-                            c.normal_force,
-                            c.friction_force,
-                            c.eccentricity.x,
-                            c.eccentricity.y,
-                            c.eccentricity_norm,
-                            c.penetration,
-                            c.penetration_rate,
-                            c.slip_velocity,
-                        ][quantity as usize]
-                    }
-                    Source::DriverTorque(k) => driver_torque(&model.mechanism, &model.solver, k),
-                    Source::JointReaction(k, comp) => {
-                        let r = kinematics::joint_reaction(&model.mechanism, &model.solver, k);
-                        if comp == 0 { r.x } else { r.y }
-                    }
-                    Source::ConstraintError => model.solver.constraint_error(),
-                };
-            }
-            for (k, c) in model.contacts.iter().enumerate() {
-                max_ecc[k] = max_ecc[k].max(c.eccentricity_norm);
-                sum_force[k] += c.force_on_journal.norm();
-            }
-            max_phi = max_phi.max(model.solver.constraint_error());
-            for (s, &v) in stats.iter_mut().zip(values.iter()) {
-                s.0 = s.0.min(v);
-                s.1 = s.1.max(v);
-                s.2 += v;
-                s.3 += v * v;
-            }
-            samples += 1;
-            row[0] = t;
-            for (r, &k) in row[1..].iter_mut().zip(selected) {
-                *r = values[k];
-            }
-            sink(&row)?;
+            recorder.record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, sink)?;
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
             Ok(())
         };
@@ -256,48 +195,13 @@ impl Run {
             Ok(s) => s,
             Err(e) => return Err(self.explain(e)),
         };
-
-        let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
-            Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
-            _ => None,
-        });
+        let period = driver_period(&self.scenario);
         let clearances = (0..nc)
             .map(|k| {
                 let c = &self.model.clearances[k];
                 let mut impacts = self.model.impacts[k].clone();
                 impacts.extend(self.model.open_impacts(t_end));
-                let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
-                ClearanceSummary {
-                    name: c.name.clone(),
-                    radial_clearance: c.radial_clearance(),
-                    impacts: impacts.len(),
-                    impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
-                    contact_fraction: in_contact / horizon,
-                    max_eccentricity: max_ecc[k],
-                    max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
-                    peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
-                    mean_contact_force: sum_force[k] / samples.max(1) as f64,
-                    first_impacts: impacts.into_iter().take(20).collect(),
-                }
-            })
-            .collect();
-        let channels = self
-            .sources
-            .iter()
-            .zip(&stats)
-            .map(|((c, _), s)| {
-                let m = samples.max(1) as f64;
-                (
-                    c.name.clone(),
-                    ChannelStats {
-                        unit: c.unit,
-                        min: s.0,
-                        max: s.1,
-                        max_abs: s.0.abs().max(s.1.abs()),
-                        mean: s.2 / m,
-                        rms: (s.3 / m).sqrt(),
-                    },
-                )
+                recorder.clearance_summary(k, &c.name, c.radial_clearance(), impacts, horizon, period)
             })
             .collect();
         Ok(Summary {
@@ -307,15 +211,15 @@ impl Run {
             start_time: t0,
             horizon,
             output_interval: sim.output_interval,
-            samples,
+            samples: recorder.samples,
             cpu_time_s: cpu,
             wall_time_s: wall,
             steps: ode_stats.steps,
             rejected_steps: ode_stats.rejected,
             rhs_evaluations: ode_stats.rhs_evaluations,
             events: ode_stats.events,
-            max_constraint_error: max_phi,
-            channels,
+            max_constraint_error: recorder.max_constraint_error,
+            channels: recorder.channel_stats(),
             clearances,
         })
     }
@@ -353,5 +257,56 @@ impl Run {
             }
             OdeError::Settings(m) => RunError::Simulation { t: self.scenario.simulation.start_time, message: m },
         }
+    }
+}
+
+/// The sensors' bodies and points.
+pub(crate) fn sensor_points(s: &Scenario, mech: &lash_mech::Mechanism) -> Vec<(BodyId, Vec2)> {
+    s.sensors.iter().map(|x| (mech.body_id(&x.body).expect("validated"), Vec2::new(x.point[0], x.point[1]))).collect()
+}
+
+/// Period of the first constant-speed driver, if any.
+pub(crate) fn driver_period(s: &Scenario) -> Option<f64> {
+    s.drivers.iter().find_map(|d| match d.motion {
+        Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
+        _ => None,
+    })
+}
+
+/// Anything that runs a scenario into rows and a summary (full, ideal or reduced model).
+pub trait Runner {
+    /// Column names with units, time first.
+    fn header(&self) -> Vec<String>;
+    /// Runs the horizon.
+    fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError>;
+}
+
+impl Runner for Run {
+    fn header(&self) -> Vec<String> {
+        Run::header(self)
+    }
+    fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        Run::execute(self, sink, progress)
+    }
+}
+
+impl Runner for crate::reduced::ReducedRun {
+    fn header(&self) -> Vec<String> {
+        crate::reduced::ReducedRun::header(self)
+    }
+    fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        crate::reduced::ReducedRun::execute(self, sink, progress)
     }
 }

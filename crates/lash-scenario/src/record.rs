@@ -1,0 +1,158 @@
+//! Sampling of the output channels, shared by the full and the reduced model: every sample fills
+//! all channel values from (q, q̇, q̈, λ, contact states), updates the statistics and hands the
+//! selected columns to the sink.
+
+use crate::channels::{Channel, Source};
+use crate::run::{ChannelStats, ClearanceSummary};
+use lash_contact::{ContactState, Impact};
+use lash_mech::{BodyId, Mechanism, Solver, Vec2, driver_torque, kinematics, point_kinematics};
+use std::collections::BTreeMap;
+
+/// Channel sampler with running statistics.
+pub(crate) struct Recorder<'a> {
+    sources: &'a [(Channel, Source)],
+    selected: &'a [usize],
+    sensors: Vec<(BodyId, Vec2)>,
+    sensor_values: Vec<[f64; 6]>,
+    values: Vec<f64>,
+    row: Vec<f64>,
+    stats: Vec<(f64, f64, f64, f64)>,
+    pub samples: u64,
+    pub max_constraint_error: f64,
+    max_eccentricity: Vec<f64>,
+    sum_force: Vec<f64>,
+}
+
+impl<'a> Recorder<'a> {
+    pub fn new(
+        sources: &'a [(Channel, Source)],
+        selected: &'a [usize],
+        sensors: Vec<(BodyId, Vec2)>,
+        clearances: usize,
+    ) -> Self {
+        Self {
+            sources,
+            selected,
+            sensor_values: vec![[0.0; 6]; sensors.len()],
+            sensors,
+            values: vec![0.0; sources.len()],
+            row: vec![0.0; selected.len() + 1],
+            stats: vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); sources.len()],
+            samples: 0,
+            max_constraint_error: 0.0,
+            max_eccentricity: vec![0.0; clearances],
+            sum_force: vec![0.0; clearances],
+        }
+    }
+
+    /// Records one sample. `solver` holds the state's constraint terms, q̈ and λ.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        t: f64,
+        mech: &Mechanism,
+        solver: &Solver,
+        contacts: &[ContactState],
+        q: &[f64],
+        qd: &[f64],
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+    ) -> Result<(), String> {
+        let qdd = &solver.accelerations;
+        for (k, (body, point)) in self.sensors.iter().enumerate() {
+            let p = point_kinematics(q, qd, qdd, *body, *point);
+            self.sensor_values[k] =
+                [p.position.x, p.position.y, p.velocity.x, p.velocity.y, p.acceleration.x, p.acceleration.y];
+        }
+        for (v, (_, src)) in self.values.iter_mut().zip(self.sources) {
+            *v = match *src {
+                Source::Sensor(k, quantity) => self.sensor_values[k][quantity as usize],
+                Source::Clearance(k, quantity) => {
+                    let c = &contacts[k];
+                    [
+                        c.force_on_journal.x,
+                        c.force_on_journal.y,
+                        c.force_on_journal.norm(),
+                        c.normal_force,
+                        c.friction_force,
+                        c.eccentricity.x,
+                        c.eccentricity.y,
+                        c.eccentricity_norm,
+                        c.penetration,
+                        c.penetration_rate,
+                        c.slip_velocity,
+                    ][quantity as usize]
+                }
+                Source::DriverTorque(k) => driver_torque(mech, solver, k),
+                Source::JointReaction(k, comp) => {
+                    let r = kinematics::joint_reaction(mech, solver, k);
+                    if comp == 0 { r.x } else { r.y }
+                }
+                Source::ConstraintError => solver.constraint_error(),
+            };
+        }
+        for (k, c) in contacts.iter().enumerate() {
+            self.max_eccentricity[k] = self.max_eccentricity[k].max(c.eccentricity_norm);
+            self.sum_force[k] += c.force_on_journal.norm();
+        }
+        self.max_constraint_error = self.max_constraint_error.max(solver.constraint_error());
+        for (s, &v) in self.stats.iter_mut().zip(self.values.iter()) {
+            s.0 = s.0.min(v);
+            s.1 = s.1.max(v);
+            s.2 += v;
+            s.3 += v * v;
+        }
+        self.samples += 1;
+        self.row[0] = t;
+        for (r, &k) in self.row[1..].iter_mut().zip(self.selected) {
+            *r = self.values[k];
+        }
+        sink(&self.row)
+    }
+
+    /// Per-channel statistics.
+    pub fn channel_stats(&self) -> BTreeMap<String, ChannelStats> {
+        let m = self.samples.max(1) as f64;
+        self.sources
+            .iter()
+            .zip(&self.stats)
+            .map(|((c, _), s)| {
+                (
+                    c.name.clone(),
+                    ChannelStats {
+                        unit: c.unit,
+                        min: s.0,
+                        max: s.1,
+                        max_abs: s.0.abs().max(s.1.abs()),
+                        mean: s.2 / m,
+                        rms: (s.3 / m).sqrt(),
+                    },
+                )
+            })
+            .collect()
+    }
+
+    /// Summary of clearance joint `k` from its impacts (open ones included).
+    pub fn clearance_summary(
+        &self,
+        k: usize,
+        name: &str,
+        radial_clearance: f64,
+        impacts: Vec<Impact>,
+        horizon: f64,
+        period: Option<f64>,
+    ) -> ClearanceSummary {
+        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
+        ClearanceSummary {
+            name: name.to_string(),
+            radial_clearance,
+            impacts: impacts.len(),
+            impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
+            contact_fraction: in_contact / horizon,
+            max_eccentricity: self.max_eccentricity[k],
+            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
+            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
+            mean_contact_force: self.sum_force[k] / self.samples.max(1) as f64,
+            first_impacts: impacts.into_iter().take(20).collect(),
+        }
+    }
+}

@@ -1,0 +1,79 @@
+//! The reduced interface model (one-way coupling) against the converged full model, and the
+//! zero-order-hold trap of physics.md §5.1.
+
+use lash_contact::micro::Interpolation;
+use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, Runner, Summary, builtin};
+
+fn rows(runner: &mut dyn Runner) -> (Summary, Vec<String>, Vec<Vec<f64>>) {
+    let header = runner.header();
+    let mut rows = Vec::new();
+    let summary = runner
+        .execute(
+            &mut |r| {
+                rows.push(r.to_vec());
+                Ok(())
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+    (summary, header, rows)
+}
+
+fn column(header: &[String], name: &str) -> usize {
+    header.iter().position(|h| h.starts_with(&format!("{name} ["))).unwrap()
+}
+
+#[test]
+fn small_clearance_reduced_matches_full_within_three_percent() {
+    // c = 0.02 mm: continuous contact after the first turn's transient. Compared over turns 2–3.
+    let s = builtin::by_name("B-0.02mm").unwrap();
+    let (_, hf, full) = rows(&mut Run::new(&s, BuildOptions::default()));
+    let (summary, hr, red) = rows(&mut ReducedRun::new(&s, ReducedOptions::default()).unwrap());
+    assert_eq!(summary.model, "reduced");
+    assert_eq!(full.len(), red.len());
+    let start = full.len() / 3;
+    for name in ["slider.ax", "rod_slider.normal_force"] {
+        let (kf, kr) = (column(&hf, name), column(&hr, name));
+        let peak = |rows: &[Vec<f64>], k: usize| rows[start..].iter().map(|r| r[k].abs()).fold(0.0, f64::max);
+        let (pf, pr) = (peak(&full, kf), peak(&red, kr));
+        let (mut e2, mut r2) = (0.0, 0.0);
+        for (a, b) in full[start..].iter().zip(&red[start..]) {
+            assert!((a[0] - b[0]).abs() < 1e-12, "sample times {} vs {}", a[0], b[0]);
+            e2 += (a[kf] - b[kr]).powi(2);
+            r2 += a[kf].powi(2);
+        }
+        eprintln!("{name}: peak full {pf:.1}, reduced {pr:.1}; pointwise relative RMS error {:.3}", (e2 / r2).sqrt());
+        assert!((pr / pf - 1.0).abs() < 0.03, "{name}: peak {pr} vs {pf}");
+    }
+}
+
+#[test]
+fn zero_order_hold_makes_spurious_impacts_that_interpolation_does_not() {
+    let s = builtin::by_name("B-0.02mm").unwrap();
+    let impacts_after = |interpolation| {
+        // h_r = 1e-6 s keeps the fixed-step micro model stable under the held (jumping) terms.
+        let options = ReducedOptions { micro_step: 1e-6, interpolation, ..Default::default() };
+        let (summary, _, _) = rows(&mut ReducedRun::new(&s, options).unwrap());
+        let c = &summary.clearances[0];
+        (c.impacts, c.first_impacts.iter().filter(|i| i.onset_time > 0.004).count())
+    };
+    let (linear_total, linear_late) = impacts_after(Interpolation::Linear);
+    let (zoh_total, zoh_late) = impacts_after(Interpolation::ZeroOrderHold);
+    eprintln!(
+        "impacts: linear {linear_total} ({linear_late} after 4 ms), zero-order hold {zoh_total} ({zoh_late} after 4 ms)"
+    );
+    assert_eq!(linear_late, 0, "interpolated terms: only the start-up transient has impacts");
+    assert!(zoh_total >= linear_total + 30, "held terms: spurious impacts expected");
+    assert!(zoh_late >= 1);
+}
+
+#[test]
+fn unsupported_scenarios_are_refused_clearly() {
+    let mut s = builtin::by_name("B").unwrap();
+    s.drivers.clear();
+    let e = ReducedRun::new(&s, ReducedOptions::default()).err().expect("a free mechanism is refused");
+    assert!(e.to_string().contains("degrees of freedom"), "{e}");
+    let s = builtin::by_name("B").unwrap();
+    let e = ReducedRun::new(&s, ReducedOptions { micro_step: 3e-5, ..Default::default() }).err().unwrap();
+    assert!(e.to_string().contains("whole multiple"), "{e}");
+}
