@@ -51,7 +51,9 @@ impl FullModel {
             clearances,
             solver,
             contacts: vec![ContactState::default(); k],
-            impacts: vec![Vec::new(); k],
+            // Impact records are reserved up front so that recording them does not allocate in
+            // the stepping loop (they grow beyond this only in very long runs).
+            impacts: (0..k).map(|_| Vec::with_capacity(1024)).collect(),
             open: vec![None; k],
             violation: false,
             error: None,
@@ -102,10 +104,9 @@ impl FullModel {
         self.open.iter_mut().for_each(|o| *o = None);
         self.error = None;
         self.violation = false;
-        let mut g = vec![0.0; self.clearances.len()];
-        self.events(t0, y, &mut g);
-        for k in 0..g.len() {
-            if g[k] > 0.0 {
+        for k in 0..self.clearances.len() {
+            let delta = self.contact_state(k, y, 0.0).penetration;
+            if delta > 0.0 {
                 self.on_event(k, t0, y);
             }
         }

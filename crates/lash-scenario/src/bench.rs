@@ -5,7 +5,8 @@ use lash_ode::OdeSystem;
 
 /// Fixed-step classical RK4 on the full model with preallocated stage buffers, restarted from the
 /// initial state every 3.6 ms so that the steps sample free flight and impacts alike. It runs the
-/// same arithmetic as `lash_ode`'s RK4 loop without its output and event bookkeeping.
+/// same arithmetic as `lash_ode`'s RK4 loop, contact mode switches at step ends included, without
+/// its output bookkeeping.
 pub struct Rk4Stepper<'a> {
     model: &'a mut FullModel,
     h: f64,
@@ -14,6 +15,7 @@ pub struct Rk4Stepper<'a> {
     y: Vec<f64>,
     k: [Vec<f64>; 4],
     tmp: Vec<f64>,
+    g: Vec<f64>,
 }
 
 impl<'a> Rk4Stepper<'a> {
@@ -21,7 +23,8 @@ impl<'a> Rk4Stepper<'a> {
     pub fn new(model: &'a mut FullModel, h: f64) -> Self {
         let y0 = model.initial_state(0.0).expect("initial state");
         let n = y0.len();
-        Self { model, h, t: 0.0, y: y0.clone(), y0, k: std::array::from_fn(|_| vec![0.0; n]), tmp: vec![0.0; n] }
+        let g = vec![0.0; model.event_count()];
+        Self { model, h, t: 0.0, y: y0.clone(), y0, k: std::array::from_fn(|_| vec![0.0; n]), tmp: vec![0.0; n], g }
     }
 
     /// One RK4 step; returns the new time.
@@ -29,6 +32,7 @@ impl<'a> Rk4Stepper<'a> {
         if self.t >= 3.6e-3 {
             self.t = 0.0;
             self.y.copy_from_slice(&self.y0);
+            self.model.reset(0.0, &self.y0);
         }
         let (h, t, n) = (self.h, self.t, self.y.len());
         let [k1, k2, k3, k4] = &mut self.k;
@@ -49,6 +53,12 @@ impl<'a> Rk4Stepper<'a> {
             self.y[j] += h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
         }
         self.t += h;
+        self.model.events(self.t, &self.y, &mut self.g);
+        for k in 0..self.g.len() {
+            if self.g[k] > 0.0 {
+                self.model.on_event(k, self.t, &self.y);
+            }
+        }
         self.t
     }
 }
