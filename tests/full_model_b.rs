@@ -3,6 +3,8 @@
 
 use lash_contact::Impact;
 use lash_ode::{Dopri5Options, Method};
+mod common;
+use common::{column, rows};
 use lash_scenario::{BuildOptions, Run, Summary, builtin};
 
 const L1: f64 = builtin::CRANK_LENGTH;
@@ -11,23 +13,7 @@ const OMEGA: f64 = builtin::CRANK_SPEED;
 
 /// Runs a scenario, keeping every row.
 fn run(s: &lash_scenario::Scenario, ideal: bool) -> (Summary, Vec<String>, Vec<Vec<f64>>) {
-    let mut r = Run::new(s, BuildOptions { ideal });
-    let header = r.header();
-    let mut rows = Vec::new();
-    let summary = r
-        .execute(
-            &mut |row| {
-                rows.push(row.to_vec());
-                Ok(())
-            },
-            &mut |_| {},
-        )
-        .unwrap();
-    (summary, header, rows)
-}
-
-fn column(header: &[String], name: &str) -> usize {
-    header.iter().position(|h| h.starts_with(&format!("{name} ["))).unwrap_or_else(|| panic!("no column {name}"))
+    rows(&mut Run::new(s, BuildOptions { ideal }))
 }
 
 fn dopri(rtol: f64) -> Method {

@@ -2,26 +2,9 @@
 //! zero-order-hold trap of physics.md §5.1.
 
 use lash_contact::micro::Interpolation;
-use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, Runner, Summary, builtin};
-
-fn rows(runner: &mut dyn Runner) -> (Summary, Vec<String>, Vec<Vec<f64>>) {
-    let header = runner.header();
-    let mut rows = Vec::new();
-    let summary = runner
-        .execute(
-            &mut |r| {
-                rows.push(r.to_vec());
-                Ok(())
-            },
-            &mut |_| {},
-        )
-        .unwrap();
-    (summary, header, rows)
-}
-
-fn column(header: &[String], name: &str) -> usize {
-    header.iter().position(|h| h.starts_with(&format!("{name} ["))).unwrap()
-}
+mod common;
+use common::{column, rows};
+use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, builtin};
 
 #[test]
 fn small_clearance_reduced_matches_full_within_three_percent() {

@@ -200,6 +200,11 @@ impl ImpactTracker {
         }
     }
 
+    /// The impact as it stands at `t` while still open (exit time NaN, duration so far).
+    pub fn so_far(&self, t: f64) -> Impact {
+        Impact { exit_time: f64::NAN, duration: t - self.impact.onset_time, ..self.impact }
+    }
+
     pub fn close(mut self, t: f64) -> Impact {
         self.sample(t, 0.0, 0.0);
         self.impact.exit_time = t;

@@ -149,16 +149,7 @@ impl FullModel {
 
     /// Impacts still open at the end of a run (closed at `t` for reporting).
     pub fn open_impacts(&self, t: f64) -> Vec<Impact> {
-        self.open
-            .iter()
-            .flatten()
-            .map(|tr| {
-                let mut i = tr.impact;
-                i.exit_time = f64::NAN;
-                i.duration = t - i.onset_time;
-                i
-            })
-            .collect()
+        self.open.iter().flatten().map(|tr| tr.so_far(t)).collect()
     }
 
     /// The first error met inside a right-hand-side evaluation, if any.

@@ -143,14 +143,6 @@ impl InterfaceModel {
 
     /// Impacts still open (closed at `t` for reporting, exit time NaN).
     pub fn open_impacts(&self, t: f64) -> Vec<Impact> {
-        self.open
-            .iter()
-            .map(|tr| {
-                let mut i = tr.impact;
-                i.exit_time = f64::NAN;
-                i.duration = t - i.onset_time;
-                i
-            })
-            .collect()
+        self.open.iter().map(|tr| tr.so_far(t)).collect()
     }
 }
