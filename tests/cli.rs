@@ -138,6 +138,24 @@ fn reduced_model_runs_from_the_command_line() {
 }
 
 #[test]
+fn compare_writes_both_runs_and_the_metrics() {
+    let dir = scratch("compare");
+    let out = dir.join("cmp");
+    let o = lash(&["compare", "B-0.02mm", "--horizon", "0.006", "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("full/timeseries.csv").exists() && out.join("reduced/timeseries.csv").exists());
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
+    assert!(c["speedup"].as_f64().unwrap() > 1.0, "{c}");
+    let ax = &c["channels"]["slider.ax"];
+    for key in ["peak_full", "peak_reduced", "relative_rms_error", "spectral_distance", "band_powers_full"] {
+        assert!(!ax[key].is_null(), "comparison lacks channels.slider.ax.{key}");
+    }
+    assert!(c["channels"].get("slider.ay").is_none(), "a zero channel is left out");
+    assert!(c["clearance"]["impacts"]["full"].as_u64().unwrap() > 0);
+}
+
+#[test]
 fn the_valid_base_file_runs() {
     let (o, out) = run_text("base", VALID_BASE);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -1,7 +1,8 @@
 //! The `lash` command line.
 //!
 //! ```text
-//! lash run <scenario-file|A|B|…> [--model full] [--ideal] --out <dir>
+//! lash run <scenario-file|A|B|…> [--model full|reduced] [--ideal] --out <dir>
+//! lash compare <scenario> --out <dir>  # full (converged) vs reduced, comparison.json
 //! lash validate <scenario-file>
 //! lash scenarios                 # list the built-in scenarios
 //! lash show <name>               # print a built-in scenario as TOML
@@ -12,6 +13,7 @@
 //! Exit codes: 0 success, 1 simulation or output failure, 2 invalid input.
 
 mod bench;
+mod compare;
 mod run;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -70,6 +72,22 @@ enum Command {
         /// Reduced model: interpolation of the macro terms across a macro step.
         #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
         interpolation: InterpolationArg,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Run the converged full model and the reduced model of a scenario; write both runs
+    /// (full/, reduced/) and comparison.json (CPU times, speedup, peaks, RMS, pointwise and
+    /// spectral errors, band powers, impact statistics).
+    Compare {
+        /// A scenario file (TOML) or a built-in name.
+        scenario: String,
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+        /// Override the horizon [s].
+        #[arg(long)]
+        horizon: Option<f64>,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -190,6 +208,17 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     run::run(&s, &mut r, &out, quiet)
                 }
             }
+        }
+        Command::Compare { scenario, out, horizon, quiet } => {
+            let mut s = load_scenario(&scenario)?;
+            if let Some(h) = horizon {
+                s.simulation.horizon = h;
+                let p = lash_scenario::validate(&s);
+                if !p.is_empty() {
+                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
+                }
+            }
+            compare::run(&s, &out, quiet)
         }
         Command::Validate { scenario } => {
             let s = load_scenario(&scenario)?;

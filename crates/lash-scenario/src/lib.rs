@@ -11,6 +11,7 @@ pub mod bench;
 pub mod build;
 pub mod builtin;
 pub mod channels;
+pub mod compare;
 mod load;
 mod record;
 pub mod reduced;

@@ -1,0 +1,89 @@
+//! `lash compare`: the converged full model and the reduced model of one scenario, side by side.
+
+use crate::CliError;
+use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, Scenario, compare};
+use std::path::Path;
+
+/// Pointwise errors are also reported over this first window, through the first impacts [s].
+const FIRST_WINDOW: f64 = 2e-3;
+
+fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("").split(',').map(str::to_string).collect();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().map_err(|e| CliError::Failure(format!("{}: {e}", path.display()))))
+                .collect()
+        })
+        .collect::<Result<_, _>>()?;
+    Ok((header, rows))
+}
+
+fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
+    serde_json::from_str(&text).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))
+}
+
+pub fn run(s: &Scenario, out: &Path, quiet: bool) -> Result<(), CliError> {
+    let mut reduced = ReducedRun::new(s, ReducedOptions::default())
+        .map_err(|e| CliError::Input(format!("the reduced model cannot run this scenario: {e}")))?;
+    let (full_dir, reduced_dir) = (out.join("full"), out.join("reduced"));
+    let comparison_path = out.join("comparison.json");
+    if comparison_path.exists() {
+        std::fs::remove_file(&comparison_path)
+            .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
+    }
+    crate::run::run(s, &mut Run::new(s, BuildOptions::default()), &full_dir, quiet)?;
+    crate::run::run(s, &mut reduced, &reduced_dir, quiet)?;
+
+    let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
+    let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;
+    let (sf, sr) = (read_json(&full_dir.join("summary.json"))?, read_json(&reduced_dir.join("summary.json"))?);
+    let mut channels: Vec<String> = Vec::new();
+    for sensor in &s.sensors {
+        channels.push(format!("{}.ax", sensor.name));
+        channels.push(format!("{}.ay", sensor.name));
+    }
+    channels.extend(s.drivers.iter().map(|d| format!("{}.torque", d.name)));
+    channels.extend(s.clearances.iter().map(|c| format!("{}.force", c.joint)));
+    let mut metrics =
+        compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW).map_err(CliError::Failure)?;
+    // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
+    metrics.retain(|_, m| m.peak_full > 1e-6);
+    let cpu = |v: &serde_json::Value| v["cpu_time_s"].as_f64().unwrap_or(f64::NAN);
+    let clearance =
+        |key: &str| serde_json::json!({"full": sf["clearances"][0][key], "reduced": sr["clearances"][0][key]});
+    let report = serde_json::json!({
+        "scenario": s.name,
+        "full_cpu_time_s": cpu(&sf),
+        "reduced_cpu_time_s": cpu(&sr),
+        "speedup": cpu(&sf) / cpu(&sr),
+        "speedup_note": "CPU times of whole runs, writing every channel to CSV at the output rate included; `lash bench` measures compute with rows discarded",
+        "reduced_options": ReducedOptions::default(),
+        "first_window_s": FIRST_WINDOW,
+        "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
+        "channels": metrics,
+        "clearance": {
+            "impacts": clearance("impacts"),
+            "impacts_per_cycle": clearance("impacts_per_cycle"),
+            "contact_fraction": clearance("contact_fraction"),
+            "mean_contact_force": clearance("mean_contact_force"),
+            "max_eccentricity": clearance("max_eccentricity"),
+            "peak_normal_force": clearance("peak_normal_force"),
+        },
+    });
+    let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
+    std::fs::write(&comparison_path, text + "\n")
+        .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
+    eprintln!("speed-up {:.1}× (CPU {:.3} s full, {:.3} s reduced)", cpu(&sf) / cpu(&sr), cpu(&sf), cpu(&sr));
+    for (name, m) in &metrics {
+        eprintln!(
+            "  {name:24} peak {:.4e} / {:.4e}, relative RMS error {:.3}, spectral distance {:.3}",
+            m.peak_full, m.peak_reduced, m.relative_rms_error, m.spectral_distance
+        );
+    }
+    eprintln!("→ {}", comparison_path.display());
+    Ok(())
+}
