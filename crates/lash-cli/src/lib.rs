@@ -175,17 +175,23 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Loads a scenario and applies a `--horizon` override, validating the result.
+fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::Scenario, CliError> {
+    let mut s = load_scenario(arg)?;
+    if let Some(h) = horizon {
+        s.simulation.horizon = h;
+        let p = lash_scenario::validate(&s);
+        if !p.is_empty() {
+            return Err(CliError::Input(format!("--horizon {h}: {p}")));
+        }
+    }
+    Ok(s)
+}
+
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
         Command::Run { scenario, model, ideal, out, horizon, macro_step, micro_step, interpolation, quiet } => {
-            let mut s = load_scenario(&scenario)?;
-            if let Some(h) = horizon {
-                s.simulation.horizon = h;
-                let p = lash_scenario::validate(&s);
-                if !p.is_empty() {
-                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
-                }
-            }
+            let s = load_with_horizon(&scenario, horizon)?;
             match model {
                 ModelKind::Full => {
                     let mut r = lash_scenario::Run::new(&s, lash_scenario::BuildOptions { ideal });
@@ -210,14 +216,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             }
         }
         Command::Compare { scenario, out, horizon, quiet } => {
-            let mut s = load_scenario(&scenario)?;
-            if let Some(h) = horizon {
-                s.simulation.horizon = h;
-                let p = lash_scenario::validate(&s);
-                if !p.is_empty() {
-                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
-                }
-            }
+            let s = load_with_horizon(&scenario, horizon)?;
             compare::run(&s, &out, quiet)
         }
         Command::Validate { scenario } => {
