@@ -1,7 +1,7 @@
 //! The reduced interface model (one-way coupling) against the converged full model, and the
 //! zero-order-hold trap of physics.md §5.1.
 
-use lash_contact::micro::Interpolation;
+use lash_orchestrate::Interpolation;
 mod common;
 use common::{column, rows};
 use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, builtin};
@@ -53,9 +53,11 @@ fn zero_order_hold_makes_spurious_impacts_that_interpolation_does_not() {
 #[test]
 fn unsupported_scenarios_are_refused_clearly() {
     let mut s = builtin::by_name("B").unwrap();
-    s.drivers.clear();
-    let e = ReducedRun::new(&s, ReducedOptions::default()).err().expect("a free mechanism is refused");
-    assert!(e.to_string().contains("degrees of freedom"), "{e}");
+    let mut second = s.clearances[0].clone();
+    second.joint = "crank_rod".into();
+    s.clearances.push(second);
+    let e = ReducedRun::new(&s, ReducedOptions::default()).err().expect("two clearance joints are refused");
+    assert!(e.to_string().contains("exactly one clearance joint"), "{e}");
     let s = builtin::by_name("B").unwrap();
     let e = ReducedRun::new(&s, ReducedOptions { micro_step: 3e-5, ..Default::default() }).err().unwrap();
     assert!(e.to_string().contains("whole multiple"), "{e}");

@@ -26,8 +26,8 @@ fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
     serde_json::from_str(&text).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))
 }
 
-pub fn run(s: &Scenario, out: &Path, quiet: bool) -> Result<(), CliError> {
-    let mut reduced = ReducedRun::new(s, ReducedOptions::default())
+pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Result<(), CliError> {
+    let mut reduced = ReducedRun::new(s, options)
         .map_err(|e| CliError::Input(format!("the reduced model cannot run this scenario: {e}")))?;
     let (full_dir, reduced_dir) = (out.join("full"), out.join("reduced"));
     let comparison_path = out.join("comparison.json");
@@ -61,7 +61,7 @@ pub fn run(s: &Scenario, out: &Path, quiet: bool) -> Result<(), CliError> {
         "reduced_cpu_time_s": cpu(&sr),
         "speedup": cpu(&sf) / cpu(&sr),
         "speedup_note": "CPU times of whole runs, writing every channel to CSV at the output rate included; `lash bench` measures compute with rows discarded",
-        "reduced_options": ReducedOptions::default(),
+        "reduced_options": options,
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,

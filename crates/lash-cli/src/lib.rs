@@ -41,8 +41,75 @@ pub enum ModelKind {
 pub enum InterpolationArg {
     /// Linear between the nodes at both ends (default).
     Linear,
+    /// Cubic Hermite (slopes from neighbouring nodes).
+    Hermite,
     /// Zero-order hold (for study: produces spurious impacts).
     Zoh,
+}
+
+/// Coupling of the reduced model.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CouplingArg {
+    /// The ideal mechanism's motion is the real one (the seeds' method).
+    OneWay,
+    /// The averaged contact force acts back on the mechanism.
+    TwoWay,
+}
+
+/// Micro integrator of the reduced model.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MicroArg {
+    /// Fixed-step RK4 at --micro-step.
+    Rk4,
+    /// Error-controlled DOPRI5 with contact events (communication every --micro-step).
+    Dopri5,
+}
+
+/// Settings of the reduced model.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct ReducedArgs {
+    /// Reduced model: macro step h_m [s].
+    #[arg(long, default_value_t = 1e-3)]
+    macro_step: f64,
+    /// Reduced model: micro step h_r [s].
+    #[arg(long, default_value_t = 1e-5)]
+    micro_step: f64,
+    /// Reduced model: interpolation of the macro terms across a macro step.
+    #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
+    interpolation: InterpolationArg,
+    /// Reduced model: one-way (seeds) or two-way coupling.
+    #[arg(long, value_enum, default_value_t = CouplingArg::OneWay)]
+    coupling: CouplingArg,
+    /// Reduced model: run the macro subsystem on its own thread (one-way only; same results).
+    #[arg(long)]
+    threaded: bool,
+    /// Reduced model: micro integrator.
+    #[arg(long, value_enum, default_value_t = MicroArg::Rk4)]
+    micro: MicroArg,
+}
+
+impl ReducedArgs {
+    fn options(&self) -> lash_scenario::ReducedOptions {
+        lash_scenario::ReducedOptions {
+            macro_step: self.macro_step,
+            micro_step: self.micro_step,
+            interpolation: match self.interpolation {
+                InterpolationArg::Linear => lash_orchestrate::Interpolation::Linear,
+                InterpolationArg::Hermite => lash_orchestrate::Interpolation::CubicHermite,
+                InterpolationArg::Zoh => lash_orchestrate::Interpolation::ZeroOrderHold,
+            },
+            coupling: match self.coupling {
+                CouplingArg::OneWay => lash_core::Coupling::OneWay,
+                CouplingArg::TwoWay => lash_core::Coupling::TwoWay,
+            },
+            execution: if self.threaded {
+                lash_orchestrate::Execution::Threaded
+            } else {
+                lash_orchestrate::Execution::Sequential
+            },
+            error_controlled_micro: self.micro == MicroArg::Dopri5,
+        }
+    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -63,15 +130,8 @@ enum Command {
         /// Override the horizon [s].
         #[arg(long)]
         horizon: Option<f64>,
-        /// Reduced model: macro step h_m [s].
-        #[arg(long, default_value_t = 1e-3)]
-        macro_step: f64,
-        /// Reduced model: micro step h_r [s].
-        #[arg(long, default_value_t = 1e-5)]
-        micro_step: f64,
-        /// Reduced model: interpolation of the macro terms across a macro step.
-        #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
-        interpolation: InterpolationArg,
+        #[command(flatten)]
+        reduced: ReducedArgs,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -88,6 +148,8 @@ enum Command {
         /// Override the horizon [s].
         #[arg(long)]
         horizon: Option<f64>,
+        #[command(flatten)]
+        reduced: ReducedArgs,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -190,7 +252,7 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::S
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, macro_step, micro_step, interpolation, quiet } => {
+        Command::Run { scenario, model, ideal, out, horizon, reduced, quiet } => {
             let s = load_with_horizon(&scenario, horizon)?;
             match model {
                 ModelKind::Full => {
@@ -201,23 +263,15 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     if ideal {
                         return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
                     }
-                    let options = lash_scenario::ReducedOptions {
-                        macro_step,
-                        micro_step,
-                        interpolation: match interpolation {
-                            InterpolationArg::Linear => lash_contact::micro::Interpolation::Linear,
-                            InterpolationArg::Zoh => lash_contact::micro::Interpolation::ZeroOrderHold,
-                        },
-                    };
-                    let mut r = lash_scenario::ReducedRun::new(&s, options)
+                    let mut r = lash_scenario::ReducedRun::new(&s, reduced.options())
                         .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
                     run::run(&s, &mut r, &out, quiet)
                 }
             }
         }
-        Command::Compare { scenario, out, horizon, quiet } => {
+        Command::Compare { scenario, out, horizon, reduced, quiet } => {
             let s = load_with_horizon(&scenario, horizon)?;
-            compare::run(&s, &out, quiet)
+            compare::run(&s, &out, reduced.options(), quiet)
         }
         Command::Validate { scenario } => {
             let s = load_scenario(&scenario)?;

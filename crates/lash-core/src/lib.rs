@@ -1,10 +1,16 @@
-//! Core vocabulary shared by every lash crate: exact integer time ([`Ticks`]) and validation
-//! problems that name the field they concern ([`Problem`], [`Problems`]).
+//! Core vocabulary shared by every lash crate: exact integer time ([`Ticks`]), validation
+//! problems that name the field they concern ([`Problem`], [`Problems`]), and the FMI-shaped
+//! [`Subsystem`] trait with its variable descriptions.
 //!
 //! No physics and no FFI live here.
 
 mod problems;
+pub mod subsystem;
 mod time;
 
 pub use problems::{Problem, Problems};
+pub use subsystem::{
+    Causality, Coupling, Phase, SavedState, StepOutcome, Subsystem, SubsystemError, ValueReference, Variability,
+    Variable, VariableTable,
+};
 pub use time::{Ticks, TicksError};

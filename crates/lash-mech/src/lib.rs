@@ -23,14 +23,17 @@ pub mod interface;
 pub mod kinematics;
 pub mod model;
 pub mod solver;
+pub mod subsystem;
 
 pub use interface::{EffectiveTerms, Interface, effective_terms};
 pub use kinematics::{
     PointKinematics, assemble, driver_torque, initial_guess, joint_reaction, kinetic_energy, point_kinematics,
     velocity_analysis,
 };
+pub use lash_core::Coupling;
 pub use model::{Baumgarte, Body, BodyId, Driver, Joint, JointKind, Load, Mechanism, Motion};
 pub use solver::{MechError, Solver};
+pub use subsystem::{MechanismSubsystem, Probe};
 
 /// Planar vector.
 pub type Vec2 = nalgebra::Vector2<f64>;

@@ -196,6 +196,16 @@ pub enum Load {
         /// Torque [N m].
         torque: f64,
     },
+    /// A motor with a linear torque–speed characteristic about +z (a DC motor):
+    /// T = stall_torque · (1 − ω / no_load_speed), ω the body's absolute angular velocity.
+    Motor {
+        /// Driven body.
+        body: usize,
+        /// Torque at standstill [N m].
+        stall_torque: f64,
+        /// Speed at which the torque vanishes [rad/s] (> 0).
+        no_load_speed: f64,
+    },
 }
 
 /// Baumgarte constraint stabilisation: Φ̈ + 2α Φ̇ + β² Φ = 0.
@@ -327,6 +337,11 @@ impl Mechanism {
                 Load::Torque { body, torque } => {
                     check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
                     p.finite(format!("loads[{k}].torque"), *torque);
+                }
+                Load::Motor { body, stall_torque, no_load_speed } => {
+                    check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
+                    p.finite(format!("loads[{k}].stall_torque"), *stall_torque);
+                    p.positive(format!("loads[{k}].no_load_speed"), *no_load_speed);
                 }
             }
         }

@@ -220,6 +220,10 @@ impl Solver {
                     self.forces[3 * body + 2] += cross(a, *force);
                 }
                 Load::Torque { body, torque } => self.forces[3 * body + 2] += torque,
+                Load::Motor { body, stall_torque, no_load_speed } => {
+                    let omega = self.poses[*body].angular_velocity;
+                    self.forces[3 * body + 2] += stall_torque * (1.0 - omega / no_load_speed);
+                }
             }
         }
     }

@@ -6,26 +6,6 @@ use common::*;
 use lash_mech::*;
 use nalgebra::{DMatrix, Matrix2};
 
-/// (cut mechanism, ideal mechanism, interface) with the clearance at joint `name` of the ideal
-/// slider-crank; the journal is the joint's body_i.
-fn cut(name: &str) -> (Mechanism, Mechanism, Interface) {
-    let ideal = ideal_slider_crank();
-    let k = ideal.joints.iter().position(|j| j.name == name).unwrap();
-    let j = ideal.joints[k].clone();
-    let mut cut = ideal.clone();
-    cut.joints.remove(k);
-    // The ideal mechanism with the interface joint last, journal as its body_i.
-    let mut ideal_last = cut.clone();
-    ideal_last.joints.push(j.clone());
-    let iface = Interface {
-        journal_body: j.body_i,
-        journal_point: j.point_i,
-        bearing_body: j.body_j,
-        bearing_point: j.point_j,
-    };
-    (cut, ideal_last, iface)
-}
-
 /// Dense J (2 × n) of the interface by finite differences of g(q) — independent of the code's J.
 fn interface_jacobian(iface: &Interface, q: &[f64]) -> DMatrix<f64> {
     let g = |q: &[f64]| {

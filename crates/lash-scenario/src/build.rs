@@ -80,6 +80,9 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                 Load::Force { body: body_index(body), point: v2(*point), force: v2(*force) }
             }
             LoadSpec::Torque { body, torque } => Load::Torque { body: body_index(body), torque: *torque },
+            LoadSpec::Motor { body, stall_torque, no_load_speed } => {
+                Load::Motor { body: body_index(body), stall_torque: *stall_torque, no_load_speed: *no_load_speed }
+            }
         })
         .collect();
     let mechanism =

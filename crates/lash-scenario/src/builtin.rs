@@ -27,13 +27,14 @@ pub const CRANK_SPEED: f64 = 5000.0 * 2.0 * std::f64::consts::PI / 60.0;
 pub const BEARING_RADIUS: f64 = 0.010;
 
 /// Names of the built-in scenarios.
-pub const NAMES: [&str; 7] = ["A", "A-200um", "B", "B-0.25mm", "B-0.1mm", "B-0.02mm", "B-frictionless"];
+pub const NAMES: [&str; 8] = ["A", "A-200um", "A-motor", "B", "B-0.25mm", "B-0.1mm", "B-0.02mm", "B-frictionless"];
 
 /// The built-in scenario called `name`, if any.
 pub fn by_name(name: &str) -> Option<Scenario> {
     Some(match name {
         "A" => scenario_a(100e-6),
         "A-200um" => scenario_a(200e-6),
+        "A-motor" => scenario_a_motor(),
         "B" => scenario_b(0.5e-3),
         "B-0.25mm" => scenario_b(0.25e-3),
         "B-0.1mm" => scenario_b(0.1e-3),
@@ -178,6 +179,28 @@ pub fn scenario_a(c: f64) -> Scenario {
          angle is prescribed.",
     );
     s.clearances.push(clearance("crank_pivot", "crank", c, AMBROSIO));
+    s
+}
+
+/// Scenario A (c = 200 µm) with the crank turned by a motor instead of a prescribed angle: the
+/// crank's speed is free, so the clearance changes it (the two-way coupling case).
+pub fn scenario_a_motor() -> Scenario {
+    let mut s = scenario_a(200e-6);
+    s.name = "A-motor".into();
+    s.description = "Scenario A (c = 200 µm) with a torque-driven crank: a DC-motor line \
+                     T = 5 N m (1 − ω / 600 rad/s) turns the crank, which starts at 5000 rpm; the crank speed \
+                     is free, so the clearance changes it (two-way coupling)."
+        .into();
+    s.drivers.clear();
+    s.loads.push(LoadSpec::Motor { body: "crank".into(), stall_torque: 5.0, no_load_speed: 600.0 });
+    let crank = s.bodies.iter_mut().find(|b| b.name == "crank").expect("crank");
+    crank.angular_velocity = CRANK_SPEED;
+    crank.velocity = [0.0, CRANK_SPEED * CRANK_LENGTH / 2.0];
+    // At crank angle 0 (dead centre) the slider is at rest and the rod turns about it.
+    let rod = s.bodies.iter_mut().find(|b| b.name == "rod").expect("rod");
+    rod.velocity = [0.0, CRANK_SPEED * CRANK_LENGTH / 2.0];
+    rod.angular_velocity = -CRANK_SPEED * CRANK_LENGTH / ROD_LENGTH;
+    s.sensors.push(SensorSpec { name: "crank_tip".into(), body: "crank".into(), point: [CRANK_LENGTH / 2.0, 0.0] });
     s
 }
 

@@ -257,6 +257,10 @@ fn validate_load(l: &LoadSpec) -> Problems {
             p.0.extend(finite2("force", *force).0);
         }
         LoadSpec::Torque { torque, .. } => p.finite("torque", *torque),
+        LoadSpec::Motor { stall_torque, no_load_speed, .. } => {
+            p.finite("stall_torque", *stall_torque);
+            p.positive("no_load_speed", *no_load_speed);
+        }
     }
     p
 }
@@ -359,7 +363,7 @@ fn cross_check(s: &Scenario) -> Problems {
         }
     }
     for (k, l) in s.loads.iter().enumerate() {
-        let (LoadSpec::Force { body, .. } | LoadSpec::Torque { body, .. }) = l;
+        let (LoadSpec::Force { body, .. } | LoadSpec::Torque { body, .. } | LoadSpec::Motor { body, .. }) = l;
         if !bodies.contains(body.as_str()) {
             p.push(format!("loads[{k}].body"), format!("no moving body called {body:?}"));
         }

@@ -1,107 +1,131 @@
-//! The reduced interface model (seeds 000/001, physics.md §4), one-way coupled, sequential.
+//! The reduced interface model of a scenario (seeds 000/001, physics.md §4): builds the macro
+//! subsystem ([`lash_mech::MechanismSubsystem`]), the micro subsystem
+//! ([`lash_contact::micro::InterfaceSubsystem`]) and runs them with the multirate master
+//! ([`lash_orchestrate::InterfaceMaster`]), recording the same channels as the full model:
 //!
-//! * Macro subsystem: the ideal mechanism (clearance joint made perfect). In this build it must be
-//!   fully driven (no degree of freedom), so its motion at each macro node t_k = t0 + k h_m is the
-//!   exact kinematic analysis; at each node it exports the cut system's effective terms (mobility W,
-//!   a_free, the maps q̈_free, G, λ_free, Λ) and the bodies' angular velocities.
-//! * Micro subsystem: [`lash_contact::micro::InterfaceModel`], RK4 at h_r between two nodes (the
-//!   macro runs one step ahead), terms interpolated linearly (or held, for study).
-//! * Sensors by propagation: q̈ = q̈_free + G f_c and λ = λ_free + Λ f_c at every micro step
-//!   (maps interpolated linearly across the macro step); positions and velocities by cubic Hermite
-//!   interpolation of the ideal motion. No solve in the micro loop.
+//! * sensor positions and velocities: macro outputs, cubic Hermite in time (with their exported
+//!   derivatives);
+//! * sensor accelerations, joint reactions, driver torques: propagated, `free + gain · f_c` at every
+//!   micro step (no solve in the micro loop);
+//! * clearance quantities: micro outputs.
 //!
 //! As in the seeds, f_c acts through the journal and bearing centres: the moment of friction about
 //! the journal centre (R_J F_T) is not propagated.
 
 use crate::build::{BuildOptions, build_model};
-use crate::channels::{Channel, Source, channel_sources};
-use crate::record::Recorder;
-use crate::run::{RunError, Summary, driver_period, sensor_points};
+use crate::channels::{CLEARANCE_QUANTITIES, Channel, Source, channel_sources};
+use crate::run::{ChannelStats, RunError, Summary, driver_period};
 use crate::schema::Scenario;
-use lash_contact::micro::{InterfaceModel, Interpolation, NodeTerms};
-use lash_core::Ticks;
-use lash_mech::{EffectiveTerms, Interface, Mechanism, Solver, assemble, effective_terms, velocity_analysis};
+use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
+use lash_core::{Coupling, Subsystem, Ticks};
+use lash_mech::{Interface, MechanismSubsystem, Probe, Vec2};
+use lash_ode::Dopri5Options;
+use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
+use std::collections::BTreeMap;
 
-/// Step sizes and interpolation of the reduced model.
+/// Step sizes, interpolation, coupling and execution of the reduced model.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ReducedOptions {
     /// Macro step h_m [s].
     pub macro_step: f64,
-    /// Micro step h_r [s].
+    /// Micro step h_r [s] (the RK4 step, or the communication step of the error-controlled micro).
     pub micro_step: f64,
     /// Interpolation of the macro terms across a macro step.
     pub interpolation: Interpolation,
+    /// One-way (seeds) or two-way coupling.
+    pub coupling: Coupling,
+    /// Sequential or threaded.
+    pub execution: Execution,
+    /// Error-controlled micro model (DOPRI5 with contact events) instead of fixed-step RK4.
+    pub error_controlled_micro: bool,
 }
 
 impl Default for ReducedOptions {
     fn default() -> Self {
-        Self { macro_step: 1e-3, micro_step: 1e-5, interpolation: Interpolation::Linear }
+        Self {
+            macro_step: 1e-3,
+            micro_step: 1e-5,
+            interpolation: Interpolation::Linear,
+            coupling: Coupling::OneWay,
+            execution: Execution::Sequential,
+            error_controlled_micro: false,
+        }
     }
 }
 
-/// The ideal motion and effective terms at one macro node.
-struct Node {
-    t: f64,
-    q: Vec<f64>,
-    qd: Vec<f64>,
-    qdd: Vec<f64>,
-    terms: EffectiveTerms,
-    micro: NodeTerms,
+/// Details of a reduced run (in summary.json).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ReducedDetails {
+    /// The options used.
+    pub options: ReducedOptions,
+    /// Whether the macro motion came from kinematic analysis (fully driven, one-way).
+    pub kinematic_macro: bool,
+    /// Counters and time split.
+    pub master: MasterStats,
 }
 
 /// A prepared reduced-model run.
 pub struct ReducedRun {
     scenario: Scenario,
     options: ReducedOptions,
-    cut: Mechanism,
-    ideal: Mechanism,
-    interface: Interface,
-    model: InterfaceModel,
+    macro_sub: MechanismSubsystem,
+    micro_sub: InterfaceSubsystem,
     sources: Vec<(Channel, Source)>,
     selected: Vec<usize>,
+    signals: Vec<Signal>,
+    master_options: MasterOptions,
+}
+
+fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
+    Ticks::from_seconds(v).map_err(|e| RunError::Unsupported(format!("{what}: {e}")))
 }
 
 impl ReducedRun {
-    /// Prepares a run; refuses scenarios this build's reduced model does not cover.
+    /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
-        let unsupported = |m: String| Err(RunError::Unsupported(m));
         if scenario.clearances.len() != 1 {
-            return unsupported(format!(
+            return Err(RunError::Unsupported(format!(
                 "the reduced model couples exactly one clearance joint; the scenario has {}",
                 scenario.clearances.len()
+            )));
+        }
+        let sim = &scenario.simulation;
+        let master_options = MasterOptions {
+            start: ticks(sim.start_time, "simulation.start_time")?,
+            stop: ticks(sim.start_time + sim.horizon, "simulation.horizon")?,
+            macro_step: ticks(options.macro_step, "macro step")?,
+            micro_step: ticks(options.micro_step, "micro step")?,
+            interpolation: options.interpolation,
+            coupling: options.coupling,
+            execution: options.execution,
+        };
+        let (hm, hr) = (master_options.macro_step, master_options.micro_step);
+        if hr.0 <= 0 || hm.exact_ratio(hr).is_none() {
+            return Err(RunError::Unsupported(format!(
+                "macro step {} s is not a whole multiple of the micro step {} s",
+                options.macro_step, options.micro_step
+            )));
+        }
+        if ticks(sim.horizon, "simulation.horizon")?.exact_ratio(hm).is_none() {
+            return Err(RunError::Unsupported(format!(
+                "horizon {} s is not a whole multiple of the macro step {} s",
+                sim.horizon, options.macro_step
+            )));
+        }
+        if ticks(sim.output_interval, "simulation.output_interval")?.exact_ratio(hr).is_none() {
+            return Err(RunError::Unsupported(format!(
+                "output interval {} s is not a whole multiple of the micro step {} s",
+                sim.output_interval, options.micro_step
+            )));
+        }
+        if options.coupling == Coupling::TwoWay && options.execution == Execution::Threaded {
+            return Err(RunError::Unsupported(
+                "two-way coupling runs sequentially (the macro step needs the micro result of the step before)".into(),
             ));
         }
         let full = build_model(scenario, BuildOptions { ideal: false });
         let ideal = full.ideal_mechanism();
-        if ideal.constraint_count() != ideal.coordinate_count() {
-            return unsupported(format!(
-                "the ideal mechanism has {} degrees of freedom; one-way coupling in this build needs a fully driven \
-                 mechanism (two-way coupling is the next step)",
-                ideal.coordinate_count() as i64 - ideal.constraint_count() as i64
-            ));
-        }
-        let sim = &scenario.simulation;
-        let ticks =
-            |v: f64, what: &str| Ticks::from_seconds(v).map_err(|e| RunError::Unsupported(format!("{what}: {e}")));
-        let (hm, hr) = (ticks(options.macro_step, "macro step")?, ticks(options.micro_step, "micro step")?);
-        if hm.exact_ratio(hr).is_none() {
-            return unsupported(format!(
-                "macro step {} s is not a whole multiple of the micro step {} s",
-                options.macro_step, options.micro_step
-            ));
-        }
-        if ticks(sim.horizon, "horizon")?.exact_ratio(hm).is_none() {
-            return unsupported(format!(
-                "horizon {} s is not a whole multiple of the macro step {} s",
-                sim.horizon, options.macro_step
-            ));
-        }
-        if ticks(sim.output_interval, "output interval")?.exact_ratio(hr).is_none() {
-            return unsupported(format!(
-                "output interval {} s is not a whole multiple of the micro step {} s",
-                sim.output_interval, options.micro_step
-            ));
-        }
+        let cut = full.mechanism.clone();
         let joint = full.clearances[0].clone();
         let interface = Interface {
             journal_body: joint.journal_body,
@@ -109,21 +133,69 @@ impl ReducedRun {
             bearing_body: joint.bearing_body,
             bearing_point: joint.bearing_point,
         };
+
         let sources = channel_sources(scenario, false);
-        let selected = if scenario.output.channels.is_empty() {
+        let selected: Vec<usize> = if scenario.output.channels.is_empty() {
             (0..sources.len()).collect()
         } else {
             (0..sources.len()).filter(|&k| scenario.output.channels.contains(&sources[k].0.name)).collect()
         };
+        // Probes: every sensor, every ideal joint of the cut mechanism, every driver.
+        let mut probes = Vec::new();
+        for sen in &scenario.sensors {
+            let body = cut.body_id(&sen.body).expect("validated");
+            probes.push(Probe::Point { name: sen.name.clone(), body, point: Vec2::new(sen.point[0], sen.point[1]) });
+        }
+        let joint_names: Vec<&str> = scenario
+            .joints
+            .iter()
+            .filter(|j| !scenario.clearances.iter().any(|c| c.joint == j.name))
+            .map(|j| j.name.as_str())
+            .collect();
+        for (k, name) in joint_names.iter().enumerate() {
+            probes.push(Probe::JointReaction { name: name.to_string(), joint: k });
+        }
+        for (k, d) in scenario.drivers.iter().enumerate() {
+            probes.push(Probe::DriverTorque { name: d.name.clone(), driver: k });
+        }
+        // One signal per recorded channel; eccentricity and force magnitude always (summary).
+        let mut recorded: Vec<usize> = selected.clone();
+        for name in ["eccentricity", "force"] {
+            let k = sources
+                .iter()
+                .position(|(_, s)| matches!(s, Source::Clearance(0, q) if CLEARANCE_QUANTITIES[*q as usize].0 == name))
+                .expect("clearance channels exist");
+            if !recorded.contains(&k) {
+                recorded.push(k);
+            }
+        }
+        let signals =
+            recorded.iter().map(|&k| signal(scenario, &joint_names, &sources[k].0, sources[k].1)).collect::<Vec<_>>();
+        let sources_recorded: Vec<(Channel, Source)> = recorded.iter().map(|&k| sources[k].clone()).collect();
+        let selected_positions = (0..selected.len()).collect();
+
+        let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interface, probes, options.coupling);
+        let integrator = if options.error_controlled_micro {
+            MicroIntegrator::Dopri5(Dopri5Options {
+                rtol: 1e-9,
+                atol: 1e-12,
+                initial_step: 1e-7,
+                max_step: options.micro_step,
+                min_step: 1e-14,
+            })
+        } else {
+            MicroIntegrator::Rk4 { step: options.micro_step }
+        };
+        let micro_sub = InterfaceSubsystem::new(joint, integrator).map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self {
             scenario: scenario.clone(),
             options,
-            cut: full.mechanism,
-            ideal,
-            interface,
-            model: InterfaceModel::new(joint, options.interpolation),
-            sources,
-            selected,
+            macro_sub,
+            micro_sub,
+            sources: sources_recorded,
+            selected: selected_positions,
+            signals,
+            master_options,
         })
     }
 
@@ -134,31 +206,6 @@ impl ReducedRun {
             .collect()
     }
 
-    fn node(&self, t: f64, q_guess: &[f64], ideal: &mut Solver, cut: &mut Solver) -> Result<Node, RunError> {
-        let mut q = q_guess.to_vec();
-        assemble(&self.ideal, t, &mut q, ideal, 1e-13)
-            .map_err(|e| RunError::Simulation { t, message: e.to_string() })?;
-        let mut qd = vec![0.0; q.len()];
-        velocity_analysis(&self.ideal, t, &q, &mut qd, ideal)
-            .map_err(|e| RunError::Simulation { t, message: e.to_string() })?;
-        let terms = effective_terms(&self.cut, cut, &self.interface, t, &q, &qd)
-            .map_err(|e| RunError::Simulation { t, message: e.to_string() })?;
-        let mut qdd = vec![0.0; q.len()];
-        terms.accelerations(-terms.effective_force, &mut qdd);
-        let omega = |b: lash_mech::BodyId| match b {
-            lash_mech::BodyId::Body(k) => qd[3 * k + 2],
-            lash_mech::BodyId::Ground => 0.0,
-        };
-        let micro = NodeTerms {
-            time: t,
-            mobility: terms.mobility,
-            free_acceleration: terms.free_acceleration,
-            journal_angular_velocity: omega(self.interface.journal_body),
-            bearing_angular_velocity: omega(self.interface.bearing_body),
-        };
-        Ok(Node { t, q, qd, qdd, terms, micro })
-    }
-
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
     pub fn execute(
         &mut self,
@@ -166,152 +213,214 @@ impl ReducedRun {
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         let sim = self.scenario.simulation.clone();
-        let (hm, hr) = (self.options.macro_step, self.options.micro_step);
-        let micro_per_macro = (hm / hr).round() as usize;
-        let out_every = (sim.output_interval / hr).round() as usize;
-        let macro_steps = (sim.horizon / hm).round() as usize;
-        let t0 = sim.start_time;
-        let n = self.cut.coordinate_count();
-        let m = self.cut.constraint_count();
-        let mut ideal_solver = Solver::new(&self.ideal);
-        let mut cut_solver = Solver::new(&self.cut);
-        let mut out_solver = Solver::new(&self.cut);
-        let sensors = sensor_points(&self.scenario, &self.cut);
-        let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, 1);
-        let (mut q, mut qd, mut lambda) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
-
-        let cpu0 = cpu_time::ThreadTime::now();
-        let wall0 = std::time::Instant::now();
-        let (q_guess, _) = lash_mech::kinematics::initial_guess(&self.ideal);
-        let mut a = self.node(t0, &q_guess, &mut ideal_solver, &mut cut_solver)?;
-        self.model.joint.in_contact = false;
-        let mut contact = self.model.joint.evaluate_relative(
-            lash_mech::Vec2::zeros(),
-            lash_mech::Vec2::zeros(),
-            a.micro.journal_angular_velocity,
-            a.micro.bearing_angular_velocity,
-            0.0,
-        );
-        // The sample at t0: journal centred, no contact force.
-        self.output(&a, &a, 0.0, contact, &mut q, &mut qd, &mut lambda, &mut out_solver, &mut recorder, sink)
-            .map_err(RunError::Output)?;
-        let mut micro_steps = 0u64;
-        for k in 0..macro_steps {
-            let tb = t0 + (k + 1) as f64 * hm;
-            let b = self.node(tb, &a.q, &mut ideal_solver, &mut cut_solver)?;
-            for j in 0..micro_per_macro {
-                let t = a.t + j as f64 * hr;
-                contact = self.model.step(&a.micro, &b.micro, t, hr);
-                micro_steps += 1;
-                if !(contact.penetration <= 0.1 * self.model.joint.journal_radius)
-                    || !contact.eccentricity_norm.is_finite()
-                {
-                    return Err(RunError::Simulation {
-                        t: t + hr,
-                        message: format!(
-                            "penetration {:e} m of clearance joint {:?} in the micro model: the simulation blew up",
-                            contact.penetration, self.model.joint.name
-                        ),
-                    });
-                }
-                if micro_steps as usize % out_every == 0 {
-                    let theta = (j + 1) as f64 / micro_per_macro as f64;
-                    self.output(
-                        &a,
-                        &b,
-                        theta,
-                        contact,
-                        &mut q,
-                        &mut qd,
-                        &mut lambda,
-                        &mut out_solver,
-                        &mut recorder,
-                        sink,
-                    )
-                    .map_err(RunError::Output)?;
-                }
+        let o = self.master_options;
+        let start = o.start;
+        self.macro_sub
+            .setup(start, Some(o.stop))
+            .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
+        self.micro_sub
+            .setup(start, Some(o.stop))
+            .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
+        let n_sel = self.selected.len();
+        let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); self.signals.len()];
+        let mut row = vec![0.0; n_sel + 1];
+        let mut samples = 0u64;
+        let quantity = |name: &str| {
+            self.sources
+                .iter()
+                .position(|(_, s)| matches!(s, Source::Clearance(0, q) if CLEARANCE_QUANTITIES[*q as usize].0 == name))
+                .expect("recorded")
+        };
+        let (ecc, force) = (quantity("eccentricity"), quantity("force"));
+        let (mut max_ecc, mut sum_force) = (0.0f64, 0.0);
+        let mut last_error = None;
+        let horizon = sim.horizon;
+        let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
+            for (s, &v) in stats.iter_mut().zip(values) {
+                s.0 = s.0.min(v);
+                s.1 = s.1.max(v);
+                s.2 += v;
+                s.3 += v * v;
             }
-            progress((k + 1) as f64 / macro_steps as f64);
-            a = b;
-        }
+            max_ecc = max_ecc.max(values[ecc]);
+            sum_force += values[force];
+            samples += 1;
+            row[0] = t.seconds();
+            row[1..].copy_from_slice(&values[..n_sel]);
+            progress(((t.seconds() - sim.start_time) / horizon).clamp(0.0, 1.0));
+            sink(&row).inspect_err(|e| last_error = Some(e.clone()))
+        };
+        let interval = ticks(sim.output_interval, "simulation.output_interval")?;
+        let cpu0 = cpu_time::ProcessTime::now();
+        let wall0 = std::time::Instant::now();
+        let master_stats = {
+            let mut master = InterfaceMaster::new(&mut self.macro_sub, &mut self.micro_sub, o, self.signals.clone())
+                .map_err(|e| RunError::Unsupported(e.to_string()))?;
+            let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, interval)];
+            master.run(&mut observers)
+        };
         let cpu = cpu0.elapsed().as_secs_f64();
         let wall = wall0.elapsed().as_secs_f64();
-        let t_end = t0 + sim.horizon;
-        let mut impacts = self.model.impacts.clone();
-        impacts.extend(self.model.open_impacts(t_end));
-        let events = 2 * self.model.impacts.len() as u64 + self.model.open_impacts(t_end).len() as u64;
-        let c = &self.model.joint;
-        let summary_c = recorder.clearance_summary(
-            0,
-            &c.name,
-            c.radial_clearance(),
-            impacts,
-            sim.horizon,
-            driver_period(&self.scenario),
-        );
+        let master_stats = match master_stats {
+            Ok(s) => s,
+            Err(lash_orchestrate::MasterError::Observer(m)) => return Err(RunError::Output(last_error.unwrap_or(m))),
+            Err(lash_orchestrate::MasterError::Subsystem { subsystem, source }) => {
+                let (t, message) = match source {
+                    lash_core::SubsystemError::Simulation { t, message } => (t, message),
+                    other => (sim.start_time, other.to_string()),
+                };
+                return Err(RunError::Simulation { t, message: format!("{subsystem} subsystem: {message}") });
+            }
+            Err(e) => return Err(RunError::Unsupported(e.to_string())),
+        };
+        let t_end = sim.start_time + sim.horizon;
+        let model = &self.micro_sub.model;
+        let mut impacts = model.impacts.clone();
+        let open = model.open_impacts(t_end);
+        let events = 2 * model.impacts.len() as u64 + open.len() as u64;
+        impacts.extend(open);
+        let c = &model.joint;
+        let m = samples.max(1) as f64;
+        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
+        let period = driver_period(&self.scenario);
+        let clearance = crate::run::ClearanceSummary {
+            name: c.name.clone(),
+            radial_clearance: c.radial_clearance(),
+            impacts: impacts.len(),
+            impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
+            contact_fraction: in_contact / horizon,
+            max_eccentricity: max_ecc,
+            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
+            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
+            mean_contact_force: sum_force / m,
+            first_impacts: impacts.into_iter().take(20).collect(),
+        };
+        let channels: BTreeMap<String, ChannelStats> = self
+            .sources
+            .iter()
+            .zip(&stats)
+            .map(|((c, _), s)| {
+                (
+                    c.name.clone(),
+                    ChannelStats {
+                        unit: c.unit,
+                        min: s.0,
+                        max: s.1,
+                        max_abs: s.0.abs().max(s.1.abs()),
+                        mean: s.2 / m,
+                        rms: (s.3 / m).sqrt(),
+                    },
+                )
+            })
+            .collect();
+        let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
         Ok(Summary {
             scenario: self.scenario.name.clone(),
             model: "reduced",
-            integrator: lash_ode::Method::Rk4 { step: hr },
-            start_time: t0,
-            horizon: sim.horizon,
+            integrator: match self.micro_sub_integrator() {
+                MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
+                MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
+            },
+            start_time: sim.start_time,
+            horizon,
             output_interval: sim.output_interval,
-            samples: recorder.samples,
+            samples,
             cpu_time_s: cpu,
             wall_time_s: wall,
-            steps: micro_steps,
+            steps: master_stats.micro_steps,
             rejected_steps: 0,
-            rhs_evaluations: 4 * micro_steps,
+            rhs_evaluations: 4 * master_stats.micro_steps,
             events,
-            max_constraint_error: recorder.max_constraint_error,
-            channels: recorder.channel_stats(),
-            clearances: vec![summary_c],
+            max_constraint_error,
+            channels,
+            clearances: vec![clearance],
+            reduced: Some(ReducedDetails {
+                options: self.options,
+                kinematic_macro: self.macro_sub.is_kinematic(),
+                master: master_stats,
+            }),
         })
     }
 
-    /// One output sample at fraction `theta` of the macro step [a, b].
-    #[allow(clippy::too_many_arguments)]
-    fn output(
-        &self,
-        a: &Node,
-        b: &Node,
-        theta: f64,
-        contact: lash_contact::ContactState,
-        q: &mut [f64],
-        qd: &mut [f64],
-        lambda: &mut [f64],
-        solver: &mut Solver,
-        recorder: &mut Recorder<'_>,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
-    ) -> Result<(), String> {
-        let h = b.t - a.t;
-        let t = a.t + theta * h;
-        let s = theta;
-        let (h00, h10, h01, h11) = (
-            2.0 * s * s * s - 3.0 * s * s + 1.0,
-            s * s * s - 2.0 * s * s + s,
-            -2.0 * s * s * s + 3.0 * s * s,
-            s * s * s - s * s,
-        );
-        for k in 0..q.len() {
-            q[k] = h00 * a.q[k] + h10 * h * a.qd[k] + h01 * b.q[k] + h11 * h * b.qd[k];
-            qd[k] = h00 * a.qd[k] + h10 * h * a.qdd[k] + h01 * b.qd[k] + h11 * h * b.qdd[k];
+    fn micro_sub_integrator(&self) -> MicroIntegrator {
+        if self.options.error_controlled_micro {
+            MicroIntegrator::Dopri5(Dopri5Options {
+                rtol: 1e-9,
+                atol: 1e-12,
+                initial_step: 1e-7,
+                max_step: self.options.micro_step,
+                min_step: 1e-14,
+            })
+        } else {
+            MicroIntegrator::Rk4 { step: self.options.micro_step }
         }
-        let f = contact.force_on_journal;
-        let lerp = |x: f64, y: f64| x + (y - x) * s;
-        solver.set_state(&self.cut, t, q, qd);
-        let (ta, tb) = (&a.terms, &b.terms);
-        for k in 0..q.len() {
-            solver.accelerations[k] = lerp(ta.free_accelerations[k], tb.free_accelerations[k])
-                + lerp(ta.gain[0][k], tb.gain[0][k]) * f.x
-                + lerp(ta.gain[1][k], tb.gain[1][k]) * f.y;
+    }
+
+    /// The micro subsystem (impacts, final state) after a run.
+    pub fn micro(&self) -> &InterfaceSubsystem {
+        &self.micro_sub
+    }
+
+    /// The macro subsystem after a run.
+    pub fn macro_subsystem(&self) -> &MechanismSubsystem {
+        &self.macro_sub
+    }
+}
+
+/// The master signal that computes channel `c`.
+fn signal(s: &Scenario, joint_names: &[&str], c: &Channel, src: Source) -> Signal {
+    let name = c.name.clone();
+    match src {
+        Source::Sensor(k, q) => {
+            let p = &s.sensors[k].name;
+            let q = q as usize;
+            match q {
+                0 | 1 => Signal::Macro {
+                    name,
+                    variable: format!("{p}.position"),
+                    element: q,
+                    derivative: Some((format!("{p}.velocity"), q)),
+                },
+                2 | 3 => Signal::Macro {
+                    name,
+                    variable: format!("{p}.velocity"),
+                    element: q - 2,
+                    derivative: Some((format!("{p}.acceleration"), q - 2)),
+                },
+                _ => Signal::Propagated {
+                    name,
+                    free: (format!("{p}.acceleration_free"), q - 4),
+                    gain: (format!("{p}.acceleration_gain"), 2 * (q - 4), 2 * (q - 4) + 1),
+                },
+            }
         }
-        for r in 0..lambda.len() {
-            lambda[r] = lerp(ta.free_lambda[r], tb.free_lambda[r])
-                + lerp(ta.lambda_gain[0][r], tb.lambda_gain[0][r]) * f.x
-                + lerp(ta.lambda_gain[1][r], tb.lambda_gain[1][r]) * f.y;
-            solver.lambda[r] = lambda[r];
+        Source::Clearance(_, q) => {
+            let (variable, element) = match CLEARANCE_QUANTITIES[q as usize].0 {
+                "fx" => ("contact_force", 0),
+                "fy" => ("contact_force", 1),
+                "force" => ("contact_force_magnitude", 0),
+                "ex" => ("eccentricity", 0),
+                "ey" => ("eccentricity", 1),
+                "eccentricity" => ("eccentricity_norm", 0),
+                other => (other, 0),
+            };
+            Signal::Micro { name, variable: variable.into(), element }
         }
-        recorder.record(t, &self.cut, solver, &[contact], q, qd, sink)
+        Source::DriverTorque(k) => {
+            let d = &s.drivers[k].name;
+            Signal::Propagated { name, free: (format!("{d}.torque_free"), 0), gain: (format!("{d}.torque_gain"), 0, 1) }
+        }
+        Source::JointReaction(k, comp) => {
+            let j = joint_names[k];
+            let comp = comp as usize;
+            Signal::Propagated {
+                name,
+                free: (format!("{j}.reaction_free"), comp),
+                gain: (format!("{j}.reaction_gain"), 2 * comp, 2 * comp + 1),
+            }
+        }
+        Source::ConstraintError => {
+            Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None }
+        }
     }
 }

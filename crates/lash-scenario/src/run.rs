@@ -110,6 +110,9 @@ pub struct Summary {
     pub channels: BTreeMap<String, ChannelStats>,
     /// Per-clearance results.
     pub clearances: Vec<ClearanceSummary>,
+    /// Reduced model only: options, coupling counters and time split.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reduced: Option<crate::reduced::ReducedDetails>,
 }
 
 /// A prepared run.
@@ -221,6 +224,7 @@ impl Run {
             max_constraint_error: recorder.max_constraint_error,
             channels: recorder.channel_stats(),
             clearances,
+            reduced: None,
         })
     }
 

@@ -145,6 +145,16 @@ pub enum LoadSpec {
         /// Torque [N m].
         torque: f64,
     },
+    /// Motor with a linear torque–speed line (DC motor) about +z:
+    /// T = stall_torque (1 − ω / no_load_speed).
+    Motor {
+        /// Driven body.
+        body: String,
+        /// Torque at standstill [N m].
+        stall_torque: f64,
+        /// Speed at which the torque vanishes [rad/s] (> 0).
+        no_load_speed: f64,
+    },
 }
 
 /// Turns the revolute joint `joint` into a clearance joint.

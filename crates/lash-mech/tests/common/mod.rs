@@ -73,3 +73,23 @@ pub fn analyse(m: &Mechanism, s: &mut Solver, q: &mut [f64], t: f64) -> Vec<f64>
     s.accelerations(m, t, q, &qd, |_| {}).unwrap();
     qd
 }
+
+/// (cut mechanism, ideal mechanism, interface) with the clearance at joint `name` of the ideal
+/// slider-crank; the journal is the joint's body_i.
+pub fn cut(name: &str) -> (Mechanism, Mechanism, Interface) {
+    let ideal = ideal_slider_crank();
+    let k = ideal.joints.iter().position(|j| j.name == name).unwrap();
+    let j = ideal.joints[k].clone();
+    let mut cut = ideal.clone();
+    cut.joints.remove(k);
+    // The ideal mechanism with the interface joint last, journal as its body_i.
+    let mut ideal_last = cut.clone();
+    ideal_last.joints.push(j.clone());
+    let iface = Interface {
+        journal_body: j.body_i,
+        journal_point: j.point_i,
+        bearing_body: j.body_j,
+        bearing_point: j.point_j,
+    };
+    (cut, ideal_last, iface)
+}

@@ -1,0 +1,114 @@
+//! The mechanism (macro) subsystem through its Subsystem interface: exported maps reproduce an
+//! independent ideal-mechanism solve, two-way coupling with a zero eccentricity is the ideal
+//! motion, rollback replays exactly, bad calls are refused.
+
+mod common;
+use common::*;
+use lash_core::{Coupling, Subsystem, SubsystemError, Ticks};
+use lash_mech::subsystem::vr;
+use lash_mech::*;
+
+fn probes() -> Vec<Probe> {
+    vec![
+        Probe::Point { name: "slider".into(), body: BodyId::Body(2), point: Vec2::zeros() },
+        Probe::JointReaction { name: "crank_rod".into(), joint: 0 },
+        Probe::DriverTorque { name: "motor".into(), driver: 0 },
+    ]
+}
+
+fn subsystem(clearance: &str, coupling: Coupling) -> MechanismSubsystem {
+    let (cut_mech, ideal, iface) = cut(clearance);
+    let mut s = MechanismSubsystem::new("mechanism", cut_mech, ideal, iface, probes(), coupling);
+    s.setup(Ticks::ZERO, None).unwrap();
+    s.initialize().unwrap();
+    s
+}
+
+fn value(s: &MechanismSubsystem, name: &str) -> Vec<f64> {
+    let v = s.variables().iter().find(|v| v.name == name).unwrap_or_else(|| panic!("no {name}"));
+    let mut out = vec![0.0; v.len()];
+    s.get_f64(&[v.value_reference], &mut out).unwrap();
+    out
+}
+
+#[test]
+fn propagated_maps_at_minus_effective_force_reproduce_the_ideal_mechanism() {
+    for clearance in ["crank_pivot", "rod_slider"] {
+        let mut s = subsystem(clearance, Coupling::OneWay);
+        let h = Ticks::from_seconds(1e-3).unwrap();
+        for k in 0..7 {
+            // Independent: the ideal slider-crank (all joints closed) solved directly.
+            let t = s.time().seconds();
+            let ideal = ideal_slider_crank();
+            let mut solver = Solver::new(&ideal);
+            let mut q = s.state().0.to_vec();
+            analyse(&ideal, &mut solver, &mut q, t);
+            let f = value(&s, "effective_force");
+            let f = [-f[0], -f[1]];
+            let free = value(&s, "slider.acceleration_free");
+            let gain = value(&s, "slider.acceleration_gain");
+            let ax = free[0] + gain[0] * f[0] + gain[1] * f[1];
+            let torque_free = value(&s, "motor.torque_free")[0];
+            let torque_gain = value(&s, "motor.torque_gain");
+            let torque = torque_free + torque_gain[0] * f[0] + torque_gain[1] * f[1];
+            let expected_ax = solver.accelerations[6];
+            let expected_torque = driver_torque(&ideal, &solver, 0);
+            let scale = expected_ax.abs().max(1.0);
+            assert!((ax - expected_ax).abs() < 1e-8 * scale, "{clearance} step {k}: {ax} vs {expected_ax}");
+            assert!((torque - expected_torque).abs() < 1e-8 * expected_torque.abs().max(1.0), "{clearance} {k}");
+            // The macro's own acceleration output is the ideal one.
+            assert!((value(&s, "slider.acceleration")[0] - expected_ax).abs() < 1e-8 * scale);
+            s.do_step(s.time(), h).unwrap();
+        }
+    }
+}
+
+#[test]
+fn two_way_with_a_centred_journal_follows_the_ideal_motion() {
+    let mut one = subsystem("rod_slider", Coupling::OneWay);
+    let mut two = subsystem("rod_slider", Coupling::TwoWay);
+    assert!(one.is_kinematic() && !two.is_kinematic());
+    let h = Ticks::from_seconds(1e-3).unwrap();
+    for _ in 0..12 {
+        two.set_f64(&[vr::ECCENTRICITY, vr::ECCENTRICITY_RATE], &[0.0; 4]).unwrap();
+        one.do_step(one.time(), h).unwrap();
+        two.do_step(two.time(), h).unwrap();
+    }
+    let (q1, q2) = (one.state().0, two.state().0);
+    let worst = q1.iter().zip(q2).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(worst < 1e-8, "integrated vs kinematic ideal motion differ by {worst}");
+    let (a1, a2) = (value(&one, "slider.acceleration")[0], value(&two, "slider.acceleration")[0]);
+    assert!((a1 - a2).abs() < 1e-5 * a1.abs(), "{a1} vs {a2}");
+}
+
+#[test]
+fn rollback_replays_bit_for_bit_and_bad_calls_are_refused() {
+    let mut s = subsystem("crank_pivot", Coupling::TwoWay);
+    let h = Ticks::from_seconds(1e-3).unwrap();
+    s.set_f64(&[vr::ECCENTRICITY], &[2e-5, -1e-5]).unwrap();
+    s.do_step(Ticks::ZERO, h).unwrap();
+    let saved = s.save_state().unwrap();
+    s.set_f64(&[vr::ECCENTRICITY, vr::ECCENTRICITY_RATE], &[3e-5, 0.0, 0.01, -0.02]).unwrap();
+    s.do_step(h, h).unwrap();
+    let first = value(&s, "effective_force");
+    s.restore_state(&saved).unwrap();
+    assert_eq!(s.time(), h);
+    s.set_f64(&[vr::ECCENTRICITY, vr::ECCENTRICITY_RATE], &[3e-5, 0.0, 0.01, -0.02]).unwrap();
+    s.do_step(h, h).unwrap();
+    assert_eq!(
+        first.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        value(&s, "effective_force").iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
+    // The prescribed eccentricity is met at the step end.
+    let e = value(&s, "constraint_error")[0];
+    assert!(e < 1e-9, "constraint error {e}");
+
+    let e = s.set_f64(&[vr::EFFECTIVE_MASS], &[1.0; 4]).unwrap_err();
+    assert_eq!(e.to_string(), "variable effective_mass: is not an input");
+    let e = s.set_f64(&[vr::ECCENTRICITY], &[f64::INFINITY, 0.0]).unwrap_err();
+    assert!(e.to_string().contains("eccentricity: inf is not finite"), "{e}");
+    assert!(matches!(s.do_step(Ticks::ZERO, h), Err(SubsystemError::BadArguments(_))));
+    let (cut_mech, ideal, iface) = cut("crank_pivot");
+    let mut fresh = MechanismSubsystem::new("m", cut_mech, ideal, iface, vec![], Coupling::OneWay);
+    assert!(matches!(fresh.initialize(), Err(SubsystemError::WrongState { .. })));
+}

@@ -1,0 +1,682 @@
+//! Master algorithms of lash: the multirate coupling of the reduced interface model.
+//!
+//! The [`InterfaceMaster`] couples a macro subsystem (the mechanism; communication step h_m) and a
+//! micro subsystem (the clearance interface; step h_r = h_m / N, N an integer in exact
+//! [`Ticks`]). It sees both only through the [`Subsystem`] trait and a naming convention:
+//!
+//! | macro output | micro input |
+//! |---|---|
+//! | `effective_mass` (2×2), `effective_force` (2) | the same, plus `…_rate` |
+//! | `journal_angular_velocity`, `journal_angular_acceleration` | `journal_angular_velocity`, `journal_angular_acceleration` |
+//! | `bearing_angular_velocity`, `bearing_angular_acceleration` | the same for the bearing |
+//!
+//! and, back, the micro outputs `contact_force` (every micro step, for the propagated signals) and,
+//! in two-way coupling, `eccentricity` and `eccentricity_rate` at the end of each macro step, fed to
+//! the macro inputs of the same names.
+//!
+//! * **Interpolation** of the coupling inputs across the macro step: linear (default), cubic
+//!   Hermite (slopes from neighbouring nodes, angular velocities with their exported derivatives),
+//!   or zero-order hold (for study: physics.md §5.1). The micro subsystem gets values and rates at
+//!   each micro step.
+//! * **One-way coupling**: the macro runs ahead (one node for linear, two for Hermite).
+//!   **Two-way coupling** (predictor–corrector with rollback): the macro state at t_k is saved; the
+//!   macro steps to t_k+1 with the eccentricity extrapolated (predictor); the micro subsystem
+//!   integrates [t_k, t_k+1] between the two nodes; the macro is restored and steps again with the
+//!   micro's eccentricity and rate at t_k+1 (corrector). The corrected node starts the next step.
+//! * **Execution**: sequential, or (one-way) a threaded pipeline in which a producer thread steps the
+//!   macro subsystem and sends its node frames over a bounded crossbeam channel while the calling
+//!   thread integrates the micro subsystem. Both run the same arithmetic on the same frames, so the
+//!   results are bit-identical.
+//! * **Observers** receive the [`Signal`]s they asked for at their own interval (a multiple of h_r):
+//!   micro outputs, macro outputs interpolated in time (cubic Hermite with a derivative, linear
+//!   without), and propagated quantities `free + gain · f_c` (physics.md §4: no solve in the micro
+//!   loop).
+//! * **Tracing**: a `macro_step` span per macro step and a `micro_interval` span per macro interval
+//!   of micro steps.
+
+use crossbeam_channel::bounded;
+use lash_core::{Causality, Coupling, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+/// Interpolation of the macro terms across a macro step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Interpolation {
+    /// Linear between the two nodes of the step (the default).
+    #[default]
+    Linear,
+    /// Cubic Hermite with slopes from the neighbouring nodes (Catmull–Rom; one-sided at the ends).
+    CubicHermite,
+    /// Held at the first node (produces spurious impacts: for study only).
+    ZeroOrderHold,
+}
+
+/// Sequential or threaded execution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Execution {
+    /// One thread.
+    #[default]
+    Sequential,
+    /// Macro subsystem on a producer thread, micro subsystem on the calling thread (one-way only).
+    Threaded,
+}
+
+/// Settings of a coupled run.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MasterOptions {
+    /// Start time.
+    pub start: Ticks,
+    /// Stop time (start + a whole number of macro steps).
+    pub stop: Ticks,
+    /// Macro communication step h_m.
+    pub macro_step: Ticks,
+    /// Micro communication step h_r (h_m / h_r an integer).
+    pub micro_step: Ticks,
+    /// Interpolation of the coupling inputs.
+    pub interpolation: Interpolation,
+    /// One-way or two-way.
+    pub coupling: Coupling,
+    /// Sequential or threaded.
+    pub execution: Execution,
+}
+
+/// A quantity that observers can record.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Signal {
+    /// Element `element` of micro output `variable`, at every micro step.
+    Micro {
+        /// Signal name.
+        name: String,
+        /// Micro variable name.
+        variable: String,
+        /// Element index (row-major).
+        element: usize,
+    },
+    /// Element of a macro output interpolated across the macro step: cubic Hermite when a
+    /// derivative variable is given, linear otherwise.
+    Macro {
+        /// Signal name.
+        name: String,
+        /// Macro variable name.
+        variable: String,
+        /// Element index.
+        element: usize,
+        /// (variable, element) holding its time derivative.
+        derivative: Option<(String, usize)>,
+    },
+    /// `free + gain_x f_x + gain_y f_y` with the maps interpolated linearly and f_c the micro
+    /// subsystem's contact force at the same instant.
+    Propagated {
+        /// Signal name.
+        name: String,
+        /// (variable, element) of the value at f_c = 0.
+        free: (String, usize),
+        /// (variable, element for f_x, element for f_y) of the gain.
+        gain: (String, usize, usize),
+    },
+}
+
+impl Signal {
+    /// The signal's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Signal::Micro { name, .. } | Signal::Macro { name, .. } | Signal::Propagated { name, .. } => name,
+        }
+    }
+}
+
+/// Receives the requested signals at its interval.
+pub trait Observer {
+    /// Called with the time and the signal values (in the order the master was given them).
+    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String>;
+}
+
+impl<F: FnMut(Ticks, &[f64]) -> Result<(), String>> Observer for F {
+    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
+        self(t, signals)
+    }
+}
+
+/// Why a coupled run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum MasterError {
+    /// Settings that do not fit together (ratios, coupling and execution).
+    #[error("master settings: {0}")]
+    Settings(String),
+    /// A variable the coupling needs is missing or has the wrong causality or shape.
+    #[error("subsystem {subsystem}: {problem}")]
+    Variables {
+        /// Which subsystem.
+        subsystem: String,
+        /// What is missing.
+        problem: String,
+    },
+    /// A subsystem call failed.
+    #[error("{subsystem} subsystem: {source}")]
+    Subsystem {
+        /// Which subsystem.
+        subsystem: &'static str,
+        /// The error.
+        source: SubsystemError,
+    },
+    /// An observer refused a sample.
+    #[error("observer: {0}")]
+    Observer(String),
+}
+
+/// Counters and time split of a coupled run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct MasterStats {
+    /// Macro steps taken.
+    pub macro_steps: u64,
+    /// Micro steps taken.
+    pub micro_steps: u64,
+    /// Wall time in macro steps (their thread in threaded execution) [s].
+    pub macro_seconds: f64,
+    /// Wall time in micro steps, input interpolation and observers [s].
+    pub micro_seconds: f64,
+}
+
+fn macro_err(source: SubsystemError) -> MasterError {
+    MasterError::Subsystem { subsystem: "macro", source }
+}
+
+fn micro_err(source: SubsystemError) -> MasterError {
+    MasterError::Subsystem { subsystem: "micro", source }
+}
+
+/// Offsets of each variable in the flat vector of all its elements.
+fn offsets(vars: &[Variable]) -> Vec<usize> {
+    let mut out = Vec::with_capacity(vars.len() + 1);
+    let mut at = 0;
+    for v in vars {
+        out.push(at);
+        at += v.len();
+    }
+    out.push(at);
+    out
+}
+
+fn lookup(
+    vars: &[Variable],
+    who: &str,
+    name: &str,
+    causality: Causality,
+    len: Option<usize>,
+) -> Result<ValueReference, MasterError> {
+    let v = vars.iter().find(|v| v.name == name).ok_or_else(|| MasterError::Variables {
+        subsystem: who.to_string(),
+        problem: format!("has no variable {name:?}"),
+    })?;
+    if v.causality != causality {
+        return Err(MasterError::Variables {
+            subsystem: who.to_string(),
+            problem: format!("variable {name:?} is {:?}, the coupling needs {causality:?}", v.causality),
+        });
+    }
+    if let Some(n) = len.filter(|&n| n != v.len()) {
+        return Err(MasterError::Variables {
+            subsystem: who.to_string(),
+            problem: format!("variable {name:?} has {} elements, the coupling needs {n}", v.len()),
+        });
+    }
+    Ok(v.value_reference)
+}
+
+/// Signals resolved to indices.
+#[derive(Debug, Clone, Copy)]
+enum Resolved {
+    Micro(usize),
+    Macro { value: usize, derivative: Option<usize> },
+    Propagated { free: usize, gain_x: usize, gain_y: usize },
+}
+
+/// Frame-vector indices of the coupling quantities.
+#[derive(Debug, Clone, Copy)]
+struct CouplingIndex {
+    mass: usize,
+    force: usize,
+    journal_omega: usize,
+    journal_alpha: usize,
+    bearing_omega: usize,
+    bearing_alpha: usize,
+}
+
+/// The multirate master of the reduced interface model.
+pub struct InterfaceMaster<'a> {
+    macro_sub: &'a mut dyn Subsystem,
+    micro_sub: &'a mut dyn Subsystem,
+    options: MasterOptions,
+    signals: Vec<Signal>,
+}
+
+/// Cubic Hermite value and derivative at `s` in [0, 1] over a step of length `h`.
+#[inline]
+fn hermite(a: f64, ma: f64, b: f64, mb: f64, s: f64, h: f64) -> (f64, f64) {
+    let (s2, s3) = (s * s, s * s * s);
+    let v = (2.0 * s3 - 3.0 * s2 + 1.0) * a
+        + (s3 - 2.0 * s2 + s) * h * ma
+        + (-2.0 * s3 + 3.0 * s2) * b
+        + (s3 - s2) * h * mb;
+    let d = ((6.0 * s2 - 6.0 * s) * a
+        + (3.0 * s2 - 4.0 * s + 1.0) * h * ma
+        + (-6.0 * s2 + 6.0 * s) * b
+        + (3.0 * s2 - 2.0 * s) * h * mb)
+        / h;
+    (v, d)
+}
+
+/// The node window of one macro step: the nodes before, at the start, at the end and after.
+struct Window<'f> {
+    prev: Option<&'f [f64]>,
+    a: &'f [f64],
+    b: &'f [f64],
+    next: Option<&'f [f64]>,
+    h: f64,
+}
+
+impl Window<'_> {
+    /// Slopes at a and b by finite differences (centred where the neighbour exists).
+    #[inline]
+    fn slopes(&self, i: usize) -> (f64, f64) {
+        let (a, b) = (self.a[i], self.b[i]);
+        let ma = self.prev.map_or((b - a) / self.h, |p| (b - p[i]) / (2.0 * self.h));
+        let mb = self.next.map_or((b - a) / self.h, |n| (n[i] - a) / (2.0 * self.h));
+        (ma, mb)
+    }
+
+    /// Value and rate of element `i` at fraction `s`.
+    #[inline]
+    fn coupling(&self, kind: Interpolation, i: usize, s: f64) -> (f64, f64) {
+        let (a, b) = (self.a[i], self.b[i]);
+        match kind {
+            Interpolation::Linear => (a + (b - a) * s, (b - a) / self.h),
+            Interpolation::ZeroOrderHold => (a, 0.0),
+            Interpolation::CubicHermite => {
+                let (ma, mb) = self.slopes(i);
+                hermite(a, ma, b, mb, s, self.h)
+            }
+        }
+    }
+
+    /// Value and rate of element `i` whose derivative is element `d`.
+    #[inline]
+    fn with_derivative(&self, kind: Interpolation, i: usize, d: usize, s: f64) -> (f64, f64) {
+        match kind {
+            Interpolation::CubicHermite => hermite(self.a[i], self.a[d], self.b[i], self.b[d], s, self.h),
+            _ => self.coupling(kind, i, s),
+        }
+    }
+
+    #[inline]
+    fn lerp(&self, i: usize, s: f64) -> f64 {
+        self.a[i] + (self.b[i] - self.a[i]) * s
+    }
+}
+
+/// Where the macro frames come from: the macro stepped in place, or a producer thread.
+enum Frames<'s> {
+    Local { sub: &'s mut dyn Subsystem, all: Vec<ValueReference>, width: usize, seconds: f64 },
+    Channel(crossbeam_channel::Receiver<Result<Vec<f64>, MasterError>>),
+}
+
+/// Two-way coupling inputs: value references of the macro's `eccentricity`, `eccentricity_rate`
+/// and the values (e, ė) for the end of the step.
+type Targets = ([ValueReference; 2], [f64; 4]);
+
+impl Frames<'_> {
+    fn next(&mut self, t: Ticks, h: Ticks, targets: Option<Targets>) -> Result<Vec<f64>, MasterError> {
+        match self {
+            Frames::Local { sub, all, width, seconds } => {
+                let start = Instant::now();
+                let frame = step_macro(&mut **sub, all, *width, t, h, targets);
+                *seconds += start.elapsed().as_secs_f64();
+                frame
+            }
+            Frames::Channel(rx) => rx
+                .recv()
+                .map_err(|_| MasterError::Settings("the macro producer thread stopped without a result".into()))?,
+        }
+    }
+
+    fn save(&mut self) -> Result<lash_core::SavedState, MasterError> {
+        match self {
+            Frames::Local { sub, .. } => sub.save_state().map_err(macro_err),
+            Frames::Channel(_) => Err(MasterError::Settings("rollback needs sequential execution".into())),
+        }
+    }
+
+    fn restore(&mut self, state: &lash_core::SavedState) -> Result<(), MasterError> {
+        match self {
+            Frames::Local { sub, .. } => sub.restore_state(state).map_err(macro_err),
+            Frames::Channel(_) => Err(MasterError::Settings("rollback needs sequential execution".into())),
+        }
+    }
+}
+
+fn read_frame(sub: &dyn Subsystem, all: &[ValueReference], width: usize) -> Result<Vec<f64>, MasterError> {
+    let mut frame = vec![0.0; width];
+    sub.get_f64(all, &mut frame).map_err(macro_err)?;
+    Ok(frame)
+}
+
+fn step_macro(
+    sub: &mut dyn Subsystem,
+    all: &[ValueReference],
+    width: usize,
+    t: Ticks,
+    h: Ticks,
+    targets: Option<Targets>,
+) -> Result<Vec<f64>, MasterError> {
+    let _span = tracing::debug_span!("macro_step", t = t.seconds()).entered();
+    if let Some((vrs, values)) = targets {
+        sub.set_f64(&vrs, &values).map_err(macro_err)?;
+    }
+    sub.do_step(t, h).map_err(macro_err)?;
+    read_frame(sub, all, width)
+}
+
+impl<'a> InterfaceMaster<'a> {
+    /// A master over two subsystems that have been set up (not yet initialised).
+    pub fn new(
+        macro_sub: &'a mut dyn Subsystem,
+        micro_sub: &'a mut dyn Subsystem,
+        options: MasterOptions,
+        signals: Vec<Signal>,
+    ) -> Result<Self, MasterError> {
+        let o = &options;
+        if o.micro_step.0 <= 0 || o.macro_step.exact_ratio(o.micro_step).is_none() {
+            return Err(MasterError::Settings(format!(
+                "macro step {} s is not a whole multiple of the micro step {} s",
+                o.macro_step.seconds(),
+                o.micro_step.seconds()
+            )));
+        }
+        if Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).is_none_or(|n| n < 1) {
+            return Err(MasterError::Settings(format!(
+                "the run from {} s to {} s is not a whole, positive number of macro steps of {} s",
+                o.start.seconds(),
+                o.stop.seconds(),
+                o.macro_step.seconds()
+            )));
+        }
+        if o.coupling == Coupling::TwoWay && o.execution == Execution::Threaded {
+            return Err(MasterError::Settings(
+                "two-way coupling runs sequentially: the macro step needs the micro result of the step before".into(),
+            ));
+        }
+        Ok(Self { macro_sub, micro_sub, options, signals })
+    }
+
+    /// Names of the signals, in observer order.
+    pub fn signal_names(&self) -> Vec<String> {
+        self.signals.iter().map(|s| s.name().to_string()).collect()
+    }
+
+    /// Initialises both subsystems and runs to the stop time. Each observer comes with its
+    /// interval (a whole multiple of the micro step); all are called at the start time too.
+    pub fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
+        let o = self.options;
+        let per_macro = o.macro_step.exact_ratio(o.micro_step).expect("checked") as usize;
+        let macro_steps = Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).expect("checked") as usize;
+        let mut decimation = Vec::with_capacity(observers.len());
+        for (_, interval) in observers.iter() {
+            match interval.exact_ratio(o.micro_step) {
+                Some(d) if d >= 1 => decimation.push(d as u64),
+                _ => {
+                    return Err(MasterError::Settings(format!(
+                        "observer interval {} s is not a whole multiple of the micro step {} s",
+                        interval.seconds(),
+                        o.micro_step.seconds()
+                    )));
+                }
+            }
+        }
+
+        // Resolve the coupling variables and the signals.
+        let (mac_vars, mic_vars) = (self.macro_sub.variables().to_vec(), self.micro_sub.variables().to_vec());
+        let (mac_name, mic_name) = (self.macro_sub.name().to_string(), self.micro_sub.name().to_string());
+        let mac_off = offsets(&mac_vars);
+        let out = Causality::Output;
+        let at = |name: &str, len: usize| -> Result<usize, MasterError> {
+            Ok(mac_off[lookup(&mac_vars, &mac_name, name, out, Some(len))? as usize])
+        };
+        let index = CouplingIndex {
+            mass: at("effective_mass", 4)?,
+            force: at("effective_force", 2)?,
+            journal_omega: at("journal_angular_velocity", 1)?,
+            journal_alpha: at("journal_angular_acceleration", 1)?,
+            bearing_omega: at("bearing_angular_velocity", 1)?,
+            bearing_alpha: at("bearing_angular_acceleration", 1)?,
+        };
+        let target_inputs = match o.coupling {
+            Coupling::TwoWay => Some([
+                lookup(&mac_vars, &mac_name, "eccentricity", Causality::Input, Some(2))?,
+                lookup(&mac_vars, &mac_name, "eccentricity_rate", Causality::Input, Some(2))?,
+            ]),
+            Coupling::OneWay => None,
+        };
+        let inp = Causality::Input;
+        let micro_inputs = [
+            lookup(&mic_vars, &mic_name, "effective_mass", inp, Some(4))?,
+            lookup(&mic_vars, &mic_name, "effective_mass_rate", inp, Some(4))?,
+            lookup(&mic_vars, &mic_name, "effective_force", inp, Some(2))?,
+            lookup(&mic_vars, &mic_name, "effective_force_rate", inp, Some(2))?,
+            lookup(&mic_vars, &mic_name, "journal_angular_velocity", inp, Some(1))?,
+            lookup(&mic_vars, &mic_name, "journal_angular_acceleration", inp, Some(1))?,
+            lookup(&mic_vars, &mic_name, "bearing_angular_velocity", inp, Some(1))?,
+            lookup(&mic_vars, &mic_name, "bearing_angular_acceleration", inp, Some(1))?,
+        ];
+        // Micro outputs read every micro step: contact force, eccentricity and its rate first, then
+        // the signals'.
+        let mut micro_outputs: Vec<ValueReference> = vec![
+            lookup(&mic_vars, &mic_name, "contact_force", out, Some(2))?,
+            lookup(&mic_vars, &mic_name, "eccentricity", out, Some(2))?,
+            lookup(&mic_vars, &mic_name, "eccentricity_rate", out, Some(2))?,
+        ];
+        let mut resolved = Vec::with_capacity(self.signals.len());
+        let element =
+            |vars: &[Variable], who: &str, name: &str, e: usize| -> Result<(ValueReference, usize), MasterError> {
+                let vr = vars.iter().find(|v| v.name == *name).map(|v| v.value_reference).ok_or_else(|| {
+                    MasterError::Variables { subsystem: who.to_string(), problem: format!("has no variable {name:?}") }
+                })?;
+                if e >= vars[vr as usize].len() {
+                    return Err(MasterError::Variables {
+                        subsystem: who.to_string(),
+                        problem: format!("variable {name:?} has no element {e}"),
+                    });
+                }
+                Ok((vr, e))
+            };
+        let mac_index = |name: &str, e: usize| -> Result<usize, MasterError> {
+            let (vr, e) = element(&mac_vars, &mac_name, name, e)?;
+            Ok(mac_off[vr as usize] + e)
+        };
+        for s in &self.signals {
+            resolved.push(match s {
+                Signal::Micro { variable, element: e, .. } => {
+                    let (vr, e) = element(&mic_vars, &mic_name, variable, *e)?;
+                    let pos = micro_outputs.iter().position(|&v| v == vr).unwrap_or_else(|| {
+                        micro_outputs.push(vr);
+                        micro_outputs.len() - 1
+                    });
+                    let base: usize = micro_outputs[..pos].iter().map(|&v| mic_vars[v as usize].len()).sum();
+                    Resolved::Micro(base + e)
+                }
+                Signal::Macro { variable, element: e, derivative, .. } => Resolved::Macro {
+                    value: mac_index(variable, *e)?,
+                    derivative: derivative.as_ref().map(|(v, e)| mac_index(v, *e)).transpose()?,
+                },
+                Signal::Propagated { free, gain, .. } => Resolved::Propagated {
+                    free: mac_index(&free.0, free.1)?,
+                    gain_x: mac_index(&gain.0, gain.1)?,
+                    gain_y: mac_index(&gain.0, gain.2)?,
+                },
+            });
+        }
+        let micro_width: usize = micro_outputs.iter().map(|&v| mic_vars[v as usize].len()).sum();
+        let all_macro: Vec<ValueReference> = mac_vars.iter().map(|v| v.value_reference).collect();
+        let width = *mac_off.last().expect("offsets end");
+
+        // Initialise.
+        self.macro_sub.initialize().map_err(macro_err)?;
+        self.micro_sub.initialize().map_err(micro_err)?;
+        let first = read_frame(&*self.macro_sub, &all_macro, width)?;
+        let ahead = match (o.coupling, o.interpolation) {
+            (Coupling::OneWay, Interpolation::CubicHermite) => 2,
+            _ => 1,
+        };
+        let h_m = o.macro_step.seconds();
+        let mut stats = MasterStats::default();
+        let mut signals = vec![0.0; resolved.len()];
+        let mut micro_values = vec![0.0; micro_width];
+        self.micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
+
+        let Self { macro_sub, micro_sub, .. } = self;
+        let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
+        let macro_sub: &mut dyn Subsystem = &mut **macro_sub;
+        let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| -> Result<(), MasterError> {
+            let mut window: VecDeque<Vec<f64>> = VecDeque::with_capacity(4);
+            window.push_back(first.clone());
+            let mut prev: Option<Vec<f64>> = None;
+            let mut produced = 0usize;
+            // Observers at the start.
+            {
+                let w = Window { prev: None, a: &window[0], b: &window[0], next: None, h: h_m };
+                fill_signals(&resolved, &w, 0.0, &micro_values, &mut signals);
+                for (obs, _) in observers.iter_mut() {
+                    obs.observe(o.start, &signals).map_err(MasterError::Observer)?;
+                }
+            }
+            let mut micro_count = 0u64;
+            let mut inputs = [0.0; 16];
+            for k in 0..macro_steps {
+                let t_k = Ticks(o.start.0 + k as i64 * o.macro_step.0);
+                // Two-way: save the macro at t_k and predict with the eccentricity extrapolated.
+                let saved = match target_inputs {
+                    Some(vrs) => {
+                        let saved = frames.save()?;
+                        let (e, v) = ([micro_values[2], micro_values[3]], [micro_values[4], micro_values[5]]);
+                        let predicted = [e[0] + v[0] * h_m, e[1] + v[1] * h_m, v[0], v[1]];
+                        Some((saved, vrs, predicted))
+                    }
+                    None => None,
+                };
+                while produced < (k + ahead).min(macro_steps) {
+                    let t = Ticks(o.start.0 + produced as i64 * o.macro_step.0);
+                    let targets = saved.as_ref().map(|(_, vrs, predicted)| (*vrs, *predicted));
+                    window.push_back(frames.next(t, o.macro_step, targets)?);
+                    produced += 1;
+                    stats.macro_steps += 1;
+                }
+                let started = Instant::now();
+                let _span = tracing::trace_span!("micro_interval", t = t_k.seconds()).entered();
+                let w = Window {
+                    prev: prev.as_deref(),
+                    a: &window[0],
+                    b: &window[1],
+                    next: window.get(2).map(|v| v.as_slice()),
+                    h: h_m,
+                };
+                let kind = o.interpolation;
+                for j in 0..per_macro {
+                    let s = j as f64 / per_macro as f64;
+                    for e in 0..4 {
+                        (inputs[e], inputs[4 + e]) = w.coupling(kind, index.mass + e, s);
+                    }
+                    for e in 0..2 {
+                        (inputs[8 + e], inputs[10 + e]) = w.coupling(kind, index.force + e, s);
+                    }
+                    (inputs[12], inputs[13]) = w.with_derivative(kind, index.journal_omega, index.journal_alpha, s);
+                    (inputs[14], inputs[15]) = w.with_derivative(kind, index.bearing_omega, index.bearing_alpha, s);
+                    if kind == Interpolation::ZeroOrderHold {
+                        (inputs[13], inputs[15]) = (0.0, 0.0);
+                    }
+                    micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
+                    let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
+                    micro_sub.do_step(t, o.micro_step).map_err(micro_err)?;
+                    micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
+                    micro_count += 1;
+                    let due = decimation.iter().any(|d| micro_count % d == 0);
+                    if due {
+                        let s1 = (j + 1) as f64 / per_macro as f64;
+                        fill_signals(&resolved, &w, s1, &micro_values, &mut signals);
+                        let t1 = Ticks(t.0 + o.micro_step.0);
+                        for ((obs, _), d) in observers.iter_mut().zip(&decimation) {
+                            if micro_count % d == 0 {
+                                obs.observe(t1, &signals).map_err(MasterError::Observer)?;
+                            }
+                        }
+                    }
+                }
+                drop(_span);
+                stats.micro_seconds += started.elapsed().as_secs_f64();
+                if let Some((state, vrs, _)) = saved {
+                    // Corrector: the macro steps again with the micro's eccentricity at t_k+1.
+                    frames.restore(&state)?;
+                    let actual = [micro_values[2], micro_values[3], micro_values[4], micro_values[5]];
+                    window[1] = frames.next(t_k, o.macro_step, Some((vrs, actual)))?;
+                    stats.macro_steps += 1;
+                }
+                prev = window.pop_front();
+            }
+            stats.micro_steps = micro_count;
+            Ok(())
+        };
+
+        match o.execution {
+            Execution::Sequential => {
+                let mut frames = Frames::Local { sub: macro_sub, all: all_macro, width, seconds: 0.0 };
+                run(&mut frames, &mut stats)?;
+                if let Frames::Local { seconds, .. } = frames {
+                    stats.macro_seconds = seconds;
+                }
+            }
+            Execution::Threaded => {
+                let (tx, rx) = bounded::<Result<Vec<f64>, MasterError>>(8);
+                let origin = o.start;
+                let result = std::thread::scope(|scope| {
+                    let producer = scope.spawn(move || {
+                        let started = Instant::now();
+                        for k in 0..macro_steps {
+                            let t = Ticks(origin.0 + k as i64 * o.macro_step.0);
+                            let frame = step_macro(macro_sub, &all_macro, width, t, o.macro_step, None);
+                            let failed = frame.is_err();
+                            if tx.send(frame).is_err() || failed {
+                                break;
+                            }
+                        }
+                        started.elapsed()
+                    });
+                    let mut frames = Frames::Channel(rx);
+                    let r = run(&mut frames, &mut stats);
+                    drop(frames);
+                    let macro_time = producer.join().unwrap_or(Duration::ZERO);
+                    (r, macro_time)
+                });
+                result.0?;
+                stats.macro_seconds = result.1.as_secs_f64();
+            }
+        }
+        Ok(stats)
+    }
+}
+
+/// Computes every signal at fraction `s` of the macro step from the window and the micro outputs
+/// (`micro[0..2]` is the contact force).
+#[inline]
+fn fill_signals(resolved: &[Resolved], w: &Window<'_>, s: f64, micro: &[f64], out: &mut [f64]) {
+    let (fx, fy) = (micro[0], micro[1]);
+    for (o, r) in out.iter_mut().zip(resolved) {
+        *o = match *r {
+            Resolved::Micro(i) => micro[i],
+            Resolved::Macro { value, derivative: Some(d) } => hermite(w.a[value], w.a[d], w.b[value], w.b[d], s, w.h).0,
+            Resolved::Macro { value, derivative: None } => w.lerp(value, s),
+            Resolved::Propagated { free, gain_x, gain_y } => {
+                w.lerp(free, s) + w.lerp(gain_x, s) * fx + w.lerp(gain_y, s) * fy
+            }
+        };
+    }
+}
