@@ -25,7 +25,7 @@ fn files_in(dir: &Path) -> Vec<String> {
 }
 
 #[test]
-fn main_job_writes_csv_and_summary() {
+fn full_run_writes_csv_and_summary() {
     let dir = scratch("main");
     let out = dir.join("A");
     let o = lash(&["run", "A", "--out", out.to_str().unwrap(), "--horizon", "0.004", "--quiet"]);
@@ -138,10 +138,11 @@ fn reduced_model_runs_from_the_command_line() {
 }
 
 #[test]
-fn compare_writes_both_runs_and_the_metrics() {
+fn main_job_compare_writes_both_runs_metrics_and_figures() {
+    // The README's main job, `compare A`, over a shorter horizon.
     let dir = scratch("compare");
     let out = dir.join("cmp");
-    let o = lash(&["compare", "B-0.02mm", "--horizon", "0.006", "--out", out.to_str().unwrap(), "--quiet"]);
+    let o = lash(&["compare", "A", "--horizon", "0.006", "--out", out.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("full/timeseries.csv").exists() && out.join("reduced/timeseries.csv").exists());
     let c: serde_json::Value =
@@ -153,6 +154,53 @@ fn compare_writes_both_runs_and_the_metrics() {
     }
     assert!(c["channels"].get("slider.ay").is_none(), "a zero channel is left out");
     assert!(c["clearance"]["impacts"]["full"].as_u64().unwrap() > 0);
+    let figures: Vec<&str> = c["figures"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+    assert!(figures.contains(&"figures/slider.ax.svg") && figures.contains(&"figures/slider.ax_spectrum.svg"));
+    for f in figures {
+        let svg = std::fs::read_to_string(out.join(f)).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("<polyline"), "{f} is not a drawn SVG");
+    }
+}
+
+#[test]
+fn reduced_options_reach_the_summary() {
+    let dir = scratch("reduced_options");
+    let out = dir.join("r");
+    let o = lash(&[
+        "run",
+        "A-motor",
+        "--model",
+        "reduced",
+        "--coupling",
+        "two-way",
+        "--interpolation",
+        "hermite",
+        "--horizon",
+        "0.004",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["reduced"]["options"]["coupling"], "two_way");
+    assert_eq!(s["reduced"]["options"]["interpolation"], "cubic_hermite");
+    assert_eq!(s["reduced"]["kinematic_macro"], false);
+    assert_eq!(s["reduced"]["master"]["macro_steps"], 8, "predictor and corrector per macro step");
+    let o = lash(&[
+        "run",
+        "A",
+        "--model",
+        "reduced",
+        "--coupling",
+        "two-way",
+        "--threaded",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("two-way coupling runs sequentially"), "{}", stderr(&o));
 }
 
 #[test]

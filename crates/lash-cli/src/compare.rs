@@ -7,6 +7,9 @@ use std::path::Path;
 /// Pointwise errors are also reported over this first window, through the first impacts [s].
 const FIRST_WINDOW: f64 = 2e-3;
 
+/// Upper end of the spectra drawn in the figures [Hz] (the seeds show the low kilohertz range).
+const FIGURE_MAX_FREQUENCY: f64 = 10_000.0;
+
 fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {
     let text = std::fs::read_to_string(path).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
     let mut lines = text.lines();
@@ -52,6 +55,20 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
         compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW).map_err(CliError::Failure)?;
     // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
     metrics.retain(|_, m| m.peak_full > 1e-6);
+    // Figures (the seeds' figures 2–3): every compared channel over time and its spectrum.
+    let figures_dir = out.join("figures");
+    std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
+    let mut figures = Vec::new();
+    let col = |header: &[String], name: &str| header.iter().position(|h| h.starts_with(&format!("{name} [")));
+    for name in metrics.keys() {
+        let (Some(kf), Some(kr)) = (col(&hf, name), col(&hr, name)) else { continue };
+        let unit = hf[kf].rsplit_once('[').map_or("", |(_, u)| u.trim_end_matches(']'));
+        let time: Vec<f64> = full.iter().map(|r| r[0]).collect();
+        let (yf, yr): (Vec<f64>, Vec<f64>) = full.iter().zip(&red).map(|(a, b)| (a[kf], b[kr])).unzip();
+        for path in crate::plots::comparison_figures(&figures_dir, name, unit, &time, &yf, &yr, FIGURE_MAX_FREQUENCY)? {
+            figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
+        }
+    }
     let cpu = |v: &serde_json::Value| v["cpu_time_s"].as_f64().unwrap_or(f64::NAN);
     let clearance =
         |key: &str| serde_json::json!({"full": sf["clearances"][0][key], "reduced": sr["clearances"][0][key]});
@@ -65,6 +82,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,
+        "figures": figures,
         "clearance": {
             "impacts": clearance("impacts"),
             "impacts_per_cycle": clearance("impacts_per_cycle"),

@@ -14,6 +14,7 @@
 
 mod bench;
 mod compare;
+mod plots;
 mod run;
 
 use clap::{Parser, Subcommand, ValueEnum};
