@@ -142,5 +142,122 @@ pub fn run(quick: bool) -> Result<(), CliError> {
         "  reduced model (h_m = 1e-3, h_r = 1e-5)         {a_reduced_ms:9.2} ms   (speed-up {:.1}×)",
         a_full_ms / a_reduced_ms
     );
+    reduced_section(reps, quick)
+}
+
+/// Runs `scenario` with `runner` and returns the wall time [ms] (rows discarded).
+fn time_runner(r: &mut dyn lash_scenario::Runner) -> Result<(f64, lash_scenario::Summary), CliError> {
+    let t = Instant::now();
+    let summary = r
+        .execute(&mut |row| Ok(black_box(row).len()).map(|_| ()), &mut |_| {})
+        .map_err(|e| CliError::Failure(e.to_string()))?;
+    Ok((t.elapsed().as_secs_f64() * 1e3, summary))
+}
+
+/// The reduced model's figures: micro step cost, 1 s of scenario A, equal-step and converged
+/// ratios against the full model, and scaling with body count.
+fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
+    use lash_scenario::{ReducedOptions, ReducedRun};
+    let fail = |e: &dyn std::fmt::Display| CliError::Failure(e.to_string());
+
+    // Micro step alone: scenario A's interface with the terms of its first macro node, journal
+    // released from the centre: impacts, then a settled contact (both branches of the law).
+    let a = builtin::by_name("A").expect("built-in");
+    let micro_ns = {
+        let joint = lash_scenario::build_model(&a, BuildOptions::default()).clearances[0].clone();
+        let inputs = lash_contact::micro::InterfaceInputs {
+            effective_mass: nalgebra::Matrix2::new(0.33, 0.01, 0.01, 0.21),
+            effective_force: lash_mech::Vec2::new(-900.0, 300.0),
+            journal_angular_velocity: builtin::CRANK_SPEED,
+            ..Default::default()
+        };
+        let n = if quick { 100_000 } else { 400_000 };
+        median(
+            (0..reps)
+                .map(|_| {
+                    let mut m = lash_contact::micro::InterfaceModel::new(joint.clone());
+                    m.inputs = inputs;
+                    let t0 = Instant::now();
+                    for k in 0..n {
+                        black_box(m.rk4_step(black_box(k as f64 * 1e-5), 1e-5));
+                    }
+                    t0.elapsed().as_secs_f64() / n as f64 * 1e9
+                })
+                .collect(),
+        )
+    };
+
+    // One second (0.2 s with --quick) of scenario A, slider.ax recorded at every micro step.
+    let horizon = if quick { 0.2 } else { 1.0 };
+    let mut a1 = a.clone();
+    a1.simulation.horizon = horizon;
+    a1.output.channels = vec!["slider.ax".into()];
+    let reduced = |options: ReducedOptions| -> Result<(f64, lash_scenario::Summary), CliError> {
+        let mut best: Option<(f64, lash_scenario::Summary)> = None;
+        let mut times = Vec::new();
+        for _ in 0..reps {
+            let (ms, s) = time_runner(&mut ReducedRun::new(&a1, options).map_err(|e| fail(&e))?)?;
+            times.push(ms);
+            best = Some((ms, s));
+        }
+        let (_, s) = best.expect("reps > 0");
+        Ok((median(times), s))
+    };
+    let (red_ms, red) = reduced(ReducedOptions::default())?;
+    let (thr_ms, _) =
+        reduced(ReducedOptions { execution: lash_orchestrate::Execution::Threaded, ..Default::default() })?;
+    let master = red.reduced.as_ref().map(|r| r.master).unwrap_or_default();
+    let mut full_rk4 = a1.clone();
+    full_rk4.simulation.integrator = lash_ode::Method::Rk4 { step: 1e-5 };
+    let (rk4_ms, _) = time_runner(&mut Run::new(&full_rk4, BuildOptions::default()))?;
+    let (conv_ms, conv) = time_runner(&mut Run::new(&a1, BuildOptions::default()))?;
+
+    println!("reduced interface model, scenario A, {horizon} s of mechanism time, slider.ax recorded every 1e-5 s");
+    println!("  micro step alone (RK4, LN + Ambrósio, 4 law evaluations)  {micro_ns:8.1} ns   (target ≤ 100 ns)");
+    println!(
+        "  reduced model, sequential                      {red_ms:9.2} ms   (target ≤ {:.0} ms; {:.0} ns per micro step; macro {:.2} ms, micro+observers {:.2} ms)",
+        15.0 * horizon,
+        red_ms * 1e6 / master.micro_steps.max(1) as f64,
+        master.macro_seconds * 1e3,
+        master.micro_seconds * 1e3
+    );
+    println!("  reduced model, threaded pipeline               {thr_ms:9.2} ms");
+    println!(
+        "  full model, RK4 at the same step 1e-5 s        {rk4_ms:9.2} ms   (equal-step ratio {:.1}×, target ≥ 10×)",
+        rk4_ms / red_ms
+    );
+    println!(
+        "  full model, converged adaptive                 {conv_ms:9.2} ms   (ratio {:.1}×, target ≥ 100×; {} steps)",
+        conv_ms / red_ms,
+        conv.steps
+    );
+    scaling(quick)
+}
+
+/// Full-model RK4 step and reduced-model cost per micro step against body count (radial engines
+/// of 1…9 cylinders with the clearance at the crank–ground joint).
+fn scaling(quick: bool) -> Result<(), CliError> {
+    use lash_scenario::{ReducedOptions, ReducedRun};
+    println!("scaling: radial engines, clearance at the crank–ground joint, 0.02 s, slider0.ax every 1e-5 s");
+    println!("  cylinders  bodies   full RK4 1e-5 [ms]   reduced [ms]   ratio   reduced ns/micro step");
+    let horizon = if quick { 0.01 } else { 0.02 };
+    for cylinders in [1, 3, 5, 7, 9] {
+        let mut s = builtin::radial_engine(cylinders);
+        s.simulation.horizon = horizon;
+        s.output.channels = vec!["slider0.ax".into()];
+        let mut rk4 = s.clone();
+        rk4.simulation.integrator = lash_ode::Method::Rk4 { step: 1e-5 };
+        let (full_ms, _) = time_runner(&mut Run::new(&rk4, BuildOptions::default()))?;
+        let (red_ms, red) = time_runner(
+            &mut ReducedRun::new(&s, ReducedOptions::default()).map_err(|e| CliError::Failure(e.to_string()))?,
+        )?;
+        let micro = red.reduced.as_ref().map(|r| r.master.micro_steps).unwrap_or(1);
+        println!(
+            "  {cylinders:9}  {:6}   {full_ms:18.2}   {red_ms:12.2}   {:5.1}×  {:10.0}",
+            s.bodies.len(),
+            full_ms / red_ms,
+            red_ms * 1e6 / micro as f64
+        );
+    }
     Ok(())
 }

@@ -98,7 +98,8 @@ impl ClearanceJoint {
         let delta_dot = e_dot.dot(&n);
         let slip = e_dot.dot(&t) + omega_journal * self.journal_radius - omega_bearing * self.bearing_radius;
         let fn_ = self.law.force(delta, delta_dot, onset);
-        let ft = self.friction.coefficient(slip) * fn_;
+        // No normal force, no friction (skips the friction law in free flight).
+        let ft = if fn_ > 0.0 { self.friction.coefficient(slip) * fn_ } else { 0.0 };
         ContactState {
             journal_centre: Vec2::zeros(),
             eccentricity: e,

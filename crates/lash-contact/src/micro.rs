@@ -86,6 +86,9 @@ pub struct InterfaceModel {
     pub input_time: f64,
     open: Option<ImpactTracker>,
     violation: bool,
+    /// The contact force at the end of the last RK4 step, with its (t, e, ė): the next step's
+    /// first stage is the same state and reuses it.
+    end_force: Option<(f64, Vec2, Vec2, Vec2)>,
 }
 
 impl InterfaceModel {
@@ -101,6 +104,7 @@ impl InterfaceModel {
             input_time: 0.0,
             open: None,
             violation: false,
+            end_force: None,
         }
     }
 
@@ -120,14 +124,30 @@ impl InterfaceModel {
         }
     }
 
+    /// f_c at (t, e, ė) alone: in free flight (|e| ≤ c, so F_N = F_T = 0) nothing but |e|² is
+    /// computed.
+    #[inline]
+    fn contact_force_at(&self, t: f64, e: Vec2, ed: Vec2) -> Vec2 {
+        let c = self.joint.radial_clearance();
+        if e.norm_squared() <= c * c {
+            return Vec2::zeros();
+        }
+        self.contact_at(t, e, ed).force_on_journal
+    }
+
     /// ë and f_c at (t, e, ė).
     #[inline]
     fn acceleration(&self, t: f64, e: Vec2, ed: Vec2) -> (Vec2, Vec2) {
+        self.acceleration_with(t, self.contact_force_at(t, e, ed))
+    }
+
+    /// ë at t for a given contact force: M̃(t)⁻¹ (f̃(t) + f_c) by Cramer's rule.
+    #[inline]
+    fn acceleration_with(&self, t: f64, fc: Vec2) -> (Vec2, Vec2) {
         let dt = t - self.input_time;
         let u = &self.inputs;
         let m = u.effective_mass + u.effective_mass_rate * dt;
         let f = u.effective_force + u.effective_force_rate * dt;
-        let fc = self.contact_at(t, e, ed).force_on_journal;
         let r = f + fc;
         let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
         let inv = 1.0 / det;
@@ -137,7 +157,10 @@ impl InterfaceModel {
     /// One RK4 step of size `h` from `t`. Returns the contact state at the end of the step.
     pub fn rk4_step(&mut self, t: f64, h: f64) -> ContactState {
         let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
-        let (k1v, f1) = self.acceleration(t, e0, v0);
+        let (k1v, f1) = match self.end_force {
+            Some((te, ee, ve, fe)) if (te - t).abs() < 1e-12 && ee == e0 && ve == v0 => self.acceleration_with(t, fe),
+            _ => self.acceleration(t, e0, v0),
+        };
         let k1e = v0;
         let k2e = v0 + k1v * (0.5 * h);
         let (k2v, f2) = self.acceleration(t + 0.5 * h, e0 + k1e * (0.5 * h), k2e);
@@ -163,6 +186,7 @@ impl InterfaceModel {
         self.eccentricity = e1;
         self.eccentricity_rate = v1;
         let s = self.contact_at(t + h, e1, v1);
+        self.end_force = Some((t + h, e1, v1, s.force_on_journal));
         if let Some(tr) = self.open.as_mut() {
             tr.sample(t + h, s.normal_force, s.penetration);
         }
@@ -338,6 +362,7 @@ pub mod vr {
 pub struct InterfaceSubsystem {
     name: String,
     variables: Vec<Variable>,
+    lens: Vec<usize>,
     /// The model (public for in-process observers and summaries).
     pub model: InterfaceModel,
     integrator: MicroIntegrator,
@@ -386,9 +411,11 @@ impl InterfaceSubsystem {
         t.add("contact_force_magnitude", Output, C, "N", "|f_c|", &[], &[0.0]);
         let model = InterfaceModel::new(joint);
         let state = model.contact_at(0.0, Vec2::zeros(), Vec2::zeros());
+        let variables = t.into_variables();
         Ok(Self {
             name: format!("interface {}", model.joint.name),
-            variables: t.into_variables(),
+            lens: variables.iter().map(Variable::len).collect(),
+            variables,
             model,
             integrator,
             micro_step,
@@ -504,24 +531,24 @@ impl Subsystem for InterfaceSubsystem {
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        let n = element_count(&self.variables, refs)?;
-        if n != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
-        }
+        // One pass: the inputs are applied to a copy, committed only if every reference and value
+        // is good (no partial update on error).
         let mut u = self.model.inputs;
         let mut at = 0;
         for &r in refs {
-            let var = &self.variables[r as usize];
-            let v = &values[at..at + var.len()];
-            at += var.len();
-            if var.causality != Causality::Input {
-                return Err(SubsystemError::BadValue { name: var.name.clone(), problem: "is not an input".into() });
+            let len = *self.lens.get(r as usize).ok_or(SubsystemError::UnknownValueReference(r))?;
+            let Some(v) = values.get(at..at + len) else {
+                let n = element_count(&self.variables, refs)?;
+                return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
+            };
+            at += len;
+            if r > vr::BEARING_ANGULAR_ACCELERATION {
+                let name = self.variables[r as usize].name.clone();
+                return Err(SubsystemError::BadValue { name, problem: "is not an input".into() });
             }
             if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
-                return Err(SubsystemError::BadValue {
-                    name: var.name.clone(),
-                    problem: format!("{bad} is not finite"),
-                });
+                let name = self.variables[r as usize].name.clone();
+                return Err(SubsystemError::BadValue { name, problem: format!("{bad} is not finite") });
             }
             match r {
                 vr::EFFECTIVE_MASS => u.effective_mass = from_row_major(v),
@@ -534,21 +561,27 @@ impl Subsystem for InterfaceSubsystem {
                 _ => u.bearing_angular_acceleration = v[0],
             }
         }
+        if at != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), at)));
+        }
         self.model.inputs = u;
         self.model.input_time = self.time.seconds();
         Ok(())
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        let n = element_count(&self.variables, refs)?;
-        if n != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
-        }
         let mut at = 0;
         for &r in refs {
-            let len = self.variables[r as usize].len();
-            self.outputs(r, &mut values[at..at + len]);
+            let len = *self.lens.get(r as usize).ok_or(SubsystemError::UnknownValueReference(r))?;
+            let Some(out) = values.get_mut(at..at + len) else {
+                let n = element_count(&self.variables, refs)?;
+                return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
+            };
+            self.outputs(r, out);
             at += len;
+        }
+        if at != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), at)));
         }
         Ok(())
     }

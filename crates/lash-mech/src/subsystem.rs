@@ -311,6 +311,12 @@ impl MechanismSubsystem {
 
     /// Motion at `t` of a fully driven mechanism: position and velocity analysis.
     fn kinematic_motion(&mut self, t: f64) -> Result<(), String> {
+        // Second-order Taylor prediction from the last node: Newton then needs one or two
+        // iterations instead of several across a 30° step.
+        let h = t - self.time.seconds();
+        for k in 0..self.q.len() {
+            self.q[k] += h * self.qd[k] + 0.5 * h * h * self.qdd[k];
+        }
         assemble(&self.ideal, t, &mut self.q, &mut self.ideal_solver, 1e-13).map_err(|e| e.to_string())?;
         velocity_analysis(&self.ideal, t, &self.q, &mut self.qd, &mut self.ideal_solver).map_err(|e| e.to_string())
     }

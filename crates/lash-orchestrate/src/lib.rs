@@ -552,6 +552,27 @@ impl<'a> InterfaceMaster<'a> {
             }
             let mut micro_count = 0u64;
             let mut inputs = [0.0; 16];
+            // Observers due after micro step `j` (count `n`) of the macro step.
+            let observe = |n: u64,
+                           j: usize,
+                           t: Ticks,
+                           w: &Window<'_>,
+                           micro: &[f64],
+                           signals: &mut [f64],
+                           observers: &mut [(&mut dyn Observer, Ticks)]|
+             -> Result<(), MasterError> {
+                if decimation.iter().all(|d| n % d != 0) {
+                    return Ok(());
+                }
+                fill_signals(&resolved, w, (j + 1) as f64 / per_macro as f64, micro, signals);
+                let t1 = Ticks(t.0 + o.micro_step.0);
+                for ((obs, _), d) in observers.iter_mut().zip(&decimation) {
+                    if n % d == 0 {
+                        obs.observe(t1, signals).map_err(MasterError::Observer)?;
+                    }
+                }
+                Ok(())
+            };
             for k in 0..macro_steps {
                 let t_k = Ticks(o.start.0 + k as i64 * o.macro_step.0);
                 // Two-way: save the macro at t_k and predict with the eccentricity extrapolated.
@@ -581,8 +602,20 @@ impl<'a> InterfaceMaster<'a> {
                     h: h_m,
                 };
                 let kind = o.interpolation;
+                // Linear and held inputs are exact as value + rate from the macro node: the micro
+                // subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once per
+                // macro step (as FMI input derivatives). Cubic Hermite is set at every micro step.
+                let every_micro_step = kind == Interpolation::CubicHermite;
                 for j in 0..per_macro {
                     let s = j as f64 / per_macro as f64;
+                    if j > 0 && !every_micro_step {
+                        let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
+                        micro_sub.do_step(t, o.micro_step).map_err(micro_err)?;
+                        micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
+                        micro_count += 1;
+                        observe(micro_count, j, t, &w, &micro_values, &mut signals, observers)?;
+                        continue;
+                    }
                     for e in 0..4 {
                         (inputs[e], inputs[4 + e]) = w.coupling(kind, index.mass + e, s);
                     }
@@ -599,17 +632,7 @@ impl<'a> InterfaceMaster<'a> {
                     micro_sub.do_step(t, o.micro_step).map_err(micro_err)?;
                     micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
                     micro_count += 1;
-                    let due = decimation.iter().any(|d| micro_count % d == 0);
-                    if due {
-                        let s1 = (j + 1) as f64 / per_macro as f64;
-                        fill_signals(&resolved, &w, s1, &micro_values, &mut signals);
-                        let t1 = Ticks(t.0 + o.micro_step.0);
-                        for ((obs, _), d) in observers.iter_mut().zip(&decimation) {
-                            if micro_count % d == 0 {
-                                obs.observe(t1, &signals).map_err(MasterError::Observer)?;
-                            }
-                        }
-                    }
+                    observe(micro_count, j, t, &w, &micro_values, &mut signals, observers)?;
                 }
                 drop(_span);
                 stats.micro_seconds += started.elapsed().as_secs_f64();

@@ -204,6 +204,64 @@ pub fn scenario_a_motor() -> Scenario {
     s
 }
 
+/// A planar radial engine of `cylinders` slider-cranks on one star-shaped crank (pins at
+/// 2πk/N, all at top dead centre at t = 0), crank driven at 5000 rpm about its centroid, clearance
+/// of 100 µm at the crank–ground joint: 1 + 2N bodies, for the scaling benchmark. Each unit has
+/// scenario A's rod and slider; the crank's mass and inertia grow with N.
+pub fn radial_engine(cylinders: usize) -> Scenario {
+    let mut s = slider_crank(
+        &format!("radial-{cylinders}"),
+        "Radial engine for the scaling benchmark: N slider-cranks on one crank, clearance at the \
+         crank–ground joint.",
+    );
+    let (l1, l2) = (CRANK_LENGTH, ROD_LENGTH);
+    let n = cylinders.max(1);
+    let crank = s.bodies[0].clone();
+    let (rod, slider) = (s.bodies[1].clone(), s.bodies[2].clone());
+    s.bodies = vec![BodySpec {
+        position: [0.0, 0.0],
+        mass: crank.mass * n as f64,
+        inertia: crank.inertia * n as f64,
+        angular_velocity: CRANK_SPEED,
+        ..crank
+    }];
+    let guide = s.joints[3].clone();
+    let pivot = JointSpec { point1: [0.0, 0.0], ..s.joints[0].clone() };
+    let pin = s.joints[1].clone();
+    let small_end = s.joints[2].clone();
+    s.joints = vec![pivot];
+    s.sensors.clear();
+    for k in 0..n {
+        let phi = std::f64::consts::TAU * k as f64 / n as f64;
+        let (c, sn) = (phi.cos(), phi.sin());
+        let at = |r: f64| [r * c, r * sn];
+        s.bodies.push(BodySpec { name: format!("rod{k}"), position: at(l1 + l2 / 2.0), angle: phi, ..rod.clone() });
+        s.bodies.push(BodySpec { name: format!("slider{k}"), position: at(l1 + l2), angle: phi, ..slider.clone() });
+        s.joints.push(JointSpec {
+            name: format!("crank_rod{k}"),
+            body2: format!("rod{k}"),
+            point1: at(l1),
+            ..pin.clone()
+        });
+        s.joints.push(JointSpec {
+            name: format!("rod{k}_slider{k}"),
+            body1: format!("slider{k}"),
+            body2: format!("rod{k}"),
+            ..small_end.clone()
+        });
+        s.joints.push(JointSpec {
+            name: format!("guide{k}"),
+            body1: format!("slider{k}"),
+            axis: Some([c, sn]),
+            angle_offset: Some(phi),
+            ..guide.clone()
+        });
+        s.sensors.push(SensorSpec { name: format!("slider{k}"), body: format!("slider{k}"), point: [0.0, 0.0] });
+    }
+    s.clearances.push(clearance("crank_pivot", "crank", 100e-6, AMBROSIO));
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -218,5 +276,14 @@ mod tests {
             assert_eq!(back, s, "{name}");
         }
         assert!(by_name("C").is_none());
+    }
+
+    #[test]
+    fn radial_engines_are_valid_and_one_cylinder_is_a_slider_crank() {
+        for n in [1, 2, 5, 9] {
+            let s = radial_engine(n);
+            assert!(crate::validate(&s).is_empty(), "{n}: {}", crate::validate(&s));
+            assert_eq!(s.bodies.len(), 1 + 2 * n);
+        }
     }
 }

@@ -140,24 +140,12 @@ impl ReducedRun {
         } else {
             (0..sources.len()).filter(|&k| scenario.output.channels.contains(&sources[k].0.name)).collect()
         };
-        // Probes: every sensor, every ideal joint of the cut mechanism, every driver.
-        let mut probes = Vec::new();
-        for sen in &scenario.sensors {
-            let body = cut.body_id(&sen.body).expect("validated");
-            probes.push(Probe::Point { name: sen.name.clone(), body, point: Vec2::new(sen.point[0], sen.point[1]) });
-        }
         let joint_names: Vec<&str> = scenario
             .joints
             .iter()
             .filter(|j| !scenario.clearances.iter().any(|c| c.joint == j.name))
             .map(|j| j.name.as_str())
             .collect();
-        for (k, name) in joint_names.iter().enumerate() {
-            probes.push(Probe::JointReaction { name: name.to_string(), joint: k });
-        }
-        for (k, d) in scenario.drivers.iter().enumerate() {
-            probes.push(Probe::DriverTorque { name: d.name.clone(), driver: k });
-        }
         // One signal per recorded channel; eccentricity and force magnitude always (summary).
         let mut recorded: Vec<usize> = selected.clone();
         for name in ["eccentricity", "force"] {
@@ -172,6 +160,23 @@ impl ReducedRun {
         let signals =
             recorded.iter().map(|&k| signal(scenario, &joint_names, &sources[k].0, sources[k].1)).collect::<Vec<_>>();
         let sources_recorded: Vec<(Channel, Source)> = recorded.iter().map(|&k| sources[k].clone()).collect();
+        // Probes (propagation maps exported by the macro subsystem) for the recorded channels only.
+        let mut probes: Vec<Probe> = Vec::new();
+        for (_, src) in &sources_recorded {
+            let probe = match *src {
+                Source::Sensor(k, _) => {
+                    let sen = &scenario.sensors[k];
+                    let body = cut.body_id(&sen.body).expect("validated");
+                    Probe::Point { name: sen.name.clone(), body, point: Vec2::new(sen.point[0], sen.point[1]) }
+                }
+                Source::JointReaction(k, _) => Probe::JointReaction { name: joint_names[k].to_string(), joint: k },
+                Source::DriverTorque(k) => Probe::DriverTorque { name: scenario.drivers[k].name.clone(), driver: k },
+                Source::Clearance(..) | Source::ConstraintError => continue,
+            };
+            if !probes.contains(&probe) {
+                probes.push(probe);
+            }
+        }
         let selected_positions = (0..selected.len()).collect();
 
         let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interface, probes, options.coupling);
