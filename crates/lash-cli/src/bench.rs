@@ -239,7 +239,9 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
 fn scaling(quick: bool) -> Result<(), CliError> {
     use lash_scenario::{ReducedOptions, ReducedRun};
     println!("scaling: radial engines, clearance at the crank–ground joint, 0.02 s, slider0.ax every 1e-5 s");
-    println!("  cylinders  bodies   full RK4 1e-5 [ms]   reduced [ms]   ratio   reduced ns/micro step");
+    println!(
+        "  cylinders  bodies   full RK4 1e-5 [ms]   reduced [ms]   ratio   micro+observers [ns/micro step]   macro [µs/macro step]"
+    );
     let horizon = if quick { 0.01 } else { 0.02 };
     for cylinders in [1, 3, 5, 7, 9] {
         let mut s = builtin::radial_engine(cylinders);
@@ -251,12 +253,13 @@ fn scaling(quick: bool) -> Result<(), CliError> {
         let (red_ms, red) = time_runner(
             &mut ReducedRun::new(&s, ReducedOptions::default()).map_err(|e| CliError::Failure(e.to_string()))?,
         )?;
-        let micro = red.reduced.as_ref().map(|r| r.master.micro_steps).unwrap_or(1);
+        let master = red.reduced.as_ref().map(|r| r.master).unwrap_or_default();
         println!(
-            "  {cylinders:9}  {:6}   {full_ms:18.2}   {red_ms:12.2}   {:5.1}×  {:10.0}",
+            "  {cylinders:9}  {:6}   {full_ms:18.2}   {red_ms:12.2}   {:5.1}×   {:31.0}   {:21.1}",
             s.bodies.len(),
             full_ms / red_ms,
-            red_ms * 1e6 / micro as f64
+            master.micro_seconds * 1e9 / master.micro_steps.max(1) as f64,
+            master.macro_seconds * 1e6 / master.macro_steps.max(1) as f64
         );
     }
     Ok(())

@@ -82,7 +82,7 @@ impl ClearanceJoint {
 
     /// Geometry and forces from the eccentricity `e`, its rate `e_dot` and the two bodies' angular
     /// velocities (the interface view of the reduced model). `journal_centre` is left at zero.
-    #[inline]
+    #[inline(always)]
     pub fn evaluate_relative(
         &self,
         e: Vec2,

@@ -49,7 +49,7 @@ pub enum FrictionLaw {
 
 impl FrictionLaw {
     /// The signed coefficient μ(v_t).
-    #[inline]
+    #[inline(always)]
     pub fn coefficient(&self, v: f64) -> f64 {
         let s = if v > 0.0 {
             1.0

@@ -186,7 +186,7 @@ pub enum NormalForce {
 impl NormalForce {
     /// Normal force for penetration `delta` > 0, rate `delta_dot` (> 0 approaching) and onset
     /// velocity `onset` (the δ̇ captured when this contact began). Clipped at 0.
-    #[inline]
+    #[inline(always)]
     pub fn force(&self, delta: f64, delta_dot: f64, onset: f64) -> f64 {
         if delta <= 0.0 {
             return 0.0;

@@ -109,7 +109,7 @@ impl InterfaceModel {
     }
 
     /// Contact state at (e, ė) at time `t`, using the current mode.
-    #[inline]
+    #[inline(always)]
     pub fn contact_at(&self, t: f64, e: Vec2, ed: Vec2) -> ContactState {
         let dt = t - self.input_time;
         let u = &self.inputs;
@@ -126,7 +126,7 @@ impl InterfaceModel {
 
     /// f_c at (t, e, ė) alone: in free flight (|e| ≤ c, so F_N = F_T = 0) nothing but |e|² is
     /// computed.
-    #[inline]
+    #[inline(always)]
     fn contact_force_at(&self, t: f64, e: Vec2, ed: Vec2) -> Vec2 {
         let c = self.joint.radial_clearance();
         if e.norm_squared() <= c * c {
@@ -136,13 +136,13 @@ impl InterfaceModel {
     }
 
     /// ë and f_c at (t, e, ė).
-    #[inline]
+    #[inline(always)]
     fn acceleration(&self, t: f64, e: Vec2, ed: Vec2) -> (Vec2, Vec2) {
         self.acceleration_with(t, self.contact_force_at(t, e, ed))
     }
 
     /// ë at t for a given contact force: M̃(t)⁻¹ (f̃(t) + f_c) by Cramer's rule.
-    #[inline]
+    #[inline(always)]
     fn acceleration_with(&self, t: f64, fc: Vec2) -> (Vec2, Vec2) {
         let dt = t - self.input_time;
         let u = &self.inputs;
