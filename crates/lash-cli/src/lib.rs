@@ -7,13 +7,15 @@
 //! lash scenarios                 # list the built-in scenarios
 //! lash show <name>               # print a built-in scenario as TOML
 //! lash channels <scenario>       # list output channels
-//! lash bench [--quick]           # benchmarks of the full model
+//! lash bench [--quick]           # benchmarks of the full and reduced models
+//! lash fmu pack --out <dir>      # FMI 3.0 FMUs of the subsystems
 //! ```
 //!
 //! Exit codes: 0 success, 1 simulation or output failure, 2 invalid input.
 
 mod bench;
 mod compare;
+mod fmu;
 mod plots;
 mod run;
 
@@ -175,12 +177,28 @@ enum Command {
         #[arg(long)]
         ideal: bool,
     },
+    /// FMI: build the .fmu archives of lash's subsystems.
+    Fmu {
+        #[command(subcommand)]
+        command: FmuCommand,
+    },
     /// Benchmarks: cost of one RK4 step of the full model of scenario B, and wall time of the
     /// converged adaptive run of B over 0.036 s.
     Bench {
         /// Fewer repetitions.
         #[arg(long)]
         quick: bool,
+    },
+}
+
+/// `lash fmu …` subcommands.
+#[derive(Subcommand, Debug)]
+enum FmuCommand {
+    /// Write the FMI 3.0 co-simulation FMUs (the clearance interface) into --out.
+    Pack {
+        /// Output directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
     },
 }
 
@@ -312,5 +330,6 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             Ok(())
         }
         Command::Bench { quick } => bench::run(quick),
+        Command::Fmu { command: FmuCommand::Pack { out } } => fmu::pack(&out),
     }
 }

@@ -383,7 +383,7 @@ impl InterfaceSubsystem {
         if matches!(integrator, MicroIntegrator::Rk4 { .. }) && micro_step.0 <= 0 {
             return Err(SubsystemError::BadValue { name: "micro_step".into(), problem: "must be > 0".into() });
         }
-        use Causality::{Input, Output, Parameter};
+        use Causality::{Input, Local, Output};
         use Variability::{Continuous as C, Discrete as D, Fixed};
         let mut t = VariableTable::new();
         let eye = [1.0, 0.0, 0.0, 1.0];
@@ -407,7 +407,7 @@ impl InterfaceSubsystem {
         t.add("slip_velocity", Output, C, "m/s", "relative tangential velocity", &[], &[0.0]);
         t.add("impacts", Output, D, "1", "completed impacts", &[], &[0.0]);
         t.add("in_contact", Output, D, "1", "1 in contact, 0 in free flight", &[], &[0.0]);
-        t.add("radial_clearance", Parameter, Fixed, "m", "c = R_B - R_J", &[], &[joint.radial_clearance()]);
+        t.add("radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &[], &[joint.radial_clearance()]);
         t.add("contact_force_magnitude", Output, C, "N", "|f_c|", &[], &[0.0]);
         let model = InterfaceModel::new(joint);
         let state = model.contact_at(0.0, Vec2::zeros(), Vec2::zeros());

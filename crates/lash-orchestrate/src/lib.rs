@@ -561,13 +561,13 @@ impl<'a> InterfaceMaster<'a> {
                            signals: &mut [f64],
                            observers: &mut [(&mut dyn Observer, Ticks)]|
              -> Result<(), MasterError> {
-                if decimation.iter().all(|d| n % d != 0) {
+                if decimation.iter().all(|d| !n.is_multiple_of(*d)) {
                     return Ok(());
                 }
                 fill_signals(&resolved, w, (j + 1) as f64 / per_macro as f64, micro, signals);
                 let t1 = Ticks(t.0 + o.micro_step.0);
                 for ((obs, _), d) in observers.iter_mut().zip(&decimation) {
-                    if n % d == 0 {
+                    if n.is_multiple_of(*d) {
                         obs.observe(t1, signals).map_err(MasterError::Observer)?;
                     }
                 }

@@ -1,0 +1,52 @@
+//! `lash fmu pack`: the FMUs as `.fmu` archives (FMI 3.0 co-simulation, x86_64-linux).
+//!
+//! An archive holds `modelDescription.xml` (generated from the subsystem's variables by
+//! `lash-fmi`) and `binaries/x86_64-linux/<modelIdentifier>.so`, the cdylib built from `fmus/`
+//! (`cargo build --release --workspace` builds it next to the `lash` binary).
+
+use crate::CliError;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The shared library of `identifier`, looked up next to the running binary.
+fn library(identifier: &str) -> Result<PathBuf, CliError> {
+    let exe = std::env::current_exe().map_err(|e| CliError::Failure(format!("cannot locate the lash binary: {e}")))?;
+    let dir = exe.parent().unwrap_or(Path::new("."));
+    let file = format!("lib{identifier}.so");
+    [dir.join(&file), dir.join("deps").join(&file), dir.join("..").join(&file)]
+        .into_iter()
+        .find(|p| p.is_file())
+        .ok_or_else(|| {
+            CliError::Failure(format!(
+                "{file} not found next to {}: build the FMU libraries with `cargo build --release --workspace`",
+                exe.display()
+            ))
+        })
+}
+
+/// Writes `<out>/<identifier>.fmu` from a description and a library.
+fn pack_one(out: &Path, identifier: &str, description: &str) -> Result<PathBuf, CliError> {
+    let lib = library(identifier)?;
+    let binary = std::fs::read(&lib).map_err(|e| CliError::Failure(format!("{}: {e}", lib.display())))?;
+    std::fs::create_dir_all(out).map_err(|e| CliError::Failure(format!("{}: {e}", out.display())))?;
+    let path = out.join(format!("{identifier}.fmu"));
+    let partial = out.join(format!("{identifier}.fmu.partial"));
+    let fail = |e: &dyn std::fmt::Display| CliError::Failure(format!("{}: {e}", partial.display()));
+    let file = std::fs::File::create(&partial).map_err(|e| fail(&e))?;
+    let mut zip = zip::ZipWriter::new(file);
+    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    zip.start_file("modelDescription.xml", options).map_err(|e| fail(&e))?;
+    zip.write_all(description.as_bytes()).map_err(|e| fail(&e))?;
+    zip.start_file(format!("binaries/x86_64-linux/{identifier}.so"), options).map_err(|e| fail(&e))?;
+    zip.write_all(&binary).map_err(|e| fail(&e))?;
+    zip.finish().map_err(|e| fail(&e))?;
+    std::fs::rename(&partial, &path).map_err(|e| fail(&e))?;
+    Ok(path)
+}
+
+/// `lash fmu pack --out <dir>`.
+pub fn pack(out: &Path) -> Result<(), CliError> {
+    let path = pack_one(out, lash_interface::MODEL_IDENTIFIER, &lash_interface::model_description())?;
+    println!("{}", path.display());
+    Ok(())
+}

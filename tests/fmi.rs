@@ -1,0 +1,57 @@
+//! FMI 3.0 export judged by fmpy: the packed interface FMU is validated, simulated, and driven by a
+//! Python master through fmpy's low-level API (tests/fmi/interface_fmu.py). fmpy is installed from
+//! PyPI into target/fmpy-venv on first use.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A Python virtual environment with fmpy under target/, made once.
+fn fmpy_python() -> PathBuf {
+    let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
+    let venv = target.join("fmpy-venv");
+    let python = venv.join("bin/python");
+    if !python.exists() {
+        let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3 is needed").success();
+        assert!(ok, "creating {}", venv.display());
+    }
+    let has_fmpy = Command::new(&python).args(["-c", "import fmpy"]).status().map(|s| s.success()).unwrap_or(false);
+    if !has_fmpy {
+        let ok = Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32"])
+            .status()
+            .expect("pip")
+            .success();
+        assert!(ok, "installing fmpy from PyPI into {}", venv.display());
+    }
+    python
+}
+
+#[test]
+fn fmpy_validates_simulates_and_drives_the_interface_fmu() {
+    // The FMU's shared library is a cdylib that `cargo test` does not link anywhere: the README's
+    // test command builds it first (`cargo build --release --workspace`).
+    let lib = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_interface.so");
+    assert!(lib.exists(), "{} is missing: run `cargo build --release --workspace` before the tests", lib.display());
+    let out = std::env::temp_dir().join(format!("lash-fmi-{}", std::process::id()));
+    let pack = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "pack", "--out"]).arg(&out).output().unwrap();
+    assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
+    let fmu_path = out.join("lash_interface.fmu");
+    let python = fmpy_python();
+    let run = |args: &[&str]| {
+        let o = Command::new(&python).args(args).output().unwrap();
+        let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+        assert!(o.status.success(), "{args:?}: {text}");
+        text
+    };
+    let fmu_str = fmu_path.to_str().unwrap();
+    let validate = run(&["-m", "fmpy.cli", "validate", fmu_str]);
+    assert!(validate.contains("No problems found"), "{validate}");
+    let csv = out.join("simulate.csv");
+    run(&["-m", "fmpy.cli", "simulate", fmu_str, "--output-file", csv.to_str().unwrap()]);
+    let rows = std::fs::read_to_string(&csv).unwrap().lines().count();
+    assert_eq!(rows, 1 + 1001, "0.01 s at 1e-5 s, both ends");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmi/interface_fmu.py");
+    let text = run(&[script.to_str().unwrap(), fmu_str]);
+    assert!(text.contains("OK"), "{text}");
+    let _ = std::fs::remove_dir_all(&out);
+}
