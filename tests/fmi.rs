@@ -1,6 +1,8 @@
-//! FMI 3.0 export judged by fmpy: the packed interface FMU is validated, simulated, and driven by a
-//! Python master through fmpy's low-level API (tests/fmi/interface_fmu.py). fmpy is installed from
-//! PyPI into target/fmpy-venv on first use.
+//! FMI 3.0 export judged by fmpy: both packed FMUs are validated; the interface FMU is simulated
+//! and driven by a Python master through fmpy's low-level API (tests/fmi/interface_fmu.py); a
+//! Python master co-simulates the mechanism and interface FMUs with lash's multirate scheme and
+//! must reproduce lash's in-process slider acceleration (tests/fmi/reduced_cosim.py). fmpy is
+//! installed from PyPI into target/fmpy-venv on first use.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -27,7 +29,7 @@ fn fmpy_python() -> PathBuf {
 }
 
 #[test]
-fn fmpy_validates_simulates_and_drives_the_interface_fmu() {
+fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     // The FMU's shared library is a cdylib that `cargo test` does not link anywhere: the README's
     // test command builds it first (`cargo build --release --workspace`).
     let lib = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_interface.so");
@@ -53,5 +55,26 @@ fn fmpy_validates_simulates_and_drives_the_interface_fmu() {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmi/interface_fmu.py");
     let text = run(&[script.to_str().unwrap(), fmu_str]);
     assert!(text.contains("OK"), "{text}");
+    let mechanism = out.join("lash_mechanism.fmu");
+    let validate = run(&["-m", "fmpy.cli", "validate", mechanism.to_str().unwrap()]);
+    assert!(validate.contains("No problems found"), "{validate}");
+
+    // A Python master co-simulating both FMUs reproduces lash's in-process reduced run.
+    let reduced = out.join("reduced");
+    let o = Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(["run", "A", "--model", "reduced", "--quiet", "--out"])
+        .arg(&reduced)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmi/reduced_cosim.py");
+    let text = run(&[
+        script.to_str().unwrap(),
+        mechanism.to_str().unwrap(),
+        fmu_str,
+        reduced.join("timeseries.csv").to_str().unwrap(),
+    ]);
+    eprintln!("{text}");
+    assert!(text.contains("bit-identical"), "{text}");
     let _ = std::fs::remove_dir_all(&out);
 }

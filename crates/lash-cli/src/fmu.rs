@@ -46,7 +46,8 @@ fn pack_one(out: &Path, identifier: &str, description: &str) -> Result<PathBuf, 
 
 /// `lash fmu pack --out <dir>`.
 pub fn pack(out: &Path) -> Result<(), CliError> {
-    let path = pack_one(out, lash_interface::MODEL_IDENTIFIER, &lash_interface::model_description())?;
-    println!("{}", path.display());
+    for (identifier, description) in lash_catalog::descriptions().map_err(CliError::Failure)? {
+        println!("{}", pack_one(out, identifier, &description)?.display());
+    }
     Ok(())
 }

@@ -29,12 +29,14 @@ pub const FATAL: Status = 4;
 /// `fmi3LogMessageCallback`: (instanceEnvironment, status, category, message).
 pub type LogMessage = Option<unsafe extern "C" fn(*mut c_void, Status, *const c_char, *const c_char)>;
 
-/// A model that can be exported as an FMU.
-pub trait Exportable: Subsystem + Sized + 'static {
+/// A model that can be exported as an FMU: implemented by a marker type in the FMU crate.
+pub trait Exportable: 'static {
+    /// The subsystem behind the FMU.
+    type Model: Subsystem;
     /// Model name, identifier, token, description, default experiment.
     fn info() -> ModelInfo;
     /// A fresh instance (the FMU's resources folder, if the importer gave one).
-    fn create(resources: Option<&std::path::Path>) -> Result<Self, String>;
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String>;
 }
 
 /// Life-cycle state of an instance (FMI 3.0 co-simulation state machine, without event mode).
@@ -53,8 +55,8 @@ pub enum Mode {
 }
 
 /// An FMU instance: the model, the importer's logger and the life-cycle state.
-pub struct Instance<M> {
-    model: M,
+pub struct Instance<M: Exportable> {
+    model: M::Model,
     name: CString,
     environment: *mut c_void,
     log: LogMessage,
@@ -184,7 +186,7 @@ pub unsafe fn instantiate<M: Exportable>(
         match M::create(resources.as_deref()) {
             Ok(model) => {
                 let time_reference = time_value_reference(model.variables());
-                Box::into_raw(Box::new(Instance {
+                Box::into_raw(Box::new(Instance::<M> {
                     model,
                     name,
                     environment,

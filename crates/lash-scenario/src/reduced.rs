@@ -366,6 +366,11 @@ impl ReducedRun {
         &self.micro_sub
     }
 
+    /// The two subsystems, unstarted (for export as FMUs or for another master).
+    pub fn into_subsystems(self) -> (MechanismSubsystem, InterfaceSubsystem) {
+        (self.macro_sub, self.micro_sub)
+    }
+
     /// The macro subsystem after a run.
     pub fn macro_subsystem(&self) -> &MechanismSubsystem {
         &self.macro_sub

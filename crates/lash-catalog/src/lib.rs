@@ -1,0 +1,88 @@
+//! The catalogue of exported models: for each FMU, the subsystem it wraps and its FMI identity.
+//!
+//! The FMU crates under `fmus/` (cdylibs with the C symbols) and `lash fmu pack` (which writes the
+//! `modelDescription.xml`) both take the model from here, so the description and the binary are
+//! built from the same variable table and carry the same instantiation token. This crate holds no
+//! FFI: linking it twice is harmless, unlike the FMU crates' exported symbols.
+
+use lash_contact::micro::InterfaceSubsystem;
+use lash_core::Subsystem;
+use lash_fmi::{ModelInfo, instantiation_token};
+use lash_mech::MechanismSubsystem;
+
+/// Scenario A's reduced model, with the probes the exported mechanism carries.
+fn scenario_a_subsystems() -> Result<(MechanismSubsystem, InterfaceSubsystem), String> {
+    let mut a = lash_scenario::builtin::by_name("A").ok_or("built-in scenario A is missing")?;
+    a.output.channels = vec!["slider.ax".into(), "slider.ay".into(), "motor.torque".into()];
+    let run =
+        lash_scenario::ReducedRun::new(&a, lash_scenario::ReducedOptions::default()).map_err(|e| e.to_string())?;
+    Ok(run.into_subsystems())
+}
+
+/// Model identifier of the clearance-interface FMU.
+pub const INTERFACE: &str = "lash_interface";
+/// Model identifier of the mechanism FMU.
+pub const MECHANISM: &str = "lash_mechanism";
+
+/// The clearance interface (micro subsystem) of scenario A: RK4 at 1e-5 s.
+pub fn interface() -> Result<InterfaceSubsystem, String> {
+    scenario_a_subsystems().map(|s| s.1)
+}
+
+/// The slider-crank of scenario A (macro subsystem, one-way) with the slider and motor probes.
+pub fn mechanism() -> Result<MechanismSubsystem, String> {
+    scenario_a_subsystems().map(|s| s.0)
+}
+
+fn info(
+    name: &str,
+    identifier: &str,
+    description: &str,
+    vars: &[lash_core::Variable],
+    stop: f64,
+    step: f64,
+) -> ModelInfo {
+    ModelInfo {
+        model_name: name.into(),
+        model_identifier: identifier.into(),
+        instantiation_token: instantiation_token(name, vars),
+        description: description.into(),
+        default_experiment: (0.0, stop, step),
+    }
+}
+
+/// FMI identity of the interface FMU.
+pub fn interface_info() -> ModelInfo {
+    let vars = interface().map(|s| s.variables().to_vec()).unwrap_or_default();
+    info(
+        "lash clearance interface",
+        INTERFACE,
+        "Micro subsystem of lash's reduced interface model: M~ w'' = f~ + f_c(e, e') for a revolute clearance \
+         joint (scenario A's crank pivot), RK4 at 1e-5 s",
+        &vars,
+        0.01,
+        1e-5,
+    )
+}
+
+/// FMI identity of the mechanism FMU.
+pub fn mechanism_info() -> ModelInfo {
+    let vars = mechanism().map(|s| s.variables().to_vec()).unwrap_or_default();
+    info(
+        "lash slider-crank mechanism",
+        MECHANISM,
+        "Macro subsystem of lash's reduced interface model: scenario A's slider-crank (ideal motion), exporting \
+         M~, f~ and the propagation maps at each communication point",
+        &vars,
+        0.036,
+        1e-3,
+    )
+}
+
+/// `(model identifier, modelDescription.xml)` of every exported FMU.
+pub fn descriptions() -> Result<Vec<(&'static str, String)>, String> {
+    Ok(vec![
+        (INTERFACE, lash_fmi::description::fmi3(&interface_info(), interface()?.variables())),
+        (MECHANISM, lash_fmi::description::fmi3(&mechanism_info(), mechanism()?.variables())),
+    ])
+}
