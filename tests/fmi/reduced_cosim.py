@@ -1,5 +1,5 @@
 """A Python master co-simulating lash's two FMUs (mechanism = macro, interface = micro) with fmpy's
-low-level FMI 3.0 API, with the multirate scheme of lash's InterfaceMaster (one-way coupling,
+low-level API (FMI 3.0 or FMI 2.0, taken from the archives), with the multirate scheme of lash's InterfaceMaster (one-way coupling,
 linear interpolation: at each macro step the micro inputs are the values at the step start and the
 slopes to the next node; the slider acceleration is propagated at every micro step as
 free + gain . f_c with the maps interpolated linearly).
@@ -13,48 +13,82 @@ import shutil
 import sys
 
 from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 
-
-def open_fmu(path, name):
-    md = read_model_description(path)
-    d = extract(path)
-    s = FMU3Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-    s.instantiate()
-    sizes = {}
-    for v in md.modelVariables:
-        n = 1
-        for dim in v.dimensions:
-            n *= int(dim.start)
-        sizes[v.name] = (v.valueReference, n)
-    return s, sizes, d
+STOP = 0.036
 
 
-mech, mv, d1 = open_fmu(sys.argv[1], "mechanism")
-micro, uv, d2 = open_fmu(sys.argv[2], "interface")
+class Fmu:
+    """The same calls over FMI 3.0 (arrays) and FMI 2.0 (one scalar per element)."""
+
+    def __init__(self, path, name):
+        md = read_model_description(path)
+        self.dir = extract(path)
+        self.v3 = md.fmiVersion.startswith("3")
+        kind = FMU3Slave if self.v3 else FMU2Slave
+        self.s = kind(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName=name)
+        self.s.instantiate()
+        self.refs = {}
+        for v in md.modelVariables:
+            base = v.name.split("[")[0]
+            if self.v3:
+                n = 1
+                for dim in v.dimensions:
+                    n *= int(dim.start)
+                self.refs[base] = (v.valueReference, n)
+            else:
+                self.refs.setdefault(base, []).append(v.valueReference)
+        if self.v3:
+            self.s.enterInitializationMode(startTime=0.0, stopTime=STOP)
+        else:
+            self.s.setupExperiment(startTime=0.0, stopTime=STOP)
+            self.s.enterInitializationMode()
+        self.s.exitInitializationMode()
+
+    def get(self, name):
+        if self.v3:
+            vr, n = self.refs[name]
+            return self.s.getFloat64([vr], n)
+        return self.s.getReal(self.refs[name])
+
+    def set(self, names, values):
+        if self.v3:
+            self.s.setFloat64([self.refs[n][0] for n in names], values)
+        else:
+            self.s.setReal([vr for n in names for vr in self.refs[n]], values)
+
+    def step(self, t, h):
+        self.s.doStep(t, h)
+
+    def close(self):
+        self.s.terminate()
+        self.s.freeInstance()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+mech = Fmu(sys.argv[1], "mechanism")
+micro = Fmu(sys.argv[2], "interface")
 h_m, h_r, n_micro, n_macro = 1e-3, 1e-5, 100, 36
-for s in (mech, micro):
-    s.enterInitializationMode(startTime=0.0, stopTime=n_macro * h_m)
-    s.exitInitializationMode()
 
 names = ["effective_mass", "effective_force", "journal_angular_velocity", "bearing_angular_velocity",
          "slider.acceleration_free", "slider.acceleration_gain"]
 
 
 def frame():
-    return {n: mech.getFloat64([mv[n][0]], mv[n][1]) for n in names}
+    return {n: mech.get(n) for n in names}
 
 
-inputs = [uv[n][0] for n in ["effective_mass", "effective_mass_rate", "effective_force", "effective_force_rate",
-                              "journal_angular_velocity", "journal_angular_acceleration",
-                              "bearing_angular_velocity", "bearing_angular_acceleration"]]
-force_vr = uv["contact_force"][0]
+inputs = ["effective_mass", "effective_mass_rate", "effective_force", "effective_force_rate",
+          "journal_angular_velocity", "journal_angular_acceleration", "bearing_angular_velocity",
+          "bearing_angular_acceleration"]
 
 a = frame()
 ax = [a["slider.acceleration_free"][0]]
 for k in range(n_macro):
     t_k = k * h_m
-    mech.doStep(t_k, h_m)
+    mech.step(t_k, h_m)
     b = frame()
     values = []
     for name, count in [("effective_mass", 4), ("effective_force", 2)]:
@@ -63,24 +97,21 @@ for k in range(n_macro):
         values += value + rate
     for name in ["journal_angular_velocity", "bearing_angular_velocity"]:
         values += [a[name][0] + (b[name][0] - a[name][0]) * 0.0, (b[name][0] - a[name][0]) / h_m]
-    micro.setFloat64(inputs, values)
+    micro.set(inputs, values)
 
     def lerp(name, e, s):
         return a[name][e] + (b[name][e] - a[name][e]) * s
 
     for j in range(n_micro):
-        micro.doStep(t_k + j * h_r, h_r)
-        fx, fy = micro.getFloat64([force_vr], 2)
+        micro.step(t_k + j * h_r, h_r)
+        fx, fy = micro.get("contact_force")
         s = (j + 1) / n_micro
         ax.append(lerp("slider.acceleration_free", 0, s) + lerp("slider.acceleration_gain", 0, s) * fx
                   + lerp("slider.acceleration_gain", 1, s) * fy)
     a = b
 
-for s in (mech, micro):
-    s.terminate()
-    s.freeInstance()
-shutil.rmtree(d1, ignore_errors=True)
-shutil.rmtree(d2, ignore_errors=True)
+mech.close()
+micro.close()
 
 with open(sys.argv[3]) as f:
     rows = list(csv.reader(f))
@@ -90,6 +121,7 @@ assert len(lash) == len(ax), (len(lash), len(ax))
 peak = max(abs(v) for v in lash)
 worst = max(abs(p - q) for p, q in zip(ax, lash))
 identical = all(p == q for p, q in zip(ax, lash))
-print(f"fmpy master vs lash in-process: {len(ax)} samples, peak {peak:.6e} m/s^2, max difference {worst:.3e} "
+version = "3.0" if mech.v3 else "2.0"
+print(f"fmpy master (FMI {version}) vs lash in-process: {len(ax)} samples, peak {peak:.6e} m/s^2, max difference {worst:.3e} "
       f"({worst / peak:.3e} of the peak), bit-identical: {identical}")
 assert worst <= 1e-12 * peak, "the FMU co-simulation must reproduce lash's in-process result"

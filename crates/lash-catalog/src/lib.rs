@@ -79,10 +79,23 @@ pub fn mechanism_info() -> ModelInfo {
     )
 }
 
-/// `(model identifier, modelDescription.xml)` of every exported FMU.
-pub fn descriptions() -> Result<Vec<(&'static str, String)>, String> {
+/// FMI version of an archive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmiVersion {
+    /// FMI 3.0 (binaries/x86_64-linux).
+    V3,
+    /// FMI 2.0 (binaries/linux64).
+    V2,
+}
+
+/// `(model identifier, version, modelDescription.xml)` of every exported FMU, in both versions.
+pub fn descriptions() -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
+    use lash_fmi::description::{fmi2, fmi3};
+    let (i, m) = (interface()?, mechanism()?);
     Ok(vec![
-        (INTERFACE, lash_fmi::description::fmi3(&interface_info(), interface()?.variables())),
-        (MECHANISM, lash_fmi::description::fmi3(&mechanism_info(), mechanism()?.variables())),
+        (INTERFACE, FmiVersion::V3, fmi3(&interface_info(), i.variables())),
+        (MECHANISM, FmiVersion::V3, fmi3(&mechanism_info(), m.variables())),
+        (INTERFACE, FmiVersion::V2, fmi2(&interface_info(), i.variables())),
+        (MECHANISM, FmiVersion::V2, fmi2(&mechanism_info(), m.variables())),
     ])
 }

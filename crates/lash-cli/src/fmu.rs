@@ -1,10 +1,12 @@
-//! `lash fmu pack`: the FMUs as `.fmu` archives (FMI 3.0 co-simulation, x86_64-linux).
+//! `lash fmu pack`: the FMUs as `.fmu` archives (FMI 3.0 co-simulation for x86_64-linux, and FMI
+//! 2.0 co-simulation for linux64 from the same shared library).
 //!
 //! An archive holds `modelDescription.xml` (generated from the subsystem's variables by
 //! `lash-fmi`) and `binaries/x86_64-linux/<modelIdentifier>.so`, the cdylib built from `fmus/`
 //! (`cargo build --release --workspace` builds it next to the `lash` binary).
 
 use crate::CliError;
+use lash_catalog::FmiVersion;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -24,20 +26,25 @@ fn library(identifier: &str) -> Result<PathBuf, CliError> {
         })
 }
 
-/// Writes `<out>/<identifier>.fmu` from a description and a library.
-fn pack_one(out: &Path, identifier: &str, description: &str) -> Result<PathBuf, CliError> {
+/// Writes `<out>/<identifier>.fmu` (FMI 3.0) or `<out>/<identifier>-fmi2.fmu` from a description and
+/// the library.
+fn pack_one(out: &Path, identifier: &str, version: FmiVersion, description: &str) -> Result<PathBuf, CliError> {
     let lib = library(identifier)?;
     let binary = std::fs::read(&lib).map_err(|e| CliError::Failure(format!("{}: {e}", lib.display())))?;
     std::fs::create_dir_all(out).map_err(|e| CliError::Failure(format!("{}: {e}", out.display())))?;
-    let path = out.join(format!("{identifier}.fmu"));
-    let partial = out.join(format!("{identifier}.fmu.partial"));
+    let (file_name, platform) = match version {
+        FmiVersion::V3 => (format!("{identifier}.fmu"), "x86_64-linux"),
+        FmiVersion::V2 => (format!("{identifier}-fmi2.fmu"), "linux64"),
+    };
+    let path = out.join(&file_name);
+    let partial = out.join(format!("{file_name}.partial"));
     let fail = |e: &dyn std::fmt::Display| CliError::Failure(format!("{}: {e}", partial.display()));
     let file = std::fs::File::create(&partial).map_err(|e| fail(&e))?;
     let mut zip = zip::ZipWriter::new(file);
     let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     zip.start_file("modelDescription.xml", options).map_err(|e| fail(&e))?;
     zip.write_all(description.as_bytes()).map_err(|e| fail(&e))?;
-    zip.start_file(format!("binaries/x86_64-linux/{identifier}.so"), options).map_err(|e| fail(&e))?;
+    zip.start_file(format!("binaries/{platform}/{identifier}.so"), options).map_err(|e| fail(&e))?;
     zip.write_all(&binary).map_err(|e| fail(&e))?;
     zip.finish().map_err(|e| fail(&e))?;
     std::fs::rename(&partial, &path).map_err(|e| fail(&e))?;
@@ -46,8 +53,8 @@ fn pack_one(out: &Path, identifier: &str, description: &str) -> Result<PathBuf, 
 
 /// `lash fmu pack --out <dir>`.
 pub fn pack(out: &Path) -> Result<(), CliError> {
-    for (identifier, description) in lash_catalog::descriptions().map_err(CliError::Failure)? {
-        println!("{}", pack_one(out, identifier, &description)?.display());
+    for (identifier, version, description) in lash_catalog::descriptions().map_err(CliError::Failure)? {
+        println!("{}", pack_one(out, identifier, version, &description)?.display());
     }
     Ok(())
 }

@@ -173,6 +173,111 @@ pub fn fmi3(info: &ModelInfo, variables: &[Variable]) -> String {
     x
 }
 
+/// FMI 2.0 name of element `e` of `v` (structured convention, 1-based: `m[1,2]`).
+pub fn scalar_name(v: &Variable, e: usize) -> String {
+    match v.shape.as_slice() {
+        [] => v.name.clone(),
+        [_] => format!("{}[{}]", v.name, e + 1),
+        [_, cols] => format!("{}[{},{}]", v.name, e / cols + 1, e % cols + 1),
+        dims => {
+            let mut rest = e;
+            let mut idx = vec![0; dims.len()];
+            for (k, d) in dims.iter().enumerate().rev() {
+                idx[k] = rest % d + 1;
+                rest /= d;
+            }
+            format!("{}[{}]", v.name, idx.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(","))
+        }
+    }
+}
+
+/// The FMI 2.0 `modelDescription.xml` of a co-simulation FMU: one scalar per array element, value
+/// references numbered in variable order (the same order [`crate::fmi2`] maps back).
+pub fn fmi2(info: &ModelInfo, variables: &[Variable]) -> String {
+    let mut x = String::new();
+    let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
+    let _ = writeln!(
+        x,
+        r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" generationTool="lash {}" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
+        escape(&info.model_name),
+        escape(&info.instantiation_token),
+        escape(&info.description),
+        env!("CARGO_PKG_VERSION"),
+    );
+    let _ = writeln!(
+        x,
+        r#"  <CoSimulation modelIdentifier="{}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUstate="true" canSerializeFMUstate="false"/>"#,
+        escape(&info.model_identifier)
+    );
+    let mut units: Vec<&str> = variables.iter().map(|v| v.unit.as_str()).filter(|u| !u.is_empty()).collect();
+    units.sort_unstable();
+    units.dedup();
+    let _ = writeln!(x, "  <UnitDefinitions>");
+    for u in &units {
+        let _ = writeln!(x, r#"    <Unit name="{}"/>"#, escape(u));
+    }
+    let _ = writeln!(x, "  </UnitDefinitions>");
+    let (start, stop, step) = info.default_experiment;
+    let _ = writeln!(
+        x,
+        r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#,
+        number(start),
+        number(stop),
+        number(step)
+    );
+    let _ = writeln!(x, "  <ModelVariables>");
+    let mut index = 0;
+    let mut outputs = Vec::new();
+    for v in variables {
+        for e in 0..v.len() {
+            let vr = index;
+            index += 1;
+            let mut real = String::new();
+            match v.causality {
+                Causality::Input | Causality::Parameter => {
+                    let _ = write!(real, r#" start="{}""#, number(v.start.get(e).copied().unwrap_or(0.0)));
+                }
+                Causality::Output | Causality::Local => {}
+            }
+            if !v.unit.is_empty() {
+                let _ = write!(real, r#" unit="{}""#, escape(&v.unit));
+            }
+            let initial = match v.causality {
+                Causality::Output | Causality::Local => r#" initial="calculated""#,
+                _ => "",
+            };
+            if v.causality == Causality::Output {
+                outputs.push(index); // 1-based position in ModelVariables
+            }
+            let _ = writeln!(
+                x,
+                r#"    <ScalarVariable name="{}" valueReference="{vr}" description="{}" causality="{}" variability="{}"{initial}>"#,
+                escape(&scalar_name(v, e)),
+                escape(&v.description),
+                causality(v.causality),
+                variability(v.variability),
+            );
+            let _ = writeln!(x, "      <Real{real}/>");
+            let _ = writeln!(x, "    </ScalarVariable>");
+        }
+    }
+    let _ = writeln!(x, "  </ModelVariables>");
+    let _ = writeln!(x, "  <ModelStructure>");
+    let _ = writeln!(x, "    <Outputs>");
+    for i in &outputs {
+        let _ = writeln!(x, r#"      <Unknown index="{i}"/>"#);
+    }
+    let _ = writeln!(x, "    </Outputs>");
+    let _ = writeln!(x, "    <InitialUnknowns>");
+    for i in &outputs {
+        let _ = writeln!(x, r#"      <Unknown index="{i}"/>"#);
+    }
+    let _ = writeln!(x, "    </InitialUnknowns>");
+    let _ = writeln!(x, "  </ModelStructure>");
+    let _ = writeln!(x, "</fmiModelDescription>");
+    x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,6 +309,12 @@ mod tests {
             assert!(xml.contains(&format!(r#"<Unit name="{u}"/>"#)), "{u}");
         }
         assert!(xml.contains(r#"stepSize="1e-3""#), "{xml}");
+        // FMI 2.0: four scalars for M, one per element, outputs indexed 1-based.
+        let xml2 = fmi2(&info, &vars);
+        assert!(xml2.contains(r#"name="m[2,1]" valueReference="2""#), "{xml2}");
+        assert!(xml2.contains(r#"name="f[2]" valueReference="5""#), "{xml2}");
+        assert!(xml2.contains(r#"<Unknown index="5"/>"#) && xml2.contains(r#"<Unknown index="7"/>"#), "{xml2}");
+        assert_eq!(xml2.matches("<ScalarVariable").count(), 7);
         // The token depends on the variables.
         let mut t2 = VariableTable::new();
         t2.add("m", Causality::Input, Variability::Continuous, "kg", "", &[2, 2], &[0.0]);

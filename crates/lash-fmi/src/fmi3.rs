@@ -29,6 +29,48 @@ pub const FATAL: Status = 4;
 /// `fmi3LogMessageCallback`: (instanceEnvironment, status, category, message).
 pub type LogMessage = Option<unsafe extern "C" fn(*mut c_void, Status, *const c_char, *const c_char)>;
 
+/// `fmi2CallbackLogger`: (componentEnvironment, instanceName, status, category, message, ...).
+pub type Fmi2Logger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
+
+/// The importer's logger, FMI 3.0 or FMI 2.0 style.
+#[derive(Clone, Copy)]
+pub enum Logger {
+    /// No logger.
+    None,
+    /// FMI 3.0 `logMessage`.
+    Fmi3(unsafe extern "C" fn(*mut c_void, Status, *const c_char, *const c_char)),
+    /// FMI 2.0 `logger` (printf-style: the message is passed through "%s").
+    Fmi2(Fmi2Logger),
+}
+
+impl Logger {
+    /// Sends one message.
+    ///
+    /// # Safety
+    /// The callback and `environment` must be what the importer gave at instantiation.
+    pub(crate) unsafe fn send(
+        &self,
+        environment: *mut c_void,
+        name: &CStr,
+        status: Status,
+        category: &str,
+        text: &str,
+    ) {
+        let text = CString::new(format!("{}: {text}", name.to_string_lossy()))
+            .unwrap_or_else(|_| c"(message with a NUL byte)".into());
+        let category = CString::new(category).unwrap_or_default();
+        match *self {
+            Logger::None => {}
+            // SAFETY: per the contract above.
+            Logger::Fmi3(log) => unsafe { log(environment, status, category.as_ptr(), text.as_ptr()) },
+            // SAFETY: per the contract above; "%s" keeps any '%' in the text literal.
+            Logger::Fmi2(log) => unsafe {
+                log(environment, name.as_ptr(), status, category.as_ptr(), c"%s".as_ptr(), text.as_ptr())
+            },
+        }
+    }
+}
+
 /// A model that can be exported as an FMU: implemented by a marker type in the FMU crate.
 pub trait Exportable: 'static {
     /// The subsystem behind the FMU.
@@ -56,17 +98,21 @@ pub enum Mode {
 
 /// An FMU instance: the model, the importer's logger and the life-cycle state.
 pub struct Instance<M: Exportable> {
-    model: M::Model,
+    pub(crate) model: M::Model,
     name: CString,
     environment: *mut c_void,
-    log: LogMessage,
+    log: Logger,
     logging_on: bool,
-    mode: Mode,
+    pub(crate) mode: Mode,
     resources: Option<std::path::PathBuf>,
     time_reference: ValueReference,
     start: Option<(Ticks, Option<Ticks>)>,
     /// Values set before initialisation mode, applied when the subsystem is set up.
-    pending: Vec<(ValueReference, Vec<f64>)>,
+    pub(crate) pending: Vec<(ValueReference, Vec<f64>)>,
+    /// FMI 2.0 scalar value reference → (variable, element).
+    pub(crate) scalars: Vec<(ValueReference, usize)>,
+    /// FMI 2.0 setupExperiment: (start, stop).
+    pub(crate) experiment: (f64, Option<f64>),
 }
 
 impl<M: Exportable> Instance<M> {
@@ -74,21 +120,16 @@ impl<M: Exportable> Instance<M> {
         if status == OK && !self.logging_on {
             return;
         }
-        if let Some(log) = self.log {
-            let text = CString::new(format!("{}: {text}", self.name.to_string_lossy()))
-                .unwrap_or_else(|_| c"(message with a NUL byte)".into());
-            let category = CString::new(category).unwrap_or_default();
-            // SAFETY: the importer promised a valid callback and environment at instantiation.
-            unsafe { log(self.environment, status, category.as_ptr(), text.as_ptr()) };
-        }
+        // SAFETY: the importer promised a valid callback and environment at instantiation.
+        unsafe { self.log.send(self.environment, &self.name, status, category, text) };
     }
 
-    fn fail(&mut self, text: &str) -> Status {
+    pub(crate) fn fail(&mut self, text: &str) -> Status {
         self.message(ERROR, "logStatusError", text);
         ERROR
     }
 
-    fn require(&mut self, call: &str, allowed: &[Mode]) -> Result<(), Status> {
+    pub(crate) fn require(&mut self, call: &str, allowed: &[Mode]) -> Result<(), Status> {
         if allowed.contains(&self.mode) {
             Ok(())
         } else {
@@ -132,7 +173,7 @@ pub unsafe fn with_instance<M: Exportable>(
 ///
 /// # Safety
 /// `s` must be null or point to a NUL-terminated string.
-unsafe fn string(s: *const c_char) -> Option<String> {
+pub(crate) unsafe fn string(s: *const c_char) -> Option<String> {
     // SAFETY: per the contract above.
     (!s.is_null()).then(|| unsafe { CStr::from_ptr(s) }.to_string_lossy().into_owned())
 }
@@ -159,19 +200,32 @@ pub unsafe fn instantiate<M: Exportable>(
     environment: *mut c_void,
     log: LogMessage,
 ) -> *mut c_void {
+    let logger = log.map_or(Logger::None, Logger::Fmi3);
+    // SAFETY: forwarded.
+    unsafe { create_instance::<M>(name, token, resource_path, logging_on, event_mode_used, environment, logger) }
+}
+
+/// Instantiation shared by FMI 3.0 and FMI 2.0: checks the token, creates the model.
+///
+/// # Safety
+/// String arguments must be null or NUL-terminated; `logger` must be usable with `environment`.
+pub(crate) unsafe fn create_instance<M: Exportable>(
+    name: *const c_char,
+    token: *const c_char,
+    resource_path: *const c_char,
+    logging_on: bool,
+    event_mode_used: bool,
+    environment: *mut c_void,
+    logger: Logger,
+) -> *mut c_void {
     let result = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: forwarded from this function's contract.
         let (name, token, resources) = unsafe { (string(name), string(token), string(resource_path)) };
         let name = CString::new(name.unwrap_or_else(|| "lash".into())).unwrap_or_default();
         let resources = resources.filter(|r| !r.is_empty()).map(|r| resources_path(&r));
         let info = M::info();
-        let say = |text: String| {
-            if let Some(log) = log {
-                let text = CString::new(format!("{}: {text}", name.to_string_lossy())).unwrap_or_default();
-                // SAFETY: forwarded from this function's contract.
-                unsafe { log(environment, ERROR, c"logStatusError".as_ptr(), text.as_ptr()) };
-            }
-        };
+        // SAFETY: forwarded from this function's contract.
+        let say = |text: String| unsafe { logger.send(environment, &name, ERROR, "logStatusError", &text) };
         if token.as_deref() != Some(info.instantiation_token.as_str()) {
             say(format!(
                 "wrong instantiation token {:?}: this binary is {} (modelDescription.xml and binary do not match)",
@@ -186,17 +240,21 @@ pub unsafe fn instantiate<M: Exportable>(
         match M::create(resources.as_deref()) {
             Ok(model) => {
                 let time_reference = time_value_reference(model.variables());
+                let scalars =
+                    model.variables().iter().flat_map(|v| (0..v.len()).map(move |e| (v.value_reference, e))).collect();
                 Box::into_raw(Box::new(Instance::<M> {
                     model,
                     name,
                     environment,
-                    log,
+                    log: logger,
                     logging_on,
                     mode: Mode::Instantiated,
                     resources,
                     time_reference,
                     start: None,
                     pending: Vec::new(),
+                    scalars,
+                    experiment: (0.0, None),
                 })) as *mut c_void
             }
             Err(e) => {
@@ -339,7 +397,7 @@ pub unsafe fn reset<M: Exportable>(instance: *mut c_void) -> Status {
 ///
 /// # Safety
 /// A non-null `ptr` must point to `len` valid elements.
-unsafe fn slice<'a, T>(ptr: *const T, len: usize) -> Option<&'a [T]> {
+pub(crate) unsafe fn slice<'a, T>(ptr: *const T, len: usize) -> Option<&'a [T]> {
     if len == 0 {
         Some(&[])
     } else if ptr.is_null() {
@@ -354,7 +412,7 @@ unsafe fn slice<'a, T>(ptr: *const T, len: usize) -> Option<&'a [T]> {
 ///
 /// # Safety
 /// A non-null `ptr` must point to `len` valid, writable elements.
-unsafe fn slice_mut<'a, T>(ptr: *mut T, len: usize) -> Option<&'a mut [T]> {
+pub(crate) unsafe fn slice_mut<'a, T>(ptr: *mut T, len: usize) -> Option<&'a mut [T]> {
     if len == 0 {
         Some(&mut [])
     } else if ptr.is_null() {

@@ -1,15 +1,19 @@
-//! The FMI layer of lash (FMI 3.0 co-simulation export; FMI 2.0 and import are the next steps).
+//! The FMI layer of lash: FMI 3.0 and FMI 2.0 co-simulation export from one code path (import is
+//! the next step).
 //!
 //! * [`description`]: `modelDescription.xml` generated from any [`Subsystem`](lash_core::Subsystem)'s
 //!   variable table.
 //! * [`fmi3`]: the complete set of `fmi3Functions.h` symbols for any [`fmi3::Exportable`] model,
 //!   written into an FMU's cdylib by [`export_fmi3!`]. Every function checks its pointers and the
 //!   instance's state, catches panics, and reports errors through the importer's logger.
+//! * [`fmi2`]: the `fmi2Functions.h` symbols ([`export_fmi2!`]) over the same instances; arrays
+//!   become one scalar per element.
 //!
 //! This crate knows nothing of clearances: the physics crates implement `Subsystem`, an FMU crate
 //! under `fmus/` implements [`fmi3::Exportable`] and calls the macro.
 
 pub mod description;
+pub mod fmi2;
 pub mod fmi3;
 
 pub use description::{ModelInfo, instantiation_token};

@@ -24,3 +24,4 @@ impl Exportable for InterfaceFmu {
 }
 
 lash_fmi::export_fmi3!(InterfaceFmu);
+lash_fmi::export_fmi2!(InterfaceFmu);

@@ -37,7 +37,7 @@ fn instantiate(token: *const c_char) -> *mut c_void {
 }
 
 #[test]
-fn the_c_abi_refuses_bad_calls_and_leaks_nothing() {
+fn the_c_abis_refuse_bad_calls_and_leak_nothing() {
     use fmu::fmi3_exports::*;
     let token = token();
     assert!(instantiate(c"{wrong}".as_ptr()).is_null(), "a wrong instantiation token is refused");
@@ -96,6 +96,7 @@ fn the_c_abi_refuses_bad_calls_and_leaks_nothing() {
         );
         fmi3FreeInstance(i);
     }
+    fmi2_refuses_bad_calls_and_round_trips_array_elements();
     // 10 000 instantiate/initialise/step/free cycles leave no memory behind.
     let region = Region::new(GLOBAL);
     for _ in 0..10_000 {
@@ -109,4 +110,37 @@ fn the_c_abi_refuses_bad_calls_and_leaks_nothing() {
     }
     let stats = region.change();
     assert_eq!(stats.bytes_allocated as i64 - stats.bytes_deallocated as i64, 0, "{stats:?}");
+}
+
+/// FMI 2.0 over the same instances (run from the test above: the allocation count of that test
+/// must not see another test's allocations).
+fn fmi2_refuses_bad_calls_and_round_trips_array_elements() {
+    use fmu::fmi2_exports::*;
+    let token = token();
+    // SAFETY: null and valid pointers as the FMI 2.0 functions expect; each instance freed once.
+    unsafe {
+        let me = fmi2Instantiate(c"x".as_ptr(), 0, token.as_ptr(), std::ptr::null(), std::ptr::null(), 0, 0);
+        assert!(me.is_null(), "model exchange is refused");
+        let bad = fmi2Instantiate(c"x".as_ptr(), 1, c"{nope}".as_ptr(), std::ptr::null(), std::ptr::null(), 0, 0);
+        assert!(bad.is_null(), "a wrong GUID is refused");
+        assert_eq!(fmi2DoStep(std::ptr::null_mut(), 0.0, 1e-5, 1), 3);
+        let c = fmi2Instantiate(c"x".as_ptr(), 1, token.as_ptr(), std::ptr::null(), std::ptr::null(), 0, 0);
+        assert!(!c.is_null());
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 1, 0.01), 0);
+        // Element [2,2] of the 2×2 effective mass is scalar 3 (row-major, numbered from 0).
+        let (vr, value) = ([3u32], [0.25]);
+        assert_eq!(fmi2SetReal(c, vr.as_ptr(), 1, value.as_ptr()), 0, "set before initialisation");
+        assert_eq!(fmi2EnterInitializationMode(c), 0);
+        assert_eq!(fmi2ExitInitializationMode(c), 0);
+        let vrs = [0u32, 1, 2, 3];
+        let mut m = [0.0; 4];
+        assert_eq!(fmi2GetReal(c, vrs.as_ptr(), 4, m.as_mut_ptr()), 0);
+        assert_eq!(m, [1.0, 0.0, 0.0, 0.25], "one element changed, the others kept their start values");
+        assert_eq!(fmi2DoStep(c, 0.0, 1e-5, 1), 0);
+        let out = [100_000u32];
+        assert_eq!(fmi2GetReal(c, out.as_ptr(), 1, m.as_mut_ptr()), 3, "unknown value reference");
+        assert_eq!(fmi2GetInteger(c), 3, "unsupported functions answer fmi2Error");
+        assert_eq!(fmi2Terminate(c), 0);
+        fmi2FreeInstance(c);
+    }
 }

@@ -23,3 +23,4 @@ impl Exportable for MechanismFmu {
 }
 
 lash_fmi::export_fmi3!(MechanismFmu);
+lash_fmi::export_fmi2!(MechanismFmu);
