@@ -87,3 +87,79 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Packs the FMUs into a fresh temporary folder.
+fn packed(tag: &str) -> PathBuf {
+    let out = std::env::temp_dir().join(format!("lash-fmi-{tag}-{}", std::process::id()));
+    let pack = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "pack", "--out"]).arg(&out).output().unwrap();
+    assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
+    out
+}
+
+#[test]
+fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
+    use lash_core::{Coupling, Subsystem, Ticks};
+    use lash_fmi::import::ImportedFmu;
+    use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
+    let lib = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_interface.so");
+    assert!(lib.exists(), "{} is missing: run `cargo build --release --workspace` before the tests", lib.display());
+    let out = packed("import");
+    let cache = out.join("cache");
+
+    // In process: scenario A's reduced model, slider acceleration every micro step.
+    let mut a = lash_scenario::builtin::by_name("A").unwrap();
+    a.output.channels = vec!["slider.ax".into()];
+    let mut reference = Vec::new();
+    lash_scenario::ReducedRun::new(&a, lash_scenario::ReducedOptions::default())
+        .unwrap()
+        .execute(
+            &mut |row| {
+                reference.push(row[1]);
+                Ok(())
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+
+    for execution in [Execution::Sequential, Execution::Threaded] {
+        let mut mechanism = ImportedFmu::open(&out.join("lash_mechanism.fmu"), &cache, "mechanism").unwrap();
+        let mut interface = ImportedFmu::open(&out.join("lash_interface.fmu"), &cache, "interface").unwrap();
+        let stop = Ticks::from_seconds(0.036).unwrap();
+        mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+        interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+        let options = MasterOptions {
+            start: Ticks::ZERO,
+            stop,
+            macro_step: Ticks::from_seconds(1e-3).unwrap(),
+            micro_step: Ticks::from_seconds(1e-5).unwrap(),
+            interpolation: Interpolation::Linear,
+            coupling: Coupling::OneWay,
+            execution,
+        };
+        let signals = vec![Signal::Propagated {
+            name: "slider.ax".into(),
+            free: ("slider.acceleration_free".into(), 0),
+            gain: ("slider.acceleration_gain".into(), 0, 1),
+        }];
+        let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
+        let mut imported = Vec::new();
+        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
+            imported.push(v[0]);
+            Ok(())
+        };
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, options.micro_step)];
+        master.run(&mut observers).unwrap();
+        assert_eq!(imported.len(), reference.len());
+        let same = imported.iter().zip(&reference).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same, "{execution:?}: the imported FMUs must reproduce the in-process run bit for bit");
+    }
+
+    // Broken FMUs are clear errors.
+    let not_zip = out.join("broken.fmu");
+    std::fs::write(&not_zip, "not a zip").unwrap();
+    let e = ImportedFmu::open(&not_zip, &cache, "x").err().expect("refused").to_string();
+    assert!(e.contains("broken.fmu") && e.contains("not a zip archive"), "{e}");
+    let e = lash_fmi::import::parse_description("<fmiModelDescription><CoSimulation/>").unwrap_err();
+    assert!(e.contains("fmiVersion"), "{e}");
+    let _ = std::fs::remove_dir_all(&out);
+}

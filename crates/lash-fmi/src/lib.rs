@@ -1,5 +1,5 @@
-//! The FMI layer of lash: FMI 3.0 and FMI 2.0 co-simulation export from one code path (import is
-//! the next step).
+//! The FMI layer of lash: FMI 3.0 and FMI 2.0 co-simulation export from one code path, and FMI 3.0
+//! co-simulation import.
 //!
 //! * [`description`]: `modelDescription.xml` generated from any [`Subsystem`](lash_core::Subsystem)'s
 //!   variable table.
@@ -8,6 +8,8 @@
 //!   instance's state, catches panics, and reports errors through the importer's logger.
 //! * [`fmi2`]: the `fmi2Functions.h` symbols ([`export_fmi2!`]) over the same instances; arrays
 //!   become one scalar per element.
+//! * [`import`]: any FMI 3.0 co-simulation FMU as a `Subsystem` (cached unpacking, lenient
+//!   description parsing, a typed function table loaded with libloading).
 //!
 //! This crate knows nothing of clearances: the physics crates implement `Subsystem`, an FMU crate
 //! under `fmus/` implements [`fmi3::Exportable`] and calls the macro.
@@ -15,5 +17,6 @@
 pub mod description;
 pub mod fmi2;
 pub mod fmi3;
+pub mod import;
 
 pub use description::{ModelInfo, instantiation_token};
