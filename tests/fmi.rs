@@ -16,7 +16,8 @@ fn fmpy_python() -> PathBuf {
         let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3 is needed").success();
         assert!(ok, "creating {}", venv.display());
     }
-    let has_fmpy = Command::new(&python).args(["-c", "import fmpy"]).status().map(|s| s.success()).unwrap_or(false);
+    let has_fmpy =
+        Command::new(&python).args(["-c", "import fmpy"]).output().map(|o| o.status.success()).unwrap_or(false);
     if !has_fmpy {
         let ok = Command::new(&python)
             .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32"])

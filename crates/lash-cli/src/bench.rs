@@ -262,5 +262,82 @@ fn scaling(quick: bool) -> Result<(), CliError> {
             master.macro_seconds * 1e6 / master.macro_steps.max(1) as f64
         );
     }
+    fmi_section(quick)
+}
+
+/// The reduced model of A coupled by lash's master in process and through its own FMUs (packed,
+/// imported with libloading): same master, same signal, only the C boundary differs.
+fn fmi_section(quick: bool) -> Result<(), CliError> {
+    use lash_core::{Coupling, Subsystem, Ticks};
+    use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
+    let fail = |e: &dyn std::fmt::Display| CliError::Failure(e.to_string());
+    let dir = std::env::temp_dir().join(format!("lash-bench-fmu-{}", std::process::id()));
+    if let Err(e) = crate::fmu::pack_quiet(&dir) {
+        println!("FMI: skipped ({e})");
+        return Ok(());
+    }
+    let horizon = if quick { 0.1 } else { 0.5 };
+    let stop = Ticks::from_seconds(horizon).map_err(|e| fail(&e))?;
+    let options = MasterOptions {
+        start: Ticks::ZERO,
+        stop,
+        macro_step: Ticks::from_seconds(1e-3).map_err(|e| fail(&e))?,
+        micro_step: Ticks::from_seconds(1e-5).map_err(|e| fail(&e))?,
+        interpolation: Interpolation::Linear,
+        coupling: Coupling::OneWay,
+        execution: Execution::Sequential,
+    };
+    let signals = vec![Signal::Propagated {
+        name: "slider.ax".into(),
+        free: ("slider.acceleration_free".into(), 0),
+        gain: ("slider.acceleration_gain".into(), 0, 1),
+    }];
+    let run = |mech: &mut dyn Subsystem, micro: &mut dyn Subsystem| -> Result<(f64, f64), CliError> {
+        mech.setup(Ticks::ZERO, Some(stop)).map_err(|e| fail(&e))?;
+        micro.setup(Ticks::ZERO, Some(stop)).map_err(|e| fail(&e))?;
+        let mut master = InterfaceMaster::new(mech, micro, options, signals.clone()).map_err(|e| fail(&e))?;
+        let mut sum = 0.0;
+        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
+            sum += v[0];
+            Ok(())
+        };
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, options.micro_step)];
+        let t = Instant::now();
+        master.run(&mut observers).map_err(|e| fail(&e))?;
+        Ok((t.elapsed().as_secs_f64() * 1e3, black_box(sum)))
+    };
+    let cache = dir.join("cache");
+    let mut times = (Vec::new(), Vec::new());
+    let mut sums = (0.0, 0.0);
+    // Four rounds, the first one untimed: it pays the one-time costs of loading the libraries
+    // (relocations, first page faults), which are not per-step costs.
+    for round in 0..4 {
+        let (mut m, mut i) =
+            (lash_catalog::mechanism().map_err(|e| fail(&e))?, lash_catalog::interface().map_err(|e| fail(&e))?);
+        let (ms, s) = run(&mut m, &mut i)?;
+        if round > 0 {
+            times.0.push(ms);
+        }
+        sums.0 = s;
+        let open = |name: &str| lash_fmi::import::ImportedFmu::open(&dir.join(format!("{name}.fmu")), &cache, name);
+        let (mut m, mut i) =
+            (open("lash_mechanism").map_err(|e| fail(&e))?, open("lash_interface").map_err(|e| fail(&e))?);
+        let (ms, s) = run(&mut m, &mut i)?;
+        if round > 0 {
+            times.1.push(ms);
+        }
+        sums.1 = s;
+    }
+    let (inproc, imported) = (median(times.0), median(times.1));
+    let steps = (horizon / 1e-5).round();
+    println!("FMI: scenario A, {horizon} s, lash's master in process vs through its own FMI 3.0 FMUs (imported)");
+    println!("  in process                                     {inproc:9.2} ms");
+    println!(
+        "  through the FMUs                               {imported:9.2} ms   (ratio {:.2}, target ≤ 1.3; {:.0} ns per micro step at the C boundary; same result: {})",
+        imported / inproc,
+        (imported - inproc) * 1e6 / steps,
+        sums.0.to_bits() == sums.1.to_bits()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }

@@ -53,8 +53,17 @@ fn pack_one(out: &Path, identifier: &str, version: FmiVersion, description: &str
 
 /// `lash fmu pack --out <dir>`.
 pub fn pack(out: &Path) -> Result<(), CliError> {
-    for (identifier, version, description) in lash_catalog::descriptions().map_err(CliError::Failure)? {
-        println!("{}", pack_one(out, identifier, version, &description)?.display());
+    for path in pack_quiet(out)? {
+        println!("{}", path.display());
     }
     Ok(())
+}
+
+/// Packs every FMU into `out`; returns the archives written.
+pub fn pack_quiet(out: &Path) -> Result<Vec<PathBuf>, CliError> {
+    lash_catalog::descriptions()
+        .map_err(CliError::Failure)?
+        .into_iter()
+        .map(|(identifier, version, description)| pack_one(out, identifier, version, &description))
+        .collect()
 }

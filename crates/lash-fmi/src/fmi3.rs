@@ -444,6 +444,13 @@ pub unsafe fn get_float64<M: Exportable>(
         let (Some(vrs), Some(values)) = (unsafe { slice(vrs, nvr) }, unsafe { slice_mut(values, n_values) }) else {
             return inst.fail("fmi3GetFloat64: null valueReferences or values");
         };
+        if !vrs.contains(&inst.time_reference) {
+            // The common case in one call: the subsystem checks references and counts.
+            return match inst.model.get_f64(vrs, values) {
+                Ok(()) => OK,
+                Err(e) => inst.fail(&format!("fmi3GetFloat64: {e}")),
+            };
+        }
         let mut at = 0;
         for &vr in vrs {
             let len = if vr == inst.time_reference {
