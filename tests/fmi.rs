@@ -155,11 +155,20 @@ fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
         assert!(same, "{execution:?}: the imported FMUs must reproduce the in-process run bit for bit");
     }
 
+    // `lash fmu check` accepts both, and refuses a broken archive with exit code 2.
+    for name in ["lash_mechanism.fmu", "lash_interface.fmu"] {
+        let o = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "check"]).arg(out.join(name)).output().unwrap();
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success() && text.contains(": OK"), "{name}: {text}{}", String::from_utf8_lossy(&o.stderr));
+    }
     // Broken FMUs are clear errors.
     let not_zip = out.join("broken.fmu");
     std::fs::write(&not_zip, "not a zip").unwrap();
     let e = ImportedFmu::open(&not_zip, &cache, "x").err().expect("refused").to_string();
     assert!(e.contains("broken.fmu") && e.contains("not a zip archive"), "{e}");
+    let o = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "check"]).arg(&not_zip).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a zip archive"));
     let e = lash_fmi::import::parse_description("<fmiModelDescription><CoSimulation/>").unwrap_err();
     assert!(e.contains("fmiVersion"), "{e}");
     let _ = std::fs::remove_dir_all(&out);

@@ -67,3 +67,51 @@ pub fn pack_quiet(out: &Path) -> Result<Vec<PathBuf>, CliError> {
         .map(|(identifier, version, description)| pack_one(out, identifier, version, &description))
         .collect()
 }
+
+/// `lash fmu check <file.fmu>`: structure (archive, description, binary, symbols, token) and a
+/// smoke simulation of 10 steps of the default step size with the start values.
+pub fn check(fmu: &Path) -> Result<(), CliError> {
+    use lash_core::{Subsystem, Ticks};
+    let cache = std::env::temp_dir().join(format!("lash-fmu-check-{}", std::process::id()));
+    let result = (|| -> Result<String, CliError> {
+        let mut imported =
+            lash_fmi::import::ImportedFmu::open(fmu, &cache, "check").map_err(|e| CliError::Input(format!("{e}")))?;
+        let d = imported.description().clone();
+        let step = Ticks::from_seconds(1e-5).map_err(|e| CliError::Failure(e.to_string()))?;
+        let fail =
+            |e: lash_core::SubsystemError| CliError::Failure(format!("{}: smoke simulation: {e}", fmu.display()));
+        imported.setup(Ticks::ZERO, None).map_err(fail)?;
+        imported.initialize().map_err(fail)?;
+        let outputs: Vec<u32> = d
+            .variables
+            .iter()
+            .filter(|v| v.causality == lash_core::Causality::Output)
+            .map(|v| v.value_reference)
+            .collect();
+        let n: usize = d.variables.iter().filter(|v| outputs.contains(&v.value_reference)).map(|v| v.len()).sum();
+        let mut values = vec![0.0; n];
+        for k in 0..10 {
+            imported.do_step(Ticks(k * step.0), step).map_err(fail)?;
+            imported.get_f64(&outputs, &mut values).map_err(fail)?;
+            if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
+                return Err(CliError::Failure(format!(
+                    "{}: smoke simulation: output element {bad} is {} after step {k}",
+                    fmu.display(),
+                    values[bad]
+                )));
+            }
+        }
+        imported.terminate().map_err(fail)?;
+        Ok(format!(
+            "{}: FMI {} co-simulation, model {:?}, {} variables ({} outputs); symbols, token and 10 steps of 1e-5 s: OK",
+            fmu.display(),
+            d.fmi_version,
+            d.model_name,
+            d.variables.len(),
+            outputs.len()
+        ))
+    })();
+    let _ = std::fs::remove_dir_all(&cache);
+    println!("{}", result?);
+    Ok(())
+}

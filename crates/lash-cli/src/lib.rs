@@ -8,7 +8,8 @@
 //! lash show <name>               # print a built-in scenario as TOML
 //! lash channels <scenario>       # list output channels
 //! lash bench [--quick]           # benchmarks of the full and reduced models
-//! lash fmu pack --out <dir>      # FMI 3.0 FMUs of the subsystems
+//! lash fmu pack --out <dir>      # FMI 3.0 and 2.0 FMUs of the subsystems
+//! lash fmu check <file.fmu>      # structure + smoke simulation of an FMI 3.0 FMU
 //! ```
 //!
 //! Exit codes: 0 success, 1 simulation or output failure, 2 invalid input.
@@ -200,6 +201,12 @@ enum FmuCommand {
         #[arg(long)]
         out: std::path::PathBuf,
     },
+    /// Check an FMI 3.0 co-simulation FMU: archive, modelDescription.xml, binary, symbols, token,
+    /// and a 10-step smoke simulation.
+    Check {
+        /// The .fmu file.
+        fmu: std::path::PathBuf,
+    },
 }
 
 /// Errors that decide the exit code.
@@ -331,5 +338,6 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         }
         Command::Bench { quick } => bench::run(quick),
         Command::Fmu { command: FmuCommand::Pack { out } } => fmu::pack(&out),
+        Command::Fmu { command: FmuCommand::Check { fmu } } => fmu::check(&fmu),
     }
 }
