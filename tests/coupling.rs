@@ -129,3 +129,62 @@ fn cubic_hermite_is_closer_than_linear_to_the_macro_converged_reduced_model() {
     eprintln!("slider.ax relative RMS vs h_m = 1e-4: hermite {hermite:.3}, linear {linear:.3}");
     assert!(hermite < linear);
 }
+
+#[test]
+fn observers_record_at_their_own_rates() {
+    use lash_core::{Subsystem, Ticks};
+    use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
+    let mut a = builtin::by_name("A").unwrap();
+    a.output.channels = vec!["slider.ax".into()];
+    let (mut mechanism, mut interface) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
+    let stop = Ticks::from_seconds(0.01).unwrap();
+    mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+    interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+    let options = MasterOptions {
+        start: Ticks::ZERO,
+        stop,
+        macro_step: Ticks::from_seconds(1e-3).unwrap(),
+        micro_step: Ticks::from_seconds(1e-5).unwrap(),
+        interpolation: Interpolation::Linear,
+        coupling: Coupling::OneWay,
+        execution: Execution::Sequential,
+    };
+    let signals = vec![
+        Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 },
+        Signal::Propagated {
+            name: "slider.ax".into(),
+            free: ("slider.acceleration_free".into(), 0),
+            gain: ("slider.acceleration_gain".into(), 0, 1),
+        },
+    ];
+    let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
+    assert_eq!(master.signal_names(), ["force", "slider.ax"]);
+    let (mut fast, mut slow) = (Vec::new(), Vec::new());
+    let mut fast_observer = |t: Ticks, v: &[f64]| -> Result<(), String> {
+        fast.push((t, v.to_vec()));
+        Ok(())
+    };
+    let mut slow_observer = |t: Ticks, v: &[f64]| -> Result<(), String> {
+        slow.push((t, v.to_vec()));
+        Ok(())
+    };
+    let mut observers: [(&mut dyn Observer, Ticks); 2] = [
+        (&mut fast_observer, Ticks::from_seconds(1e-5).unwrap()),
+        (&mut slow_observer, Ticks::from_seconds(2e-4).unwrap()),
+    ];
+    let stats = master.run(&mut observers).unwrap();
+    assert_eq!(stats.micro_steps, 1000);
+    assert_eq!((fast.len(), slow.len()), (1001, 51), "both include the start time");
+    for (k, s) in slow.iter().enumerate() {
+        assert_eq!(*s, fast[20 * k], "the slow observer sees every 20th sample of the fast one");
+    }
+    // A rate that is not a whole number of micro steps is refused.
+    let (mut m2, mut i2) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
+    m2.setup(Ticks::ZERO, Some(stop)).unwrap();
+    i2.setup(Ticks::ZERO, Some(stop)).unwrap();
+    let mut master = InterfaceMaster::new(&mut m2, &mut i2, options, vec![]).unwrap();
+    let mut none = |_: Ticks, _: &[f64]| -> Result<(), String> { Ok(()) };
+    let mut bad: [(&mut dyn Observer, Ticks); 1] = [(&mut none, Ticks::from_seconds(1.5e-5).unwrap())];
+    let e = master.run(&mut bad).unwrap_err().to_string();
+    assert!(e.contains("observer interval"), "{e}");
+}
