@@ -71,6 +71,30 @@ pub fn instantiation_token(model_name: &str, variables: &[Variable]) -> String {
     format!("{{{}-{}-{}-{}-{}}}", &hex[0..8], &hex[8..12], &hex[12..16], &hex[16..20], &hex[20..32])
 }
 
+/// `<UnitDefinitions>` (every unit used, plus `s` for the FMI 3.0 time variable) and
+/// `<DefaultExperiment>`.
+fn units_and_experiment(x: &mut String, info: &ModelInfo, variables: &[Variable], with_seconds: bool) {
+    let mut units: Vec<&str> = variables.iter().map(|v| v.unit.as_str()).filter(|u| !u.is_empty()).collect();
+    if with_seconds {
+        units.push("s");
+    }
+    units.sort_unstable();
+    units.dedup();
+    let _ = writeln!(x, "  <UnitDefinitions>");
+    for u in &units {
+        let _ = writeln!(x, r#"    <Unit name="{}"/>"#, escape(u));
+    }
+    let _ = writeln!(x, "  </UnitDefinitions>");
+    let (start, stop, step) = info.default_experiment;
+    let _ = writeln!(
+        x,
+        r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#,
+        number(start),
+        number(stop),
+        number(step)
+    );
+}
+
 fn causality(c: Causality) -> &'static str {
     match c {
         Causality::Parameter => "parameter",
@@ -105,23 +129,7 @@ pub fn fmi3(info: &ModelInfo, variables: &[Variable]) -> String {
         r#"  <CoSimulation modelIdentifier="{}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUState="true" canSerializeFMUState="false" canReturnEarlyAfterIntermediateUpdate="false" providesIntermediateUpdate="false" hasEventMode="false"/>"#,
         escape(&info.model_identifier)
     );
-    let mut units: Vec<&str> = variables.iter().map(|v| v.unit.as_str()).filter(|u| !u.is_empty()).collect();
-    units.push("s");
-    units.sort_unstable();
-    units.dedup();
-    let _ = writeln!(x, "  <UnitDefinitions>");
-    for u in &units {
-        let _ = writeln!(x, r#"    <Unit name="{}"/>"#, escape(u));
-    }
-    let _ = writeln!(x, "  </UnitDefinitions>");
-    let (start, stop, step) = info.default_experiment;
-    let _ = writeln!(
-        x,
-        r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#,
-        number(start),
-        number(stop),
-        number(step)
-    );
+    units_and_experiment(&mut x, info, variables, true);
     let _ = writeln!(x, "  <ModelVariables>");
     for v in variables {
         let mut attrs = format!(
@@ -209,22 +217,7 @@ pub fn fmi2(info: &ModelInfo, variables: &[Variable]) -> String {
         r#"  <CoSimulation modelIdentifier="{}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUstate="true" canSerializeFMUstate="false"/>"#,
         escape(&info.model_identifier)
     );
-    let mut units: Vec<&str> = variables.iter().map(|v| v.unit.as_str()).filter(|u| !u.is_empty()).collect();
-    units.sort_unstable();
-    units.dedup();
-    let _ = writeln!(x, "  <UnitDefinitions>");
-    for u in &units {
-        let _ = writeln!(x, r#"    <Unit name="{}"/>"#, escape(u));
-    }
-    let _ = writeln!(x, "  </UnitDefinitions>");
-    let (start, stop, step) = info.default_experiment;
-    let _ = writeln!(
-        x,
-        r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#,
-        number(start),
-        number(stop),
-        number(step)
-    );
+    units_and_experiment(&mut x, info, variables, false);
     let _ = writeln!(x, "  <ModelVariables>");
     let mut index = 0;
     let mut outputs = Vec::new();

@@ -111,24 +111,7 @@ impl<'a> Recorder<'a> {
 
     /// Per-channel statistics.
     pub fn channel_stats(&self) -> BTreeMap<String, ChannelStats> {
-        let m = self.samples.max(1) as f64;
-        self.sources
-            .iter()
-            .zip(&self.stats)
-            .map(|((c, _), s)| {
-                (
-                    c.name.clone(),
-                    ChannelStats {
-                        unit: c.unit,
-                        min: s.0,
-                        max: s.1,
-                        max_abs: s.0.abs().max(s.1.abs()),
-                        mean: s.2 / m,
-                        rms: (s.3 / m).sqrt(),
-                    },
-                )
-            })
-            .collect()
+        channel_stats(self.sources, &self.stats, self.samples)
     }
 
     /// Summary of clearance joint `k` from its impacts (open ones included).
@@ -155,4 +138,30 @@ impl<'a> Recorder<'a> {
             first_impacts: impacts.into_iter().take(20).collect(),
         }
     }
+}
+
+/// Channel statistics from running sums (min, max, Σv, Σv²) over `samples` samples.
+pub(crate) fn channel_stats(
+    sources: &[(Channel, Source)],
+    sums: &[(f64, f64, f64, f64)],
+    samples: u64,
+) -> BTreeMap<String, ChannelStats> {
+    let m = samples.max(1) as f64;
+    sources
+        .iter()
+        .zip(sums)
+        .map(|((c, _), s)| {
+            (
+                c.name.clone(),
+                ChannelStats {
+                    unit: c.unit,
+                    min: s.0,
+                    max: s.1,
+                    max_abs: s.0.abs().max(s.1.abs()),
+                    mean: s.2 / m,
+                    rms: (s.3 / m).sqrt(),
+                },
+            )
+        })
+        .collect()
 }

@@ -14,14 +14,13 @@
 
 use crate::build::{BuildOptions, build_model};
 use crate::channels::{CLEARANCE_QUANTITIES, Channel, Source, channel_sources};
-use crate::run::{ChannelStats, RunError, Summary, driver_period};
+use crate::run::{RunError, Summary, driver_period};
 use crate::schema::Scenario;
 use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_core::{Coupling, Subsystem, Ticks};
 use lash_mech::{Interface, MechanismSubsystem, Probe, Vec2};
 use lash_ode::Dopri5Options;
 use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
-use std::collections::BTreeMap;
 
 /// Step sizes, interpolation, coupling and execution of the reduced model.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -300,24 +299,7 @@ impl ReducedRun {
             mean_contact_force: sum_force / m,
             first_impacts: impacts.into_iter().take(20).collect(),
         };
-        let channels: BTreeMap<String, ChannelStats> = self
-            .sources
-            .iter()
-            .zip(&stats)
-            .map(|((c, _), s)| {
-                (
-                    c.name.clone(),
-                    ChannelStats {
-                        unit: c.unit,
-                        min: s.0,
-                        max: s.1,
-                        max_abs: s.0.abs().max(s.1.abs()),
-                        mean: s.2 / m,
-                        rms: (s.3 / m).sqrt(),
-                    },
-                )
-            })
-            .collect();
+        let channels = crate::record::channel_stats(&self.sources, &stats, samples);
         let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
         Ok(Summary {
             scenario: self.scenario.name.clone(),
