@@ -425,6 +425,11 @@ impl InterfaceSubsystem {
         })
     }
 
+    /// The integrator it was built with.
+    pub fn integrator(&self) -> MicroIntegrator {
+        self.integrator
+    }
+
     /// The contact state at the current time.
     pub fn contact(&self) -> &ContactState {
         &self.state

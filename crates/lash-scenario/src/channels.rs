@@ -79,6 +79,20 @@ pub(crate) fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source
     out
 }
 
+/// Indices into `sources` of the channels the scenario writes (`[output] channels`, or all).
+pub(crate) fn selected_channels(s: &Scenario, sources: &[(Channel, Source)]) -> Vec<usize> {
+    (0..sources.len())
+        .filter(|&k| s.output.channels.is_empty() || s.output.channels.contains(&sources[k].0.name))
+        .collect()
+}
+
+/// CSV header: `time [s]` then `name [unit]` of each selected channel.
+pub(crate) fn header(sources: &[(Channel, Source)], selected: &[usize]) -> Vec<String> {
+    std::iter::once("time [s]".to_string())
+        .chain(selected.iter().map(|&k| format!("{} [{}]", sources[k].0.name, sources[k].0.unit)))
+        .collect()
+}
+
 /// Names of all channels of a scenario (time excluded).
 pub fn channel_names(s: &Scenario, ideal: bool) -> Vec<String> {
     channel_sources(s, ideal).into_iter().map(|(c, _)| c.name).collect()

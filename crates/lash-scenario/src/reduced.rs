@@ -134,11 +134,7 @@ impl ReducedRun {
         };
 
         let sources = channel_sources(scenario, false);
-        let selected: Vec<usize> = if scenario.output.channels.is_empty() {
-            (0..sources.len()).collect()
-        } else {
-            (0..sources.len()).filter(|&k| scenario.output.channels.contains(&sources[k].0.name)).collect()
-        };
+        let selected = crate::channels::selected_channels(scenario, &sources);
         let joint_names: Vec<&str> = scenario
             .joints
             .iter()
@@ -205,9 +201,7 @@ impl ReducedRun {
 
     /// Header of the written columns (the same channels as the full model).
     pub fn header(&self) -> Vec<String> {
-        std::iter::once("time [s]".to_string())
-            .chain(self.selected.iter().map(|&k| format!("{} [{}]", self.sources[k].0.name, self.sources[k].0.unit)))
-            .collect()
+        crate::channels::header(&self.sources, &self.selected)
     }
 
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
@@ -304,7 +298,7 @@ impl ReducedRun {
         Ok(Summary {
             scenario: self.scenario.name.clone(),
             model: "reduced",
-            integrator: match self.micro_sub_integrator() {
+            integrator: match self.micro_sub.integrator() {
                 MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
                 MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
             },
@@ -327,20 +321,6 @@ impl ReducedRun {
                 master: master_stats,
             }),
         })
-    }
-
-    fn micro_sub_integrator(&self) -> MicroIntegrator {
-        if self.options.error_controlled_micro {
-            MicroIntegrator::Dopri5(Dopri5Options {
-                rtol: 1e-9,
-                atol: 1e-12,
-                initial_step: 1e-7,
-                max_step: self.options.micro_step,
-                min_step: 1e-14,
-            })
-        } else {
-            MicroIntegrator::Rk4 { step: self.options.micro_step }
-        }
     }
 
     /// The micro subsystem (impacts, final state) after a run.

@@ -129,16 +129,7 @@ impl Run {
     /// Prepares a run of a validated scenario.
     pub fn new(scenario: &Scenario, options: BuildOptions) -> Self {
         let sources = channel_sources(scenario, options.ideal);
-        let selected = if scenario.output.channels.is_empty() {
-            (0..sources.len()).collect()
-        } else {
-            sources
-                .iter()
-                .enumerate()
-                .filter(|(_, (c, _))| scenario.output.channels.contains(&c.name))
-                .map(|(k, _)| k)
-                .collect()
-        };
+        let selected = crate::channels::selected_channels(scenario, &sources);
         Self {
             model: build_model(scenario, options),
             scenario: scenario.clone(),
@@ -150,12 +141,7 @@ impl Run {
 
     /// Header of the written columns (time first), with units: `time [s]`, `slider.ax [m/s^2]`, …
     pub fn header(&self) -> Vec<String> {
-        std::iter::once("time [s]".to_string())
-            .chain(self.selected.iter().map(|&k| {
-                let c = &self.sources[k].0;
-                format!("{} [{}]", c.name, c.unit)
-            }))
-            .collect()
+        crate::channels::header(&self.sources, &self.selected)
     }
 
     /// Integrates over the scenario's horizon. `sink` receives each row (time first);
