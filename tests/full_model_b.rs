@@ -16,8 +16,8 @@ fn run(s: &lash_scenario::Scenario, ideal: bool) -> (Summary, Vec<String>, Vec<V
     rows(&mut Run::new(s, BuildOptions { ideal }))
 }
 
-fn dopri(rtol: f64) -> Method {
-    Method::Dopri5(Dopri5Options { rtol, atol: rtol * 1e-3, initial_step: 1e-7, max_step: 1e-4, min_step: 1e-12 })
+fn tight(rtol: f64) -> Dopri5Options {
+    Dopri5Options { rtol, atol: rtol * 1e-3, initial_step: 1e-7, max_step: 1e-4, min_step: 1e-12 }
 }
 
 fn first_impacts(method: Method, horizon: f64) -> Vec<Impact> {
@@ -31,15 +31,23 @@ fn first_impacts(method: Method, horizon: f64) -> Vec<Impact> {
 
 #[test]
 fn first_three_impacts_converge() {
-    // The default (converged) tolerance rtol 1e-9 against rtol 1e-11 (a factor 100 tighter), and
-    // fixed-step RK4 at 1e-7 s (100× below the usual 1e-5 s) against the same. The first three
-    // impacts of B end before 1 ms. Tolerances: docs/validation.md (convergence study).
+    // The default (converged) setting, DOP853 at rtol 1e-9, against DOP853 at rtol 1e-11 (a factor
+    // 100 tighter); a second method, DOPRI5, at 1e-11 and at 1e-9; and fixed-step RK4 at 1e-7 s
+    // (100× below the usual 1e-5 s), all against the same reference. The first three impacts of B
+    // end before 1 ms. Tolerances: docs/validation.md (convergence study).
     let horizon = 1.0e-3;
     let a = first_impacts(builtin::converged_integrator(), horizon);
-    let b = first_impacts(dopri(1e-11), horizon);
+    let b = first_impacts(Method::Dop853(tight(1e-11)), horizon);
+    let d = first_impacts(Method::Dopri5(tight(1e-11)), horizon);
+    let e = first_impacts(Method::Dopri5(tight(1e-9)), horizon);
     let c = first_impacts(Method::Rk4 { step: 1e-7 }, horizon);
     assert!(b.len() >= 3, "B must show at least three impacts in its first millisecond, got {}", b.len());
-    for (name, other, onset_tol, rel_tol) in [("rtol 1e-9", &a, 2e-10, 1e-5), ("RK4 1e-7", &c, 5e-9, 1e-3)] {
+    for (name, other, onset_tol, rel_tol) in [
+        ("DOP853 rtol 1e-9", &a, 2e-10, 1e-5),
+        ("DOPRI5 rtol 1e-11", &d, 2e-10, 1e-5),
+        ("DOPRI5 rtol 1e-9", &e, 2e-10, 1e-5),
+        ("RK4 1e-7", &c, 5e-9, 1e-3),
+    ] {
         assert!(other.len() >= 3, "{name}: {} impacts", other.len());
         for k in 0..3 {
             let (x, r) = (&other[k], &b[k]);

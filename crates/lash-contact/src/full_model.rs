@@ -35,6 +35,7 @@ pub struct FullModel {
     pub impacts: Vec<Vec<Impact>>,
     open: Vec<Option<ImpactTracker>>,
     violation: bool,
+    strict_modes: bool,
     error: Option<String>,
     dense_buffer: Vec<f64>,
     n: usize,
@@ -56,6 +57,7 @@ impl FullModel {
             impacts: (0..k).map(|_| Vec::with_capacity(1024)).collect(),
             open: vec![None; k],
             violation: false,
+            strict_modes: false,
             error: None,
             dense_buffer: vec![0.0; 2 * n],
             n,
@@ -115,19 +117,28 @@ impl FullModel {
     /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts`.
     pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
         let (q, qd) = y.split_at(self.n);
-        let FullModel { mechanism, clearances, solver, contacts, violation, .. } = self;
+        let FullModel { mechanism, clearances, solver, contacts, violation, strict_modes, .. } = self;
         solver.set_state(mechanism, t, q, qd);
         for (c, state) in clearances.iter().zip(contacts.iter_mut()) {
             let pj = pose_of(&solver.poses, c.journal_body);
             let pb = pose_of(&solver.poses, c.bearing_body);
-            // Probe geometry first: outside the current mode, take the local approach velocity as
-            // the onset velocity (only stages of a step that the integrator will cut see this).
+            // Probe geometry first. A stage outside the current mode is flagged (the integrator
+            // then cuts or rejects the step). A free-flight stage that penetrates gets no force
+            // when the integrator locates events (the right side stays smooth in its mode, so the
+            // error control is not fooled by the switching surface); under fixed-step RK4 it
+            // gets the contact force with the local approach velocity as onset velocity.
             let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
             let mut s = c.evaluate(&pj, &pb, onset);
             if (s.penetration > 0.0) != c.in_contact {
                 *violation = true;
                 if !c.in_contact && s.penetration > 0.0 {
-                    s = c.evaluate(&pj, &pb, s.penetration_rate.max(0.0));
+                    if *strict_modes {
+                        s.normal_force = 0.0;
+                        s.friction_force = 0.0;
+                        s.force_on_journal = lash_mech::Vec2::zeros();
+                    } else {
+                        s = c.evaluate(&pj, &pb, s.penetration_rate.max(0.0));
+                    }
                 }
             }
             if s.normal_force != 0.0 || s.friction_force != 0.0 {
@@ -187,6 +198,10 @@ impl OdeSystem for FullModel {
         }
     }
 
+    fn begin(&mut self, locates_events: bool) {
+        self.strict_modes = locates_events;
+    }
+
     fn event_count(&self) -> usize {
         self.clearances.len()
     }
@@ -209,7 +224,7 @@ impl OdeSystem for FullModel {
         } else {
             c.in_contact = true;
             c.onset_velocity = s.penetration_rate.max(0.0);
-            self.open[k] = Some(ImpactTracker::open(t, s.penetration_rate));
+            self.open[k] = Some(ImpactTracker::open(t, s.penetration_rate, self.strict_modes));
         }
     }
 
@@ -217,23 +232,34 @@ impl OdeSystem for FullModel {
         std::mem::take(&mut self.violation)
     }
 
+    fn wants_dense(&self) -> bool {
+        self.open.iter().any(Option::is_some)
+    }
+
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
-        if self.open.iter().all(Option::is_none) {
+        if !self.wants_dense() {
             return;
         }
-        // Sample open contacts inside the step: the force peak is then refined from points
-        // h/5 apart on the 4th-order continuous extension, not from the step ends alone.
+        // Search each open contact's force along the step's continuous extension (samples θ = k/8,
+        // refined where the step holds the peak); the samples also update the largest penetration.
         let mut y = std::mem::take(&mut self.dense_buffer);
         y.resize(2 * self.n, 0.0);
-        for i in 1..5 {
-            let theta = i as f64 / 5.0;
-            dense.eval(theta, &mut y);
-            for k in 0..self.clearances.len() {
-                if self.open[k].is_some() {
-                    let s = self.contact_state(k, &y, self.clearances[k].onset_velocity);
-                    if let Some(tr) = self.open[k].as_mut() {
-                        tr.sample(t + theta * h, s.normal_force, s.penetration);
-                    }
+        for k in 0..self.clearances.len() {
+            if self.open[k].is_none() {
+                continue;
+            }
+            let onset = self.clearances[k].onset_velocity;
+            let mut deepest = 0.0f64;
+            let peak = crate::clearance::step_peak(|theta| {
+                dense.eval(theta, &mut y);
+                let s = self.contact_state(k, &y, onset);
+                deepest = deepest.max(s.penetration);
+                s.normal_force
+            });
+            if let Some(tr) = self.open[k].as_mut() {
+                tr.deepen(deepest);
+                if let Some((theta, f)) = peak {
+                    tr.peak_candidate(t + theta * h, f);
                 }
             }
         }

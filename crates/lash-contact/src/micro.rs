@@ -86,6 +86,8 @@ pub struct InterfaceModel {
     pub input_time: f64,
     open: Option<ImpactTracker>,
     violation: bool,
+    /// The last integration was an adaptive one (continuous extensions reach `accept_dense`).
+    located: bool,
     /// The contact force at the end of the last RK4 step, with its (t, e, ė): the next step's
     /// first stage is the same state and reuses it.
     end_force: Option<(f64, Vec2, Vec2, Vec2)>,
@@ -104,6 +106,7 @@ impl InterfaceModel {
             input_time: 0.0,
             open: None,
             violation: false,
+            located: false,
             end_force: None,
         }
     }
@@ -156,6 +159,7 @@ impl InterfaceModel {
 
     /// One RK4 step of size `h` from `t`. Returns the contact state at the end of the step.
     pub fn rk4_step(&mut self, t: f64, h: f64) -> ContactState {
+        self.located = false;
         let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
         let (k1v, f1) = match self.end_force {
             Some((te, ee, ve, fe)) if (te - t).abs() < 1e-12 && ee == e0 && ve == v0 => self.acceleration_with(t, fe),
@@ -196,7 +200,7 @@ impl InterfaceModel {
     fn open_contact(&mut self, t: f64, rate: f64) {
         self.joint.in_contact = true;
         self.joint.onset_velocity = rate.max(0.0);
-        self.open = Some(ImpactTracker::open(t, rate));
+        self.open = Some(ImpactTracker::open(t, rate, self.located));
     }
 
     fn close_contact(&mut self, t: f64) {
@@ -246,6 +250,10 @@ impl OdeSystem for InterfaceModel {
         dydt.copy_from_slice(&[ed.x, ed.y, a.x, a.y, fc.x, fc.y]);
     }
 
+    fn begin(&mut self, locates_events: bool) {
+        self.located = locates_events;
+    }
+
     fn event_count(&self) -> usize {
         1
     }
@@ -269,17 +277,26 @@ impl OdeSystem for InterfaceModel {
         std::mem::take(&mut self.violation)
     }
 
+    fn wants_dense(&self) -> bool {
+        self.open.is_some()
+    }
+
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
         if self.open.is_none() {
             return;
         }
         let mut y = [0.0; 6];
-        for i in 1..5 {
-            let theta = i as f64 / 5.0;
+        let mut deepest = 0.0f64;
+        let peak = crate::clearance::step_peak(|theta| {
             dense.eval(theta, &mut y);
             let s = self.contact_at(t + theta * h, Vec2::new(y[0], y[1]), Vec2::new(y[2], y[3]));
-            if let Some(tr) = self.open.as_mut() {
-                tr.sample(t + theta * h, s.normal_force, s.penetration);
+            deepest = deepest.max(s.penetration);
+            s.normal_force
+        });
+        if let Some(tr) = self.open.as_mut() {
+            tr.deepen(deepest);
+            if let Some((theta, f)) = peak {
+                tr.peak_candidate(t + theta * h, f);
             }
         }
     }

@@ -314,7 +314,7 @@ fn validate_simulation(s: &SimulationSpec) -> Problems {
                 }
             }
         }
-        lash_ode::Method::Dopri5(o) => {
+        lash_ode::Method::Dopri5(o) | lash_ode::Method::Dop853(o) => {
             p.positive("integrator.rtol", o.rtol);
             p.positive("integrator.atol", o.atol);
             p.positive("integrator.initial_step", o.initial_step);
