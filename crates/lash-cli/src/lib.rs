@@ -7,7 +7,9 @@
 //! lash scenarios                 # list the built-in scenarios
 //! lash show <name>               # print a built-in scenario as TOML
 //! lash channels <scenario>       # list output channels
-//! lash bench [--quick]           # benchmarks of the full and reduced models
+//! lash bench [--quick] [sweep]   # benchmarks (full and reduced models; or sweep throughput)
+//! lash sweep <sweep-file> --out <dir> [--shard i/N] [--threads N] [--quiet]
+//! lash sweep merge <dir>... --out <dir>
 //! lash fmu pack --out <dir>      # FMI 3.0 and 2.0 FMUs of the subsystems
 //! lash fmu check <file.fmu>      # structure + smoke simulation of an FMI 3.0 FMU
 //! ```
@@ -19,6 +21,7 @@ mod compare;
 mod fmu;
 mod plots;
 mod run;
+mod sweep;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
@@ -189,6 +192,45 @@ enum Command {
         /// Fewer repetitions.
         #[arg(long)]
         quick: bool,
+        /// `sweep`: throughput of a reduced-model sweep of scenario A (1 vs 2 threads) instead.
+        #[arg(value_parser = ["sweep"])]
+        what: Option<String>,
+    },
+    /// Parameter sweep of a scenario into a Parquet dataset (data.parquet, params.parquet,
+    /// manifest.json): parallel, resumable (re-run the same command), shardable.
+    #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+    Sweep {
+        #[command(subcommand)]
+        command: Option<SweepCommand>,
+        /// The sweep file (TOML; see examples/sweep-*.toml).
+        #[arg(required = true)]
+        file: Option<std::path::PathBuf>,
+        /// Output folder (new, empty, or holding this sweep: then it resumes).
+        #[arg(long, required = true)]
+        out: Option<std::path::PathBuf>,
+        /// Run only shard i of N (runs with id mod N = i), e.g. --shard 0/4.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress bar (batch systems).
+        #[arg(long)]
+        quiet: bool,
+    },
+}
+
+/// `lash sweep …` subcommands.
+#[derive(Subcommand, Debug)]
+enum SweepCommand {
+    /// Combine the complete output folders of all shards of one sweep into one dataset.
+    Merge {
+        /// The shard output folders.
+        #[arg(required = true)]
+        inputs: Vec<std::path::PathBuf>,
+        /// Output folder of the merged dataset.
+        #[arg(long)]
+        out: std::path::PathBuf,
     },
 }
 
@@ -336,7 +378,15 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             }
             Ok(())
         }
-        Command::Bench { quick } => bench::run(quick),
+        Command::Bench { quick, what } => match what.as_deref() {
+            Some("sweep") => bench::sweep(quick),
+            _ => bench::run(quick),
+        },
+        Command::Sweep { command: Some(SweepCommand::Merge { inputs, out }), .. } => sweep::merge(&inputs, &out),
+        Command::Sweep { command: None, file, out, shard, threads, quiet } => match (file, out) {
+            (Some(file), Some(out)) => sweep::run(&file, &out, shard.as_deref(), threads, quiet),
+            _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
+        },
         Command::Fmu { command: FmuCommand::Pack { out } } => fmu::pack(&out),
         Command::Fmu { command: FmuCommand::Check { fmu } } => fmu::check(&fmu),
     }

@@ -1,0 +1,354 @@
+//! The dataset on disk: Parquet tables through arrow-rs, the manifest and the run journal.
+//!
+//! Layout of an output folder:
+//! * `manifest.json` — lash version, sweep and scenario hashes, the sweep file, seeds, shard,
+//!   channels with units, per-run status, error and timing;
+//! * `data.parquet` — one long table `run_id, t, <channels…>`, one row group per run, in run order;
+//! * `params.parquet` — `run_id, seed, status, <parameter paths…>`;
+//! * while a sweep runs: `parts/run-<id>.parquet` (one finished run each, written to a temporary
+//!   name and renamed) and `runs.jsonl` (one line per finished run, flushed): a killed sweep
+//!   resumes from these and loses only the runs in flight.
+
+use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_schema::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::ArrowWriter;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use parquet::basic::Compression;
+use parquet::file::properties::WriterProperties;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A channel of the dataset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelInfo {
+    /// Name (as in `lash run` outputs).
+    pub name: String,
+    /// SI unit.
+    pub unit: String,
+}
+
+/// Status of one run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// Run id.
+    pub run_id: u64,
+    /// Noise seed of the run.
+    pub seed: u64,
+    /// "ok" or "failed".
+    pub status: String,
+    /// Why it failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Rows written.
+    pub rows: u64,
+    /// Wall time of the simulation [s].
+    pub simulate_s: f64,
+    /// Wall time of writing its part [s].
+    pub write_s: f64,
+}
+
+/// The shard of a sweep an output folder holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// 0-based index.
+    pub index: u64,
+    /// Number of shards.
+    pub count: u64,
+}
+
+impl Shard {
+    /// Whether run `id` belongs to this shard (ids dealt round-robin).
+    pub fn holds(&self, id: u64) -> bool {
+        id % self.count == self.index
+    }
+}
+
+/// manifest.json.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Version of lash that wrote it.
+    pub lash_version: String,
+    /// Identity of the sweep (sweep file, base scenario, lash version).
+    pub sweep_hash: String,
+    /// SHA-256 of the base scenario as serialized.
+    pub scenario_hash: String,
+    /// The sweep file's text.
+    pub sweep_file: String,
+    /// Sweep seed.
+    pub seed: u64,
+    /// Runs in the whole sweep.
+    pub total_runs: u64,
+    /// The shard held here (None: the whole sweep).
+    pub shard: Option<Shard>,
+    /// Channels (data columns after run_id and t).
+    pub channels: Vec<ChannelInfo>,
+    /// Parameter paths (params columns after run_id, seed, status).
+    pub parameters: Vec<String>,
+    /// "running" or "complete".
+    pub status: String,
+    /// Runs held here, by id (complete manifests).
+    pub runs: Vec<RunRecord>,
+}
+
+impl Manifest {
+    /// Reads `dir/manifest.json`, if present.
+    pub fn read(dir: &Path) -> Result<Option<Self>, String> {
+        let path = dir.join("manifest.json");
+        if !path.exists() {
+            return Ok(None);
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| format!("{} is not a lash sweep manifest: {e}", path.display()))
+    }
+
+    /// Writes `dir/manifest.json` atomically.
+    pub fn write(&self, dir: &Path) -> Result<(), String> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
+        write_atomic(&dir.join("manifest.json"), text.as_bytes())
+    }
+}
+
+/// Writes a file under a temporary name and renames it into place.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, bytes).map_err(|e| format!("cannot write {}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {} into place: {e}", tmp.display()))
+}
+
+/// Arrow schema of the data table.
+pub fn data_schema(channels: &[ChannelInfo]) -> SchemaRef {
+    let mut fields = vec![
+        Field::new("run_id", DataType::UInt64, false),
+        Field::new("t", DataType::Float64, false).with_metadata(HashMap::from([("unit".to_string(), "s".to_string())])),
+    ];
+    for c in channels {
+        fields.push(
+            Field::new(&c.name, DataType::Float64, false)
+                .with_metadata(HashMap::from([("unit".to_string(), c.unit.clone())])),
+        );
+    }
+    Arc::new(Schema::new(fields))
+}
+
+fn properties() -> WriterProperties {
+    WriterProperties::builder()
+        .set_compression(Compression::SNAPPY)
+        .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
+        .build()
+}
+
+/// One run's samples, column-major.
+pub struct RunData {
+    /// Run id.
+    pub run_id: u64,
+    /// Sample times [s].
+    pub time: Vec<f64>,
+    /// One vector per channel.
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl RunData {
+    fn batch(&self, schema: &SchemaRef) -> Result<RecordBatch, String> {
+        let n = self.time.len();
+        let mut arrays: Vec<ArrayRef> =
+            vec![Arc::new(UInt64Array::from(vec![self.run_id; n])), Arc::new(Float64Array::from(self.time.clone()))];
+        for c in &self.columns {
+            arrays.push(Arc::new(Float64Array::from(c.clone())));
+        }
+        RecordBatch::try_new(schema.clone(), arrays).map_err(|e| e.to_string())
+    }
+}
+
+/// Writes one run's part file (temporary name, then rename).
+pub fn write_part(path: &Path, schema: &SchemaRef, data: &RunData) -> Result<(), String> {
+    let tmp = path.with_extension("tmp");
+    let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+    let mut w = ArrowWriter::try_new(file, schema.clone(), Some(properties())).map_err(|e| e.to_string())?;
+    w.write(&data.batch(schema)?).map_err(|e| e.to_string())?;
+    w.close().map_err(|e| e.to_string())?;
+    std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {}: {e}", tmp.display()))
+}
+
+/// A source of one run's rows for [`write_data`]: a file and, optionally, one row group in it.
+pub struct RunSource {
+    /// Parquet file.
+    pub file: PathBuf,
+    /// Row group (None: the whole file).
+    pub row_group: Option<usize>,
+}
+
+/// Writes `data.parquet` (and `data.csv` if asked) run by run, one row group per run, under
+/// temporary names renamed into place by [`DataWriter::finish`].
+pub struct DataWriter {
+    dir: PathBuf,
+    schema: SchemaRef,
+    parquet: ArrowWriter<File>,
+    csv: Option<std::io::BufWriter<File>>,
+    rows: u64,
+}
+
+impl DataWriter {
+    /// Starts the files in `dir`.
+    pub fn create(dir: &Path, schema: &SchemaRef, csv: bool) -> Result<Self, String> {
+        let tmp = dir.join("data.parquet.tmp");
+        let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+        let parquet = ArrowWriter::try_new(file, schema.clone(), Some(properties())).map_err(|e| e.to_string())?;
+        let csv = if csv {
+            let f = File::create(dir.join("data.csv.tmp")).map_err(|e| format!("cannot create data.csv: {e}"))?;
+            let mut out = std::io::BufWriter::new(f);
+            let header: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
+            use std::io::Write;
+            writeln!(out, "{}", header.join(",")).map_err(|e| e.to_string())?;
+            Some(out)
+        } else {
+            None
+        };
+        Ok(Self { dir: dir.to_path_buf(), schema: schema.clone(), parquet, csv, rows: 0 })
+    }
+
+    fn write_batch(&mut self, batch: &RecordBatch) -> Result<(), String> {
+        self.rows += batch.num_rows() as u64;
+        if let Some(out) = self.csv.as_mut() {
+            write_csv_rows(out, batch)?;
+        }
+        self.parquet.write(batch).map_err(|e| e.to_string())
+    }
+
+    /// Appends one run held in memory (a row group of its own).
+    pub fn append(&mut self, data: &RunData) -> Result<(), String> {
+        let batch = data.batch(&self.schema)?;
+        self.write_batch(&batch)?;
+        self.parquet.flush().map_err(|e| e.to_string())
+    }
+
+    /// Appends one run read from a Parquet file (a part, or a row group of a shard's data).
+    pub fn append_file(&mut self, src: &RunSource) -> Result<(), String> {
+        let f = File::open(&src.file).map_err(|e| format!("cannot open {}: {e}", src.file.display()))?;
+        let mut builder =
+            ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| format!("{}: {e}", src.file.display()))?;
+        if let Some(rg) = src.row_group {
+            builder = builder.with_row_groups(vec![rg]);
+        }
+        let reader = builder.build().map_err(|e| e.to_string())?;
+        for batch in reader {
+            let batch = batch.map_err(|e| format!("{}: {e}", src.file.display()))?;
+            let batch =
+                RecordBatch::try_new(self.schema.clone(), batch.columns().to_vec()).map_err(|e| e.to_string())?;
+            self.write_batch(&batch)?;
+        }
+        self.parquet.flush().map_err(|e| e.to_string())
+    }
+
+    /// Closes the files and moves them into place; returns the number of rows.
+    pub fn finish(self) -> Result<u64, String> {
+        self.parquet.close().map_err(|e| e.to_string())?;
+        std::fs::rename(self.dir.join("data.parquet.tmp"), self.dir.join("data.parquet")).map_err(|e| e.to_string())?;
+        if let Some(mut out) = self.csv {
+            use std::io::Write;
+            out.flush().map_err(|e| e.to_string())?;
+            drop(out);
+            std::fs::rename(self.dir.join("data.csv.tmp"), self.dir.join("data.csv")).map_err(|e| e.to_string())?;
+        }
+        Ok(self.rows)
+    }
+}
+
+/// Writes `data.parquet` (and `data.csv` if asked) from runs in the given order, one row group
+/// per run. Returns the number of rows.
+pub fn write_data(dir: &Path, schema: &SchemaRef, sources: &[RunSource], csv: bool) -> Result<u64, String> {
+    let mut w = DataWriter::create(dir, schema, csv)?;
+    for src in sources {
+        w.append_file(src)?;
+    }
+    w.finish()
+}
+
+fn write_csv_rows(out: &mut impl std::io::Write, batch: &RecordBatch) -> Result<(), String> {
+    let ids = batch.column(0).as_any().downcast_ref::<UInt64Array>().ok_or("run_id column")?;
+    let cols: Vec<&Float64Array> = batch.columns()[1..]
+        .iter()
+        .map(|c| c.as_any().downcast_ref::<Float64Array>().ok_or("float column"))
+        .collect::<Result<_, _>>()?;
+    for r in 0..batch.num_rows() {
+        let mut line = ids.value(r).to_string();
+        for c in &cols {
+            line.push(',');
+            line.push_str(&c.value(r).to_string());
+        }
+        writeln!(out, "{line}").map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// One row of the params table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamsRow {
+    /// Run id.
+    pub run_id: u64,
+    /// Noise seed.
+    pub seed: u64,
+    /// "ok" or "failed".
+    pub status: String,
+    /// Parameter values.
+    pub values: Vec<f64>,
+}
+
+/// Writes `params.parquet`.
+pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Result<(), String> {
+    let mut fields = vec![
+        Field::new("run_id", DataType::UInt64, false),
+        Field::new("seed", DataType::UInt64, false),
+        Field::new("status", DataType::Utf8, false),
+    ];
+    fields.extend(parameters.iter().map(|p| Field::new(p, DataType::Float64, false)));
+    let schema = Arc::new(Schema::new(fields));
+    let mut arrays: Vec<ArrayRef> = vec![
+        Arc::new(UInt64Array::from(rows.iter().map(|r| r.run_id).collect::<Vec<_>>())),
+        Arc::new(UInt64Array::from(rows.iter().map(|r| r.seed).collect::<Vec<_>>())),
+        Arc::new(StringArray::from(rows.iter().map(|r| r.status.as_str()).collect::<Vec<_>>())),
+    ];
+    for k in 0..parameters.len() {
+        arrays.push(Arc::new(Float64Array::from(rows.iter().map(|r| r.values[k]).collect::<Vec<_>>())));
+    }
+    let batch = RecordBatch::try_new(schema.clone(), arrays).map_err(|e| e.to_string())?;
+    let tmp = dir.join("params.parquet.tmp");
+    let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+    let mut w = ArrowWriter::try_new(file, schema, Some(properties())).map_err(|e| e.to_string())?;
+    w.write(&batch).map_err(|e| e.to_string())?;
+    w.close().map_err(|e| e.to_string())?;
+    std::fs::rename(&tmp, dir.join("params.parquet")).map_err(|e| e.to_string())
+}
+
+/// Reads `params.parquet`.
+pub fn read_params(dir: &Path, parameters: usize) -> Result<Vec<ParamsRow>, String> {
+    let path = dir.join("params.parquet");
+    let f = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(f)
+        .and_then(|b| b.build())
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut rows = Vec::new();
+    for batch in reader {
+        let batch = batch.map_err(|e| e.to_string())?;
+        let u =
+            |i: usize| batch.column(i).as_any().downcast_ref::<UInt64Array>().cloned().ok_or("params: integer column");
+        let (ids, seeds) = (u(0)?, u(1)?);
+        let status = batch.column(2).as_any().downcast_ref::<StringArray>().ok_or("params: status column")?;
+        let vals: Vec<&Float64Array> = (0..parameters)
+            .map(|k| batch.column(3 + k).as_any().downcast_ref::<Float64Array>().ok_or("params: value column"))
+            .collect::<Result<_, _>>()?;
+        for r in 0..batch.num_rows() {
+            rows.push(ParamsRow {
+                run_id: ids.value(r),
+                seed: seeds.value(r),
+                status: status.value(r).to_string(),
+                values: vals.iter().map(|v| v.value(r)).collect(),
+            });
+        }
+    }
+    Ok(rows)
+}

@@ -1,0 +1,528 @@
+//! Data generation at scale: parameter sweeps of a scenario into a Parquet dataset.
+//!
+//! * [`spec`]: the sweep file; [`plan`]: the runs (grid, random, Latin hypercube; seeds);
+//! * [`execute`]: runs a sweep (or one shard of it) in parallel with rayon — every run is
+//!   independent and seeded from (sweep seed, run id), so results do not depend on the thread
+//!   count —, writes each finished run at once (resumable), and assembles the dataset;
+//! * [`merge`]: combines the output folders of all shards into the single-machine dataset;
+//! * [`dataset`]: the files.
+
+pub mod dataset;
+pub mod plan;
+pub mod spec;
+
+use dataset::{ChannelInfo, Manifest, ParamsRow, RunData, RunRecord, RunSource, Shard};
+pub use plan::{Plan, RunSpec, run_seed};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+use spec::ModelKind;
+pub use spec::SweepSpec;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// Why a sweep could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// The sweep file, its base scenario or the options are wrong (nothing was run).
+    #[error("{0}")]
+    Input(String),
+    /// Reading or writing the dataset failed.
+    #[error("{0}")]
+    Output(String),
+}
+
+/// How to run a sweep.
+#[derive(Debug, Clone)]
+pub struct ExecuteOptions {
+    /// Output folder.
+    pub out: PathBuf,
+    /// Run only this shard.
+    pub shard: Option<Shard>,
+    /// Worker threads (None: rayon's default, one per core).
+    pub threads: Option<usize>,
+}
+
+/// What happened to runs, for progress display.
+#[derive(Debug, Clone, Copy)]
+pub enum Event {
+    /// The sweep starts: runs in this shard, and how many of them are already complete.
+    Start {
+        /// Runs of the shard.
+        total: u64,
+        /// Already complete (skipped).
+        done: u64,
+    },
+    /// A run finished.
+    Finished {
+        /// Whether it succeeded.
+        ok: bool,
+    },
+}
+
+/// Totals of an execution.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct Report {
+    /// Runs in the shard.
+    pub runs: u64,
+    /// Already complete before (skipped).
+    pub skipped: u64,
+    /// Run now.
+    pub ran: u64,
+    /// Failed (recorded), over the whole shard.
+    pub failed: u64,
+    /// Wall time [s].
+    pub wall_s: f64,
+    /// Sum over runs of simulation time [s] (all threads).
+    pub simulate_s: f64,
+    /// Sum over runs of part-writing time [s] (all threads).
+    pub write_s: f64,
+    /// Time spent assembling data.parquet and params.parquet [s].
+    pub assemble_s: f64,
+    /// Simulated mechanism time of the runs done now [s].
+    pub simulated_s: f64,
+    /// Threads used.
+    pub threads: usize,
+}
+
+/// Loads a sweep file and its base scenario into a checked [`Plan`].
+pub fn load(path: &Path) -> Result<Plan, SweepError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SweepError::Input(format!("cannot read sweep file {}: {e}", path.display())))?;
+    let spec = SweepSpec::parse(&text)
+        .map_err(|p| SweepError::Input(format!("invalid sweep file {}: {p}", path.display())))?;
+    let base = match lash_scenario::builtin::by_name(&spec.base) {
+        Some(s) => s,
+        None => {
+            let file = path.parent().unwrap_or(Path::new(".")).join(&spec.base);
+            let t = std::fs::read_to_string(&file).map_err(|e| {
+                SweepError::Input(format!(
+                    "invalid sweep file {}: base: {:?} is neither a built-in scenario ({}) nor a readable file ({}: {e})",
+                    path.display(),
+                    spec.base,
+                    lash_scenario::builtin::NAMES.join(", "),
+                    file.display()
+                ))
+            })?;
+            lash_scenario::parse(&t)
+                .map_err(|p| SweepError::Input(format!("invalid base scenario {}: {p}", file.display())))?
+        }
+    };
+    Plan::new(spec, text, base).map_err(|p| SweepError::Input(format!("invalid sweep file {}: {p}", path.display())))
+}
+
+/// Parses `i/N` (0 ≤ i < N).
+pub fn parse_shard(text: &str) -> Result<Shard, String> {
+    let (i, n) = text.split_once('/').ok_or_else(|| format!("--shard {text:?}: expected i/N, e.g. 0/4"))?;
+    let index: u64 = i.trim().parse().map_err(|_| format!("--shard {text:?}: {i:?} is not a whole number"))?;
+    let count: u64 = n.trim().parse().map_err(|_| format!("--shard {text:?}: {n:?} is not a whole number"))?;
+    if count == 0 || index >= count {
+        return Err(format!("--shard {text:?}: need 0 ≤ i < N, got i = {index}, N = {count}"));
+    }
+    Ok(Shard { index, count })
+}
+
+/// The channels (name, unit) a run of the plan writes, in dataset order.
+fn channel_infos(plan: &Plan) -> Vec<ChannelInfo> {
+    let all = lash_scenario::channels(&plan.base, false);
+    plan.spec
+        .output
+        .channels
+        .iter()
+        .map(|name| ChannelInfo {
+            name: name.clone(),
+            unit: all.iter().find(|c| &c.name == name).map(|c| c.unit.to_string()).unwrap_or_default(),
+        })
+        .collect()
+}
+
+fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
+    Manifest {
+        lash_version: env!("CARGO_PKG_VERSION").to_string(),
+        sweep_hash: plan.sweep_hash.clone(),
+        scenario_hash: plan.scenario_hash.clone(),
+        sweep_file: plan.text.clone(),
+        seed: plan.spec.seed,
+        total_runs: plan.runs.len() as u64,
+        shard,
+        channels: channel_infos(plan),
+        parameters: plan.parameter_paths(),
+        status: "running".into(),
+        runs: Vec::new(),
+    }
+}
+
+/// Simulates one run and returns its samples (noise added) and the simulated time.
+fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(RunData, f64), String> {
+    let scenario = plan.scenario(run)?;
+    let mut runner: Box<dyn lash_scenario::Runner> = match plan.spec.model {
+        ModelKind::Reduced => Box::new(
+            lash_scenario::ReducedRun::new(&scenario, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?,
+        ),
+        ModelKind::Full => Box::new(lash_scenario::Run::new(&scenario, lash_scenario::BuildOptions::default())),
+    };
+    let header = runner.header();
+    let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();
+    let index: Vec<usize> = channels
+        .iter()
+        .map(|c| {
+            header.iter().position(|h| name_of(h) == c.name).ok_or_else(|| format!("channel {} not produced", c.name))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); channels.len()] };
+    runner
+        .execute(
+            &mut |row| {
+                data.time.push(row[0]);
+                for (col, &i) in data.columns.iter_mut().zip(&index) {
+                    col.push(row[i]);
+                }
+                Ok(())
+            },
+            &mut |_| {},
+        )
+        .map_err(|e| e.to_string())?;
+    // Measurement noise: one ChaCha8 stream per run, drawn row by row, channel by channel.
+    let sigmas: Vec<f64> =
+        channels.iter().map(|c| plan.spec.output.noise.get(&c.name).copied().unwrap_or(0.0)).collect();
+    if sigmas.iter().any(|s| *s > 0.0) {
+        let mut rng = ChaCha8Rng::seed_from_u64(run.seed);
+        let normals: Vec<Option<Normal<f64>>> =
+            sigmas.iter().map(|s| if *s > 0.0 { Normal::new(0.0, *s).ok() } else { None }).collect();
+        for r in 0..data.time.len() {
+            for (col, n) in data.columns.iter_mut().zip(&normals) {
+                if let Some(n) = n {
+                    col[r] += n.sample(&mut rng);
+                }
+            }
+        }
+    }
+    Ok((data, scenario.simulation.horizon))
+}
+
+fn part_path(out: &Path, id: u64) -> PathBuf {
+    out.join("parts").join(format!("run-{id:09}.parquet"))
+}
+
+/// Reads the journal of finished runs (a torn last line, from a kill, is ignored).
+fn read_journal(out: &Path) -> BTreeMap<u64, RunRecord> {
+    let mut done = BTreeMap::new();
+    if let Ok(text) = std::fs::read_to_string(out.join("runs.jsonl")) {
+        for line in text.lines() {
+            if let Ok(r) = serde_json::from_str::<RunRecord>(line) {
+                done.insert(r.run_id, r);
+            }
+        }
+    }
+    done
+}
+
+/// Runs a sweep (or one shard) into `options.out`, resuming what an earlier, interrupted
+/// execution of the same sweep left there.
+pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) + Sync)) -> Result<Report, SweepError> {
+    let start = Instant::now();
+    let out = &options.out;
+    let io = SweepError::Output;
+    // The folder: new, empty, or holding this very sweep (and shard).
+    if let Some(m) = Manifest::read(out).map_err(io)? {
+        if m.sweep_hash != plan.sweep_hash {
+            return Err(SweepError::Input(format!(
+                "--out {}: the folder holds another sweep's data (sweep hash {}…, this sweep {}…); choose another folder",
+                out.display(),
+                &m.sweep_hash[..12],
+                &plan.sweep_hash[..12]
+            )));
+        }
+        if m.shard != options.shard {
+            return Err(SweepError::Input(format!(
+                "--out {}: the folder holds shard {:?} of this sweep, not {:?}",
+                out.display(),
+                m.shard,
+                options.shard
+            )));
+        }
+        if m.status == "complete" {
+            let runs = m.runs.len() as u64;
+            on_event(Event::Start { total: runs, done: runs });
+            let failed = m.runs.iter().filter(|r| r.status != "ok").count() as u64;
+            return Ok(Report {
+                runs,
+                skipped: runs,
+                failed,
+                wall_s: start.elapsed().as_secs_f64(),
+                ..Default::default()
+            });
+        }
+    } else if out.exists() && std::fs::read_dir(out).map(|mut d| d.next().is_some()).unwrap_or(false) {
+        return Err(SweepError::Input(format!(
+            "--out {}: the folder is not empty and holds no lash sweep manifest; choose a new or empty folder",
+            out.display()
+        )));
+    }
+    std::fs::create_dir_all(out.join("parts")).map_err(|e| io(format!("cannot create {}: {e}", out.display())))?;
+    let manifest = new_manifest(plan, options.shard);
+    manifest.write(out).map_err(io)?;
+
+    let shard_runs: Vec<&RunSpec> = plan.runs.iter().filter(|r| options.shard.is_none_or(|s| s.holds(r.id))).collect();
+    let mut done = read_journal(out);
+    done.retain(|id, r| r.status != "ok" || part_path(out, *id).exists());
+    let pending: Vec<&RunSpec> = shard_runs.iter().copied().filter(|r| !done.contains_key(&r.id)).collect();
+    on_event(Event::Start { total: shard_runs.len() as u64, done: shard_runs.len() as u64 - pending.len() as u64 });
+
+    let channels = manifest.channels.clone();
+    let schema = dataset::data_schema(&channels);
+    let journal = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(out.join("runs.jsonl"))
+        .map_err(|e| io(format!("cannot open the run journal: {e}")))?;
+    struct Shared {
+        journal: std::fs::File,
+        records: BTreeMap<u64, RunRecord>,
+        simulated_s: f64,
+    }
+    let shared = Mutex::new(Shared { journal, records: done, simulated_s: 0.0 });
+    let stop: AtomicBool = AtomicBool::new(false);
+    let write_error: Mutex<Option<String>> = Mutex::new(None);
+    let threads = options.threads.unwrap_or_else(rayon::current_num_threads).max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| SweepError::Input(format!("cannot start {threads} worker threads: {e}")))?;
+    // Workers simulate, write their run's part (for resumption) and hand the data to this thread,
+    // which appends the runs to data.parquet in run order as they become available: assembling
+    // the dataset overlaps with the simulations instead of following them.
+    let (sender, receiver) = std::sync::mpsc::channel::<(u64, Option<RunData>)>();
+    let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv).map_err(io)?;
+    let earlier: BTreeMap<u64, bool> =
+        shared.lock().expect("lock").records.iter().map(|(id, r)| (*id, r.status == "ok")).collect();
+    let mut assemble_s = 0.0;
+    let assembled: Result<(), String> = std::thread::scope(|scope| {
+        let pending = &pending;
+        let (shared, stop, write_error, channels, schema) = (&shared, &stop, &write_error, &channels, &schema);
+        scope.spawn(move || {
+            pool.install(|| {
+                pending.par_iter().for_each_with(sender, |sender, run| {
+                    if stop.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    let t0 = Instant::now();
+                    let result = simulate(plan, run, channels);
+                    let simulate_s = t0.elapsed().as_secs_f64();
+                    let t1 = Instant::now();
+                    let (record, simulated, data) = match result {
+                        Ok((data, horizon)) => {
+                            if let Err(e) = dataset::write_part(&part_path(out, run.id), schema, &data) {
+                                *write_error.lock().expect("lock") = Some(e);
+                                stop.store(true, Ordering::Relaxed);
+                                return;
+                            }
+                            let rows = data.time.len() as u64;
+                            let record = RunRecord {
+                                run_id: run.id,
+                                seed: run.seed,
+                                status: "ok".into(),
+                                error: None,
+                                rows,
+                                simulate_s,
+                                write_s: 0.0,
+                            };
+                            (record, horizon, Some(data))
+                        }
+                        Err(e) => {
+                            let record = RunRecord {
+                                run_id: run.id,
+                                seed: run.seed,
+                                status: "failed".into(),
+                                error: Some(e),
+                                rows: 0,
+                                simulate_s,
+                                write_s: 0.0,
+                            };
+                            (record, 0.0, None)
+                        }
+                    };
+                    let record = RunRecord { write_s: t1.elapsed().as_secs_f64(), ..record };
+                    let ok = record.status == "ok";
+                    {
+                        let mut s = shared.lock().expect("lock");
+                        let line = serde_json::to_string(&record).unwrap_or_default();
+                        if let Err(e) = writeln!(s.journal, "{line}").and_then(|_| s.journal.flush()) {
+                            *write_error.lock().expect("lock") = Some(format!("cannot append to the run journal: {e}"));
+                            stop.store(true, Ordering::Relaxed);
+                        }
+                        s.simulated_s += simulated;
+                        s.records.insert(run.id, record);
+                    }
+                    let _ = sender.send((run.id, data));
+                    on_event(Event::Finished { ok });
+                })
+            })
+        });
+        // The assembler: walks the shard's runs in order.
+        let mut waiting: BTreeMap<u64, Option<RunData>> = BTreeMap::new();
+        let mut cursor = 0;
+        let mut advance =
+            |waiting: &mut BTreeMap<u64, Option<RunData>>, writer: &mut dataset::DataWriter| -> Result<(), String> {
+                while cursor < shard_runs.len() {
+                    let id = shard_runs[cursor].id;
+                    if let Some(ok) = earlier.get(&id) {
+                        if *ok {
+                            writer.append_file(&RunSource { file: part_path(out, id), row_group: None })?;
+                        }
+                    } else if let Some(data) = waiting.remove(&id) {
+                        if let Some(d) = data {
+                            writer.append(&d)?;
+                        }
+                    } else {
+                        break;
+                    }
+                    cursor += 1;
+                }
+                Ok(())
+            };
+        advance(&mut waiting, &mut writer)?;
+        for (id, data) in receiver {
+            waiting.insert(id, data);
+            let t = Instant::now();
+            advance(&mut waiting, &mut writer)?;
+            assemble_s += t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    });
+    if let Some(e) = write_error.into_inner().expect("lock") {
+        return Err(io(e));
+    }
+    assembled.map_err(io)?;
+    let shared = shared.into_inner().expect("lock");
+    let t_assemble = Instant::now();
+    let records: Vec<RunRecord> = shard_runs.iter().filter_map(|r| shared.records.get(&r.id).cloned()).collect();
+    if records.len() != shard_runs.len() {
+        return Err(io(format!("{} runs of the shard did not finish", shard_runs.len() - records.len())));
+    }
+    writer.finish().map_err(io)?;
+    let ran_ids: std::collections::HashSet<u64> = pending.iter().map(|r| r.id).collect();
+    let mut report = Report {
+        runs: shard_runs.len() as u64,
+        skipped: shard_runs.len() as u64 - pending.len() as u64,
+        ran: pending.len() as u64,
+        failed: records.iter().filter(|r| r.status != "ok").count() as u64,
+        simulate_s: records.iter().filter(|r| ran_ids.contains(&r.run_id)).map(|r| r.simulate_s).sum(),
+        write_s: records.iter().filter(|r| ran_ids.contains(&r.run_id)).map(|r| r.write_s).sum(),
+        simulated_s: shared.simulated_s,
+        threads,
+        ..Default::default()
+    };
+    let params: Vec<ParamsRow> = shard_runs
+        .iter()
+        .map(|r| ParamsRow {
+            run_id: r.id,
+            seed: r.seed,
+            status: shared.records.get(&r.id).map(|x| x.status.clone()).unwrap_or_default(),
+            values: r.values.clone(),
+        })
+        .collect();
+    dataset::write_params(out, &manifest.parameters, &params).map_err(io)?;
+    let manifest = Manifest { status: "complete".into(), runs: records, ..manifest };
+    manifest.write(out).map_err(io)?;
+    std::fs::remove_dir_all(out.join("parts")).map_err(|e| io(format!("cannot remove the parts folder: {e}")))?;
+    std::fs::remove_file(out.join("runs.jsonl")).map_err(|e| io(format!("cannot remove the run journal: {e}")))?;
+    report.assemble_s = assemble_s + t_assemble.elapsed().as_secs_f64();
+    report.wall_s = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// Combines the complete output folders of every shard of one sweep into `out`: the same
+/// data.parquet, params.parquet and manifest as a single-machine execution.
+pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
+    let bad = SweepError::Input;
+    if inputs.is_empty() {
+        return Err(bad("merge: name the shard folders to merge".into()));
+    }
+    let mut manifests = Vec::new();
+    for dir in inputs {
+        let m = Manifest::read(dir).map_err(bad)?.ok_or_else(|| {
+            bad(format!("merge: {} holds no manifest.json (not a sweep output folder)", dir.display()))
+        })?;
+        if m.status != "complete" {
+            return Err(bad(format!(
+                "merge: {} is not complete (status {}); finish that shard first",
+                dir.display(),
+                m.status
+            )));
+        }
+        manifests.push(m);
+    }
+    let first = &manifests[0];
+    let count = first.shard.map(|s| s.count).unwrap_or(1);
+    let mut seen = vec![false; count as usize];
+    for (dir, m) in inputs.iter().zip(&manifests) {
+        if m.sweep_hash != first.sweep_hash {
+            return Err(bad(format!(
+                "merge: {} holds another sweep (hash {}… vs {}…)",
+                dir.display(),
+                &m.sweep_hash[..12],
+                &first.sweep_hash[..12]
+            )));
+        }
+        let s = m.shard.unwrap_or(Shard { index: 0, count: 1 });
+        if s.count != count {
+            return Err(bad(format!(
+                "merge: {} is shard {}/{}, the others are out of {count}",
+                dir.display(),
+                s.index,
+                s.count
+            )));
+        }
+        if std::mem::replace(&mut seen[s.index as usize], true) {
+            return Err(bad(format!("merge: shard {}/{count} is given twice", s.index)));
+        }
+    }
+    let missing: Vec<String> =
+        seen.iter().enumerate().filter(|(_, s)| !**s).map(|(i, _)| format!("{i}/{count}")).collect();
+    if !missing.is_empty() {
+        return Err(bad(format!("merge: shards {} are missing", missing.join(", "))));
+    }
+    if let Some(m) = Manifest::read(out).map_err(bad)? {
+        if m.sweep_hash != first.sweep_hash {
+            return Err(bad(format!("--out {}: the folder holds another sweep's data", out.display())));
+        }
+    } else if out.exists() && std::fs::read_dir(out).map(|mut d| d.next().is_some()).unwrap_or(false) {
+        return Err(bad(format!("--out {}: the folder is not empty and holds no lash sweep manifest", out.display())));
+    }
+    std::fs::create_dir_all(out).map_err(|e| SweepError::Output(format!("cannot create {}: {e}", out.display())))?;
+    // Every run's location: (input, row group among that input's ok runs).
+    let mut runs: Vec<(RunRecord, usize, Option<usize>)> = Vec::new();
+    for (i, m) in manifests.iter().enumerate() {
+        let mut rg = 0;
+        for r in &m.runs {
+            let group = (r.status == "ok").then(|| {
+                rg += 1;
+                rg - 1
+            });
+            runs.push((r.clone(), i, group));
+        }
+    }
+    runs.sort_by_key(|(r, _, _)| r.run_id);
+    let schema = dataset::data_schema(&first.channels);
+    let sources: Vec<RunSource> = runs
+        .iter()
+        .filter_map(|(_, i, g)| g.map(|g| RunSource { file: inputs[*i].join("data.parquet"), row_group: Some(g) }))
+        .collect();
+    let csv = inputs[0].join("data.csv").exists();
+    let rows = dataset::write_data(out, &schema, &sources, csv).map_err(SweepError::Output)?;
+    let mut params = Vec::new();
+    for dir in inputs {
+        params.extend(dataset::read_params(dir, first.parameters.len()).map_err(SweepError::Output)?);
+    }
+    params.sort_by_key(|p| p.run_id);
+    dataset::write_params(out, &first.parameters, &params).map_err(SweepError::Output)?;
+    let merged = Manifest { shard: None, runs: runs.into_iter().map(|(r, _, _)| r).collect(), ..first.clone() };
+    merged.write(out).map_err(SweepError::Output)?;
+    Ok(rows)
+}

@@ -1,0 +1,371 @@
+//! From a sweep file to the list of runs: the base scenario, the parameter values of every run
+//! (grid, random or Latin hypercube from the sweep seed), each run's noise seed, and the
+//! scenario of one run (the base with its parameters written at their paths, then validated).
+
+use crate::spec::{ModelKind, Parameter, Sampling, SweepSpec};
+use lash_core::Problems;
+use lash_scenario::Scenario;
+use rand::seq::SliceRandom;
+use rand::{Rng, RngCore, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use sha2::{Digest, Sha256};
+
+/// One run of the sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSpec {
+    /// Run id (0-based, dense).
+    pub id: u64,
+    /// The parameter values, in the order of the sweep file's parameters.
+    pub values: Vec<f64>,
+    /// Seed of the run's measurement noise, derived from (sweep seed, run id).
+    pub seed: u64,
+}
+
+/// A checked sweep: the base scenario (TOML table) and all runs.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The sweep file.
+    pub spec: SweepSpec,
+    /// The sweep file's text (recorded in the manifest).
+    pub text: String,
+    /// The base scenario, with the sweep's horizon and sampling applied.
+    pub base: Scenario,
+    base_table: toml::Table,
+    /// Every run.
+    pub runs: Vec<RunSpec>,
+    /// Hex SHA-256 of the base scenario (as serialized TOML).
+    pub scenario_hash: String,
+    /// Hex SHA-256 identifying the sweep: sweep file + base scenario + lash version.
+    pub sweep_hash: String,
+}
+
+/// Seed of run `id`: the first word of the ChaCha8 stream `id` keyed by the sweep seed.
+/// Independent of thread count, shard and order of execution.
+pub fn run_seed(sweep_seed: u64, id: u64) -> u64 {
+    let mut rng = ChaCha8Rng::seed_from_u64(sweep_seed);
+    rng.set_stream(id);
+    rng.next_u64()
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+impl Plan {
+    /// Checks the sweep against its base scenario and lists the runs. Every problem found is
+    /// reported with its field path; nothing is run.
+    pub fn new(spec: SweepSpec, text: String, base: Scenario) -> Result<Self, Problems> {
+        let mut base = base;
+        let mut p = Problems::new();
+        if let Some(h) = spec.horizon {
+            base.simulation.horizon = h;
+        }
+        base.simulation.output_interval = 1.0 / spec.output.sample_rate;
+        // The base itself (with the sweep's horizon and sampling) must be valid; the sweep's
+        // channels are checked below under their own field names.
+        p.extend_prefixed("base", lash_scenario::validate(&base));
+        base.output.channels = spec.output.channels.clone();
+        if spec.model == ModelKind::Reduced && base.clearances.len() != 1 {
+            p.push(
+                "model",
+                format!("the reduced model needs exactly one clearance joint; the base has {}", base.clearances.len()),
+            );
+        }
+        let base_table: toml::Table = match toml::Table::try_from(&base) {
+            Ok(t) => t,
+            Err(e) => {
+                p.push("base", format!("cannot be written as TOML: {e}"));
+                return Err(p);
+            }
+        };
+        // Every path must name an existing numeric field of the base.
+        for (k, par) in spec.parameters.iter().enumerate() {
+            let mut t = base_table.clone();
+            if let Err(m) = set_path(&mut t, &par.path, 0.0) {
+                p.push(format!("parameters[{k}].path"), m);
+            }
+        }
+        let known = lash_scenario::channel_names(&base, false);
+        for (i, c) in spec.output.channels.iter().enumerate() {
+            if !known.iter().any(|k| k == c) {
+                p.push(
+                    format!("output.channels[{i}]"),
+                    format!("{c:?} is not a channel of the base scenario (known: {})", known.join(", ")),
+                );
+            }
+        }
+        if p.is_empty() && spec.model == ModelKind::Reduced {
+            // Step sizes, sampling and horizon must fit the reduced model's integer time grid:
+            // building its runner for the base checks them once, before any run.
+            if let Err(e) = lash_scenario::ReducedRun::new(&base, reduced_options(&spec)) {
+                let field = if e.to_string().contains("output_interval") { "output.sample_rate" } else { "model" };
+                p.push(field, format!("the reduced model refuses the base scenario: {e}"));
+            }
+        }
+        if !p.is_empty() {
+            return Err(p);
+        }
+        let runs = design(&spec);
+        let scenario_toml = toml::to_string(&base_table).unwrap_or_default();
+        let scenario_hash = hex(&Sha256::digest(scenario_toml.as_bytes()));
+        let mut h = Sha256::new();
+        h.update(env!("CARGO_PKG_VERSION").as_bytes());
+        h.update([0]);
+        h.update(serde_json::to_string(&spec).unwrap_or_default().as_bytes());
+        h.update([0]);
+        h.update(scenario_toml.as_bytes());
+        let sweep_hash = hex(&h.finalize());
+        Ok(Self { spec, text, base, base_table, runs, scenario_hash, sweep_hash })
+    }
+
+    /// Parameter paths, in order.
+    pub fn parameter_paths(&self) -> Vec<String> {
+        self.spec.parameters.iter().map(|p| p.path.clone()).collect()
+    }
+
+    /// The scenario of one run: the base with the run's values at their paths, validated.
+    pub fn scenario(&self, run: &RunSpec) -> Result<Scenario, String> {
+        let mut t = self.base_table.clone();
+        for (par, v) in self.spec.parameters.iter().zip(&run.values) {
+            set_path(&mut t, &par.path, *v)?;
+        }
+        let text = toml::to_string(&t).map_err(|e| e.to_string())?;
+        lash_scenario::parse(&text).map_err(|p| format!("invalid parameter combination: {p}"))
+    }
+}
+
+/// Options of the reduced model for this sweep.
+pub fn reduced_options(spec: &SweepSpec) -> lash_scenario::ReducedOptions {
+    let mut options = lash_scenario::ReducedOptions::default();
+    if let Some(r) = spec.reduced {
+        options.macro_step = r.macro_step;
+        options.micro_step = r.micro_step;
+    }
+    options
+}
+
+/// The runs' parameter values.
+fn design(spec: &SweepSpec) -> Vec<RunSpec> {
+    let pars = &spec.parameters;
+    let listed = |p: &Parameter| -> Vec<f64> {
+        if let Some(v) = &p.values {
+            return v.clone();
+        }
+        if let Some(l) = p.linspace {
+            if l.count == 1 {
+                return vec![l.start];
+            }
+            return (0..l.count).map(|i| l.start + (l.stop - l.start) * i as f64 / (l.count - 1) as f64).collect();
+        }
+        Vec::new()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+    // Stream u64::MAX is reserved for the design; runs use streams 0, 1, 2, …
+    rng.set_stream(u64::MAX);
+    let values: Vec<Vec<f64>> = match spec.sampling {
+        Sampling::Grid => {
+            let axes: Vec<Vec<f64>> = pars.iter().map(listed).collect();
+            let total: usize = axes.iter().map(Vec::len).product();
+            (0..total)
+                .map(|mut i| {
+                    let mut v = vec![0.0; axes.len()];
+                    for (k, axis) in axes.iter().enumerate().rev() {
+                        v[k] = axis[i % axis.len()];
+                        i /= axis.len();
+                    }
+                    v
+                })
+                .collect()
+        }
+        Sampling::Random => {
+            let n = spec.runs.unwrap_or(0) as usize;
+            (0..n)
+                .map(|_| {
+                    pars.iter()
+                        .map(|p| match p.uniform {
+                            Some(r) => rng.random_range(r.low..r.high),
+                            None => {
+                                let l = listed(p);
+                                l[rng.random_range(0..l.len())]
+                            }
+                        })
+                        .collect()
+                })
+                .collect()
+        }
+        Sampling::LatinHypercube => {
+            let n = spec.runs.unwrap_or(0) as usize;
+            let mut columns: Vec<Vec<f64>> = Vec::with_capacity(pars.len());
+            for p in pars {
+                let mut strata: Vec<usize> = (0..n).collect();
+                strata.shuffle(&mut rng);
+                let col = strata
+                    .iter()
+                    .map(|&s| {
+                        let u = (s as f64 + rng.random::<f64>()) / n as f64;
+                        match p.uniform {
+                            Some(r) => r.low + (r.high - r.low) * u,
+                            None => {
+                                let l = listed(p);
+                                l[((u * l.len() as f64) as usize).min(l.len() - 1)]
+                            }
+                        }
+                    })
+                    .collect();
+                columns.push(col);
+            }
+            (0..n).map(|i| columns.iter().map(|c| c[i]).collect()).collect()
+        }
+    };
+    values
+        .into_iter()
+        .enumerate()
+        .map(|(i, values)| RunSpec { id: i as u64, values, seed: run_seed(spec.seed, i as u64) })
+        .collect()
+}
+
+/// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
+/// table. The field must exist and be a number.
+pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {
+    let mut segments = Vec::new();
+    for part in path.split('.') {
+        let (name, rest) = part.split_once('[').unwrap_or((part, ""));
+        if name.is_empty() {
+            return Err(format!("{path:?}: empty name in the path"));
+        }
+        segments.push(Segment::Key(name.to_string()));
+        if !rest.is_empty() {
+            for idx in rest.trim_end_matches(']').split("][") {
+                let i = idx.parse::<usize>().map_err(|_| format!("{path:?}: index [{idx}] is not a number"))?;
+                segments.push(Segment::Index(i));
+            }
+        }
+    }
+    let Some(Segment::Key(first)) = segments.first() else {
+        return Err(format!("{path:?}: empty path"));
+    };
+    let Some(mut here) = table.get_mut(first) else {
+        let keys: Vec<&String> = table.keys().collect();
+        return Err(format!("{path:?}: no field {first:?} in the scenario (fields: {keys:?})"));
+    };
+    let mut walked = first.clone();
+    for seg in &segments[1..] {
+        here = match (seg, here) {
+            (Segment::Key(k), toml::Value::Table(t)) => {
+                if !t.contains_key(k) {
+                    let keys: Vec<&String> = t.keys().collect();
+                    return Err(format!("{path:?}: no field {k:?} in {walked} (fields there: {keys:?})"));
+                }
+                walked.push_str(&format!(".{k}"));
+                t.get_mut(k).expect("checked")
+            }
+            (Segment::Index(i), toml::Value::Array(a)) => {
+                let len = a.len();
+                if *i >= len {
+                    return Err(format!("{path:?}: index {i} out of range ({walked} has {len} entries)"));
+                }
+                walked.push_str(&format!("[{i}]"));
+                &mut a[*i]
+            }
+            (Segment::Key(k), _) => return Err(format!("{path:?}: {walked} has no fields (looking for {k:?})")),
+            (Segment::Index(i), _) => return Err(format!("{path:?}: {walked} is not a list (looking for [{i}])")),
+        };
+    }
+    match here {
+        toml::Value::Float(f) => *f = value,
+        toml::Value::Integer(i) if value.fract() == 0.0 && value.abs() < 9.0e15 => *i = value as i64,
+        toml::Value::Integer(_) => return Err(format!("{path:?} is a whole number; {value} is not")),
+        other => return Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
+    }
+    Ok(())
+}
+
+enum Segment {
+    Key(String),
+    Index(usize),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(text: &str) -> Result<Plan, Problems> {
+        let spec = SweepSpec::parse(text)?;
+        Plan::new(spec, text.to_string(), lash_scenario::builtin::by_name("A").unwrap())
+    }
+
+    const GRID: &str = r#"
+base = "A"
+[output]
+channels = ["slider.ax"]
+sample_rate = 10000.0
+[[parameters]]
+path = "clearances[0].bearing_radius"
+values = [0.01005, 0.0101]
+[[parameters]]
+path = "drivers[0].motion.omega"
+linspace = { start = 400.0, stop = 600.0, count = 3 }
+"#;
+
+    #[test]
+    fn grid_is_the_cartesian_product_last_fastest() {
+        let p = plan(GRID).unwrap();
+        let v: Vec<Vec<f64>> = p.runs.iter().map(|r| r.values.clone()).collect();
+        assert_eq!(v.len(), 6);
+        assert_eq!(v[0], vec![0.01005, 400.0]);
+        assert_eq!(v[1], vec![0.01005, 500.0]);
+        assert_eq!(v[3], vec![0.0101, 400.0]);
+        let s = p.scenario(&p.runs[4]).unwrap();
+        assert_eq!(s.clearances[0].bearing_radius, 0.0101);
+    }
+
+    #[test]
+    fn latin_hypercube_puts_one_point_in_every_stratum() {
+        let text = GRID
+            .replace("values = [0.01005, 0.0101]", "uniform = { low = 0.0, high = 1.0 }")
+            .replace("linspace = { start = 400.0, stop = 600.0, count = 3 }", "uniform = { low = 400.0, high = 600.0 }")
+            .replace("base = \"A\"", "base = \"A\"\nsampling = \"latin_hypercube\"\nruns = 50\nseed = 3");
+        // The strata are what is checked here; the design does not need valid scenarios.
+        let p = plan(&text).unwrap();
+        for k in 0..2 {
+            let (lo, hi) = if k == 0 { (0.0, 1.0) } else { (400.0, 600.0) };
+            let mut strata: Vec<usize> =
+                p.runs.iter().map(|r| ((r.values[k] - lo) / (hi - lo) * 50.0) as usize).collect();
+            strata.sort();
+            assert_eq!(strata, (0..50).collect::<Vec<_>>(), "parameter {k}");
+        }
+        // Same seed, same design; another seed, another design.
+        let again = plan(&text).unwrap();
+        assert_eq!(again.runs, p.runs);
+        let other = plan(&text.replace("seed = 3", "seed = 4")).unwrap();
+        assert_ne!(other.runs[0].values, p.runs[0].values);
+    }
+
+    #[test]
+    fn unknown_paths_and_channels_are_errors_naming_the_field() {
+        let text =
+            GRID.replace("drivers[0].motion.omega", "drivers[0].motion.omga").replace("\"slider.ax\"", "\"slider.az\"");
+        let e = plan(&text).unwrap_err().to_string();
+        assert!(e.contains("parameters[1].path") && e.contains("omga") && e.contains("omega"), "{e}");
+        assert!(e.contains("output.channels[0]"), "{e}");
+        let e = plan(&GRID.replace("drivers[0].motion.omega", "clearances[0].joint")).unwrap_err().to_string();
+        assert!(e.contains("not a number"), "{e}");
+        let e = plan(&GRID.replace("drivers[0].motion.omega", "drivers[3].motion.omega")).unwrap_err().to_string();
+        assert!(e.contains("out of range"), "{e}");
+    }
+
+    #[test]
+    fn an_invalid_combination_is_a_per_run_error() {
+        let p = plan(&GRID.replace("values = [0.01005, 0.0101]", "values = [0.01005, 0.009]")).unwrap();
+        let e = p.scenario(&p.runs[3]).unwrap_err();
+        assert!(e.contains("bearing_radius") || e.contains("journal_radius"), "{e}");
+        assert!(p.scenario(&p.runs[0]).is_ok());
+    }
+
+    #[test]
+    fn run_seeds_depend_on_sweep_seed_and_run_id_only() {
+        assert_eq!(run_seed(7, 12), run_seed(7, 12));
+        assert_ne!(run_seed(7, 12), run_seed(7, 13));
+        assert_ne!(run_seed(7, 12), run_seed(8, 12));
+    }
+}

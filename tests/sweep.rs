@@ -1,0 +1,296 @@
+//! `lash sweep` end to end: thread-count invariance, resumption after a kill, shards + merge equal
+//! to one machine, per-run failures recorded, bad input refused before any work, the dataset read
+//! back by pyarrow/pandas, and a real Dask `LocalCluster` with two workers running the shards
+//! (tests/sweep/check_dataset.py, examples/dask_sweep.py; Python packages from PyPI into
+//! target/data-venv on first use).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lash(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lash")).args(args).output().expect("lash runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lash-sweep-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A small random sweep of scenario A (reduced model) with measurement noise.
+fn sweep_file(dir: &Path, runs: u32, horizon: f64) -> PathBuf {
+    let f = dir.join("sweep.toml");
+    std::fs::write(
+        &f,
+        format!(
+            r#"base = "A"
+sampling = "random"
+runs = {runs}
+seed = 11
+horizon = {horizon}
+[output]
+channels = ["slider.ax", "crank_pivot.force"]
+sample_rate = 10000.0
+noise = {{ "slider.ax" = 25.0 }}
+[[parameters]]
+path = "clearances[0].bearing_radius"
+uniform = {{ low = 0.00992, high = 0.0101 }}
+[[parameters]]
+path = "drivers[0].motion.omega"
+values = [400.0, 450.0, 523.6]
+"#
+        ),
+    )
+    .unwrap();
+    f
+}
+
+fn run_sweep(file: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["sweep", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"];
+    args.extend_from_slice(extra);
+    lash(&args)
+}
+
+fn bytes(p: PathBuf) -> Vec<u8> {
+    std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+#[test]
+fn results_do_not_depend_on_threads_shards_or_interruptions() {
+    let dir = scratch("invariance");
+    let file = sweep_file(&dir, 24, 0.02);
+    let one = dir.join("one");
+    let o = run_sweep(&file, &one, &["--threads", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let two = dir.join("two");
+    let o = run_sweep(&file, &two, &["--threads", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["data.parquet", "params.parquet"] {
+        assert!(bytes(one.join(f)) == bytes(two.join(f)), "{f} differs between 1 and 2 threads");
+    }
+    // Noise is really there and seeded per run: the same parameters twice would differ only by it.
+    let manifest: serde_json::Value = serde_json::from_slice(&bytes(one.join("manifest.json"))).unwrap();
+    let runs = manifest["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 24);
+    assert!(runs.iter().all(|r| r["status"] == "ok" && r["rows"] == 201), "{runs:?}");
+    let seeds: std::collections::HashSet<u64> = runs.iter().map(|r| r["seed"].as_u64().unwrap()).collect();
+    assert_eq!(seeds.len(), 24);
+
+    // Shards 0/3, 1/3, 2/3 merged equal the single-machine dataset.
+    let mut shards = Vec::new();
+    for i in 0..3 {
+        let s = dir.join(format!("shard{i}"));
+        let o = run_sweep(&file, &s, &["--shard", &format!("{i}/3")]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        shards.push(s.to_str().unwrap().to_string());
+    }
+    let merged = dir.join("merged");
+    let mut args = vec!["sweep", "merge"];
+    args.extend(shards.iter().map(String::as_str));
+    args.extend(["--out", merged.to_str().unwrap()]);
+    let o = lash(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["data.parquet", "params.parquet"] {
+        assert!(bytes(one.join(f)) == bytes(merged.join(f)), "{f}: merged shards differ from one machine");
+    }
+    // An incomplete set of shards is refused, naming the missing one.
+    let o = lash(&["sweep", "merge", &shards[0], &shards[2], "--out", dir.join("m2").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("1/3"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_killed_sweep_resumes_and_loses_only_the_runs_in_flight() {
+    let dir = scratch("resume");
+    let file = sweep_file(&dir, 60, 0.05);
+    let clean = dir.join("clean");
+    let o = run_sweep(&file, &clean, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let out = dir.join("killed");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(["sweep", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet", "--threads", "1"])
+        .spawn()
+        .unwrap();
+    let journal = out.join("runs.jsonl");
+    let started = std::time::Instant::now();
+    let finished_before_kill = loop {
+        let n = std::fs::read_to_string(&journal).map(|t| t.lines().count()).unwrap_or(0);
+        if n >= 5 {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break n;
+        }
+        assert!(started.elapsed().as_secs() < 60, "the sweep never got going");
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the sweep finished ({status}) before it could be killed; make it longer");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    assert!(!out.join("data.parquet").exists(), "a killed sweep must not leave a dataset that looks complete");
+    let o = run_sweep(&file, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stderr(&o);
+    let skipped: usize =
+        text.split(" already complete").next().unwrap().rsplit('(').next().unwrap().trim().parse().unwrap();
+    assert!(skipped >= finished_before_kill, "resumed run skipped {skipped}, {finished_before_kill} were done: {text}");
+    for f in ["data.parquet", "params.parquet"] {
+        assert!(bytes(clean.join(f)) == bytes(out.join(f)), "{f}: resumed sweep differs from an uninterrupted one");
+    }
+    // Running it once more does nothing.
+    let o = run_sweep(&file, &out, &[]);
+    assert!(stderr(&o).contains("60 already complete, 0 run now"), "{}", stderr(&o));
+}
+
+#[test]
+fn an_invalid_combination_is_a_recorded_failure_not_a_stop() {
+    let dir = scratch("failure");
+    let file = dir.join("sweep.toml");
+    // A bearing radius below the journal radius (9.9 mm) is invalid for that run only.
+    std::fs::write(
+        &file,
+        r#"base = "A"
+horizon = 0.01
+[output]
+channels = ["slider.ax"]
+sample_rate = 10000.0
+[[parameters]]
+path = "clearances[0].bearing_radius"
+values = [0.01, 0.0098, 0.00995]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_sweep(&file, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 failed"), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&bytes(out.join("manifest.json"))).unwrap();
+    let runs = m["runs"].as_array().unwrap();
+    assert_eq!(runs[0]["status"], "ok");
+    assert_eq!(runs[1]["status"], "failed");
+    assert!(runs[1]["error"].as_str().unwrap().contains("bearing_radius"), "{}", runs[1]["error"]);
+    assert_eq!(runs[2]["status"], "ok");
+}
+
+#[test]
+fn bad_input_is_refused_before_any_work() {
+    let dir = scratch("bad");
+    let file = sweep_file(&dir, 4, 0.01);
+    let text = std::fs::read_to_string(&file).unwrap();
+    let check = |name: &str, content: &str, extra: &[&str], expect: &[&str]| {
+        let f = dir.join(format!("{name}.toml"));
+        std::fs::write(&f, content).unwrap();
+        let out = dir.join(format!("out-{name}"));
+        let o = run_sweep(&f, &out, extra);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        for e in expect {
+            assert!(stderr(&o).contains(e), "{name}: {e:?} not in {}", stderr(&o));
+        }
+        assert!(!out.join("data.parquet").exists(), "{name}: output written");
+    };
+    check(
+        "path",
+        &text.replace("drivers[0].motion.omega", "drivers[0].motion.omga"),
+        &[],
+        &["parameters[1].path", "omga", "omega"],
+    );
+    check("channel", &text.replace("\"crank_pivot.force\"", "\"crank_pivot.farce\""), &[], &["output.channels[1]"]);
+    check("range", &text.replace("low = 0.00992", "low = 0.02"), &[], &["parameters[0].uniform", "low < high"]);
+    check("shard", &text, &["--shard", "3/3"], &["--shard", "0 ≤ i < N"]);
+    check("rate", &text.replace("10000.0", "30000.0"), &[], &["output.sample_rate", "output_interval"]);
+    // A folder holding another sweep's data.
+    let out = dir.join("taken");
+    assert!(run_sweep(&file, &out, &[]).status.success());
+    let other = dir.join("other.toml");
+    std::fs::write(&other, text.replace("seed = 11", "seed = 12")).unwrap();
+    let o = run_sweep(&other, &out, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("another sweep"), "{}", stderr(&o));
+    // A folder with foreign files.
+    let foreign = dir.join("foreign");
+    std::fs::create_dir_all(&foreign).unwrap();
+    std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
+    let o = run_sweep(&file, &foreign, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("not empty"), "{}", stderr(&o));
+}
+
+/// A Python virtual environment with pyarrow, pandas and Dask distributed, made once.
+fn data_python() -> PathBuf {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join("data-venv");
+    let python = venv.join("bin/python");
+    if !python.exists() {
+        let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3 is needed").success();
+        assert!(ok, "creating {}", venv.display());
+    }
+    let ready = Command::new(&python)
+        .args(["-c", "import pyarrow, pandas, dask.distributed"])
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    if !ready {
+        let ok = Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "pyarrow", "pandas", "dask[distributed]"])
+            .status()
+            .expect("pip")
+            .success();
+        assert!(ok, "installing pyarrow, pandas and dask[distributed] from PyPI into {}", venv.display());
+    }
+    python
+}
+
+#[test]
+fn pandas_reads_the_dataset_and_a_dask_cluster_reproduces_it() {
+    let dir = scratch("dask");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = sweep_file(&dir, 16, 0.02);
+    let single = dir.join("single");
+    let o = run_sweep(&file, &single, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let python = data_python();
+    let cluster = Command::new(&python)
+        .arg(root.join("examples/dask_sweep.py"))
+        .arg(&file)
+        .args([
+            "--out",
+            dir.join("dask").to_str().unwrap(),
+            "--shards",
+            "4",
+            "--local-workers",
+            "2",
+            "--lash",
+            env!("CARGO_BIN_EXE_lash"),
+        ])
+        .output()
+        .unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&cluster.stdout), String::from_utf8_lossy(&cluster.stderr));
+    assert!(cluster.status.success(), "dask runner: {text}");
+    assert!(text.contains("4 shards on 2 Dask workers"), "{text}");
+    let check = Command::new(&python)
+        .arg(root.join("tests/sweep/check_dataset.py"))
+        .arg(&single)
+        .arg(dir.join("dask/merged"))
+        .output()
+        .unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&check.stdout), String::from_utf8_lossy(&check.stderr));
+    assert!(check.status.success(), "pyarrow/pandas check: {text}");
+    assert!(text.contains("equal tables"), "{text}");
+}
+
+#[test]
+fn the_example_sweeps_run() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for name in ["sweep-grid", "sweep-lhs"] {
+        let out = scratch(name).join("out");
+        let o = run_sweep(&root.join(format!("examples/{name}.toml")), &out, &[]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(stderr(&o).contains(" 0 failed"), "{name}: {}", stderr(&o));
+        let m: serde_json::Value = serde_json::from_slice(&bytes(out.join("manifest.json"))).unwrap();
+        assert_eq!(m["status"], "complete");
+    }
+}
