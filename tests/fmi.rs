@@ -86,6 +86,39 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
         eprintln!("{text}");
         assert!(text.contains("bit-identical"), "{text}");
     }
+    // The clearance joint's coefficients are FMU parameters: set before initialization, they must
+    // give what lash computes for a scenario file written with the same values.
+    let shown = Command::new(env!("CARGO_BIN_EXE_lash")).args(["show", "A"]).output().unwrap();
+    let text = String::from_utf8(shown.stdout).unwrap();
+    assert_eq!(text.matches("restitution = 0.9").count(), 1);
+    assert_eq!(text.matches("coefficient = 0.01").count(), 1);
+    let edited =
+        text.replace("restitution = 0.9", "restitution = 0.6").replace("coefficient = 0.01", "coefficient = 0.08");
+    let scenario = out.join("A-edited.toml");
+    std::fs::write(&scenario, edited).unwrap();
+    let reference = out.join("edited");
+    let o = Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(["run", scenario.to_str().unwrap(), "--model", "reduced", "--quiet", "--horizon", "0.036", "--out"])
+        .arg(&reference)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ne!(
+        std::fs::read(reference.join("timeseries.csv")).unwrap(),
+        std::fs::read(reduced.join("timeseries.csv")).unwrap(),
+        "the edited coefficients must change the response, or this check proves nothing"
+    );
+    for (mech, micro) in [(mechanism.clone(), fmu_path.clone()), (out.join("lash_mechanism-fmi2.fmu"), fmi2.clone())] {
+        let text = run(&[
+            script.to_str().unwrap(),
+            mech.to_str().unwrap(),
+            micro.to_str().unwrap(),
+            reference.join("timeseries.csv").to_str().unwrap(),
+            "contact.restitution=0.6,friction.coefficient=0.08",
+        ]);
+        eprintln!("parameters set: {text}");
+        assert!(text.contains("bit-identical"), "{text}");
+    }
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -5,7 +5,10 @@ slopes to the next node; the slider acceleration is propagated at every micro st
 free + gain . f_c with the maps interpolated linearly).
 
 Compares the slider acceleration with lash's in-process run (a CSV of `lash run A --model reduced`).
-Usage: python reduced_cosim.py lash_mechanism.fmu lash_interface.fmu lash_reduced_timeseries.csv
+Usage: python reduced_cosim.py lash_mechanism.fmu lash_interface.fmu lash_reduced_timeseries.csv [name=value,...]
+
+The optional last argument sets parameters of the interface FMU (its clearance joint's radii and
+law coefficients) before initialization; the CSV must then come from a scenario with those values.
 """
 
 import csv
@@ -22,7 +25,7 @@ STOP = 0.036
 class Fmu:
     """The same calls over FMI 3.0 (arrays) and FMI 2.0 (one scalar per element)."""
 
-    def __init__(self, path, name):
+    def __init__(self, path, name, parameters=None):
         md = read_model_description(path)
         self.dir = extract(path)
         self.v3 = md.fmiVersion.startswith("3")
@@ -40,6 +43,8 @@ class Fmu:
                 self.refs[base] = (v.valueReference, n)
             else:
                 self.refs.setdefault(base, []).append(v.valueReference)
+        for pname, value in (parameters or {}).items():
+            self.set([pname], [value])
         if self.v3:
             self.s.enterInitializationMode(startTime=0.0, stopTime=STOP)
         else:
@@ -69,7 +74,12 @@ class Fmu:
 
 
 mech = Fmu(sys.argv[1], "mechanism")
-micro = Fmu(sys.argv[2], "interface")
+parameters = {}
+if len(sys.argv) > 4:
+    for item in sys.argv[4].split(","):
+        pname, value = item.split("=")
+        parameters[pname] = float(value)
+micro = Fmu(sys.argv[2], "interface", parameters)
 h_m, h_r, n_micro, n_macro = 1e-3, 1e-5, 100, 36
 
 names = ["effective_mass", "effective_force", "journal_angular_velocity", "bearing_angular_velocity",

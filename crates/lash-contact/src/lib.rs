@@ -11,8 +11,10 @@ pub mod friction;
 pub mod full_model;
 pub mod law;
 pub mod micro;
+pub mod parameters;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact};
 pub use friction::FrictionLaw;
 pub use full_model::{FullModel, ModelError};
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};
+pub use parameters::ClearanceDefinition;

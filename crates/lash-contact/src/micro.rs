@@ -13,6 +13,7 @@
 //! location of contact onset and exit (a 2-DOF model can afford a converged answer).
 
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use crate::parameters::ClearanceDefinition;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count};
 use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_mech::Vec2;
@@ -372,6 +373,9 @@ pub mod vr {
     pub const RADIAL_CLEARANCE: ValueReference = 20;
     /// Output |f_c|.
     pub const CONTACT_FORCE_MAGNITUDE: ValueReference = 21;
+    /// First parameter (with a [`crate::ClearanceDefinition`]): `journal_radius`, then
+    /// `bearing_radius`, then the laws' numeric fields.
+    pub const FIRST_PARAMETER: ValueReference = 22;
 }
 
 /// The clearance interface as a [`Subsystem`] (the micro subsystem).
@@ -387,11 +391,24 @@ pub struct InterfaceSubsystem {
     time: Ticks,
     phase: Phase,
     state: ContactState,
+    definition: Option<ClearanceDefinition>,
+    parameter_values: Vec<f64>,
 }
 
 impl InterfaceSubsystem {
     /// A micro subsystem for `joint`, centred and at rest relative to the bearing.
     pub fn new(joint: ClearanceJoint, integrator: MicroIntegrator) -> Result<Self, SubsystemError> {
+        Self::with_definition(joint, integrator, None)
+    }
+
+    /// As [`InterfaceSubsystem::new`], with the joint's definition: its radii and law
+    /// coefficients become parameters (value references from [`vr::FIRST_PARAMETER`] on), which
+    /// may be set before `initialize`, where they are checked and resolved into the joint.
+    pub fn with_definition(
+        joint: ClearanceJoint,
+        integrator: MicroIntegrator,
+        definition: Option<ClearanceDefinition>,
+    ) -> Result<Self, SubsystemError> {
         let micro_step = match integrator {
             MicroIntegrator::Rk4 { step } => Ticks::from_seconds(step)
                 .map_err(|e| SubsystemError::BadValue { name: "micro_step".into(), problem: e.to_string() })?,
@@ -426,6 +443,18 @@ impl InterfaceSubsystem {
         t.add("in_contact", Output, D, "1", "1 in contact, 0 in free flight", &[], &[0.0]);
         t.add("radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &[], &[joint.radial_clearance()]);
         t.add("contact_force_magnitude", Output, C, "N", "|f_c|", &[], &[0.0]);
+        let parameters = definition.as_ref().map(ClearanceDefinition::parameters).unwrap_or_default();
+        for p in &parameters {
+            t.add(
+                &p.name,
+                Causality::Parameter,
+                Fixed,
+                p.unit,
+                "clearance joint parameter (as in the scenario file)",
+                &[],
+                &[p.value],
+            );
+        }
         let model = InterfaceModel::new(joint);
         let state = model.contact_at(0.0, Vec2::zeros(), Vec2::zeros());
         let variables = t.into_variables();
@@ -439,6 +468,8 @@ impl InterfaceSubsystem {
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
             state,
+            definition,
+            parameter_values: parameters.iter().map(|p| p.value).collect(),
         })
     }
 
@@ -480,6 +511,10 @@ impl InterfaceSubsystem {
     fn outputs(&self, vr: ValueReference, out: &mut [f64]) {
         let s = &self.state;
         let m = &self.model;
+        if vr >= self::vr::FIRST_PARAMETER {
+            out[0] = self.parameter_values[(vr - self::vr::FIRST_PARAMETER) as usize];
+            return;
+        }
         match vr {
             vr::CONTACT_FORCE => out.copy_from_slice(s.force_on_journal.as_slice()),
             vr::CONTACT_IMPULSE => out.copy_from_slice(m.impulse.as_slice()),
@@ -537,6 +572,16 @@ impl Subsystem for InterfaceSubsystem {
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
         self.phase.require("initialize", &[Phase::Configured])?;
+        if let Some(d) = &self.definition {
+            let d = d
+                .with_values(&self.parameter_values)
+                .map_err(|problem| SubsystemError::BadValue { name: "parameters".into(), problem })?;
+            let j = &mut self.model.joint;
+            j.journal_radius = d.journal_radius;
+            j.bearing_radius = d.bearing_radius;
+            j.law = d.normal_force();
+            j.friction = d.friction;
+        }
         let m = &mut self.model;
         m.joint.in_contact = false;
         m.joint.onset_velocity = 0.0;
@@ -556,6 +601,7 @@ impl Subsystem for InterfaceSubsystem {
         // One pass: the inputs are applied to a copy, committed only if every reference and value
         // is good (no partial update on error).
         let mut u = self.model.inputs;
+        let mut parameters: Vec<(ValueReference, f64)> = Vec::new();
         let mut at = 0;
         for &r in refs {
             let len = *self.lens.get(r as usize).ok_or(SubsystemError::UnknownValueReference(r))?;
@@ -564,6 +610,23 @@ impl Subsystem for InterfaceSubsystem {
                 return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
             };
             at += len;
+            if r >= vr::FIRST_PARAMETER {
+                let name = &self.variables[r as usize].name;
+                if self.phase != Phase::Configured {
+                    return Err(SubsystemError::BadValue {
+                        name: name.clone(),
+                        problem: "is a parameter (fixed): set it before initialization".into(),
+                    });
+                }
+                if !v[0].is_finite() {
+                    return Err(SubsystemError::BadValue {
+                        name: name.clone(),
+                        problem: format!("{} is not finite", v[0]),
+                    });
+                }
+                parameters.push((r, v[0]));
+                continue;
+            }
             if r > vr::BEARING_ANGULAR_ACCELERATION {
                 let name = self.variables[r as usize].name.clone();
                 return Err(SubsystemError::BadValue { name, problem: "is not an input".into() });
@@ -588,6 +651,9 @@ impl Subsystem for InterfaceSubsystem {
         }
         self.model.inputs = u;
         self.model.input_time = self.time.seconds();
+        for (r, v) in parameters {
+            self.parameter_values[(r - vr::FIRST_PARAMETER) as usize] = v;
+        }
         Ok(())
     }
 
@@ -696,6 +762,44 @@ mod tests {
         s.setup(Ticks::ZERO, None).unwrap();
         s.initialize().unwrap();
         s
+    }
+
+    #[test]
+    fn parameters_are_set_before_initialization_only_and_checked_there() {
+        let definition = crate::ClearanceDefinition {
+            journal_radius: 0.0099,
+            bearing_radius: 0.01,
+            contact: crate::ContactLaw::Hertz { stiffness: Some(1e10), exponent: 1.5 },
+            friction: FrictionLaw::Coulomb { coefficient: 0.1 },
+            journal_material: crate::Material::STEEL,
+            bearing_material: crate::Material::STEEL,
+        };
+        let mut s = InterfaceSubsystem::with_definition(joint(), MicroIntegrator::Rk4 { step: 1e-5 }, Some(definition))
+            .unwrap();
+        let index =
+            |s: &InterfaceSubsystem, name: &str| s.variables().iter().position(|v| v.name == name).unwrap() as u32;
+        let bearing = index(&s, "bearing_radius");
+        let mu = index(&s, "friction.coefficient");
+        assert_eq!(s.variables()[mu as usize].causality, Causality::Parameter);
+        s.setup(Ticks::ZERO, None).unwrap();
+        s.set_f64(&[bearing, mu], &[0.0102, 0.3]).unwrap();
+        s.initialize().unwrap();
+        let mut c = [0.0];
+        s.get_f64(&[vr::RADIAL_CLEARANCE], &mut c).unwrap();
+        assert!((c[0] - 3e-4).abs() < 1e-15, "clearance {}", c[0]);
+        assert_eq!(s.model.joint.friction, FrictionLaw::Coulomb { coefficient: 0.3 });
+        assert_eq!(s.model.joint.law, NormalForce::Power { stiffness: 1e10, exponent: 1.5 });
+        // Fixed after initialization.
+        let e = s.set_f64(&[mu], &[0.2]).unwrap_err().to_string();
+        assert!(e.contains("friction.coefficient") && e.contains("before initialization"), "{e}");
+        // A bad value is named at initialization.
+        let mut s =
+            InterfaceSubsystem::with_definition(joint(), MicroIntegrator::Rk4 { step: 1e-5 }, s.definition.clone())
+                .unwrap();
+        s.setup(Ticks::ZERO, None).unwrap();
+        s.set_f64(&[bearing], &[0.009]).unwrap();
+        let e = s.initialize().unwrap_err().to_string();
+        assert!(e.contains("bearing_radius"), "{e}");
     }
 
     #[test]

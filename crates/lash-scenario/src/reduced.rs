@@ -186,7 +186,20 @@ impl ReducedRun {
         } else {
             MicroIntegrator::Rk4 { step: options.micro_step }
         };
-        let micro_sub = InterfaceSubsystem::new(joint, integrator).map_err(|e| RunError::Unsupported(e.to_string()))?;
+        // The joint's definition as written, so that its radii and law coefficients are
+        // parameters of the micro subsystem (and of its FMU).
+        let spec = &scenario.clearances[0];
+        let material = |m: &Option<String>| m.as_ref().map_or(lash_contact::Material::STEEL, |n| scenario.materials[n]);
+        let definition = lash_contact::ClearanceDefinition {
+            journal_radius: spec.journal_radius,
+            bearing_radius: spec.bearing_radius,
+            contact: spec.contact.clone(),
+            friction: spec.friction,
+            journal_material: material(&spec.journal_material),
+            bearing_material: material(&spec.bearing_material),
+        };
+        let micro_sub = InterfaceSubsystem::with_definition(joint, integrator, Some(definition))
+            .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self {
             scenario: scenario.clone(),
             options,
