@@ -11,7 +11,7 @@
 //! lash sweep <sweep-file> --out <dir> [--shard i/N] [--threads N] [--quiet]
 //! lash sweep merge <dir>... --out <dir>
 //! lash fmu pack --out <dir>      # FMI 3.0 and 2.0 FMUs of the subsystems
-//! lash fmu check <file.fmu>      # structure + smoke simulation of an FMI 3.0 FMU
+//! lash fmu check <file.fmu>      # structure + smoke simulation of an FMI 3.0 or 2.0 FMU
 //! ```
 //!
 //! Exit codes: 0 success, 1 simulation or output failure, 2 invalid input.
@@ -237,13 +237,13 @@ enum SweepCommand {
 /// `lash fmu …` subcommands.
 #[derive(Subcommand, Debug)]
 enum FmuCommand {
-    /// Write the FMI 3.0 co-simulation FMUs (the clearance interface) into --out.
+    /// Write the FMI 3.0 and 2.0 co-simulation FMUs (clearance interface, mechanism) into --out.
     Pack {
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
     },
-    /// Check an FMI 3.0 co-simulation FMU: archive, modelDescription.xml, binary, symbols, token,
+    /// Check an FMI 3.0 or 2.0 co-simulation FMU: archive, modelDescription.xml, binary, symbols, token,
     /// and a 10-step smoke simulation.
     Check {
         /// The .fmu file.

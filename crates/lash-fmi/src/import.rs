@@ -1,6 +1,10 @@
-//! FMU import (FMI 3.0 co-simulation; FMI 2.0 import is the next step): unzip once into a cache,
-//! read `modelDescription.xml` leniently, load the shared library with libloading into a typed
+//! FMU import (FMI 3.0 and FMI 2.0 co-simulation): unzip once into a cache, read
+//! `modelDescription.xml` leniently, load the shared library with libloading into a typed
 //! function table, and wrap the instance as a [`Subsystem`] that any lash master can drive.
+//!
+//! FMI 2.0 has scalars only; exporters write arrays as `name[i]`, `name[i,j]` (lash's own FMI 2.0
+//! export does). Consecutive scalars of one base name are regrouped into one array variable
+//! (shape from the largest indices), so the same master code drives an FMU of either version.
 //!
 //! Every failure is a clear error naming the file and the problem: a missing archive entry, an
 //! unparsable description, a binary for another platform, a library that does not load, a missing
@@ -211,6 +215,80 @@ type DoStep = unsafe extern "C" fn(*mut c_void, f64, f64, bool, *mut bool, *mut 
 type GetState = unsafe extern "C" fn(*mut c_void, *mut *mut c_void) -> i32;
 type SetState = unsafe extern "C" fn(*mut c_void, *mut c_void) -> i32;
 
+type Instantiate2 =
+    unsafe extern "C" fn(*const c_char, i32, *const c_char, *const c_char, *const Callbacks2, i32, i32) -> *mut c_void;
+type Setup2 = unsafe extern "C" fn(*mut c_void, i32, f64, f64, i32, f64) -> i32;
+type GetReal2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut f64) -> i32;
+type SetReal2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const f64) -> i32;
+type DoStep2 = unsafe extern "C" fn(*mut c_void, f64, f64, i32) -> i32;
+
+/// `fmi2CallbackFunctions`. The logger is variadic in C (printf style); it is declared here with
+/// its five fixed arguments, which the x86-64 System V convention passes identically, and the
+/// message is logged unexpanded.
+#[repr(C)]
+struct Callbacks2 {
+    logger: unsafe extern "C" fn(*mut c_void, *const c_char, i32, *const c_char, *const c_char),
+    allocate_memory: unsafe extern "C" fn(usize, usize) -> *mut c_void,
+    free_memory: unsafe extern "C" fn(*mut c_void),
+    step_finished: Option<unsafe extern "C" fn(*mut c_void, i32)>,
+    component_environment: *mut c_void,
+}
+
+unsafe extern "C" {
+    fn calloc(count: usize, size: usize) -> *mut c_void;
+    fn free(pointer: *mut c_void);
+}
+
+unsafe extern "C" fn allocate_memory(count: usize, size: usize) -> *mut c_void {
+    // SAFETY: the C allocator; FMUs free with `free_memory`.
+    unsafe { calloc(count, size) }
+}
+
+unsafe extern "C" fn free_memory(pointer: *mut c_void) {
+    // SAFETY: a pointer from `allocate_memory` (or null).
+    unsafe { free(pointer) }
+}
+
+unsafe extern "C" fn log_message2(
+    env: *mut c_void,
+    _instance: *const c_char,
+    status: i32,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    // SAFETY: forwarded with the same environment and message.
+    unsafe { log_message(env, status, category, message) }
+}
+
+/// The FMI 2.0 functions lash calls, resolved once.
+struct Functions2 {
+    free: Free,
+    setup: Setup2,
+    enter_init: Unary,
+    exit_init: Unary,
+    terminate: Unary,
+    get: GetReal2,
+    set: SetReal2,
+    do_step: DoStep2,
+    get_state: GetState,
+    set_state: SetState,
+    free_state: GetState,
+}
+
+/// The version-specific side of an imported FMU.
+enum Api {
+    V3(Functions),
+    V2 {
+        functions: Functions2,
+        /// Per (regrouped) variable, its FMI 2.0 scalar value references.
+        scalars: Vec<Vec<u32>>,
+        /// Expanded value references of one call (reused).
+        scratch: Mutex<Vec<u32>>,
+        /// Kept alive for the instance's lifetime (the FMU may keep a pointer to it).
+        _callbacks: Box<Callbacks2>,
+    },
+}
+
 /// The FMI 3.0 functions lash calls, resolved once.
 struct Functions {
     instantiate: Instantiate,
@@ -251,7 +329,7 @@ unsafe impl Sync for FmuState {}
 pub struct ImportedFmu {
     name: String,
     description: Description,
-    functions: Functions,
+    api: Api,
     instance: *mut c_void,
     log: Box<Log>,
     time: Ticks,
@@ -265,30 +343,96 @@ pub struct ImportedFmu {
 // SAFETY: the instance is only used through `&mut self` (one thread at a time), as FMI requires.
 unsafe impl Send for ImportedFmu {}
 
+/// Regroups FMI 2.0 scalars `base[i]`, `base[i,j]`, … (consecutive, same base) into array
+/// variables. Returns the variables (value reference = position) and each one's scalar refs.
+fn regroup(scalars: &[Variable]) -> (Vec<Variable>, Vec<Vec<u32>>) {
+    let split = |name: &str| -> Option<(String, Vec<usize>)> {
+        let (base, rest) = name.split_once('[')?;
+        let idx =
+            rest.strip_suffix(']')?.split(',').map(|i| i.trim().parse::<usize>().ok()).collect::<Option<Vec<_>>>()?;
+        Some((base.to_string(), idx))
+    };
+    let mut vars: Vec<Variable> = Vec::new();
+    let mut refs: Vec<Vec<u32>> = Vec::new();
+    let mut open: Option<(String, Vec<usize>)> = None; // base of the group being built, max indices
+    for v in scalars {
+        let parsed = split(&v.name);
+        let joins = match (&parsed, &open, vars.last()) {
+            (Some((base, idx)), Some((open_base, max)), Some(last)) => {
+                base == open_base && idx.len() == max.len() && last.causality == v.causality
+            }
+            _ => false,
+        };
+        if joins {
+            let (_, idx) = parsed.expect("checked");
+            let (_, max) = open.as_mut().expect("checked");
+            for (m, i) in max.iter_mut().zip(&idx) {
+                *m = (*m).max(*i);
+            }
+            let last = vars.last_mut().expect("checked");
+            last.start.extend(v.start.iter().copied().take(1));
+            refs.last_mut().expect("checked").push(v.value_reference);
+            continue;
+        }
+        // Close the previous group: its shape is the largest indices (if they fill it exactly).
+        if let (Some((_, max)), Some(last)) = (open.take(), vars.last_mut())
+            && max.iter().product::<usize>() == refs.last().map_or(0, Vec::len)
+        {
+            last.shape = max;
+        }
+        let mut var = v.clone();
+        var.value_reference = vars.len() as u32;
+        if var.start.is_empty() {
+            var.start = vec![0.0];
+        }
+        if let Some((base, idx)) = parsed {
+            var.name = base.clone();
+            open = Some((base, idx));
+        }
+        vars.push(var);
+        refs.push(vec![v.value_reference]);
+    }
+    if let (Some((_, max)), Some(last)) = (open.take(), vars.last_mut())
+        && max.iter().product::<usize>() == refs.last().map_or(0, Vec::len)
+    {
+        last.shape = max;
+    }
+    // A group whose indices did not fill a full array stays a flat list under its base name.
+    for (v, r) in vars.iter_mut().zip(&refs) {
+        if v.shape.is_empty() && r.len() > 1 {
+            v.shape = vec![r.len()];
+        }
+    }
+    (vars, refs)
+}
+
 impl ImportedFmu {
-    /// Imports `fmu` (unpacked into `cache` once) and instantiates it.
+    /// Imports `fmu` (FMI 3.0 or 2.0 co-simulation; unpacked into `cache` once) and
+    /// instantiates it.
     pub fn open(fmu: &Path, cache: &Path, instance_name: &str) -> Result<Self, ImportError> {
         let dir = unpack(fmu, cache)?;
         let xml = std::fs::read_to_string(dir.join("modelDescription.xml")).map_err(|e| ImportError::Archive {
             path: fmu.to_path_buf(),
             message: format!("modelDescription.xml: {e}"),
         })?;
-        let description =
+        let mut description =
             parse_description(&xml).map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: m })?;
-        if !description.fmi_version.starts_with("3.") {
+        let v3 = description.fmi_version.starts_with("3.");
+        if !v3 && !description.fmi_version.starts_with("2.") {
             return Err(ImportError::Description {
                 path: fmu.to_path_buf(),
-                message: format!("fmiVersion {:?}: this importer reads FMI 3.0", description.fmi_version),
+                message: format!("fmiVersion {:?}: lash imports FMI 3.0 and 2.0", description.fmi_version),
             });
         }
-        let lib_path = dir.join("binaries/x86_64-linux").join(format!("{}.so", description.model_identifier));
+        let platform = if v3 { "x86_64-linux" } else { "linux64" };
+        let lib_path = dir.join("binaries").join(platform).join(format!("{}.so", description.model_identifier));
         if !lib_path.is_file() {
             let platforms: Vec<String> = std::fs::read_dir(dir.join("binaries"))
                 .map(|r| r.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect())
                 .unwrap_or_default();
             return Err(ImportError::Library {
                 path: lib_path,
-                message: format!("no binary for x86_64-linux in the FMU (it has: {platforms:?})"),
+                message: format!("no binary for {platform} in the FMU (it has: {platforms:?})"),
             });
         }
         let lerr = |m: String| ImportError::Library { path: lib_path.clone(), message: m };
@@ -297,54 +441,88 @@ impl ImportedFmu {
         let library = unsafe { libloading::Library::new(&lib_path) }.map_err(|e| lerr(format!("cannot load: {e}")))?;
         macro_rules! sym {
             ($name:literal, $ty:ty) => {{
-                // SAFETY: the symbol has this signature in fmi3Functions.h.
+                // SAFETY: the symbol has this signature in fmi3Functions.h / fmi2Functions.h.
                 let s: libloading::Symbol<'_, $ty> = unsafe { library.get(concat!($name, "\0").as_bytes()) }
                     .map_err(|e| lerr(format!("missing symbol {}: {e}", $name)))?;
                 *s
             }};
         }
-        let functions = Functions {
-            instantiate: sym!("fmi3InstantiateCoSimulation", Instantiate),
-            free: sym!("fmi3FreeInstance", Free),
-            enter_init: sym!("fmi3EnterInitializationMode", EnterInit),
-            exit_init: sym!("fmi3ExitInitializationMode", Unary),
-            terminate: sym!("fmi3Terminate", Unary),
-            get: sym!("fmi3GetFloat64", GetF64),
-            set: sym!("fmi3SetFloat64", SetF64),
-            do_step: sym!("fmi3DoStep", DoStep),
-            get_state: sym!("fmi3GetFMUState", GetState),
-            set_state: sym!("fmi3SetFMUState", SetState),
-            free_state: sym!("fmi3FreeFMUState", GetState),
-        };
         let log: Box<Log> = Box::new(Mutex::new(Vec::new()));
         let cname = CString::new(instance_name).unwrap_or_default();
         let token = CString::new(description.token.clone()).unwrap_or_default();
-        let resources = CString::new(format!("{}/", dir.join("resources").display())).unwrap_or_default();
-        // SAFETY: valid C strings; the log environment outlives the instance (freed in Drop first).
-        let instance = unsafe {
-            (functions.instantiate)(
-                cname.as_ptr(),
-                token.as_ptr(),
-                resources.as_ptr(),
-                false,
-                false,
-                false,
-                false,
-                std::ptr::null(),
-                0,
-                &*log as *const Log as *mut c_void,
-                Some(log_message),
-                std::ptr::null(),
-            )
+        let env = &*log as *const Log as *mut c_void;
+        let (api, instance, call) = if v3 {
+            let functions = Functions {
+                instantiate: sym!("fmi3InstantiateCoSimulation", Instantiate),
+                free: sym!("fmi3FreeInstance", Free),
+                enter_init: sym!("fmi3EnterInitializationMode", EnterInit),
+                exit_init: sym!("fmi3ExitInitializationMode", Unary),
+                terminate: sym!("fmi3Terminate", Unary),
+                get: sym!("fmi3GetFloat64", GetF64),
+                set: sym!("fmi3SetFloat64", SetF64),
+                do_step: sym!("fmi3DoStep", DoStep),
+                get_state: sym!("fmi3GetFMUState", GetState),
+                set_state: sym!("fmi3SetFMUState", SetState),
+                free_state: sym!("fmi3FreeFMUState", GetState),
+            };
+            let resources = CString::new(format!("{}/", dir.join("resources").display())).unwrap_or_default();
+            // SAFETY: valid C strings; the log environment outlives the instance (freed in Drop first).
+            let instance = unsafe {
+                (functions.instantiate)(
+                    cname.as_ptr(),
+                    token.as_ptr(),
+                    resources.as_ptr(),
+                    false,
+                    false,
+                    false,
+                    false,
+                    std::ptr::null(),
+                    0,
+                    env,
+                    Some(log_message),
+                    std::ptr::null(),
+                )
+            };
+            (Api::V3(functions), instance, "fmi3InstantiateCoSimulation")
+        } else {
+            let instantiate = sym!("fmi2Instantiate", Instantiate2);
+            let functions = Functions2 {
+                free: sym!("fmi2FreeInstance", Free),
+                setup: sym!("fmi2SetupExperiment", Setup2),
+                enter_init: sym!("fmi2EnterInitializationMode", Unary),
+                exit_init: sym!("fmi2ExitInitializationMode", Unary),
+                terminate: sym!("fmi2Terminate", Unary),
+                get: sym!("fmi2GetReal", GetReal2),
+                set: sym!("fmi2SetReal", SetReal2),
+                do_step: sym!("fmi2DoStep", DoStep2),
+                get_state: sym!("fmi2GetFMUstate", GetState),
+                set_state: sym!("fmi2SetFMUstate", SetState),
+                free_state: sym!("fmi2FreeFMUstate", GetState),
+            };
+            let callbacks = Box::new(Callbacks2 {
+                logger: log_message2,
+                allocate_memory,
+                free_memory,
+                step_finished: None,
+                component_environment: env,
+            });
+            let resources = CString::new(format!("file://{}/", dir.join("resources").display())).unwrap_or_default();
+            // SAFETY: valid C strings and callbacks that outlive the instance; fmi2CoSimulation = 1.
+            let instance =
+                unsafe { instantiate(cname.as_ptr(), 1, token.as_ptr(), resources.as_ptr(), &*callbacks, 0, 0) };
+            let (variables, scalars) = regroup(&description.variables);
+            description.variables = variables;
+            let api = Api::V2 { functions, scalars, scratch: Mutex::new(Vec::new()), _callbacks: callbacks };
+            (api, instance, "fmi2Instantiate")
         };
         if instance.is_null() {
             let messages = log.lock().map(|l| l.join("; ")).unwrap_or_default();
-            return Err(lerr(format!("fmi3InstantiateCoSimulation failed: {messages}")));
+            return Err(lerr(format!("{call} failed: {messages}")));
         }
         Ok(Self {
             name: instance_name.to_string(),
             description,
-            functions,
+            api,
             instance,
             log,
             time: Ticks::ZERO,
@@ -353,9 +531,14 @@ impl ImportedFmu {
         })
     }
 
-    /// The parsed model description.
+    /// The parsed model description (FMI 2.0: arrays regrouped, value references renumbered).
     pub fn description(&self) -> &Description {
         &self.description
+    }
+
+    /// The FMI version imported ("3.0", "2.0").
+    pub fn fmi_version(&self) -> &str {
+        &self.description.fmi_version
     }
 
     fn check(&self, call: &str, status: i32) -> Result<(), SubsystemError> {
@@ -365,18 +548,38 @@ impl ImportedFmu {
         let messages = self.log.lock().map(|mut l| std::mem::take(&mut *l).join("; ")).unwrap_or_default();
         Err(SubsystemError::Other(format!("{}: {call} returned status {status}: {messages}", self.name)))
     }
+
+    /// FMI 2.0: the scalar value references of `refs`, into the scratch buffer; calls `f` with
+    /// them. Unknown references are an error.
+    fn with_scalars<R>(
+        scalars: &[Vec<u32>],
+        scratch: &Mutex<Vec<u32>>,
+        refs: &[ValueReference],
+        f: impl FnOnce(&[u32]) -> R,
+    ) -> Result<R, SubsystemError> {
+        let mut buffer = scratch.lock().map_err(|_| SubsystemError::Other("importer scratch poisoned".into()))?;
+        buffer.clear();
+        for &r in refs {
+            buffer.extend_from_slice(scalars.get(r as usize).ok_or(SubsystemError::UnknownValueReference(r))?);
+        }
+        Ok(f(&buffer))
+    }
 }
 
 impl Drop for ImportedFmu {
     fn drop(&mut self) {
         let states = self.states.get_mut().map(std::mem::take).unwrap_or_default();
+        let (free_state, free) = match &self.api {
+            Api::V3(f) => (f.free_state, f.free),
+            Api::V2 { functions, .. } => (functions.free_state, functions.free),
+        };
         for s in states {
             let mut p = s.0;
             // SAFETY: a state from this instance, freed once, before the instance.
-            unsafe { (self.functions.free_state)(self.instance, &mut p) };
+            unsafe { free_state(self.instance, &mut p) };
         }
         // SAFETY: the instance from instantiate, freed once; the library is still loaded.
-        unsafe { (self.functions.free)(self.instance) };
+        unsafe { free(self.instance) };
     }
 }
 
@@ -391,63 +594,116 @@ impl Subsystem for ImportedFmu {
 
     fn setup(&mut self, start: Ticks, stop: Option<Ticks>) -> Result<(), SubsystemError> {
         self.time = start;
-        // SAFETY: a live instance.
-        let s = unsafe {
-            (self.functions.enter_init)(
-                self.instance,
-                false,
-                0.0,
-                start.seconds(),
-                stop.is_some(),
-                stop.map_or(0.0, Ticks::seconds),
-            )
-        };
-        self.check("fmi3EnterInitializationMode", s)
+        let (has_stop, stop) = (stop.is_some(), stop.map_or(0.0, Ticks::seconds));
+        match &self.api {
+            Api::V3(f) => {
+                // SAFETY: a live instance.
+                let s = unsafe { (f.enter_init)(self.instance, false, 0.0, start.seconds(), has_stop, stop) };
+                self.check("fmi3EnterInitializationMode", s)
+            }
+            Api::V2 { functions: f, .. } => {
+                // SAFETY: a live instance.
+                let s = unsafe { (f.setup)(self.instance, 0, 0.0, start.seconds(), i32::from(has_stop), stop) };
+                self.check("fmi2SetupExperiment", s)?;
+                // SAFETY: a live instance.
+                let s = unsafe { (f.enter_init)(self.instance) };
+                self.check("fmi2EnterInitializationMode", s)
+            }
+        }
     }
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
+        let (exit, call) = match &self.api {
+            Api::V3(f) => (f.exit_init, "fmi3ExitInitializationMode"),
+            Api::V2 { functions, .. } => (functions.exit_init, "fmi2ExitInitializationMode"),
+        };
         // SAFETY: a live instance.
-        let s = unsafe { (self.functions.exit_init)(self.instance) };
-        self.check("fmi3ExitInitializationMode", s)
+        let s = unsafe { exit(self.instance) };
+        self.check(call, s)
     }
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
-        // SAFETY: a live instance; slices with their lengths.
-        let s =
-            unsafe { (self.functions.set)(self.instance, refs.as_ptr(), refs.len(), values.as_ptr(), values.len()) };
-        self.check("fmi3SetFloat64", s)
+        match &self.api {
+            Api::V3(f) => {
+                // SAFETY: a live instance; slices with their lengths.
+                let s = unsafe { (f.set)(self.instance, refs.as_ptr(), refs.len(), values.as_ptr(), values.len()) };
+                self.check("fmi3SetFloat64", s)
+            }
+            Api::V2 { functions: f, scalars, scratch, .. } => {
+                let instance = self.instance;
+                let s = Self::with_scalars(scalars, scratch, refs, |vrs| {
+                    if vrs.len() != values.len() {
+                        return Err(SubsystemError::BadArguments(format!(
+                            "{} values for {} elements",
+                            values.len(),
+                            vrs.len()
+                        )));
+                    }
+                    // SAFETY: a live instance; equal lengths checked.
+                    Ok(unsafe { (f.set)(instance, vrs.as_ptr(), vrs.len(), values.as_ptr()) })
+                })??;
+                self.check("fmi2SetReal", s)
+            }
+        }
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        // SAFETY: a live instance; slices with their lengths.
-        let s = unsafe {
-            (self.functions.get)(self.instance, refs.as_ptr(), refs.len(), values.as_mut_ptr(), values.len())
-        };
-        self.check("fmi3GetFloat64", s)
+        match &self.api {
+            Api::V3(f) => {
+                // SAFETY: a live instance; slices with their lengths.
+                let s = unsafe { (f.get)(self.instance, refs.as_ptr(), refs.len(), values.as_mut_ptr(), values.len()) };
+                self.check("fmi3GetFloat64", s)
+            }
+            Api::V2 { functions: f, scalars, scratch, .. } => {
+                let s = Self::with_scalars(scalars, scratch, refs, |vrs| {
+                    if vrs.len() != values.len() {
+                        return Err(SubsystemError::BadArguments(format!(
+                            "{} values for {} elements",
+                            values.len(),
+                            vrs.len()
+                        )));
+                    }
+                    // SAFETY: a live instance; equal lengths checked.
+                    Ok(unsafe { (f.get)(self.instance, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) })
+                })??;
+                self.check("fmi2GetReal", s)
+            }
+        }
     }
 
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
-        let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
-        // SAFETY: a live instance; output pointers to locals.
-        let s = unsafe {
-            (self.functions.do_step)(
-                self.instance,
-                t.seconds(),
-                h.seconds(),
-                true,
-                &mut event,
-                &mut terminate,
-                &mut early,
-                &mut last,
-            )
-        };
-        self.check("fmi3DoStep", s)?;
-        self.time = Ticks(t.0 + h.0);
-        Ok(if early {
-            StepOutcome::EarlyReturn { reached: Ticks::from_seconds(last).unwrap_or(self.time) }
-        } else {
-            StepOutcome::Completed
-        })
+        match &self.api {
+            Api::V3(f) => {
+                let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
+                // SAFETY: a live instance; output pointers to locals.
+                let s = unsafe {
+                    (f.do_step)(
+                        self.instance,
+                        t.seconds(),
+                        h.seconds(),
+                        true,
+                        &mut event,
+                        &mut terminate,
+                        &mut early,
+                        &mut last,
+                    )
+                };
+                self.check("fmi3DoStep", s)?;
+                self.time = Ticks(t.0 + h.0);
+                Ok(if early {
+                    StepOutcome::EarlyReturn { reached: Ticks::from_seconds(last).unwrap_or(self.time) }
+                } else {
+                    StepOutcome::Completed
+                })
+            }
+            Api::V2 { functions: f, .. } => {
+                // SAFETY: a live instance.
+                let s = unsafe { (f.do_step)(self.instance, t.seconds(), h.seconds(), 1) };
+                self.check("fmi2DoStep", s)?;
+                self.time = Ticks(t.0 + h.0);
+                Ok(StepOutcome::Completed)
+            }
+        }
     }
 
     fn time(&self) -> Ticks {
@@ -455,10 +711,14 @@ impl Subsystem for ImportedFmu {
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
+        let (get_state, call) = match &self.api {
+            Api::V3(f) => (f.get_state, "fmi3GetFMUState"),
+            Api::V2 { functions, .. } => (functions.get_state, "fmi2GetFMUstate"),
+        };
         let mut p = std::ptr::null_mut();
         // SAFETY: a live instance; a fresh state pointer.
-        let s = unsafe { (self.functions.get_state)(self.instance, &mut p) };
-        self.check("fmi3GetFMUState", s)?;
+        let s = unsafe { get_state(self.instance, &mut p) };
+        self.check(call, s)?;
         let state = Arc::new(FmuState(p));
         if let Ok(mut all) = self.states.lock() {
             all.push(state.clone());
@@ -471,16 +731,67 @@ impl Subsystem for ImportedFmu {
             .0
             .downcast_ref::<(Arc<FmuState>, Ticks)>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not an imported FMU's".into()))?;
+        let (set_state, call) = match &self.api {
+            Api::V3(f) => (f.set_state, "fmi3SetFMUState"),
+            Api::V2 { functions, .. } => (functions.set_state, "fmi2SetFMUstate"),
+        };
         // SAFETY: a state from this instance.
-        let s = unsafe { (self.functions.set_state)(self.instance, fmu_state.0) };
-        self.check("fmi3SetFMUState", s)?;
+        let s = unsafe { set_state(self.instance, fmu_state.0) };
+        self.check(call, s)?;
         self.time = *time;
         Ok(())
     }
 
     fn terminate(&mut self) -> Result<(), SubsystemError> {
+        let (terminate, call) = match &self.api {
+            Api::V3(f) => (f.terminate, "fmi3Terminate"),
+            Api::V2 { functions, .. } => (functions.terminate, "fmi2Terminate"),
+        };
         // SAFETY: a live instance.
-        let s = unsafe { (self.functions.terminate)(self.instance) };
-        self.check("fmi3Terminate", s)
+        let s = unsafe { terminate(self.instance) };
+        self.check(call, s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scalar(name: &str, vr: u32, causality: Causality) -> Variable {
+        Variable {
+            name: name.into(),
+            value_reference: vr,
+            causality,
+            variability: Variability::Continuous,
+            unit: String::new(),
+            description: String::new(),
+            shape: Vec::new(),
+            start: vec![vr as f64],
+        }
+    }
+
+    #[test]
+    fn fmi2_scalars_are_regrouped_into_arrays() {
+        let (vars, refs) = regroup(&[
+            scalar("m[1,1]", 10, Causality::Input),
+            scalar("m[1,2]", 11, Causality::Input),
+            scalar("m[2,1]", 12, Causality::Input),
+            scalar("m[2,2]", 13, Causality::Input),
+            scalar("f[1]", 20, Causality::Output),
+            scalar("f[2]", 21, Causality::Output),
+            scalar("w", 30, Causality::Output),
+            scalar("odd[1]", 40, Causality::Output),
+            scalar("odd[3]", 41, Causality::Output),
+        ]);
+        let names: Vec<&str> = vars.iter().map(|v| v.name.as_str()).collect();
+        assert_eq!(names, ["m", "f", "w", "odd"]);
+        assert_eq!(vars[0].shape, vec![2, 2]);
+        assert_eq!(vars[0].start, vec![10.0, 11.0, 12.0, 13.0]);
+        assert_eq!(refs[0], vec![10, 11, 12, 13]);
+        assert_eq!(vars[1].shape, vec![2]);
+        assert!(vars[2].shape.is_empty());
+        assert_eq!(refs[2], vec![30]);
+        assert_eq!(vars[3].shape, vec![2], "indices that do not fill an array: a flat list");
+        assert_eq!(vars.iter().map(|v| v.value_reference).collect::<Vec<_>>(), [0, 1, 2, 3]);
     }
 }

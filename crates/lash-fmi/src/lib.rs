@@ -1,5 +1,5 @@
 //! The FMI layer of lash: FMI 3.0 and FMI 2.0 co-simulation export from one code path, and FMI 3.0
-//! co-simulation import.
+//! and 2.0 co-simulation import.
 //!
 //! * [`description`]: `modelDescription.xml` generated from any [`Subsystem`](lash_core::Subsystem)'s
 //!   variable table.
@@ -8,8 +8,9 @@
 //!   instance's state, catches panics, and reports errors through the importer's logger.
 //! * [`fmi2`]: the `fmi2Functions.h` symbols ([`export_fmi2!`]) over the same instances; arrays
 //!   become one scalar per element.
-//! * [`import`]: any FMI 3.0 co-simulation FMU as a `Subsystem` (cached unpacking, lenient
-//!   description parsing, a typed function table loaded with libloading).
+//! * [`import`]: any FMI 3.0 or 2.0 co-simulation FMU as a `Subsystem` (cached unpacking, lenient
+//!   description parsing, a typed function table loaded with libloading; FMI 2.0 array scalars
+//!   regrouped).
 //!
 //! This crate knows nothing of clearances: the physics crates implement `Subsystem`, an FMU crate
 //! under `fmus/` implements [`fmi3::Exportable`] and calls the macro.
