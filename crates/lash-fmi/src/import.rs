@@ -550,17 +550,21 @@ impl ImportedFmu {
     }
 
     /// FMI 2.0: the scalar value references of `refs`, into the scratch buffer; calls `f` with
-    /// them. Unknown references are an error.
+    /// them. Unknown references, or a value count other than the scalars', are errors.
     fn with_scalars<R>(
         scalars: &[Vec<u32>],
         scratch: &Mutex<Vec<u32>>,
         refs: &[ValueReference],
+        values: usize,
         f: impl FnOnce(&[u32]) -> R,
     ) -> Result<R, SubsystemError> {
         let mut buffer = scratch.lock().map_err(|_| SubsystemError::Other("importer scratch poisoned".into()))?;
         buffer.clear();
         for &r in refs {
             buffer.extend_from_slice(scalars.get(r as usize).ok_or(SubsystemError::UnknownValueReference(r))?);
+        }
+        if buffer.len() != values {
+            return Err(SubsystemError::BadArguments(format!("{values} values for {} elements", buffer.len())));
         }
         Ok(f(&buffer))
     }
@@ -631,17 +635,10 @@ impl Subsystem for ImportedFmu {
             }
             Api::V2 { functions: f, scalars, scratch, .. } => {
                 let instance = self.instance;
-                let s = Self::with_scalars(scalars, scratch, refs, |vrs| {
-                    if vrs.len() != values.len() {
-                        return Err(SubsystemError::BadArguments(format!(
-                            "{} values for {} elements",
-                            values.len(),
-                            vrs.len()
-                        )));
-                    }
+                let s = Self::with_scalars(scalars, scratch, refs, values.len(), |vrs| {
                     // SAFETY: a live instance; equal lengths checked.
-                    Ok(unsafe { (f.set)(instance, vrs.as_ptr(), vrs.len(), values.as_ptr()) })
-                })??;
+                    unsafe { (f.set)(instance, vrs.as_ptr(), vrs.len(), values.as_ptr()) }
+                })?;
                 self.check("fmi2SetReal", s)
             }
         }
@@ -655,17 +652,11 @@ impl Subsystem for ImportedFmu {
                 self.check("fmi3GetFloat64", s)
             }
             Api::V2 { functions: f, scalars, scratch, .. } => {
-                let s = Self::with_scalars(scalars, scratch, refs, |vrs| {
-                    if vrs.len() != values.len() {
-                        return Err(SubsystemError::BadArguments(format!(
-                            "{} values for {} elements",
-                            values.len(),
-                            vrs.len()
-                        )));
-                    }
+                let n = values.len();
+                let s = Self::with_scalars(scalars, scratch, refs, n, |vrs| {
                     // SAFETY: a live instance; equal lengths checked.
-                    Ok(unsafe { (f.get)(self.instance, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) })
-                })??;
+                    unsafe { (f.get)(self.instance, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) }
+                })?;
                 self.check("fmi2GetReal", s)
             }
         }

@@ -8,6 +8,21 @@ fn v2(a: [f64; 2]) -> Vec2 {
     Vec2::new(a[0], a[1])
 }
 
+/// A clearance joint of the scenario as written (radii, laws with their coefficients, materials):
+/// what the full model resolves its contact law from, and what the reduced model's micro
+/// subsystem exposes as parameters.
+pub fn clearance_definition(s: &Scenario, c: &ClearanceSpec) -> lash_contact::ClearanceDefinition {
+    let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| s.materials[n]);
+    lash_contact::ClearanceDefinition {
+        journal_radius: c.journal_radius,
+        bearing_radius: c.bearing_radius,
+        contact: c.contact.clone(),
+        friction: c.friction,
+        journal_material: material(&c.journal_material),
+        bearing_material: material(&c.bearing_material),
+    }
+}
+
 /// Options of a build.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct BuildOptions {
@@ -99,7 +114,6 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                 } else {
                     (&j.body2, j.point2, &j.body1, j.point1)
                 };
-                let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| s.materials[n]);
                 ClearanceJoint {
                     name: c.joint.clone(),
                     journal_body: id(jb),
@@ -108,12 +122,7 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                     bearing_point: v2(bp),
                     journal_radius: c.journal_radius,
                     bearing_radius: c.bearing_radius,
-                    law: c.contact.resolve(
-                        &material(&c.journal_material),
-                        &material(&c.bearing_material),
-                        c.journal_radius,
-                        c.bearing_radius,
-                    ),
+                    law: clearance_definition(s, c).normal_force(),
                     friction: c.friction,
                     in_contact: false,
                     onset_velocity: 0.0,

@@ -188,16 +188,7 @@ impl ReducedRun {
         };
         // The joint's definition as written, so that its radii and law coefficients are
         // parameters of the micro subsystem (and of its FMU).
-        let spec = &scenario.clearances[0];
-        let material = |m: &Option<String>| m.as_ref().map_or(lash_contact::Material::STEEL, |n| scenario.materials[n]);
-        let definition = lash_contact::ClearanceDefinition {
-            journal_radius: spec.journal_radius,
-            bearing_radius: spec.bearing_radius,
-            contact: spec.contact.clone(),
-            friction: spec.friction,
-            journal_material: material(&spec.journal_material),
-            bearing_material: material(&spec.bearing_material),
-        };
+        let definition = crate::build::clearance_definition(scenario, &scenario.clearances[0]);
         let micro_sub = InterfaceSubsystem::with_definition(joint, integrator, Some(definition))
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self {

@@ -153,23 +153,24 @@ pub struct RunData {
 }
 
 impl RunData {
-    fn batch(&self, schema: &SchemaRef) -> Result<RecordBatch, String> {
+    /// The run as an Arrow record batch (the vectors move in; no copy).
+    pub fn into_batch(self, schema: &SchemaRef) -> Result<RecordBatch, String> {
         let n = self.time.len();
         let mut arrays: Vec<ArrayRef> =
-            vec![Arc::new(UInt64Array::from(vec![self.run_id; n])), Arc::new(Float64Array::from(self.time.clone()))];
-        for c in &self.columns {
-            arrays.push(Arc::new(Float64Array::from(c.clone())));
+            vec![Arc::new(UInt64Array::from(vec![self.run_id; n])), Arc::new(Float64Array::from(self.time))];
+        for c in self.columns {
+            arrays.push(Arc::new(Float64Array::from(c)));
         }
         RecordBatch::try_new(schema.clone(), arrays).map_err(|e| e.to_string())
     }
 }
 
 /// Writes one run's part file (temporary name, then rename).
-pub fn write_part(path: &Path, schema: &SchemaRef, data: &RunData) -> Result<(), String> {
+pub fn write_part(path: &Path, batch: &RecordBatch) -> Result<(), String> {
     let tmp = path.with_extension("tmp");
     let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
-    let mut w = ArrowWriter::try_new(file, schema.clone(), Some(properties())).map_err(|e| e.to_string())?;
-    w.write(&data.batch(schema)?).map_err(|e| e.to_string())?;
+    let mut w = ArrowWriter::try_new(file, batch.schema(), Some(properties())).map_err(|e| e.to_string())?;
+    w.write(batch).map_err(|e| e.to_string())?;
     w.close().map_err(|e| e.to_string())?;
     std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {}: {e}", tmp.display()))
 }
@@ -220,9 +221,8 @@ impl DataWriter {
     }
 
     /// Appends one run held in memory (a row group of its own).
-    pub fn append(&mut self, data: &RunData) -> Result<(), String> {
-        let batch = data.batch(&self.schema)?;
-        self.write_batch(&batch)?;
+    pub fn append(&mut self, batch: &RecordBatch) -> Result<(), String> {
+        self.write_batch(batch)?;
         self.parquet.flush().map_err(|e| e.to_string())
     }
 

@@ -11,6 +11,7 @@ pub mod dataset;
 pub mod plan;
 pub mod spec;
 
+use arrow_array::RecordBatch;
 use dataset::{ChannelInfo, Manifest, ParamsRow, RunData, RunRecord, RunSource, Shard};
 pub use plan::{Plan, RunSpec, run_seed};
 use rand::SeedableRng;
@@ -297,7 +298,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     // Workers simulate, write their run's part (for resumption) and hand the data to this thread,
     // which appends the runs to data.parquet in run order as they become available: assembling
     // the dataset overlaps with the simulations instead of following them.
-    let (sender, receiver) = std::sync::mpsc::channel::<(u64, Option<RunData>)>();
+    let (sender, receiver) = std::sync::mpsc::channel::<(u64, Option<RecordBatch>)>();
     let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv).map_err(io)?;
     let earlier: BTreeMap<u64, bool> =
         shared.lock().expect("lock").records.iter().map(|(id, r)| (*id, r.status == "ok")).collect();
@@ -317,12 +318,19 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
                     let t1 = Instant::now();
                     let (record, simulated, data) = match result {
                         Ok((data, horizon)) => {
-                            if let Err(e) = dataset::write_part(&part_path(out, run.id), schema, &data) {
-                                *write_error.lock().expect("lock") = Some(e);
-                                stop.store(true, Ordering::Relaxed);
-                                return;
-                            }
                             let rows = data.time.len() as u64;
+                            // One record batch serves the part file and the assembler.
+                            let written = data
+                                .into_batch(schema)
+                                .and_then(|b| dataset::write_part(&part_path(out, run.id), &b).map(|()| b));
+                            let data = match written {
+                                Ok(b) => b,
+                                Err(e) => {
+                                    *write_error.lock().expect("lock") = Some(e);
+                                    stop.store(true, Ordering::Relaxed);
+                                    return;
+                                }
+                            };
                             let record = RunRecord {
                                 run_id: run.id,
                                 seed: run.seed,
@@ -365,27 +373,28 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             })
         });
         // The assembler: walks the shard's runs in order.
-        let mut waiting: BTreeMap<u64, Option<RunData>> = BTreeMap::new();
+        let mut waiting: BTreeMap<u64, Option<RecordBatch>> = BTreeMap::new();
         let mut cursor = 0;
-        let mut advance =
-            |waiting: &mut BTreeMap<u64, Option<RunData>>, writer: &mut dataset::DataWriter| -> Result<(), String> {
-                while cursor < shard_runs.len() {
-                    let id = shard_runs[cursor].id;
-                    if let Some(ok) = earlier.get(&id) {
-                        if *ok {
-                            writer.append_file(&RunSource { file: part_path(out, id), row_group: None })?;
-                        }
-                    } else if let Some(data) = waiting.remove(&id) {
-                        if let Some(d) = data {
-                            writer.append(&d)?;
-                        }
-                    } else {
-                        break;
+        let mut advance = |waiting: &mut BTreeMap<u64, Option<RecordBatch>>,
+                           writer: &mut dataset::DataWriter|
+         -> Result<(), String> {
+            while cursor < shard_runs.len() {
+                let id = shard_runs[cursor].id;
+                if let Some(ok) = earlier.get(&id) {
+                    if *ok {
+                        writer.append_file(&RunSource { file: part_path(out, id), row_group: None })?;
                     }
-                    cursor += 1;
+                } else if let Some(data) = waiting.remove(&id) {
+                    if let Some(d) = data {
+                        writer.append(&d)?;
+                    }
+                } else {
+                    break;
                 }
-                Ok(())
-            };
+                cursor += 1;
+            }
+            Ok(())
+        };
         advance(&mut waiting, &mut writer)?;
         for (id, data) in receiver {
             waiting.insert(id, data);

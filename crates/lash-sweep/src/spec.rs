@@ -235,9 +235,6 @@ impl SweepSpec {
                     );
                 }
             }
-            if par.values.is_some() && self.sampling == Sampling::LatinHypercube {
-                // Allowed: strata map onto the listed values.
-            }
         }
         p
     }
