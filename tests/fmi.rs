@@ -9,6 +9,9 @@ use std::process::Command;
 
 /// A Python virtual environment with fmpy under target/, made once.
 fn fmpy_python() -> PathBuf {
+    // Tests run in parallel threads: one creates the environment, the others wait for it.
+    static MADE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _made = MADE.lock().unwrap_or_else(|e| e.into_inner());
     let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
     let venv = target.join("fmpy-venv");
     let python = venv.join("bin/python");
@@ -57,7 +60,13 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     let text = run(&[script.to_str().unwrap(), fmu_str]);
     assert!(text.contains("OK"), "{text}");
     let mechanism = out.join("lash_mechanism.fmu");
-    for name in ["lash_mechanism.fmu", "lash_interface-fmi2.fmu", "lash_mechanism-fmi2.fmu"] {
+    for name in [
+        "lash_mechanism.fmu",
+        "lash_interface-fmi2.fmu",
+        "lash_mechanism-fmi2.fmu",
+        "lash_full.fmu",
+        "lash_full-fmi2.fmu",
+    ] {
         let validate = run(&["-m", "fmpy.cli", "validate", out.join(name).to_str().unwrap()]);
         assert!(validate.contains("No problems found"), "{name}: {validate}");
     }
@@ -194,7 +203,14 @@ fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
     }
 
     // `lash fmu check` accepts both, and refuses a broken archive with exit code 2.
-    for name in ["lash_mechanism.fmu", "lash_interface.fmu", "lash_mechanism-fmi2.fmu", "lash_interface-fmi2.fmu"] {
+    for name in [
+        "lash_mechanism.fmu",
+        "lash_interface.fmu",
+        "lash_mechanism-fmi2.fmu",
+        "lash_interface-fmi2.fmu",
+        "lash_full.fmu",
+        "lash_full-fmi2.fmu",
+    ] {
         let o = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "check"]).arg(out.join(name)).output().unwrap();
         let text = String::from_utf8_lossy(&o.stdout);
         assert!(o.status.success() && text.contains(": OK"), "{name}: {text}{}", String::from_utf8_lossy(&o.stderr));
@@ -209,5 +225,138 @@ fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a zip archive"));
     let e = lash_fmi::import::parse_description("<fmiModelDescription><CoSimulation/>").unwrap_err();
     assert!(e.contains("fmiVersion"), "{e}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Slider acceleration at every micro step of scenario A's reduced model run in process.
+fn in_process_slider_acceleration(a: &lash_scenario::Scenario) -> Vec<f64> {
+    let mut a = a.clone();
+    a.output.channels = vec!["slider.ax".into()];
+    let mut values = Vec::new();
+    lash_scenario::ReducedRun::new(&a, lash_scenario::ReducedOptions::default())
+        .unwrap()
+        .execute(
+            &mut |row| {
+                values.push(row[1]);
+                Ok(())
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+    values
+}
+
+#[test]
+fn link_data_set_as_fmu_parameters_equals_the_edited_scenario() {
+    use lash_core::{Coupling, Subsystem, Ticks};
+    use lash_fmi::import::ImportedFmu;
+    use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
+    let out = packed("links");
+    let cache = out.join("cache");
+    // The edited scenario: a longer rod (120 → 140 mm), a heavier slider, a faster crank.
+    let mut edited = lash_scenario::builtin::by_name("A").unwrap();
+    edited.joints[1].point2 = [-0.07, 0.0];
+    edited.joints[2].point2 = [0.07, 0.0];
+    edited.bodies[2].mass = 0.08;
+    if let lash_mech::Motion::ConstantSpeed { omega, .. } = &mut edited.drivers[0].motion {
+        *omega = 450.0;
+    }
+    let reference = in_process_slider_acceleration(&edited);
+    let original = in_process_slider_acceleration(&lash_scenario::builtin::by_name("A").unwrap());
+    assert_ne!(reference, original, "the edits must change the response, or this check proves nothing");
+
+    for (mech_file, micro_file) in
+        [("lash_mechanism.fmu", "lash_interface.fmu"), ("lash_mechanism-fmi2.fmu", "lash_interface-fmi2.fmu")]
+    {
+        let mut mechanism = ImportedFmu::open(&out.join(mech_file), &cache, "mechanism").unwrap();
+        let mut interface = ImportedFmu::open(&out.join(micro_file), &cache, "interface").unwrap();
+        let stop = Ticks::from_seconds(0.036).unwrap();
+        mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+        interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+        let vr = |name: &str| {
+            mechanism.variables().iter().find(|v| v.name == name).unwrap_or_else(|| panic!("{name}")).value_reference
+        };
+        let refs = [vr("crank_rod.point2"), vr("rod_slider.point2"), vr("slider.mass"), vr("motor.motion.omega")];
+        mechanism.set_f64(&refs, &[-0.07, 0.0, 0.07, 0.0, 0.08, 450.0]).unwrap();
+        let mut back = [0.0; 6];
+        mechanism.get_f64(&refs, &mut back).unwrap();
+        assert_eq!(back, [-0.07, 0.0, 0.07, 0.0, 0.08, 450.0]);
+        let options = MasterOptions {
+            start: Ticks::ZERO,
+            stop,
+            macro_step: Ticks::from_seconds(1e-3).unwrap(),
+            micro_step: Ticks::from_seconds(1e-5).unwrap(),
+            interpolation: Interpolation::Linear,
+            coupling: Coupling::OneWay,
+            execution: Execution::Sequential,
+        };
+        let signals = vec![Signal::Propagated {
+            name: "slider.ax".into(),
+            free: ("slider.acceleration_free".into(), 0),
+            gain: ("slider.acceleration_gain".into(), 0, 1),
+        }];
+        let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
+        let mut imported = Vec::new();
+        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
+            imported.push(v[0]);
+            Ok(())
+        };
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, options.micro_step)];
+        master.run(&mut observers).unwrap();
+        assert_eq!(imported.len(), reference.len());
+        let same = imported.iter().zip(&reference).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same, "{mech_file}: link data set as parameters must reproduce the edited scenario bit for bit");
+        drop(master);
+        // After initialization the parameters are fixed.
+        let e = mechanism.set_f64(&[refs[2]], &[0.1]).unwrap_err().to_string();
+        assert!(e.contains("slider.mass") || e.contains("parameter"), "{e}");
+    }
+    // A parameter value that makes the scenario invalid is refused at initialization, naming it.
+    let mut mechanism = ImportedFmu::open(&out.join("lash_mechanism.fmu"), &cache, "bad").unwrap();
+    mechanism.setup(Ticks::ZERO, None).unwrap();
+    let r = mechanism.variables().iter().find(|v| v.name == "rod.mass").unwrap().value_reference;
+    mechanism.set_f64(&[r], &[-1.0]).unwrap();
+    let e = mechanism.initialize().unwrap_err().to_string();
+    assert!(e.contains("rod.mass") && e.contains("bodies[1].mass"), "{e}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn fmpy_simulates_the_full_model_fmu_like_lash_run() {
+    let python = fmpy_python();
+    let out = packed("full");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmi/full_fmu.py");
+    let lash_run = |scenario: &str, dir: &Path| {
+        let o = Command::new(env!("CARGO_BIN_EXE_lash")).args(["run", scenario, "--quiet", "--out"]).arg(dir).output();
+        let o = o.unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        dir.join("timeseries.csv")
+    };
+    let plain = lash_run("A", &out.join("run-A"));
+    // The same scenario with a heavier rod and a less elastic contact, as a file and as parameters.
+    let shown = Command::new(env!("CARGO_BIN_EXE_lash")).args(["show", "A"]).output().unwrap();
+    let text = String::from_utf8(shown.stdout).unwrap();
+    assert_eq!((text.matches("mass = 0.15\n").count(), text.matches("restitution = 0.9\n").count()), (1, 1));
+    let edited_file = out.join("A-edited.toml");
+    std::fs::write(
+        &edited_file,
+        text.replace("mass = 0.15\n", "mass = 0.2\n").replace("restitution = 0.9\n", "restitution = 0.6\n"),
+    )
+    .unwrap();
+    let edited = lash_run(edited_file.to_str().unwrap(), &out.join("run-edited"));
+    for fmu in ["lash_full.fmu", "lash_full-fmi2.fmu"] {
+        let fmu = out.join(fmu);
+        for (reference, parameters) in
+            [(&plain, None), (&edited, Some("rod.mass=0.2,crank_pivot.contact.restitution=0.6"))]
+        {
+            let mut cmd = Command::new(&python);
+            cmd.arg(&script).arg(&fmu).arg(reference);
+            cmd.args(parameters);
+            let o = cmd.output().unwrap();
+            let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+            eprintln!("{} {parameters:?}: {text}", fmu.display());
+            assert!(o.status.success() && text.contains("OK"), "{text}");
+        }
+    }
     let _ = std::fs::remove_dir_all(&out);
 }

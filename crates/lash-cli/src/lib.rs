@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! lash run <scenario-file|A|B|…> [--model full|reduced] [--ideal] --out <dir>
+//! lash run <system.toml|system.ssd|system.ssp> --out <dir>   # a coupled system of FMUs/plugins
 //! lash compare <scenario> --out <dir>  # full (converged) vs reduced, comparison.json
 //! lash validate <scenario-file>
 //! lash scenarios                 # list the built-in scenarios
@@ -22,6 +23,7 @@ mod fmu;
 mod plots;
 mod run;
 mod sweep;
+mod system;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
@@ -123,7 +125,8 @@ impl ReducedArgs {
 enum Command {
     /// Run a scenario and write timeseries.csv, summary.json and scenario.toml to --out.
     Run {
-        /// A scenario file (TOML) or a built-in name (see `lash scenarios`).
+        /// A scenario file (TOML) or a built-in name (see `lash scenarios`); or a system file
+        /// (TOML with `[[elements]]`, an SSP `.ssd` or `.ssp`).
         scenario: String,
         /// Model to run.
         #[arg(long, value_enum, default_value_t = ModelKind::Full)]
@@ -134,9 +137,12 @@ enum Command {
         /// Output directory (created if missing).
         #[arg(long)]
         out: std::path::PathBuf,
-        /// Override the horizon [s].
+        /// Override the horizon [s] (a system file: the stop time).
         #[arg(long)]
         horizon: Option<f64>,
+        /// System files: the communication step [s] (overrides the file's).
+        #[arg(long)]
+        step: Option<f64>,
         #[command(flatten)]
         reduced: ReducedArgs,
         /// No progress bar.
@@ -320,7 +326,13 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::S
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, reduced, quiet } => {
+        Command::Run { scenario, model, ideal, out, horizon, step, reduced, quiet } => {
+            if system::is_system(&scenario) {
+                return system::run(&scenario, &out, step, horizon, quiet);
+            }
+            if step.is_some() {
+                return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
+            }
             let s = load_with_horizon(&scenario, horizon)?;
             match model {
                 ModelKind::Full => {

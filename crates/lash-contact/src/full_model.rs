@@ -41,6 +41,17 @@ pub struct FullModel {
     n: usize,
 }
 
+/// The evolving part of a [`FullModel`] (see [`FullModel::snapshot`]).
+#[derive(Debug, Clone)]
+pub struct FullModelState {
+    clearances: Vec<ClearanceJoint>,
+    contacts: Vec<ContactState>,
+    impacts: Vec<Vec<Impact>>,
+    open: Vec<Option<ImpactTracker>>,
+    violation: bool,
+    error: Option<String>,
+}
+
 impl FullModel {
     /// Builds the model. The mechanism must already be valid.
     pub fn new(mechanism: Mechanism, clearances: Vec<ClearanceJoint>) -> Self {
@@ -112,6 +123,29 @@ impl FullModel {
                 self.on_event(k, t0, y);
             }
         }
+    }
+
+    /// A copy of everything in the model that evolves during a run (contact modes, onset
+    /// velocities, open and completed impacts), for rollback.
+    pub fn snapshot(&self) -> FullModelState {
+        FullModelState {
+            clearances: self.clearances.clone(),
+            contacts: self.contacts.clone(),
+            impacts: self.impacts.clone(),
+            open: self.open.clone(),
+            violation: self.violation,
+            error: self.error.clone(),
+        }
+    }
+
+    /// Returns to a [`FullModel::snapshot`] of this model.
+    pub fn restore(&mut self, state: &FullModelState) {
+        self.clearances.clone_from(&state.clearances);
+        self.contacts.clone_from(&state.contacts);
+        self.impacts.clone_from(&state.impacts);
+        self.open.clone_from(&state.open);
+        self.violation = state.violation;
+        self.error.clone_from(&state.error);
     }
 
     /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts`.

@@ -211,8 +211,9 @@ impl InterfaceModel {
         }
     }
 
-    /// Integrates from `t` to `t + h` with DOPRI5 and event location. Returns the end state.
-    pub fn dopri5_step(&mut self, options: &Dopri5Options, t: f64, h: f64) -> Result<ContactState, String> {
+    /// Integrates from `t` to `t + h` with DOPRI5 and event location. Returns the end state and
+    /// the number of accepted steps.
+    pub fn dopri5_step(&mut self, options: &Dopri5Options, t: f64, h: f64) -> Result<(ContactState, u64), String> {
         let mut y = [
             self.eccentricity.x,
             self.eccentricity.y,
@@ -222,12 +223,13 @@ impl InterfaceModel {
             self.impulse.y,
         ];
         let method = Method::Dopri5(Dopri5Options { max_step: options.max_step.min(h), ..*options });
-        lash_ode::integrate(&method, self, t, &mut y, t + h, h, &mut |_: &mut Self, _: f64, _: &[f64]| Ok(()))
-            .map_err(|e| e.to_string())?;
+        let stats =
+            lash_ode::integrate(&method, self, t, &mut y, t + h, h, &mut |_: &mut Self, _: f64, _: &[f64]| Ok(()))
+                .map_err(|e| e.to_string())?;
         self.eccentricity = Vec2::new(y[0], y[1]);
         self.eccentricity_rate = Vec2::new(y[2], y[3]);
         self.impulse = Vec2::new(y[4], y[5]);
-        Ok(self.contact_at(t + h, self.eccentricity, self.eccentricity_rate))
+        Ok((self.contact_at(t + h, self.eccentricity, self.eccentricity_rate), stats.steps))
     }
 
     /// Impacts still open (closed at `t` for reporting, exit time NaN).
@@ -373,9 +375,11 @@ pub mod vr {
     pub const RADIAL_CLEARANCE: ValueReference = 20;
     /// Output |f_c|.
     pub const CONTACT_FORCE_MAGNITUDE: ValueReference = 21;
+    /// Output: micro steps taken since initialization (DOPRI5: accepted steps).
+    pub const MICRO_STEPS: ValueReference = 22;
     /// First parameter (with a [`crate::ClearanceDefinition`]): `journal_radius`, then
     /// `bearing_radius`, then the laws' numeric fields.
-    pub const FIRST_PARAMETER: ValueReference = 22;
+    pub const FIRST_PARAMETER: ValueReference = 23;
 }
 
 /// The clearance interface as a [`Subsystem`] (the micro subsystem).
@@ -393,6 +397,7 @@ pub struct InterfaceSubsystem {
     state: ContactState,
     definition: Option<ClearanceDefinition>,
     parameter_values: Vec<f64>,
+    micro_steps: u64,
 }
 
 impl InterfaceSubsystem {
@@ -443,6 +448,15 @@ impl InterfaceSubsystem {
         t.add("in_contact", Output, D, "1", "1 in contact, 0 in free flight", &[], &[0.0]);
         t.add("radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &[], &[joint.radial_clearance()]);
         t.add("contact_force_magnitude", Output, C, "N", "|f_c|", &[], &[0.0]);
+        t.add(
+            "micro_steps",
+            Output,
+            D,
+            "1",
+            "micro steps taken since initialization (RK4: h / h_r per step; DOPRI5: accepted steps)",
+            &[],
+            &[0.0],
+        );
         let parameters = definition.as_ref().map(ClearanceDefinition::parameters).unwrap_or_default();
         for p in &parameters {
             t.add(
@@ -470,6 +484,7 @@ impl InterfaceSubsystem {
             state,
             definition,
             parameter_values: parameters.iter().map(|p| p.value).collect(),
+            micro_steps: 0,
         })
     }
 
@@ -530,6 +545,7 @@ impl InterfaceSubsystem {
             vr::IN_CONTACT => out[0] = if m.joint.in_contact { 1.0 } else { 0.0 },
             vr::RADIAL_CLEARANCE => out[0] = m.joint.radial_clearance(),
             vr::CONTACT_FORCE_MAGNITUDE => out[0] = s.force_on_journal.norm(),
+            vr::MICRO_STEPS => out[0] = self.micro_steps as f64,
             vr::EFFECTIVE_MASS => out.copy_from_slice(&row_major(&m.inputs.effective_mass)),
             vr::EFFECTIVE_MASS_RATE => out.copy_from_slice(&row_major(&m.inputs.effective_mass_rate)),
             vr::EFFECTIVE_FORCE => out.copy_from_slice(m.inputs.effective_force.as_slice()),
@@ -696,6 +712,7 @@ impl Subsystem for InterfaceSubsystem {
                 // taken as one shorter step.
                 let (steps, rest) = (h.0 / self.micro_step.0, h.0 % self.micro_step.0);
                 let mut now = t;
+                self.micro_steps += (steps + i64::from(rest > 0)) as u64;
                 for k in 0..steps + i64::from(rest > 0) {
                     let dh = if k < steps { self.micro_step } else { Ticks(rest) };
                     self.state = self.model.rk4_step(now.seconds(), dh.seconds());
@@ -706,7 +723,10 @@ impl Subsystem for InterfaceSubsystem {
                 }
             }
             MicroIntegrator::Dopri5(options) => match self.model.dopri5_step(&options, t.seconds(), h.seconds()) {
-                Ok(s) => self.state = s,
+                Ok((s, steps)) => {
+                    self.state = s;
+                    self.micro_steps += steps;
+                }
                 Err(m) => return fail(&mut self.phase, t.seconds(), m),
             },
         }
@@ -719,18 +739,19 @@ impl Subsystem for InterfaceSubsystem {
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
-        Ok(SavedState(Box::new((self.model.clone(), self.time, self.phase, self.state))))
+        Ok(SavedState(Box::new((self.model.clone(), self.time, self.phase, self.state, self.micro_steps))))
     }
 
     fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
-        let (model, time, phase, s) = state
+        let (model, time, phase, s, micro_steps) = state
             .0
-            .downcast_ref::<(InterfaceModel, Ticks, Phase, ContactState)>()
+            .downcast_ref::<(InterfaceModel, Ticks, Phase, ContactState, u64)>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not an interface subsystem's".into()))?;
         self.model = model.clone();
         self.time = *time;
         self.phase = *phase;
         self.state = *s;
+        self.micro_steps = *micro_steps;
         Ok(())
     }
 }

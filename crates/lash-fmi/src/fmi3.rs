@@ -812,3 +812,36 @@ macro_rules! export_fmi3 {
         )*
     };
 }
+
+/// The model description of a plugin, built once from its [`Exportable`] (null if the model
+/// cannot be built, or on a panic).
+pub fn plugin_description<M: Exportable>() -> *const std::ffi::c_char {
+    static DESCRIPTION: std::sync::OnceLock<Option<std::ffi::CString>> = std::sync::OnceLock::new();
+    let text = DESCRIPTION.get_or_init(|| {
+        std::panic::catch_unwind(|| {
+            let model = M::create(None).ok()?;
+            let xml = crate::description::fmi3(&M::info(), model.variables());
+            std::ffi::CString::new(xml).ok()
+        })
+        .ok()
+        .flatten()
+    });
+    text.as_ref().map_or(std::ptr::null(), |t| t.as_ptr())
+}
+
+/// Makes a cdylib a lash plugin: the FMI 3.0 functions of [`export_fmi3!`] plus
+/// `lash_plugin_model_description`, so that `lash` (and [`crate::import::ImportedFmu::open_plugin`])
+/// loads it straight from the shared library, without packing an FMU. `lash fmu pack`-style
+/// archives can still be made from the same library.
+#[macro_export]
+macro_rules! export_plugin {
+    ($model:ty) => {
+        $crate::export_fmi3!($model);
+
+        /// The plugin's `modelDescription.xml` (FMI 3.0), a static C string.
+        #[unsafe(no_mangle)]
+        pub extern "C" fn lash_plugin_model_description() -> *const std::ffi::c_char {
+            $crate::fmi3::plugin_description::<$model>()
+        }
+    };
+}

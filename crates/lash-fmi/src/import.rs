@@ -57,6 +57,8 @@ pub struct Description {
     pub token: String,
     /// `modelIdentifier` of the co-simulation interface.
     pub model_identifier: String,
+    /// `generationTool` (empty when absent).
+    pub generation_tool: String,
     /// Float64 (3.0) / Real (2.0) variables; the independent variable is left out.
     pub variables: Vec<Variable>,
 }
@@ -81,6 +83,7 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
         model_name: String::new(),
         token: String::new(),
         model_identifier: String::new(),
+        generation_tool: String::new(),
         variables: Vec::new(),
     };
     let mut current: Option<Variable> = None;
@@ -105,6 +108,7 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                 d.fmi_version = attr(e, "fmiVersion").unwrap_or_default();
                 d.model_name = attr(e, "modelName").unwrap_or_default();
                 d.token = attr(e, "instantiationToken").or_else(|| attr(e, "guid")).unwrap_or_default();
+                d.generation_tool = attr(e, "generationTool").unwrap_or_default();
             }
             "CoSimulation" => d.model_identifier = attr(e, "modelIdentifier").unwrap_or_default(),
             "Float64" | "ScalarVariable" => {
@@ -222,9 +226,9 @@ type GetReal2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut f64) -
 type SetReal2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const f64) -> i32;
 type DoStep2 = unsafe extern "C" fn(*mut c_void, f64, f64, i32) -> i32;
 
-/// `fmi2CallbackFunctions`. The logger is variadic in C (printf style); it is declared here with
-/// its five fixed arguments, which the x86-64 System V convention passes identically, and the
-/// message is logged unexpanded.
+/// `fmi2CallbackFunctions`. The logger is variadic in C (printf style): it is the C shim
+/// `lash_fmi2_logger` (c/fmi2_logger.c), which expands the message and passes it to
+/// [`log_message`]; it is declared here with its five fixed arguments (only its address is used).
 #[repr(C)]
 struct Callbacks2 {
     logger: unsafe extern "C" fn(*mut c_void, *const c_char, i32, *const c_char, *const c_char),
@@ -237,6 +241,24 @@ struct Callbacks2 {
 unsafe extern "C" {
     fn calloc(count: usize, size: usize) -> *mut c_void;
     fn free(pointer: *mut c_void);
+    /// The C shim's variadic logger (c/fmi2_logger.c).
+    fn lash_fmi2_logger(
+        env: *mut c_void,
+        instance: *const c_char,
+        status: i32,
+        category: *const c_char,
+        format: *const c_char,
+    );
+    /// Where the shim sends expanded messages.
+    fn lash_fmi2_set_log_sink(sink: unsafe extern "C" fn(*mut c_void, i32, *const c_char, *const c_char));
+}
+
+/// Points the C shim at [`log_message`] (once per process).
+fn fmi2_logger() -> unsafe extern "C" fn(*mut c_void, *const c_char, i32, *const c_char, *const c_char) {
+    static SINK: std::sync::Once = std::sync::Once::new();
+    // SAFETY: sets a function pointer in the shim before any FMU can call the logger.
+    SINK.call_once(|| unsafe { lash_fmi2_set_log_sink(log_message) });
+    lash_fmi2_logger
 }
 
 unsafe extern "C" fn allocate_memory(count: usize, size: usize) -> *mut c_void {
@@ -247,17 +269,6 @@ unsafe extern "C" fn allocate_memory(count: usize, size: usize) -> *mut c_void {
 unsafe extern "C" fn free_memory(pointer: *mut c_void) {
     // SAFETY: a pointer from `allocate_memory` (or null).
     unsafe { free(pointer) }
-}
-
-unsafe extern "C" fn log_message2(
-    env: *mut c_void,
-    _instance: *const c_char,
-    status: i32,
-    category: *const c_char,
-    message: *const c_char,
-) {
-    // SAFETY: forwarded with the same environment and message.
-    unsafe { log_message(env, status, category, message) }
 }
 
 /// The FMI 2.0 functions lash calls, resolved once.
@@ -302,6 +313,42 @@ struct Functions {
     get_state: GetState,
     set_state: SetState,
     free_state: GetState,
+}
+
+/// An error with its causes (libloading puts `dlerror`'s text in the source).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    text
+}
+
+/// PythonFMU binaries embed the Python interpreter but do not link libpython: the host process
+/// must provide its symbols (as a Python host such as fmpy does). lash loads it once, globally:
+/// `LASH_LIBPYTHON` names the library, else the `python3` on the PATH says where its own is.
+fn preload_libpython() -> Result<(), String> {
+    static LIBPYTHON: std::sync::OnceLock<Result<libloading::os::unix::Library, String>> = std::sync::OnceLock::new();
+    let loaded = LIBPYTHON.get_or_init(|| {
+        let path = match std::env::var("LASH_LIBPYTHON") {
+            Ok(p) => PathBuf::from(p),
+            Err(_) => {
+                let script = "import os, sysconfig as s; print(os.path.join(s.get_config_var('LIBDIR'), s.get_config_var('LDLIBRARY')))";
+                let out = std::process::Command::new("python3")
+                    .args(["-c", script])
+                    .output()
+                    .map_err(|e| format!("set LASH_LIBPYTHON, or put python3 on the PATH ({e})"))?;
+                PathBuf::from(String::from_utf8_lossy(&out.stdout).trim())
+            }
+        };
+        let flags = libloading::os::unix::RTLD_NOW | libloading::os::unix::RTLD_GLOBAL;
+        // SAFETY: loading libpython runs no Python code; its symbols become visible to the FMU.
+        unsafe { libloading::os::unix::Library::open(Some(&path), flags) }
+            .map_err(|e| format!("{}: {}", path.display(), chain(&e)))
+    });
+    loaded.as_ref().map(|_| ()).map_err(Clone::clone)
 }
 
 /// Log messages of one imported instance (its instance environment points here).
@@ -415,7 +462,7 @@ impl ImportedFmu {
             path: fmu.to_path_buf(),
             message: format!("modelDescription.xml: {e}"),
         })?;
-        let mut description =
+        let description =
             parse_description(&xml).map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: m })?;
         let v3 = description.fmi_version.starts_with("3.");
         if !v3 && !description.fmi_version.starts_with("2.") {
@@ -438,7 +485,59 @@ impl ImportedFmu {
         let lerr = |m: String| ImportError::Library { path: lib_path.clone(), message: m };
         // SAFETY: loading a shared library runs its initialisers; an FMU's binary is trusted
         // code by the user's choice of FMU.
-        let library = unsafe { libloading::Library::new(&lib_path) }.map_err(|e| lerr(format!("cannot load: {e}")))?;
+        if description.generation_tool.starts_with("PythonFMU") {
+            preload_libpython().map_err(|m| lerr(format!("a PythonFMU binary needs libpython in the process: {m}")))?;
+        }
+        let library =
+            unsafe { libloading::Library::new(&lib_path) }.map_err(|e| lerr(format!("cannot load: {}", chain(&e))))?;
+        Self::with_library(description, &lib_path, library, &dir.join("resources"), instance_name)
+    }
+
+    /// A plugin: a shared library built with [`crate::export_plugin!`] (the FMI 3.0 functions
+    /// plus `lash_plugin_model_description`, which returns its `modelDescription.xml`), loaded
+    /// without an archive. Errors name the library and the cause.
+    pub fn open_plugin(library_path: &Path, instance_name: &str) -> Result<Self, ImportError> {
+        let lerr = |m: String| ImportError::Library { path: library_path.to_path_buf(), message: m };
+        if !library_path.is_file() {
+            return Err(lerr("no such file (build the plugin crate first: cargo build --release)".into()));
+        }
+        // SAFETY: loading a shared library runs its initialisers; a plugin is trusted code by the
+        // user's choice.
+        let library = unsafe { libloading::Library::new(library_path) }
+            .map_err(|e| lerr(format!("cannot load: {}", chain(&e))))?;
+        // SAFETY: `export_plugin!` defines the symbol with this signature.
+        let describe: libloading::Symbol<'_, unsafe extern "C" fn() -> *const c_char> =
+            unsafe { library.get(b"lash_plugin_model_description\0") }.map_err(|e| {
+                lerr(format!("not a lash plugin (missing symbol lash_plugin_model_description: {})", chain(&e)))
+            })?;
+        // SAFETY: the function returns a static NUL-terminated string or null.
+        let text = unsafe { describe() };
+        if text.is_null() {
+            return Err(lerr(
+                "lash_plugin_model_description returned null (the plugin could not build its model)".into(),
+            ));
+        }
+        // SAFETY: non-null, NUL-terminated, static.
+        let xml = unsafe { CStr::from_ptr(text) }.to_string_lossy().into_owned();
+        let description = parse_description(&xml)
+            .map_err(|m| ImportError::Description { path: library_path.to_path_buf(), message: m })?;
+        if !description.fmi_version.starts_with("3.") {
+            return Err(lerr(format!("plugin description has fmiVersion {:?}, expected 3.0", description.fmi_version)));
+        }
+        let resources = library_path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Self::with_library(description, library_path, library, &resources, instance_name)
+    }
+
+    /// Resolves the functions of a loaded library and instantiates it.
+    fn with_library(
+        mut description: Description,
+        lib_path: &Path,
+        library: libloading::Library,
+        resources_dir: &Path,
+        instance_name: &str,
+    ) -> Result<Self, ImportError> {
+        let v3 = description.fmi_version.starts_with("3.");
+        let lerr = |m: String| ImportError::Library { path: lib_path.to_path_buf(), message: m };
         macro_rules! sym {
             ($name:literal, $ty:ty) => {{
                 // SAFETY: the symbol has this signature in fmi3Functions.h / fmi2Functions.h.
@@ -465,7 +564,7 @@ impl ImportedFmu {
                 set_state: sym!("fmi3SetFMUState", SetState),
                 free_state: sym!("fmi3FreeFMUState", GetState),
             };
-            let resources = CString::new(format!("{}/", dir.join("resources").display())).unwrap_or_default();
+            let resources = CString::new(format!("{}/", resources_dir.display())).unwrap_or_default();
             // SAFETY: valid C strings; the log environment outlives the instance (freed in Drop first).
             let instance = unsafe {
                 (functions.instantiate)(
@@ -500,13 +599,13 @@ impl ImportedFmu {
                 free_state: sym!("fmi2FreeFMUstate", GetState),
             };
             let callbacks = Box::new(Callbacks2 {
-                logger: log_message2,
+                logger: fmi2_logger(),
                 allocate_memory,
                 free_memory,
                 step_finished: None,
                 component_environment: env,
             });
-            let resources = CString::new(format!("file://{}/", dir.join("resources").display())).unwrap_or_default();
+            let resources = CString::new(format!("file://{}/", resources_dir.display())).unwrap_or_default();
             // SAFETY: valid C strings and callbacks that outlive the instance; fmi2CoSimulation = 1.
             let instance =
                 unsafe { instantiate(cname.as_ptr(), 1, token.as_ptr(), resources.as_ptr(), &*callbacks, 0, 0) };

@@ -69,6 +69,7 @@ impl<P: Pair> Work<P> {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     system: &mut S,
     opt: &Dopri5Options,
@@ -77,6 +78,7 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     t_end: f64,
     output_interval: f64,
     observer: &mut O,
+    first_step: Option<f64>,
 ) -> Result<Stats, OdeError> {
     for (name, v) in [("rtol", opt.rtol), ("atol", opt.atol), ("initial_step", opt.initial_step)] {
         if !(v > 0.0 && v.is_finite()) {
@@ -108,7 +110,7 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     check_finite(t0, y)?;
     observer.observe(system, t0, y).map_err(|message| OdeError::Observer { t: t0, message })?;
     let mut t = t0;
-    let mut h = opt.initial_step.min(opt.max_step);
+    let mut h = first_step.filter(|h| *h > 0.0 && h.is_finite()).unwrap_or(opt.initial_step).min(opt.max_step);
     let mut err_old: f64 = 1e-4;
     let mut need_k1 = true;
     system.events(t, y, &mut w.g_start);
@@ -233,6 +235,8 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
         std::mem::swap(&mut w.g_start, &mut w.g_end);
         stats.steps += 1;
         system.accept_step(t, y).map_err(|message| OdeError::System { t, message })?;
+        // The last step was cut to reach t_end: continue with the size it proposed before the cut.
+        stats.next_step = if last { stats.next_step.max(h_next) } else { h_next };
         h = h_next;
     }
     Ok(stats)

@@ -135,6 +135,9 @@ pub struct Stats {
     pub rhs_evaluations: u64,
     /// Events handled.
     pub events: u64,
+    /// Adaptive methods: the step size proposed for going on past the end (to continue the
+    /// integration with [`integrate_from`]); 0 for RK4.
+    pub next_step: f64,
 }
 
 /// Why an integration stopped early.
@@ -203,6 +206,23 @@ pub fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
     output_interval: f64,
     observer: &mut O,
 ) -> Result<Stats, OdeError> {
+    integrate_from(method, system, t0, y0, t_end, output_interval, observer, None)
+}
+
+/// [`integrate`], with the adaptive methods' first step given (`Some(stats.next_step)` of the
+/// integration that ended at `t0` continues it without the start-up from `initial_step`). Used by
+/// a subsystem that integrates one communication step at a time.
+#[allow(clippy::too_many_arguments)]
+pub fn integrate_from<S: OdeSystem + ?Sized, O: Observer<S>>(
+    method: &Method,
+    system: &mut S,
+    t0: f64,
+    y0: &mut [f64],
+    t_end: f64,
+    output_interval: f64,
+    observer: &mut O,
+    first_step: Option<f64>,
+) -> Result<Stats, OdeError> {
     if !(output_interval > 0.0 && output_interval.is_finite()) {
         return Err(OdeError::Settings(format!("output interval must be > 0, got {output_interval}")));
     }
@@ -212,12 +232,26 @@ pub fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
     system.begin(!matches!(method, Method::Rk4 { .. }));
     match method {
         Method::Rk4 { step } => rk4::integrate(system, *step, t0, y0, t_end, output_interval, observer),
-        Method::Dopri5(options) => {
-            adaptive::integrate::<dopri5::Dopri5, _, _>(system, options, t0, y0, t_end, output_interval, observer)
-        }
-        Method::Dop853(options) => {
-            adaptive::integrate::<dop853::Dop853, _, _>(system, options, t0, y0, t_end, output_interval, observer)
-        }
+        Method::Dopri5(options) => adaptive::integrate::<dopri5::Dopri5, _, _>(
+            system,
+            options,
+            t0,
+            y0,
+            t_end,
+            output_interval,
+            observer,
+            first_step,
+        ),
+        Method::Dop853(options) => adaptive::integrate::<dop853::Dop853, _, _>(
+            system,
+            options,
+            t0,
+            y0,
+            t_end,
+            output_interval,
+            observer,
+            first_step,
+        ),
     }
 }
 

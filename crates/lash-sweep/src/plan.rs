@@ -5,6 +5,7 @@
 use crate::spec::{ModelKind, Parameter, Sampling, SweepSpec};
 use lash_core::Problems;
 use lash_scenario::Scenario;
+use lash_scenario::paths::set_path;
 use rand::seq::SliceRandom;
 use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -222,67 +223,6 @@ fn design(spec: &SweepSpec) -> Vec<RunSpec> {
         .enumerate()
         .map(|(i, values)| RunSpec { id: i as u64, values, seed: run_seed(spec.seed, i as u64) })
         .collect()
-}
-
-/// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
-/// table. The field must exist and be a number.
-pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {
-    let mut segments = Vec::new();
-    for part in path.split('.') {
-        let (name, rest) = part.split_once('[').unwrap_or((part, ""));
-        if name.is_empty() {
-            return Err(format!("{path:?}: empty name in the path"));
-        }
-        segments.push(Segment::Key(name.to_string()));
-        if !rest.is_empty() {
-            for idx in rest.trim_end_matches(']').split("][") {
-                let i = idx.parse::<usize>().map_err(|_| format!("{path:?}: index [{idx}] is not a number"))?;
-                segments.push(Segment::Index(i));
-            }
-        }
-    }
-    let Some(Segment::Key(first)) = segments.first() else {
-        return Err(format!("{path:?}: empty path"));
-    };
-    let Some(mut here) = table.get_mut(first) else {
-        let keys: Vec<&String> = table.keys().collect();
-        return Err(format!("{path:?}: no field {first:?} in the scenario (fields: {keys:?})"));
-    };
-    let mut walked = first.clone();
-    for seg in &segments[1..] {
-        here = match (seg, here) {
-            (Segment::Key(k), toml::Value::Table(t)) => {
-                if !t.contains_key(k) {
-                    let keys: Vec<&String> = t.keys().collect();
-                    return Err(format!("{path:?}: no field {k:?} in {walked} (fields there: {keys:?})"));
-                }
-                walked.push_str(&format!(".{k}"));
-                t.get_mut(k).expect("checked")
-            }
-            (Segment::Index(i), toml::Value::Array(a)) => {
-                let len = a.len();
-                if *i >= len {
-                    return Err(format!("{path:?}: index {i} out of range ({walked} has {len} entries)"));
-                }
-                walked.push_str(&format!("[{i}]"));
-                &mut a[*i]
-            }
-            (Segment::Key(k), _) => return Err(format!("{path:?}: {walked} has no fields (looking for {k:?})")),
-            (Segment::Index(i), _) => return Err(format!("{path:?}: {walked} is not a list (looking for [{i}])")),
-        };
-    }
-    match here {
-        toml::Value::Float(f) => *f = value,
-        toml::Value::Integer(i) if value.fract() == 0.0 && value.abs() < 9.0e15 => *i = value as i64,
-        toml::Value::Integer(_) => return Err(format!("{path:?} is a whole number; {value} is not")),
-        other => return Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
-    }
-    Ok(())
-}
-
-enum Segment {
-    Key(String),
-    Index(usize),
 }
 
 #[cfg(test)]

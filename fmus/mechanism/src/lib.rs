@@ -11,7 +11,7 @@ use lash_fmi::fmi3::Exportable;
 pub struct MechanismFmu;
 
 impl Exportable for MechanismFmu {
-    type Model = lash_mech::MechanismSubsystem;
+    type Model = lash_catalog::ExportedMechanism;
 
     fn info() -> lash_fmi::ModelInfo {
         lash_catalog::mechanism_info()

@@ -1,0 +1,138 @@
+//! The TOML form of a system file.
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// A whole system file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SystemSpec {
+    /// Name (outputs, messages).
+    pub name: String,
+    /// Start time [s].
+    #[serde(default)]
+    pub start: f64,
+    /// Stop time [s].
+    pub stop: f64,
+    /// Communication step [s].
+    pub step: f64,
+    /// Master algorithm.
+    #[serde(default)]
+    pub algorithm: Algorithm,
+    /// The subsystems, stepped in this order.
+    pub elements: Vec<ElementSpec>,
+    /// Output → input connections.
+    #[serde(default)]
+    pub connections: Vec<ConnectionSpec>,
+    /// What is recorded.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+/// Master algorithm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Algorithm {
+    /// Elements in order, each seeing its predecessors' new outputs.
+    #[default]
+    GaussSeidel,
+    /// All elements from the outputs at the start of the step.
+    Jacobi,
+}
+
+/// One element of the system.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ElementSpec {
+    /// Unique name; variables are addressed as `name.variable`.
+    pub name: String,
+    /// An FMU (FMI 2.0 or 3.0 co-simulation), relative to the system file.
+    #[serde(default)]
+    pub fmu: Option<String>,
+    /// A lash plugin (a cdylib built with `lash_fmi::export_plugin!`), relative to the file.
+    #[serde(default)]
+    pub plugin: Option<String>,
+    /// A built-in subsystem: `lash_interface`, `lash_mechanism`, `lash_full`.
+    #[serde(default)]
+    pub builtin: Option<String>,
+    /// Steps every `decimation`-th communication point, by `decimation` communication steps.
+    #[serde(default = "one")]
+    pub decimation: u32,
+    /// Parameter (or start) values by variable name: a number, or a list for an array.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, ParameterValue>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// A parameter value: a scalar or the elements of an array.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum ParameterValue {
+    /// A scalar.
+    Scalar(f64),
+    /// An array's elements (row-major).
+    Array(Vec<f64>),
+}
+
+impl ParameterValue {
+    /// The value(s) as a slice.
+    pub fn values(&self) -> Vec<f64> {
+        match self {
+            ParameterValue::Scalar(v) => vec![*v],
+            ParameterValue::Array(v) => v.clone(),
+        }
+    }
+}
+
+/// Where an element comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ElementSource {
+    /// An FMU file.
+    Fmu(std::path::PathBuf),
+    /// A plugin library.
+    Plugin(std::path::PathBuf),
+    /// A built-in subsystem by model identifier.
+    Builtin(String),
+}
+
+impl ElementSpec {
+    /// The one source the element names, resolved against the system file's folder.
+    pub fn source(&self, base: &std::path::Path) -> Result<ElementSource, String> {
+        match (&self.fmu, &self.plugin, &self.builtin) {
+            (Some(f), None, None) => Ok(ElementSource::Fmu(base.join(f))),
+            (None, Some(p), None) => Ok(ElementSource::Plugin(base.join(p))),
+            (None, None, Some(b)) => Ok(ElementSource::Builtin(b.clone())),
+            _ => Err("give exactly one of fmu, plugin, builtin".into()),
+        }
+    }
+}
+
+/// A connection from an output to an input (`element.variable`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectionSpec {
+    /// Source output.
+    pub from: String,
+    /// Target input.
+    pub to: String,
+}
+
+/// Recording.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Sampling interval [s], a multiple of the step (default: the step).
+    #[serde(default)]
+    pub interval: Option<f64>,
+    /// `element.variable` names (default: every output of every element).
+    #[serde(default)]
+    pub channels: Vec<String>,
+}
+
+/// Parses a TOML system file.
+pub fn parse(text: &str) -> Result<SystemSpec, String> {
+    toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())
+}

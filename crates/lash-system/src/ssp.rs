@@ -1,0 +1,211 @@
+//! SSP system structures (`.ssd`, with `.ssv` parameter values; or an `.ssp` archive holding
+//! `SystemStructure.ssd` and its resources), read into a [`SystemSpec`].
+//!
+//! What is read: the system's components (`ssd:Component` with `source`, FMUs; a source ending in
+//! `.so` is a lash plugin), connections between component connectors, parameter bindings (inline
+//! `ssv:ParameterValues` or a `source` `.ssv` file, Real values), and the default experiment's
+//! start and stop times. SSP has no communication step of its own: lash reads it from an
+//! `ssd:Annotation type="org.lash"` element `<lash:Step value="…"/>`, else from
+//! `DefaultExperiment`'s `lash:step` attribute, else the caller gives it.
+
+use crate::spec::{ConnectionSpec, ElementSpec, OutputSpec, ParameterValue, SystemSpec};
+use quick_xml::events::{BytesStart, Event};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+fn unescape(v: &str) -> String {
+    v.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&apos;", "'").replace("&amp;", "&")
+}
+
+fn attr(e: &BytesStart<'_>, name: &str) -> Option<String> {
+    e.attributes().flatten().find(|a| a.key.as_ref() == name).map(|a| unescape(&a.value))
+}
+
+/// The local name of an element (`ssd:Component` → `Component`).
+fn local(e: &BytesStart<'_>) -> String {
+    e.local_name().as_ref().to_string()
+}
+
+/// Parameter values of an `.ssv` document (or an inline `ssv:ParameterValues`): `name → value`.
+pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, f64>, String> {
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let mut out = BTreeMap::new();
+    let mut current: Option<String> = None;
+    loop {
+        match reader.read_event().map_err(|e| format!("not valid XML: {e}"))? {
+            Event::Start(e) | Event::Empty(e) => match local(&e).as_str() {
+                "Parameter" => current = attr(&e, "name"),
+                "Real" | "Float64" | "Integer" => {
+                    if let (Some(name), Some(v)) = (&current, attr(&e, "value")) {
+                        let v: f64 =
+                            v.trim().parse().map_err(|_| format!("parameter {name}: value {v:?} is not a number"))?;
+                        out.insert(name.clone(), v);
+                    }
+                }
+                _ => {}
+            },
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+/// Reads an `.ssd` file (component sources and `.ssv` files relative to its folder), or an `.ssp`
+/// archive (unpacked under `cache`). `step` is used when the file does not give one.
+pub fn load(path: &Path, cache: &Path, step: Option<f64>) -> Result<(SystemSpec, PathBuf), String> {
+    let (ssd, base) = if path.extension().is_some_and(|e| e == "ssp") {
+        let dir = cache.join(format!("ssp-{}", std::process::id()));
+        let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut archive =
+            zip::ZipArchive::new(file).map_err(|e| format!("{}: not a zip archive ({e})", path.display()))?;
+        archive.extract(&dir).map_err(|e| format!("{}: cannot unpack ({e})", path.display()))?;
+        (dir.join("SystemStructure.ssd"), dir)
+    } else {
+        (path.to_path_buf(), path.parent().unwrap_or(Path::new(".")).to_path_buf())
+    };
+    let xml = std::fs::read_to_string(&ssd).map_err(|e| format!("{}: {e}", ssd.display()))?;
+    let spec = parse_ssd(&xml, &base, step).map_err(|m| format!("{}: {m}", ssd.display()))?;
+    Ok((spec, base))
+}
+
+/// Parses the text of an `.ssd`.
+pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec, String> {
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let mut name = String::from("system");
+    let (mut start, mut stop, mut file_step) = (0.0, None, None);
+    let mut elements: Vec<ElementSpec> = Vec::new();
+    let mut connections = Vec::new();
+    let mut in_component: Option<usize> = None;
+    let mut depth_component = 0usize;
+    let mut depth = 0usize;
+    let mut inline_ssv = String::new();
+    let mut in_values = false;
+    let number = |s: Option<String>, what: &str| -> Result<Option<f64>, String> {
+        s.map(|v| v.trim().parse::<f64>().map_err(|_| format!("{what}: {v:?} is not a number"))).transpose()
+    };
+    loop {
+        let event = reader.read_event().map_err(|e| format!("not valid XML: {e}"))?;
+        let (e, empty) = match &event {
+            Event::Start(e) => (e.clone(), false),
+            Event::Empty(e) => (e.clone(), true),
+            Event::End(end) => {
+                let n = end.local_name().as_ref().to_string();
+                if in_values {
+                    inline_ssv.push_str(&format!("</{n}>"));
+                    if n == "ParameterValues" {
+                        in_values = false;
+                        let values = parse_ssv(&inline_ssv)?;
+                        if let Some(k) = in_component {
+                            bind(&mut elements[k], values);
+                        }
+                        inline_ssv.clear();
+                    }
+                }
+                if in_component.is_some() && depth == depth_component {
+                    in_component = None;
+                }
+                depth = depth.saturating_sub(1);
+                continue;
+            }
+            Event::Eof => break,
+            _ => continue,
+        };
+        if !empty {
+            depth += 1;
+        }
+        let tag = local(&e);
+        if in_values {
+            let attrs: String = e
+                .attributes()
+                .flatten()
+                .map(|a| {
+                    format!(
+                        " {}=\"{}\"",
+                        a.key.local_name().as_ref(),
+                        unescape(&a.value).replace('&', "&amp;").replace('"', "&quot;")
+                    )
+                })
+                .collect();
+            inline_ssv.push_str(&format!("<{tag}{attrs}{}>", if empty { "/" } else { "" }));
+            continue;
+        }
+        match tag.as_str() {
+            "SystemStructureDescription" => {
+                if let Some(n) = attr(&e, "name") {
+                    name = n;
+                }
+            }
+            "DefaultExperiment" => {
+                start = number(attr(&e, "startTime"), "DefaultExperiment startTime")?.unwrap_or(0.0);
+                stop = number(attr(&e, "stopTime"), "DefaultExperiment stopTime")?;
+                if file_step.is_none() {
+                    file_step = number(attr(&e, "lash:step"), "DefaultExperiment lash:step")?;
+                }
+            }
+            "Step" => file_step = number(attr(&e, "value"), "lash:Step value")?,
+            "Component" => {
+                let cname = attr(&e, "name").ok_or("a Component without a name")?;
+                let source = attr(&e, "source").ok_or_else(|| format!("component {cname:?}: no source"))?;
+                let mut spec = ElementSpec {
+                    name: cname,
+                    fmu: None,
+                    plugin: None,
+                    builtin: None,
+                    decimation: 1,
+                    parameters: BTreeMap::new(),
+                };
+                if source.ends_with(".so") {
+                    spec.plugin = Some(source);
+                } else {
+                    spec.fmu = Some(source);
+                }
+                elements.push(spec);
+                if !empty {
+                    in_component = Some(elements.len() - 1);
+                    depth_component = depth;
+                }
+            }
+            "ParameterBinding" => {
+                if let (Some(k), Some(src)) = (in_component, attr(&e, "source")) {
+                    let path = base.join(&src);
+                    let text =
+                        std::fs::read_to_string(&path).map_err(|err| format!("parameter binding {src}: {err}"))?;
+                    let values = parse_ssv(&text).map_err(|m| format!("{src}: {m}"))?;
+                    bind(&mut elements[k], values);
+                }
+            }
+            "ParameterValues" if !empty => {
+                in_values = true;
+                inline_ssv = String::from("<ParameterValues>");
+            }
+            "Connection" => {
+                let get = |a: &str| attr(&e, a).ok_or_else(|| format!("a Connection without {a}"));
+                let (se, sc, ee, ec) =
+                    (get("startElement"), get("startConnector"), get("endElement"), get("endConnector"));
+                connections.push(ConnectionSpec { from: format!("{}.{}", se?, sc?), to: format!("{}.{}", ee?, ec?) });
+            }
+            _ => {}
+        }
+    }
+    let stop = stop.ok_or("no DefaultExperiment stopTime")?;
+    let step = file_step
+        .or(step)
+        .ok_or("no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step")?;
+    Ok(SystemSpec {
+        name,
+        start,
+        stop,
+        step,
+        algorithm: Default::default(),
+        elements,
+        connections,
+        output: OutputSpec::default(),
+    })
+}
+
+fn bind(element: &mut ElementSpec, values: BTreeMap<String, f64>) {
+    for (k, v) in values {
+        element.parameters.insert(k, ParameterValue::Scalar(v));
+    }
+}

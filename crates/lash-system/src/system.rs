@@ -1,0 +1,380 @@
+//! A loaded system and its master.
+
+use crate::spec::{Algorithm, ElementSource, SystemSpec};
+use lash_core::{Causality, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use std::path::Path;
+
+/// Why a system cannot be built or run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SystemError {
+    /// Bad input: the message names the field (`elements[1].fmu: …`).
+    #[error("{0}")]
+    Input(String),
+    /// A subsystem failed while running, naming the element and the time.
+    #[error("at t = {t} s, element {element:?}: {message}")]
+    Simulation {
+        /// Time [s].
+        t: f64,
+        /// Element name.
+        element: String,
+        /// What it said.
+        message: String,
+    },
+    /// The sink refused a row.
+    #[error("output: {0}")]
+    Output(String),
+}
+
+struct Element {
+    name: String,
+    model: Box<dyn Subsystem>,
+    decimation: i64,
+    parameters: Vec<(ValueReference, String, Vec<f64>)>,
+}
+
+struct Connection {
+    from: (usize, ValueReference),
+    to: (usize, ValueReference),
+    buffer: Vec<f64>,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RunSummary {
+    /// System name.
+    pub system: String,
+    /// Communication steps taken.
+    pub steps: u64,
+    /// Rows recorded.
+    pub samples: u64,
+    /// Wall time [s].
+    pub wall_time_s: f64,
+}
+
+/// A system ready to run.
+pub struct System {
+    name: String,
+    elements: Vec<Element>,
+    connections: Vec<Connection>,
+    start: Ticks,
+    stop: Ticks,
+    step: Ticks,
+    algorithm: Algorithm,
+    output_every: i64,
+    channels: Vec<(usize, ValueReference, usize)>,
+    header: Vec<String>,
+}
+
+fn ticks(field: &str, seconds: f64) -> Result<Ticks, SystemError> {
+    Ticks::from_seconds(seconds).map_err(|e| SystemError::Input(format!("{field}: {e}")))
+}
+
+/// `element.variable` split at the first dot.
+fn split<'a>(field: &str, name: &'a str) -> Result<(&'a str, &'a str), SystemError> {
+    name.split_once('.')
+        .ok_or_else(|| SystemError::Input(format!("{field}: {name:?} is not of the form element.variable")))
+}
+
+fn load(source: &ElementSource, name: &str, cache: &Path) -> Result<Box<dyn Subsystem>, String> {
+    Ok(match source {
+        ElementSource::Fmu(path) => {
+            Box::new(lash_fmi::import::ImportedFmu::open(path, cache, name).map_err(|e| e.to_string())?)
+        }
+        ElementSource::Plugin(path) => {
+            Box::new(lash_fmi::import::ImportedFmu::open_plugin(path, name).map_err(|e| e.to_string())?)
+        }
+        ElementSource::Builtin(id) => match id.as_str() {
+            lash_catalog::INTERFACE => Box::new(lash_catalog::interface()?),
+            lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism()?),
+            lash_catalog::FULL => Box::new(lash_catalog::full()?),
+            other => {
+                return Err(format!(
+                    "no built-in subsystem {other:?} (built-ins: {}, {}, {})",
+                    lash_catalog::INTERFACE,
+                    lash_catalog::MECHANISM,
+                    lash_catalog::FULL
+                ));
+            }
+        },
+    })
+}
+
+impl System {
+    /// Loads every element of `spec` (paths relative to `base`; FMUs unpacked under `cache`) and
+    /// checks names, connections, parameters, steps and channels. Every error names its field.
+    pub fn new(spec: &SystemSpec, base: &Path, cache: &Path) -> Result<Self, SystemError> {
+        let bad = |m: String| SystemError::Input(m);
+        if spec.elements.is_empty() {
+            return Err(bad("elements: a system needs at least one element".into()));
+        }
+        let start = ticks("start", spec.start)?;
+        let stop = ticks("stop", spec.stop)?;
+        let step = ticks("step", spec.step)?;
+        if step.0 <= 0 {
+            return Err(bad(format!("step: must be > 0, got {}", spec.step)));
+        }
+        if stop.0 <= start.0 {
+            return Err(bad(format!("stop: must exceed start ({} s), got {}", spec.start, spec.stop)));
+        }
+        if (stop.0 - start.0) % step.0 != 0 {
+            return Err(bad(format!(
+                "step: {} s does not divide stop − start = {} s",
+                spec.step,
+                spec.stop - spec.start
+            )));
+        }
+        let interval = ticks("output.interval", spec.output.interval.unwrap_or(spec.step))?;
+        if interval.0 <= 0 || interval.0 % step.0 != 0 {
+            return Err(bad(format!(
+                "output.interval: must be a positive multiple of the step {} s, got {} s",
+                spec.step,
+                interval.seconds()
+            )));
+        }
+        let mut elements: Vec<Element> = Vec::new();
+        for (k, e) in spec.elements.iter().enumerate() {
+            let field = format!("elements[{k}]");
+            if e.name.is_empty() || e.name.contains('.') {
+                return Err(bad(format!("{field}.name: {:?} must be non-empty and without dots", e.name)));
+            }
+            if elements.iter().any(|x| x.name == e.name) {
+                return Err(bad(format!("{field}.name: {:?} is used twice", e.name)));
+            }
+            if e.decimation == 0 {
+                return Err(bad(format!("{field}.decimation: must be ≥ 1")));
+            }
+            let source = e.source(base).map_err(|m| bad(format!("{field}: {m}")))?;
+            let model = load(&source, &e.name, cache).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
+            let mut parameters = Vec::new();
+            for (pname, value) in &e.parameters {
+                let v = find(model.variables(), pname).ok_or_else(|| {
+                    let names: Vec<&str> = model
+                        .variables()
+                        .iter()
+                        .filter(|v| matches!(v.causality, Causality::Parameter | Causality::Input))
+                        .map(|v| v.name.as_str())
+                        .collect();
+                    bad(format!("{field}.parameters.{pname}: no such parameter (parameters and inputs: {names:?})"))
+                })?;
+                let values = value.values();
+                if values.len() != v.len() {
+                    return Err(bad(format!(
+                        "{field}.parameters.{pname}: {} value(s) for {} element(s)",
+                        values.len(),
+                        v.len()
+                    )));
+                }
+                parameters.push((v.value_reference, pname.clone(), values));
+            }
+            elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation), parameters });
+        }
+        let lookup = |field: &str,
+                      name: &str,
+                      want: &[Causality]|
+         -> Result<(usize, ValueReference, usize), SystemError> {
+            let (el, var) = split(field, name)?;
+            let k =
+                elements.iter().position(|e| e.name == el).ok_or_else(|| bad(format!("{field}: no element {el:?}")))?;
+            let v = find(elements[k].model.variables(), var).ok_or_else(|| {
+                let names: Vec<&str> = elements[k]
+                    .model
+                    .variables()
+                    .iter()
+                    .filter(|v| want.contains(&v.causality))
+                    .map(|v| v.name.as_str())
+                    .collect();
+                bad(format!("{field}: element {el:?} has no variable {var:?} (candidates: {names:?})"))
+            })?;
+            if !want.contains(&v.causality) {
+                return Err(bad(format!("{field}: {name} is {:?}, expected {want:?}", v.causality)));
+            }
+            Ok((k, v.value_reference, v.len()))
+        };
+        let mut connections = Vec::new();
+        for (k, c) in spec.connections.iter().enumerate() {
+            let from = lookup(&format!("connections[{k}].from"), &c.from, &[Causality::Output, Causality::Local])?;
+            let to = lookup(&format!("connections[{k}].to"), &c.to, &[Causality::Input])?;
+            if from.2 != to.2 {
+                return Err(bad(format!(
+                    "connections[{k}]: {} has {} element(s), {} has {}",
+                    c.from, from.2, c.to, to.2
+                )));
+            }
+            if connections.iter().any(|x: &Connection| x.to == (to.0, to.1)) {
+                return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
+            }
+            connections.push(Connection { from: (from.0, from.1), to: (to.0, to.1), buffer: vec![0.0; from.2] });
+        }
+        let mut channels = Vec::new();
+        let mut header = vec!["time [s]".to_string()];
+        let mut add = |k: usize, v: &Variable, header: &mut Vec<String>| {
+            let name = format!("{}.{}", elements[k].name, v.name);
+            if v.len() == 1 && v.shape.is_empty() {
+                header.push(format!("{name} [{}]", v.unit));
+            } else {
+                header.extend((0..v.len()).map(|i| format!("{name}[{i}] [{}]", v.unit)));
+            }
+            channels.push((k, v.value_reference, v.len()));
+        };
+        if spec.output.channels.is_empty() {
+            for k in 0..elements.len() {
+                for v in elements[k].model.variables().iter().filter(|v| v.causality == Causality::Output) {
+                    add(k, v, &mut header);
+                }
+            }
+        } else {
+            for (i, name) in spec.output.channels.iter().enumerate() {
+                let field = format!("output.channels[{i}]");
+                let (k, vr, _) = lookup(
+                    &field,
+                    name,
+                    &[Causality::Output, Causality::Local, Causality::Parameter, Causality::Input],
+                )?;
+                let v = elements[k].model.variables()[vr as usize].clone();
+                add(k, &v, &mut header);
+            }
+        }
+        Ok(Self {
+            name: spec.name.clone(),
+            elements,
+            connections,
+            start,
+            stop,
+            step,
+            algorithm: spec.algorithm,
+            output_every: interval.0 / step.0,
+            channels,
+            header,
+        })
+    }
+
+    /// Column names with units, time first.
+    pub fn header(&self) -> &[String] {
+        &self.header
+    }
+
+    /// Element `k`'s subsystem.
+    pub fn element(&self, k: usize) -> &dyn Subsystem {
+        &*self.elements[k].model
+    }
+
+    fn fail(&self, k: usize, t: Ticks, e: SubsystemError) -> SystemError {
+        SystemError::Simulation { t: t.seconds(), element: self.elements[k].name.clone(), message: e.to_string() }
+    }
+
+    /// Reads every connection's source into its buffer.
+    fn gather(&mut self, only_to: Option<usize>, t: Ticks) -> Result<(), SystemError> {
+        for c in 0..self.connections.len() {
+            let (from, to) = (self.connections[c].from, self.connections[c].to);
+            if only_to.is_some_and(|k| k != to.0) {
+                continue;
+            }
+            let Connection { buffer, .. } = &mut self.connections[c];
+            if let Err(e) = self.elements[from.0].model.get_f64(&[from.1], buffer) {
+                return Err(self.fail(from.0, t, e));
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the buffered values into the inputs of element `k`.
+    fn scatter(&mut self, k: usize, t: Ticks) -> Result<(), SystemError> {
+        for c in 0..self.connections.len() {
+            let to = self.connections[c].to;
+            if to.0 != k {
+                continue;
+            }
+            let Connection { buffer, .. } = &self.connections[c];
+            if let Err(e) = self.elements[k].model.set_f64(&[to.1], buffer) {
+                return Err(self.fail(k, t, e));
+            }
+        }
+        Ok(())
+    }
+
+    fn record(
+        &self,
+        t: Ticks,
+        row: &mut Vec<f64>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+    ) -> Result<(), SystemError> {
+        row.clear();
+        row.push(t.seconds());
+        for &(k, vr, len) in &self.channels {
+            let at = row.len();
+            row.resize(at + len, 0.0);
+            if let Err(e) = self.elements[k].model.get_f64(&[vr], &mut row[at..]) {
+                return Err(self.fail(k, t, e));
+            }
+        }
+        sink(row).map_err(SystemError::Output)
+    }
+
+    /// Sets up, parameterises and initialises every element (in order, each after its inputs'
+    /// sources), then steps to the stop time; `sink` receives each recorded row (time first).
+    pub fn run(&mut self, sink: &mut dyn FnMut(&[f64]) -> Result<(), String>) -> Result<RunSummary, SystemError> {
+        let wall = std::time::Instant::now();
+        let (start, stop, step) = (self.start, self.stop, self.step);
+        for k in 0..self.elements.len() {
+            if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
+                return Err(self.fail(k, start, e));
+            }
+            for p in 0..self.elements[k].parameters.len() {
+                let (vr, name, values) = self.elements[k].parameters[p].clone();
+                if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
+                    return Err(self.fail(k, start, SubsystemError::Other(format!("parameter {name}: {e}"))));
+                }
+            }
+        }
+        for k in 0..self.elements.len() {
+            self.gather(Some(k), start)?;
+            self.scatter(k, start)?;
+            if let Err(e) = self.elements[k].model.initialize() {
+                return Err(self.fail(k, start, e));
+            }
+        }
+        let mut row = Vec::new();
+        self.record(start, &mut row, sink)?;
+        let mut samples = 1;
+        let n = (stop.0 - start.0) / step.0;
+        for i in 0..n {
+            let t = Ticks(start.0 + i * step.0);
+            if self.algorithm == Algorithm::Jacobi {
+                self.gather(None, t)?;
+            }
+            for k in 0..self.elements.len() {
+                let d = self.elements[k].decimation;
+                if i % d != 0 {
+                    continue;
+                }
+                if self.algorithm == Algorithm::GaussSeidel {
+                    self.gather(Some(k), t)?;
+                }
+                self.scatter(k, t)?;
+                let h = Ticks(step.0 * d.min(n - i));
+                if let Err(e) = self.elements[k].model.do_step(t, h) {
+                    return Err(self.fail(k, t, e));
+                }
+            }
+            if (i + 1) % self.output_every == 0 {
+                self.record(Ticks(t.0 + step.0), &mut row, sink)?;
+                samples += 1;
+            }
+        }
+        for k in 0..self.elements.len() {
+            if let Err(e) = self.elements[k].model.terminate() {
+                return Err(self.fail(k, stop, e));
+            }
+        }
+        Ok(RunSummary {
+            system: self.name.clone(),
+            steps: n as u64,
+            samples,
+            wall_time_s: wall.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+fn find<'a>(variables: &'a [Variable], name: &str) -> Option<&'a Variable> {
+    variables.iter().find(|v| v.name == name)
+}
