@@ -421,3 +421,60 @@ uniform = {{ low = 400.0, high = 600.0 }}
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// `lash bench fmu <file.fmu>`: the cost of one co-simulation step of any FMU through lash's
+/// importer (`ImportedFmu::do_step`: tick-to-seconds conversion, the C call, the status check),
+/// alone and followed by reading every output, at the FMU's default step size. Medians of five
+/// rounds after an untimed warm-up round.
+pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
+    use lash_core::{Causality, Subsystem, Ticks};
+    let cache = std::env::temp_dir().join(format!("lash-bench-fmu-{}", std::process::id()));
+    let result = (|| -> Result<(), CliError> {
+        let mut fmu =
+            lash_fmi::import::ImportedFmu::open(path, &cache, "bench").map_err(|e| CliError::Input(e.to_string()))?;
+        let fail = |e: lash_core::SubsystemError| CliError::Failure(format!("{}: {e}", path.display()));
+        let h = Ticks::from_seconds(0.01).map_err(|e| CliError::Failure(e.to_string()))?;
+        let outputs: Vec<u32> =
+            fmu.variables().iter().filter(|v| v.causality == Causality::Output).map(|v| v.value_reference).collect();
+        let n_values: usize =
+            fmu.variables().iter().filter(|v| v.causality == Causality::Output).map(|v| v.len()).sum();
+        let mut values = vec![0.0; n_values];
+        fmu.setup(Ticks::ZERO, None).map_err(fail)?;
+        fmu.initialize().map_err(fail)?;
+        let steps: i64 = if quick { 100_000 } else { 1_000_000 };
+        let mut t = Ticks::ZERO;
+        let mut round = |read: bool, t: &mut Ticks| -> Result<f64, CliError> {
+            let start = Instant::now();
+            for _ in 0..steps {
+                fmu.do_step(*t, h).map_err(fail)?;
+                *t = Ticks(t.0 + h.0);
+                if read {
+                    fmu.get_f64(&outputs, &mut values).map_err(fail)?;
+                }
+            }
+            black_box(&values);
+            Ok(start.elapsed().as_secs_f64() / steps as f64)
+        };
+        round(true, &mut t)?;
+        let mut alone = Vec::new();
+        let mut with_get = Vec::new();
+        for _ in 0..5 {
+            alone.push(round(false, &mut t)?);
+            with_get.push(round(true, &mut t)?);
+        }
+        let (a, g) = (median(alone), median(with_get));
+        println!(
+            "{}: FMI {} model {:?}, {} steps of 0.01 s per round, median of 5 rounds",
+            path.display(),
+            fmu.fmi_version(),
+            fmu.description().model_name,
+            steps
+        );
+        println!("  do_step alone:                 {:.1} ns per step", a * 1e9);
+        println!("  do_step + get all {} outputs:   {:.1} ns per step", outputs.len(), g * 1e9);
+        println!("  (target for a tiny FMU such as VanDerPol: ≤ 80 ns per step)");
+        Ok(())
+    })();
+    let _ = std::fs::remove_dir_all(&cache);
+    result
+}

@@ -9,6 +9,7 @@
 //! lash show <name>               # print a built-in scenario as TOML
 //! lash channels <scenario>       # list output channels
 //! lash bench [--quick] [sweep]   # benchmarks (full and reduced models; or sweep throughput)
+//! lash bench fmu <file.fmu>      # one step of any FMU through lash's importer
 //! lash sweep <sweep-file> --out <dir> [--shard i/N] [--threads N] [--quiet]
 //! lash sweep merge <dir>... --out <dir>
 //! lash fmu pack --out <dir>      # FMI 3.0 and 2.0 FMUs of the subsystems
@@ -198,9 +199,12 @@ enum Command {
         /// Fewer repetitions.
         #[arg(long)]
         quick: bool,
-        /// `sweep`: throughput of a reduced-model sweep of scenario A (1 vs 2 threads) instead.
-        #[arg(value_parser = ["sweep"])]
+        /// `sweep`: throughput of a reduced-model sweep of scenario A (1 vs 2 threads) instead;
+        /// `fmu <file.fmu>`: the cost of one step of an FMU through lash's importer.
+        #[arg(value_parser = ["sweep", "fmu"])]
         what: Option<String>,
+        /// The FMU of `lash bench fmu`.
+        file: Option<std::path::PathBuf>,
     },
     /// Parameter sweep of a scenario into a Parquet dataset (data.parquet, params.parquet,
     /// manifest.json): parallel, resumable (re-run the same command), shardable.
@@ -390,8 +394,11 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             }
             Ok(())
         }
-        Command::Bench { quick, what } => match what.as_deref() {
-            Some("sweep") => bench::sweep(quick),
+        Command::Bench { quick, what, file } => match (what.as_deref(), file) {
+            (Some("sweep"), None) => bench::sweep(quick),
+            (Some("fmu"), Some(file)) => bench::fmu(&file, quick),
+            (Some("fmu"), None) => Err(CliError::Input("lash bench fmu: give the .fmu file".into())),
+            (_, Some(file)) => Err(CliError::Input(format!("lash bench: unexpected argument {}", file.display()))),
             _ => bench::run(quick),
         },
         Command::Sweep { command: Some(SweepCommand::Merge { inputs, out }), .. } => sweep::merge(&inputs, &out),

@@ -1,0 +1,328 @@
+//! System files end to end: third-party FMUs (a C FMU written without lash, and a PythonFMU-built
+//! FMU from PyPI's pythonfmu) run by `lash run system.toml` reproduce fmpy's results for them bit
+//! for bit; a user plugin (examples/accelerometer-plugin) connected to an FMU output matches an
+//! independent discretisation; the same system as an SSP `.ssd` + `.ssv` gives the same result;
+//! bad system files are clear errors. fmpy and pythonfmu are installed from PyPI into
+//! target/fmpy-venv on first use.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn python() -> PathBuf {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join("fmpy-venv");
+    let python = venv.join("bin/python");
+    if !python.exists() {
+        let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3").success();
+        assert!(ok, "creating {}", venv.display());
+    }
+    let has =
+        |m: &str| Command::new(&python).args(["-c", &format!("import {m}")]).output().is_ok_and(|o| o.status.success());
+    if !has("fmpy") || !has("pythonfmu") {
+        let ok = Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32", "pythonfmu==0.7.0"])
+            .status()
+            .expect("pip")
+            .success();
+        assert!(ok, "installing fmpy and pythonfmu from PyPI");
+    }
+    python
+}
+
+fn lash(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_lash")).args(args).output().unwrap()
+}
+
+/// (header, rows) of a CSV of numbers; header names without units or quotes.
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header =
+        lines.next().unwrap().split(',').map(|h| h.trim_matches('"').split(" [").next().unwrap().to_string()).collect();
+    let rows = lines.map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect()).collect();
+    (header, rows)
+}
+
+fn column(csv: &(Vec<String>, Vec<Vec<f64>>), name: &str) -> Vec<f64> {
+    let k = csv.0.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {:?}", csv.0));
+    csv.1.iter().map(|r| r[k]).collect()
+}
+
+/// The accelerometer driven by `input` held over steps of `h`, by exact zero-order-hold
+/// discretisation through the exponential of the augmented matrix [[A, B], [0, 0]] (Taylor series
+/// with scaling and squaring) — a formulation independent of the plugin's closed form.
+fn sensor_reference(input: &[f64], h: f64, fn_hz: f64, zeta: f64) -> Vec<f64> {
+    let wn = 2.0 * std::f64::consts::PI * fn_hz;
+    let m = [[0.0, 1.0, 0.0], [-wn * wn, -2.0 * zeta * wn, wn * wn], [0.0, 0.0, 0.0]];
+    let mul = |a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]| {
+        let mut c = [[0.0; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                c[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+            }
+        }
+        c
+    };
+    let squarings = 12;
+    let scale = h / f64::from(1 << squarings);
+    let x = m.map(|r| r.map(|v| v * scale));
+    let mut e = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut term = e;
+    for n in 1..20 {
+        term = mul(&term, &x).map(|r| r.map(|v| v / n as f64));
+        for i in 0..3 {
+            for j in 0..3 {
+                e[i][j] += term[i][j];
+            }
+        }
+    }
+    for _ in 0..squarings {
+        e = mul(&e, &e);
+    }
+    let mut state = [input[0], 0.0];
+    let mut out = vec![state[0]];
+    for &u in &input[1..] {
+        state = [
+            e[0][0] * state[0] + e[0][1] * state[1] + e[0][2] * u,
+            e[1][0] * state[0] + e[1][1] * state[1] + e[1][2] * u,
+        ];
+        out.push(state[0]);
+    }
+    out
+}
+
+#[test]
+fn third_party_fmus_and_a_plugin_in_a_system_file() {
+    let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
+    assert!(plugin.exists(), "{} is missing: run `cargo build --release --workspace` first", plugin.display());
+    let python = python();
+    let out = std::env::temp_dir().join(format!("lash-system-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let run_py = |args: &[&str]| {
+        let o = Command::new(&python).args(args).current_dir(&out).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    // The third-party FMUs: a C FMU built here with cc, and one built by pythonfmu.
+    run_py(&[root.join("tests/fmi/vanderpol/build.py").to_str().unwrap(), "vanderpol.fmu"]);
+    run_py(&[
+        "-m",
+        "pythonfmu",
+        "build",
+        "-f",
+        root.join("tests/fmi/pythonfmu/vanderpol_py.py").to_str().unwrap(),
+        "-d",
+        ".",
+    ]);
+    for fmu in ["vanderpol.fmu", "vanderpol_py.fmu"] {
+        for (interval, csv) in [("0.01", "10ms"), ("0.02", "20ms")] {
+            let out_csv = format!("fmpy-{fmu}-{csv}.csv");
+            run_py(&[
+                "-m",
+                "fmpy.cli",
+                "simulate",
+                fmu,
+                "--stop-time",
+                "2",
+                "--output-interval",
+                interval,
+                "--start-values",
+                "mu",
+                "1.5",
+                "--output-file",
+                &out_csv,
+            ]);
+        }
+    }
+    let system = format!(
+        r#"name = "vdp"
+stop = 2.0
+step = 0.01
+algorithm = "ALGORITHM"
+[[elements]]
+name = "c"
+fmu = "vanderpol.fmu"
+parameters = {{ mu = 1.5 }}
+[[elements]]
+name = "py"
+fmu = "vanderpol_py.fmu"
+parameters = {{ mu = 1.5 }}
+[[elements]]
+name = "slow"
+fmu = "vanderpol.fmu"
+decimation = 2
+parameters = {{ mu = 1.5 }}
+[[elements]]
+name = "sensor"
+plugin = "{}"
+parameters = {{ natural_frequency = 20.0, damping_ratio = 0.3, sensitivity = 1.0, bias = 0.0 }}
+[[connections]]
+from = "c.x0"
+to = "sensor.acceleration"
+"#,
+        plugin.display()
+    );
+    for algorithm in ["gauss_seidel", "jacobi"] {
+        let file = out.join(format!("vdp-{algorithm}.toml"));
+        std::fs::write(&file, system.replace("ALGORITHM", algorithm)).unwrap();
+        let dir = out.join(algorithm);
+        let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let lash_csv = read_csv(&dir.join("timeseries.csv"));
+        assert_eq!(lash_csv.1.len(), 201);
+        // Each FMU run by lash equals fmpy's run of it, bit for bit (same steps, same calls).
+        for (element, fmu) in [("c", "vanderpol.fmu"), ("py", "vanderpol_py.fmu")] {
+            let fmpy = read_csv(&out.join(format!("fmpy-{fmu}-10ms.csv")));
+            for v in ["x0", "x1"] {
+                let (a, b) = (column(&lash_csv, &format!("{element}.{v}")), column(&fmpy, v));
+                assert_eq!(a.len(), b.len());
+                assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{element}.{v} differs from fmpy");
+            }
+        }
+        // Decimation 2: the element steps by 0.02 s every other point, like fmpy at 0.02 s.
+        let fmpy20 = read_csv(&out.join("fmpy-vanderpol.fmu-20ms.csv"));
+        let slow = column(&lash_csv, "slow.x0");
+        let even: Vec<f64> = slow.iter().step_by(2).copied().collect();
+        assert_eq!(even, column(&fmpy20, "x0"));
+        // The plugin: Gauss-Seidel gives the sensor x0 at the end of each step, Jacobi at its start.
+        let x0 = column(&lash_csv, "c.x0");
+        let input: Vec<f64> = if algorithm == "jacobi" {
+            std::iter::once(x0[0]).chain(x0[..x0.len() - 1].iter().copied()).collect()
+        } else {
+            x0.clone()
+        };
+        let expected = sensor_reference(&input, 0.01, 20.0, 0.3);
+        let measured = column(&lash_csv, "sensor.measured");
+        let worst = measured.iter().zip(&expected).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        eprintln!("{algorithm}: sensor vs reference {worst:.2e}");
+        assert!(worst < 1e-10, "{algorithm}: plugin sensor differs from the reference by {worst}");
+    }
+
+    // The same coupling as an SSP system structure with its parameter values in an .ssv file.
+    std::fs::write(
+        out.join("vdp.ssd"),
+        format!(
+            r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"
+    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" version="1.0" name="vdp-ssp">
+  <ssd:System name="root">
+    <ssd:Elements>
+      <ssd:Component name="c" source="vanderpol.fmu" type="application/x-fmu-sharedlibrary">
+        <ssd:ParameterBindings><ssd:ParameterBinding source="c.ssv"/></ssd:ParameterBindings>
+      </ssd:Component>
+      <ssd:Component name="sensor" source="{}">
+        <ssd:ParameterBindings><ssd:ParameterBinding>
+          <ssd:ParameterValues><ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="s">
+            <ssv:Parameters>
+              <ssv:Parameter name="natural_frequency"><ssv:Real value="20"/></ssv:Parameter>
+              <ssv:Parameter name="damping_ratio"><ssv:Real value="0.3"/></ssv:Parameter>
+            </ssv:Parameters>
+          </ssv:ParameterSet></ssd:ParameterValues>
+        </ssd:ParameterBinding></ssd:ParameterBindings>
+      </ssd:Component>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="c" startConnector="x0" endElement="sensor" endConnector="acceleration"/>
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="2">
+    <ssd:Annotations><ssc:Annotation type="org.lash"><lash:Step xmlns:lash="https://lash.dev" value="0.01"/></ssc:Annotation></ssd:Annotations>
+  </ssd:DefaultExperiment>
+</ssd:SystemStructureDescription>
+"#,
+            plugin.display()
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        out.join("c.ssv"),
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="c">
+  <ssv:Parameters><ssv:Parameter name="mu"><ssv:Real value="1.5"/></ssv:Parameter></ssv:Parameters>
+</ssv:ParameterSet>
+"#,
+    )
+    .unwrap();
+    let dir = out.join("ssp");
+    let o = lash(&["run", out.join("vdp.ssd").to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ssp = read_csv(&dir.join("timeseries.csv"));
+    let toml = read_csv(&out.join("gauss_seidel").join("timeseries.csv"));
+    for name in ["c.x0", "c.x1", "sensor.measured"] {
+        assert_eq!(column(&ssp, name), column(&toml, name), "{name}: .ssd and TOML systems differ");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn bad_system_files_are_clear_errors() {
+    let out = std::env::temp_dir().join(format!("lash-system-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
+    let not_plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_full.so");
+    let base = |extra: &str| {
+        format!(
+            "name = \"bad\"\nstop = 0.01\nstep = 0.001\n[[elements]]\nname = \"sensor\"\nplugin = \"{}\"\n{extra}",
+            plugin.display()
+        )
+    };
+    let cases = [
+        (
+            base("[[connections]]\nfrom = \"nowhere.x\"\nto = \"sensor.acceleration\"\n"),
+            "connections[0].from: no element \"nowhere\"",
+        ),
+        (
+            base("[[connections]]\nfrom = \"sensor.measured\"\nto = \"sensor.bias\"\n"),
+            "connections[0].to: sensor.bias is Parameter",
+        ),
+        (base("[[connections]]\nfrom = \"sensor.measured\"\nto = \"sensor.speed\"\n"), "has no variable \"speed\""),
+        (base("[elements.parameters]\ngain = 2.0\n"), "elements[0].parameters.gain: no such parameter"),
+        (base("[elements.parameters]\nnatural_frequency = [1.0, 2.0]\n"), "2 value(s) for 1 element(s)"),
+        (base("").replace("step = 0.001", "step = 0.003"), "step: 0.003 s does not divide"),
+        (base("").replace("libaccelerometer.so", "libmissing.so"), "no such file"),
+        (base("").replace(plugin.to_str().unwrap(), not_plugin.to_str().unwrap()), "not a lash plugin"),
+        (base("fmu = \"x.fmu\"\n"), "elements[0]: give exactly one of fmu, plugin, builtin"),
+        (base("decimation = 0\n"), "elements[0].decimation: must be ≥ 1"),
+    ];
+    for (k, (text, expected)) in cases.iter().enumerate() {
+        let file = out.join(format!("bad{k}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join("o").to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "case {k}: {err}");
+        assert!(err.contains(expected), "case {k}: expected {expected:?} in: {err}");
+    }
+    // A parameter the plugin refuses at initialization stops the run (exit 1), naming it.
+    let file = out.join("refused.toml");
+    std::fs::write(&file, base("[elements.parameters]\ndamping_ratio = 2.0\n")).unwrap();
+    let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join("o").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("sensor") && err.contains("damping_ratio"), "{err}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn the_example_system_runs() {
+    let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
+    assert!(plugin.exists(), "{} is missing: run `cargo build --release --workspace` first", plugin.display());
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/systems/full-model-accelerometer.toml");
+    let out = std::env::temp_dir().join(format!("lash-system-example-{}", std::process::id()));
+    let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&out.join("timeseries.csv"));
+    assert_eq!(csv.1.len(), 3601);
+    assert_eq!(csv.0, ["time", "mechanism.slider.ax", "sensor.measured", "mechanism.crank_pivot.force"]);
+    // The sensor (5 kHz, ζ = 0.7) follows the slider acceleration's slow part: over the run its
+    // mean equals the input's to a small fraction of the input's range.
+    let (ax, m) = (column(&csv, "mechanism.slider.ax"), column(&csv, "sensor.measured"));
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let range = ax.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    assert!(m.iter().all(|v| v.is_finite()));
+    assert!((mean(&ax) - mean(&m)).abs() < 0.02 * range, "{} vs {}", mean(&ax), mean(&m));
+    let _ = std::fs::remove_dir_all(&out);
+}
