@@ -73,6 +73,13 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     let csv2 = out.join("simulate2.csv");
     let fmi2 = out.join("lash_interface-fmi2.fmu");
     run(&["-m", "fmpy.cli", "simulate", fmi2.to_str().unwrap(), "--output-file", csv2.to_str().unwrap()]);
+    // The mechanism FMU, both versions, over its default experiment (0.036 s at 1e-3 s).
+    for name in ["lash_mechanism.fmu", "lash_mechanism-fmi2.fmu"] {
+        let csv = out.join(format!("{name}.csv"));
+        run(&["-m", "fmpy.cli", "simulate", out.join(name).to_str().unwrap(), "--output-file", csv.to_str().unwrap()]);
+        let rows = std::fs::read_to_string(&csv).unwrap().lines().count();
+        assert_eq!(rows, 1 + 37, "{name}: 0.036 s at 1e-3 s, both ends");
+    }
     let header = std::fs::read_to_string(&csv2).unwrap();
     assert!(header.contains("\"contact_force[1]\""), "FMI 2.0 flattens arrays: {}", &header[..200.min(header.len())]);
 
@@ -358,5 +365,103 @@ fn fmpy_simulates_the_full_model_fmu_like_lash_run() {
             assert!(o.status.success() && text.contains("OK"), "{text}");
         }
     }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn broken_fmus_are_clear_errors_naming_the_fmu_and_the_cause() {
+    use lash_fmi::import::ImportedFmu;
+    let out = std::env::temp_dir().join(format!("lash-fmi-broken-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let good = out.join("vanderpol.fmu");
+    let build = root.join("tests/fmi/vanderpol/build.py");
+    let o = Command::new("python3").arg(&build).arg(&good).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let empty_c = out.join("empty.c");
+    std::fs::write(&empty_c, "int not_an_fmu(void) { return 0; }\n").unwrap();
+    let empty_so = out.join("empty.so");
+    let o = Command::new("cc").args(["-shared", "-fPIC", "-o"]).arg(&empty_so).arg(&empty_c).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let xml = std::fs::read_to_string(root.join("tests/fmi/vanderpol/modelDescription.xml")).unwrap();
+    // Each broken archive: (file name, [(entry, source file or literal text)], expected in the error).
+    let so = |name: &str| {
+        let unpacked = out.join("unpacked");
+        let o = Command::new("python3")
+            .args(["-c", "import sys, zipfile; zipfile.ZipFile(sys.argv[1]).extractall(sys.argv[2])"])
+            .arg(&good)
+            .arg(&unpacked)
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        unpacked.join("binaries/linux64").join(name)
+    };
+    let real_so = so("vanderpol.so");
+    type Entries<'a> = Vec<(&'a str, Vec<u8>)>;
+    let cases: Vec<(&str, Entries, Vec<&str>)> = vec![
+        (
+            "bad-xml.fmu",
+            vec![("modelDescription.xml", b"<fmiModelDescription fmiVersion=\"2.0\"><CoSim".to_vec())],
+            vec!["bad-xml.fmu", "modelDescription"],
+        ),
+        (
+            "wrong-platform.fmu",
+            vec![("modelDescription.xml", xml.clone().into_bytes()), ("binaries/win64/vanderpol.dll", b"MZ".to_vec())],
+            vec!["wrong-platform.fmu", "no binary for linux64", "win64"],
+        ),
+        (
+            "not-elf.fmu",
+            vec![
+                ("modelDescription.xml", xml.clone().into_bytes()),
+                ("binaries/linux64/vanderpol.so", b"not an ELF file".to_vec()),
+            ],
+            vec!["not-elf.fmu", "vanderpol.so", "cannot load", "dlopen failed"],
+        ),
+        (
+            "missing-symbol.fmu",
+            vec![
+                ("modelDescription.xml", xml.clone().into_bytes()),
+                ("binaries/linux64/vanderpol.so", std::fs::read(&empty_so).unwrap()),
+            ],
+            vec!["missing-symbol.fmu", "missing symbol fmi2"],
+        ),
+        (
+            "wrong-guid.fmu",
+            vec![
+                (
+                    "modelDescription.xml",
+                    xml.replace("{8c4e810f-3df3-4a00-8276-176fa3c9f000}", "{00000000-0000-0000-0000-000000000000}")
+                        .into_bytes(),
+                ),
+                ("binaries/linux64/vanderpol.so", std::fs::read(&real_so).unwrap()),
+            ],
+            vec!["wrong-guid.fmu", "fmi2Instantiate failed"],
+        ),
+    ];
+    for (name, entries, expected) in cases {
+        let fmu = out.join(name);
+        let dir = out.join(format!("{name}.d"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut args = vec![fmu.to_str().unwrap().to_string()];
+        for (entry, bytes) in &entries {
+            let file = dir.join(entry.replace('/', "_"));
+            std::fs::write(&file, bytes).unwrap();
+            args.push(entry.to_string());
+            args.push(file.to_str().unwrap().to_string());
+        }
+        let zip = "import sys, zipfile\nz = zipfile.ZipFile(sys.argv[1], 'w')\nfor a, f in zip(sys.argv[2::2], sys.argv[3::2]): z.write(f, a)\nz.close()";
+        let o = Command::new("python3").args(["-c", zip]).args(&args).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let e = ImportedFmu::open(&fmu, &out.join("cache"), "broken").err().expect("refused").to_string();
+        for x in &expected {
+            assert!(e.contains(x), "{name}: expected {x:?} in {e:?}");
+        }
+        let o = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "check"]).arg(&fmu).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        eprintln!("{name}: {e}");
+    }
+    // The intact FMU passes the same checks.
+    let o = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "check"]).arg(&good).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -255,6 +255,16 @@ to = "sensor.acceleration"
     for name in ["c.x0", "c.x1", "sensor.measured"] {
         assert_eq!(column(&ssp, name), column(&toml, name), "{name}: .ssd and TOML systems differ");
     }
+    // And packed as an .ssp archive (SystemStructure.ssd at its root, the FMU and .ssv beside it).
+    let zip = "import sys, zipfile\nz = zipfile.ZipFile(sys.argv[1], 'w')\nz.write('vdp.ssd', 'SystemStructure.ssd')\nz.write('c.ssv', 'c.ssv')\nz.write('vanderpol.fmu', 'vanderpol.fmu')\nz.close()";
+    run_py(&["-c", zip, "vdp.ssp"]);
+    let dir = out.join("ssp-archive");
+    let o = lash(&["run", out.join("vdp.ssp").to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let archive = read_csv(&dir.join("timeseries.csv"));
+    for name in ["c.x0", "c.x1", "sensor.measured"] {
+        assert_eq!(column(&archive, name), column(&toml, name), "{name}: .ssp and TOML systems differ");
+    }
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -324,5 +334,58 @@ fn the_example_system_runs() {
     let range = ax.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     assert!(m.iter().all(|v| v.is_finite()));
     assert!((mean(&ax) - mean(&m)).abs() < 0.02 * range, "{} vs {}", mean(&ax), mean(&m));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_fmus() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("lash-system-reduced-{}", std::process::id()));
+    let o = lash(&["run", "A", "--model", "reduced", "--quiet", "--out", out.join("reference").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = read_csv(&out.join("reference/timeseries.csv"));
+    let o = lash(&["fmu", "pack", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let example = std::fs::read_to_string(root.join("examples/systems/reduced-A.toml")).unwrap();
+    let variants = [
+        ("builtins", example.clone()),
+        (
+            "fmi3",
+            example
+                .replace("builtin = \"lash_mechanism\"", "fmu = \"lash_mechanism.fmu\"")
+                .replace("builtin = \"lash_interface\"", "fmu = \"lash_interface.fmu\""),
+        ),
+        (
+            "fmi2",
+            example
+                .replace("builtin = \"lash_mechanism\"", "fmu = \"lash_mechanism-fmi2.fmu\"")
+                .replace("builtin = \"lash_interface\"", "fmu = \"lash_interface-fmi2.fmu\""),
+        ),
+    ];
+    for (tag, text) in variants {
+        assert_ne!(text.contains("\nfmu ="), tag == "builtins");
+        let file = out.join(format!("reduced-{tag}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join(tag).to_str().unwrap()]);
+        assert!(o.status.success(), "{tag}: {}", String::from_utf8_lossy(&o.stderr));
+        let csv = read_csv(&out.join(tag).join("timeseries.csv"));
+        assert_eq!(csv.1.len(), 3601);
+        for name in ["slider.ax", "motor.torque", "crank_pivot.fx"] {
+            let (a, b) = (column(&csv, name), column(&reference, name));
+            assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{tag}: {name} differs from lash run");
+        }
+    }
+    // Misused interface masters are clear errors.
+    let extra = example.clone() + "\n[[connections]]\nfrom = \"joint.contact_force\"\nto = \"mechanism.x\"\n";
+    let no_signal = example.replace("propagated = \"motor.torque\"", "propagated = \"motor.speed\"");
+    for (text, expected) in
+        [(extra, "connections: the interface master"), (no_signal, "no variable \"motor.speed_free\"")]
+    {
+        let file = out.join("bad.toml");
+        std::fs::write(&file, text).unwrap();
+        let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join("bad").to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.code() == Some(2) && err.contains(expected), "{expected}: {err}");
+    }
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -457,6 +457,16 @@ impl ImportedFmu {
     /// Imports `fmu` (FMI 3.0 or 2.0 co-simulation; unpacked into `cache` once) and
     /// instantiates it.
     pub fn open(fmu: &Path, cache: &Path, instance_name: &str) -> Result<Self, ImportError> {
+        Self::open_unpacked(fmu, cache, instance_name).map_err(|e| match e {
+            // The library sits in the cache: say which FMU it came from.
+            ImportError::Library { path, message } => {
+                ImportError::Library { path, message: format!("{message} (from {})", fmu.display()) }
+            }
+            other => other,
+        })
+    }
+
+    fn open_unpacked(fmu: &Path, cache: &Path, instance_name: &str) -> Result<Self, ImportError> {
         let dir = unpack(fmu, cache)?;
         let xml = std::fs::read_to_string(dir.join("modelDescription.xml")).map_err(|e| ImportError::Archive {
             path: fmu.to_path_buf(),
@@ -542,7 +552,7 @@ impl ImportedFmu {
             ($name:literal, $ty:ty) => {{
                 // SAFETY: the symbol has this signature in fmi3Functions.h / fmi2Functions.h.
                 let s: libloading::Symbol<'_, $ty> = unsafe { library.get(concat!($name, "\0").as_bytes()) }
-                    .map_err(|e| lerr(format!("missing symbol {}: {e}", $name)))?;
+                    .map_err(|e| lerr(format!("missing symbol {}: {}", $name, chain(&e))))?;
                 *s
             }};
         }
@@ -616,6 +626,12 @@ impl ImportedFmu {
         };
         if instance.is_null() {
             let messages = log.lock().map(|l| l.join("; ")).unwrap_or_default();
+            let messages = if messages.is_empty() {
+                "the FMU logged nothing (a token/GUID that differs from its binary's, or a model that cannot start)"
+                    .into()
+            } else {
+                messages
+            };
             return Err(lerr(format!("{call} failed: {messages}")));
         }
         Ok(Self {

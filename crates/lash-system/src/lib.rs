@@ -17,5 +17,7 @@ pub mod spec;
 pub mod ssp;
 mod system;
 
-pub use spec::{Algorithm, ConnectionSpec, ElementSource, ElementSpec, OutputSpec, SystemSpec};
+pub use spec::{
+    Algorithm, ConnectionSpec, ElementSource, ElementSpec, InterfaceSpec, OutputSpec, SignalSpec, SystemSpec,
+};
 pub use system::{RunSummary, System, SystemError};

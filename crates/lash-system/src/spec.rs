@@ -27,6 +27,55 @@ pub struct SystemSpec {
     /// What is recorded.
     #[serde(default)]
     pub output: OutputSpec,
+    /// With `algorithm = "interface"`: the reduced interface model's coupling.
+    #[serde(default)]
+    pub interface: Option<InterfaceSpec>,
+}
+
+/// The reduced interface model's multirate coupling of a mechanism (macro) element and a
+/// clearance-interface (micro) element: M̃, f̃ and their rates forward once per step (interpolated
+/// across it), f_c back, and signals propagated at every micro step.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterfaceSpec {
+    /// The macro element (exports effective_mass, effective_force and the propagation maps).
+    pub mechanism: String,
+    /// The micro element (takes them, returns contact_force).
+    pub clearance: String,
+    /// Micro step h_r [s]; the system's `step` is the macro step h_m.
+    pub micro_step: f64,
+    /// Interpolation of the macro terms.
+    #[serde(default)]
+    pub interpolation: lash_orchestrate::Interpolation,
+    /// One-way (default) or two-way.
+    #[serde(default)]
+    pub coupling: lash_core::Coupling,
+    /// Sequential (default) or threaded.
+    #[serde(default)]
+    pub execution: lash_orchestrate::Execution,
+    /// The recorded signals, in column order.
+    pub signals: Vec<SignalSpec>,
+}
+
+/// A recorded signal of the interface master: exactly one of `propagated`, `micro`, `macro`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SignalSpec {
+    /// Column name.
+    pub name: String,
+    /// Propagated to every micro step: `X` names the mechanism outputs `X_free` and `X_gain`
+    /// (`slider.acceleration`, `motor.torque`); the value is `X_free[e] + X_gain[e,·] · f_c`.
+    #[serde(default)]
+    pub propagated: Option<String>,
+    /// A clearance-element output at every micro step.
+    #[serde(default)]
+    pub micro: Option<String>,
+    /// A mechanism output interpolated linearly across the macro step.
+    #[serde(rename = "macro", default)]
+    pub macro_variable: Option<String>,
+    /// Element of the variable (row for `propagated`).
+    #[serde(default)]
+    pub element: usize,
 }
 
 /// Master algorithm.
@@ -38,6 +87,9 @@ pub enum Algorithm {
     GaussSeidel,
     /// All elements from the outputs at the start of the step.
     Jacobi,
+    /// The reduced interface model's master over a mechanism and a clearance element (see
+    /// [`InterfaceSpec`]).
+    Interface,
 }
 
 /// One element of the system.

@@ -201,6 +201,7 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
         elements,
         connections,
         output: OutputSpec::default(),
+        interface: None,
     })
 }
 

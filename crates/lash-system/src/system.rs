@@ -1,7 +1,8 @@
 //! A loaded system and its master.
 
-use crate::spec::{Algorithm, ElementSource, SystemSpec};
+use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
 use lash_core::{Causality, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
 use std::path::Path;
 
 /// Why a system cannot be built or run.
@@ -63,6 +64,17 @@ pub struct System {
     output_every: i64,
     channels: Vec<(usize, ValueReference, usize)>,
     header: Vec<String>,
+    interface: Option<InterfacePlan>,
+}
+
+/// The interface master's elements, options and signals.
+struct InterfacePlan {
+    mechanism: usize,
+    clearance: usize,
+    options: MasterOptions,
+    signals: Vec<Signal>,
+    units: Vec<String>,
+    interval: Ticks,
 }
 
 fn ticks(field: &str, seconds: f64) -> Result<Ticks, SystemError> {
@@ -124,12 +136,8 @@ impl System {
             )));
         }
         let interval = ticks("output.interval", spec.output.interval.unwrap_or(spec.step))?;
-        if interval.0 <= 0 || interval.0 % step.0 != 0 {
-            return Err(bad(format!(
-                "output.interval: must be a positive multiple of the step {} s, got {} s",
-                spec.step,
-                interval.seconds()
-            )));
+        if interval.0 <= 0 {
+            return Err(bad(format!("output.interval: must be > 0, got {} s", interval.seconds())));
         }
         let mut elements: Vec<Element> = Vec::new();
         for (k, e) in spec.elements.iter().enumerate() {
@@ -190,6 +198,35 @@ impl System {
             }
             Ok((k, v.value_reference, v.len()))
         };
+        if spec.algorithm == Algorithm::Interface {
+            let plan = interface_plan(spec, &elements, start, stop, step, interval)?;
+            let header = std::iter::once("time [s]".to_string())
+                .chain(plan.signals.iter().zip(&plan.units).map(|(s, u)| format!("{} [{u}]", s.name())))
+                .collect();
+            return Ok(Self {
+                name: spec.name.clone(),
+                elements,
+                connections: Vec::new(),
+                start,
+                stop,
+                step,
+                algorithm: spec.algorithm,
+                output_every: 1,
+                channels: Vec::new(),
+                header,
+                interface: Some(plan),
+            });
+        }
+        if interval.0 % step.0 != 0 {
+            return Err(bad(format!(
+                "output.interval: must be a positive multiple of the step {} s, got {} s",
+                spec.step,
+                interval.seconds()
+            )));
+        }
+        if spec.interface.is_some() {
+            return Err(bad("interface: only with algorithm = \"interface\"".into()));
+        }
         let mut connections = Vec::new();
         for (k, c) in spec.connections.iter().enumerate() {
             let from = lookup(&format!("connections[{k}].from"), &c.from, &[Causality::Output, Causality::Local])?;
@@ -245,6 +282,7 @@ impl System {
             output_every: interval.0 / step.0,
             channels,
             header,
+            interface: None,
         })
     }
 
@@ -315,6 +353,9 @@ impl System {
     pub fn run(&mut self, sink: &mut dyn FnMut(&[f64]) -> Result<(), String>) -> Result<RunSummary, SystemError> {
         let wall = std::time::Instant::now();
         let (start, stop, step) = (self.start, self.stop, self.step);
+        if self.interface.is_some() {
+            return self.run_interface(sink, wall);
+        }
         for k in 0..self.elements.len() {
             if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
                 return Err(self.fail(k, start, e));
@@ -373,6 +414,156 @@ impl System {
             wall_time_s: wall.elapsed().as_secs_f64(),
         })
     }
+}
+
+impl System {
+    /// The interface master's run: both elements set up and parameterised here, initialised and
+    /// stepped by [`InterfaceMaster`].
+    fn run_interface(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        wall: std::time::Instant,
+    ) -> Result<RunSummary, SystemError> {
+        let (start, stop) = (self.start, self.stop);
+        for k in 0..self.elements.len() {
+            if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
+                return Err(self.fail(k, start, e));
+            }
+            for p in 0..self.elements[k].parameters.len() {
+                let (vr, name, values) = self.elements[k].parameters[p].clone();
+                if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
+                    return Err(self.fail(k, start, SubsystemError::Other(format!("parameter {name}: {e}"))));
+                }
+            }
+        }
+        let plan = self.interface.as_ref().expect("checked");
+        let (m, c, options, signals, interval) =
+            (plan.mechanism, plan.clearance, plan.options, plan.signals.clone(), plan.interval);
+        let (first, second) = self.elements.split_at_mut(m.max(c));
+        let (macro_el, micro_el) =
+            if m < c { (&mut first[m], &mut second[0]) } else { (&mut second[0], &mut first[c]) };
+        let mut master = InterfaceMaster::new(&mut *macro_el.model, &mut *micro_el.model, options, signals)
+            .map_err(|e| SystemError::Input(format!("interface: {e}")))?;
+        struct Rows<'s> {
+            sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+            row: Vec<f64>,
+            samples: u64,
+        }
+        impl Observer for Rows<'_> {
+            fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
+                self.row.clear();
+                self.row.push(t.seconds());
+                self.row.extend_from_slice(signals);
+                self.samples += 1;
+                (self.sink)(&self.row)
+            }
+        }
+        let mut rows = Rows { sink, row: Vec::new(), samples: 0 };
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut rows, interval)];
+        master.run(&mut observers).map_err(|e| SystemError::Simulation {
+            t: f64::NAN,
+            element: "interface master".into(),
+            message: e.to_string(),
+        })?;
+        let samples = rows.samples;
+        let steps = (stop.0 - start.0) / self.step.0;
+        Ok(RunSummary {
+            system: self.name.clone(),
+            steps: steps as u64,
+            samples,
+            wall_time_s: wall.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// Checks an interface master's elements and signals.
+fn interface_plan(
+    spec: &SystemSpec,
+    elements: &[Element],
+    start: Ticks,
+    stop: Ticks,
+    step: Ticks,
+    interval: Ticks,
+) -> Result<InterfacePlan, SystemError> {
+    let bad = |m: String| SystemError::Input(m);
+    let i: &InterfaceSpec = spec
+        .interface
+        .as_ref()
+        .ok_or_else(|| bad("interface: algorithm = \"interface\" needs an [interface] table".into()))?;
+    if !spec.connections.is_empty() {
+        return Err(bad("connections: the interface master couples its two elements itself; give none".into()));
+    }
+    if elements.len() != 2 {
+        return Err(bad(format!(
+            "elements: the interface master couples exactly two elements, got {}",
+            elements.len()
+        )));
+    }
+    let index = |field: &str, name: &str| {
+        elements
+            .iter()
+            .position(|e| e.name == name)
+            .ok_or_else(|| bad(format!("interface.{field}: no element {name:?}")))
+    };
+    let (mechanism, clearance) = (index("mechanism", &i.mechanism)?, index("clearance", &i.clearance)?);
+    if mechanism == clearance {
+        return Err(bad("interface: mechanism and clearance must be different elements".into()));
+    }
+    let micro_step = ticks("interface.micro_step", i.micro_step)?;
+    if micro_step.0 <= 0 || step.0 % micro_step.0 != 0 {
+        return Err(bad(format!("interface.micro_step: {} s must divide the step {} s", i.micro_step, step.seconds())));
+    }
+    if interval.0 % micro_step.0 != 0 {
+        return Err(bad(format!("output.interval: must be a multiple of the micro step {} s", i.micro_step)));
+    }
+    let has = |k: usize, name: &str| find(elements[k].model.variables(), name).map(|v| v.len());
+    let mut signals = Vec::new();
+    let mut units = Vec::new();
+    let unit =
+        |k: usize, name: &str| find(elements[k].model.variables(), name).map(|v| v.unit.clone()).unwrap_or_default();
+    for (n, sig) in i.signals.iter().enumerate() {
+        let field = format!("interface.signals[{n}]");
+        let name = sig.name.clone();
+        let e = sig.element;
+        let need = |k: usize, var: &str, len: usize| -> Result<(), SystemError> {
+            match has(k, var) {
+                None => Err(bad(format!("{field}: element {:?} has no variable {var:?}", elements[k].name))),
+                Some(l) if l < len => Err(bad(format!("{field}: {var} has {l} element(s), element {e} asked"))),
+                Some(_) => Ok(()),
+            }
+        };
+        let signal = match (&sig.propagated, &sig.micro, &sig.macro_variable) {
+            (Some(base), None, None) => {
+                let (free, gain) = (format!("{base}_free"), format!("{base}_gain"));
+                need(mechanism, &free, e + 1)?;
+                need(mechanism, &gain, 2 * e + 2)?;
+                units.push(unit(mechanism, &free));
+                Signal::Propagated { name, free: (free, e), gain: (gain, 2 * e, 2 * e + 1) }
+            }
+            (None, Some(var), None) => {
+                need(clearance, var, e + 1)?;
+                units.push(unit(clearance, var));
+                Signal::Micro { name, variable: var.clone(), element: e }
+            }
+            (None, None, Some(var)) => {
+                need(mechanism, var, e + 1)?;
+                units.push(unit(mechanism, var));
+                Signal::Macro { name, variable: var.clone(), element: e, derivative: None }
+            }
+            _ => return Err(bad(format!("{field}: give exactly one of propagated, micro, macro"))),
+        };
+        signals.push(signal);
+    }
+    let options = MasterOptions {
+        start,
+        stop,
+        macro_step: step,
+        micro_step,
+        interpolation: i.interpolation,
+        coupling: i.coupling,
+        execution: i.execution,
+    };
+    Ok(InterfacePlan { mechanism, clearance, options, signals, units, interval })
 }
 
 fn find<'a>(variables: &'a [Variable], name: &str) -> Option<&'a Variable> {
