@@ -137,6 +137,23 @@ fn the_c_abis_refuse_bad_calls_and_leak_nothing() {
     }
     let stats = region.change();
     assert_eq!(stats.bytes_allocated as i64 - stats.bytes_deallocated as i64, 0, "{stats:?}");
+    // The same through the FMI 2.0 functions (with their extra per-instance scalar table).
+    let region = Region::new(GLOBAL);
+    for _ in 0..10_000 {
+        use fmu::fmi2_exports::*;
+        // SAFETY: a live instance, freed once; null callbacks are accepted.
+        unsafe {
+            let c = fmi2Instantiate(c"x".as_ptr(), 1, token.as_ptr(), std::ptr::null(), std::ptr::null(), 0, 0);
+            assert!(!c.is_null());
+            assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), 0);
+            assert_eq!(fmi2EnterInitializationMode(c), 0);
+            assert_eq!(fmi2ExitInitializationMode(c), 0);
+            assert_eq!(fmi2DoStep(c, 0.0, 1e-5, 1), 0);
+            fmi2FreeInstance(c);
+        }
+    }
+    let stats = region.change();
+    assert_eq!(stats.bytes_allocated as i64 - stats.bytes_deallocated as i64, 0, "FMI 2.0: {stats:?}");
 }
 
 /// FMI 2.0 over the same instances (run from the test above: the allocation count of that test
