@@ -375,6 +375,61 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
             assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{tag}: {name} differs from lash run");
         }
     }
+    // lash's own full-model FMU in an SSP system structure, its clearance parameter bound from an
+    // .ssv file, driving the plugin: the same as the TOML example with the built-in full model.
+    let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
+    std::fs::write(
+        out.join("full.ssv"),
+        r#"<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="m">
+  <ssv:Parameters><ssv:Parameter name="crank_pivot.contact.restitution"><ssv:Real value="0.8"/></ssv:Parameter></ssv:Parameters>
+</ssv:ParameterSet>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        out.join("full.ssd"),
+        format!(
+            r#"<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="full-ssp">
+  <ssd:System name="root">
+    <ssd:Elements>
+      <ssd:Component name="mechanism" source="lash_full.fmu">
+        <ssd:ParameterBindings><ssd:ParameterBinding source="full.ssv"/></ssd:ParameterBindings>
+      </ssd:Component>
+      <ssd:Component name="sensor" source="{}">
+        <ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues><ssv:ParameterSet version="1.0" name="s"><ssv:Parameters>
+          <ssv:Parameter name="natural_frequency"><ssv:Real value="5000"/></ssv:Parameter>
+          <ssv:Parameter name="damping_ratio"><ssv:Real value="0.7"/></ssv:Parameter>
+        </ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>
+      </ssd:Component>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="mechanism" startConnector="slider.ax" endElement="sensor" endConnector="acceleration"/>
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="0.036">
+    <ssd:Annotations><ssc:Annotation type="org.lash"><lash:Step xmlns:lash="https://lash.dev" value="1e-5"/></ssc:Annotation></ssd:Annotations>
+  </ssd:DefaultExperiment>
+</ssd:SystemStructureDescription>"#,
+            plugin.display()
+        ),
+    )
+    .unwrap();
+    let o = lash(&[
+        "run",
+        out.join("full.ssd").to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.join("full-ssp").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let accelerometer = root.join("examples/systems/full-model-accelerometer.toml");
+    let o =
+        lash(&["run", accelerometer.to_str().unwrap(), "--quiet", "--out", out.join("full-toml").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (ssp, toml) = (read_csv(&out.join("full-ssp/timeseries.csv")), read_csv(&out.join("full-toml/timeseries.csv")));
+    for name in ["mechanism.slider.ax", "sensor.measured", "mechanism.crank_pivot.force"] {
+        let (a, b) = (column(&ssp, name), column(&toml, name));
+        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{name}: FMU in .ssd vs built-in in TOML");
+    }
     // Misused interface masters are clear errors.
     let extra = example.clone() + "\n[[connections]]\nfrom = \"joint.contact_force\"\nto = \"mechanism.x\"\n";
     let no_signal = example.replace("propagated = \"motor.torque\"", "propagated = \"motor.speed\"");
