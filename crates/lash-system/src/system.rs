@@ -300,6 +300,23 @@ impl System {
         SystemError::Simulation { t: t.seconds(), element: self.elements[k].name.clone(), message: e.to_string() }
     }
 
+    /// Sets every element up for the run and gives it its parameter values.
+    fn set_up(&mut self) -> Result<(), SystemError> {
+        let (start, stop) = (self.start, self.stop);
+        for k in 0..self.elements.len() {
+            if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
+                return Err(self.fail(k, start, e));
+            }
+            for p in 0..self.elements[k].parameters.len() {
+                let (vr, name, values) = self.elements[k].parameters[p].clone();
+                if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
+                    return Err(self.fail(k, start, SubsystemError::Other(format!("parameter {name}: {e}"))));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Reads every connection's source into its buffer.
     fn gather(&mut self, only_to: Option<usize>, t: Ticks) -> Result<(), SystemError> {
         for c in 0..self.connections.len() {
@@ -356,17 +373,7 @@ impl System {
         if self.interface.is_some() {
             return self.run_interface(sink, wall);
         }
-        for k in 0..self.elements.len() {
-            if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
-                return Err(self.fail(k, start, e));
-            }
-            for p in 0..self.elements[k].parameters.len() {
-                let (vr, name, values) = self.elements[k].parameters[p].clone();
-                if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
-                    return Err(self.fail(k, start, SubsystemError::Other(format!("parameter {name}: {e}"))));
-                }
-            }
-        }
+        self.set_up()?;
         for k in 0..self.elements.len() {
             self.gather(Some(k), start)?;
             self.scatter(k, start)?;
@@ -425,17 +432,7 @@ impl System {
         wall: std::time::Instant,
     ) -> Result<RunSummary, SystemError> {
         let (start, stop) = (self.start, self.stop);
-        for k in 0..self.elements.len() {
-            if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
-                return Err(self.fail(k, start, e));
-            }
-            for p in 0..self.elements[k].parameters.len() {
-                let (vr, name, values) = self.elements[k].parameters[p].clone();
-                if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
-                    return Err(self.fail(k, start, SubsystemError::Other(format!("parameter {name}: {e}"))));
-                }
-            }
-        }
+        self.set_up()?;
         let plan = self.interface.as_ref().expect("checked");
         let (m, c, options, signals, interval) =
             (plan.mechanism, plan.clearance, plan.options, plan.signals.clone(), plan.interval);
