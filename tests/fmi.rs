@@ -7,30 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// A Python virtual environment with fmpy under target/, made once.
-fn fmpy_python() -> PathBuf {
-    // Tests run in parallel threads: one creates the environment, the others wait for it.
-    static MADE: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _made = MADE.lock().unwrap_or_else(|e| e.into_inner());
-    let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
-    let venv = target.join("fmpy-venv");
-    let python = venv.join("bin/python");
-    if !python.exists() {
-        let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3 is needed").success();
-        assert!(ok, "creating {}", venv.display());
-    }
-    let has_fmpy =
-        Command::new(&python).args(["-c", "import fmpy"]).output().map(|o| o.status.success()).unwrap_or(false);
-    if !has_fmpy {
-        let ok = Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32"])
-            .status()
-            .expect("pip")
-            .success();
-        assert!(ok, "installing fmpy from PyPI into {}", venv.display());
-    }
-    python
-}
+mod common;
+use common::fmpy_python;
 
 #[test]
 fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
@@ -148,28 +126,16 @@ fn packed(tag: &str) -> PathBuf {
 
 #[test]
 fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
-    use lash_core::{Coupling, Subsystem, Ticks};
+    use lash_core::{Subsystem, Ticks};
     use lash_fmi::import::ImportedFmu;
-    use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
+    use lash_orchestrate::Execution;
     let lib = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_interface.so");
     assert!(lib.exists(), "{} is missing: run `cargo build --release --workspace` before the tests", lib.display());
     let out = packed("import");
     let cache = out.join("cache");
 
     // In process: scenario A's reduced model, slider acceleration every micro step.
-    let mut a = lash_scenario::builtin::by_name("A").unwrap();
-    a.output.channels = vec!["slider.ax".into()];
-    let mut reference = Vec::new();
-    lash_scenario::ReducedRun::new(&a, lash_scenario::ReducedOptions::default())
-        .unwrap()
-        .execute(
-            &mut |row| {
-                reference.push(row[1]);
-                Ok(())
-            },
-            &mut |_| {},
-        )
-        .unwrap();
+    let reference = in_process_slider_acceleration(&lash_scenario::builtin::by_name("A").unwrap());
 
     let versions =
         [("lash_mechanism.fmu", "lash_interface.fmu"), ("lash_mechanism-fmi2.fmu", "lash_interface-fmi2.fmu")];
@@ -182,28 +148,7 @@ fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
         let stop = Ticks::from_seconds(0.036).unwrap();
         mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
         interface.setup(Ticks::ZERO, Some(stop)).unwrap();
-        let options = MasterOptions {
-            start: Ticks::ZERO,
-            stop,
-            macro_step: Ticks::from_seconds(1e-3).unwrap(),
-            micro_step: Ticks::from_seconds(1e-5).unwrap(),
-            interpolation: Interpolation::Linear,
-            coupling: Coupling::OneWay,
-            execution,
-        };
-        let signals = vec![Signal::Propagated {
-            name: "slider.ax".into(),
-            free: ("slider.acceleration_free".into(), 0),
-            gain: ("slider.acceleration_gain".into(), 0, 1),
-        }];
-        let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
-        let mut imported = Vec::new();
-        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
-            imported.push(v[0]);
-            Ok(())
-        };
-        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, options.micro_step)];
-        master.run(&mut observers).unwrap();
+        let imported = master_slider_acceleration(&mut mechanism, &mut interface, stop, execution);
         assert_eq!(imported.len(), reference.len());
         let same = imported.iter().zip(&reference).all(|(x, y)| x.to_bits() == y.to_bits());
         assert!(same, "{mech_file}, {execution:?}: the imported FMUs must reproduce the in-process run bit for bit");
@@ -235,6 +180,41 @@ fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// Slider acceleration at every micro step of lash's master coupling two set-up subsystems
+/// (scenario A's settings: h_m = 1e-3 s, h_r = 1e-5 s, linear, one-way).
+fn master_slider_acceleration(
+    mechanism: &mut dyn lash_core::Subsystem,
+    interface: &mut dyn lash_core::Subsystem,
+    stop: lash_core::Ticks,
+    execution: lash_orchestrate::Execution,
+) -> Vec<f64> {
+    use lash_core::{Coupling, Ticks};
+    use lash_orchestrate::{InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
+    let options = MasterOptions {
+        start: Ticks::ZERO,
+        stop,
+        macro_step: Ticks::from_seconds(1e-3).unwrap(),
+        micro_step: Ticks::from_seconds(1e-5).unwrap(),
+        interpolation: Interpolation::Linear,
+        coupling: Coupling::OneWay,
+        execution,
+    };
+    let signals = vec![Signal::Propagated {
+        name: "slider.ax".into(),
+        free: ("slider.acceleration_free".into(), 0),
+        gain: ("slider.acceleration_gain".into(), 0, 1),
+    }];
+    let mut master = InterfaceMaster::new(mechanism, interface, options, signals).unwrap();
+    let mut values = Vec::new();
+    let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
+        values.push(v[0]);
+        Ok(())
+    };
+    let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, options.micro_step)];
+    master.run(&mut observers).unwrap();
+    values
+}
+
 /// Slider acceleration at every micro step of scenario A's reduced model run in process.
 fn in_process_slider_acceleration(a: &lash_scenario::Scenario) -> Vec<f64> {
     let mut a = a.clone();
@@ -255,9 +235,9 @@ fn in_process_slider_acceleration(a: &lash_scenario::Scenario) -> Vec<f64> {
 
 #[test]
 fn link_data_set_as_fmu_parameters_equals_the_edited_scenario() {
-    use lash_core::{Coupling, Subsystem, Ticks};
+    use lash_core::{Subsystem, Ticks};
     use lash_fmi::import::ImportedFmu;
-    use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
+    use lash_orchestrate::Execution;
     let out = packed("links");
     let cache = out.join("cache");
     // The edited scenario: a longer rod (120 → 140 mm), a heavier slider, a faster crank.
@@ -288,32 +268,10 @@ fn link_data_set_as_fmu_parameters_equals_the_edited_scenario() {
         let mut back = [0.0; 6];
         mechanism.get_f64(&refs, &mut back).unwrap();
         assert_eq!(back, [-0.07, 0.0, 0.07, 0.0, 0.08, 450.0]);
-        let options = MasterOptions {
-            start: Ticks::ZERO,
-            stop,
-            macro_step: Ticks::from_seconds(1e-3).unwrap(),
-            micro_step: Ticks::from_seconds(1e-5).unwrap(),
-            interpolation: Interpolation::Linear,
-            coupling: Coupling::OneWay,
-            execution: Execution::Sequential,
-        };
-        let signals = vec![Signal::Propagated {
-            name: "slider.ax".into(),
-            free: ("slider.acceleration_free".into(), 0),
-            gain: ("slider.acceleration_gain".into(), 0, 1),
-        }];
-        let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
-        let mut imported = Vec::new();
-        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
-            imported.push(v[0]);
-            Ok(())
-        };
-        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, options.micro_step)];
-        master.run(&mut observers).unwrap();
+        let imported = master_slider_acceleration(&mut mechanism, &mut interface, stop, Execution::Sequential);
         assert_eq!(imported.len(), reference.len());
         let same = imported.iter().zip(&reference).all(|(x, y)| x.to_bits() == y.to_bits());
         assert!(same, "{mech_file}: link data set as parameters must reproduce the edited scenario bit for bit");
-        drop(master);
         // After initialization the parameters are fixed.
         let e = mechanism.set_f64(&[refs[2]], &[0.1]).unwrap_err().to_string();
         assert!(e.contains("slider.mass") || e.contains("parameter"), "{e}");

@@ -5,28 +5,11 @@
 //! bad system files are clear errors. fmpy and pythonfmu are installed from PyPI into
 //! target/fmpy-venv on first use.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn python() -> PathBuf {
-    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join("fmpy-venv");
-    let python = venv.join("bin/python");
-    if !python.exists() {
-        let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3").success();
-        assert!(ok, "creating {}", venv.display());
-    }
-    let has =
-        |m: &str| Command::new(&python).args(["-c", &format!("import {m}")]).output().is_ok_and(|o| o.status.success());
-    if !has("fmpy") || !has("pythonfmu") {
-        let ok = Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32", "pythonfmu==0.7.0"])
-            .status()
-            .expect("pip")
-            .success();
-        assert!(ok, "installing fmpy and pythonfmu from PyPI");
-    }
-    python
-}
+mod common;
+use common::fmpy_python;
 
 fn lash(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_lash")).args(args).output().unwrap()
@@ -94,7 +77,7 @@ fn sensor_reference(input: &[f64], h: f64, fn_hz: f64, zeta: f64) -> Vec<f64> {
 fn third_party_fmus_and_a_plugin_in_a_system_file() {
     let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
     assert!(plugin.exists(), "{} is missing: run `cargo build --release --workspace` first", plugin.display());
-    let python = python();
+    let python = fmpy_python();
     let out = std::env::temp_dir().join(format!("lash-system-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -23,3 +23,28 @@ pub fn rows(runner: &mut dyn Runner) -> (Summary, Vec<String>, Vec<Vec<f64>>) {
 pub fn column(header: &[String], name: &str) -> usize {
     header.iter().position(|h| h.starts_with(&format!("{name} ["))).unwrap_or_else(|| panic!("no column {name}"))
 }
+
+/// The Python of target/fmpy-venv with fmpy 0.3.32 and pythonfmu 0.7.0 from PyPI, made on first
+/// use. Tests of one binary run in parallel threads: one makes it, the others wait.
+pub fn fmpy_python() -> std::path::PathBuf {
+    use std::process::Command;
+    static MADE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _made = MADE.lock().unwrap_or_else(|e| e.into_inner());
+    let venv = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join("fmpy-venv");
+    let python = venv.join("bin/python");
+    if !python.exists() {
+        let ok = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3 is needed").success();
+        assert!(ok, "creating {}", venv.display());
+    }
+    let has =
+        |m: &str| Command::new(&python).args(["-c", &format!("import {m}")]).output().is_ok_and(|o| o.status.success());
+    if !has("fmpy") || !has("pythonfmu") {
+        let ok = Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32", "pythonfmu==0.7.0"])
+            .status()
+            .expect("pip")
+            .success();
+        assert!(ok, "installing fmpy and pythonfmu from PyPI into {}", venv.display());
+    }
+    python
+}

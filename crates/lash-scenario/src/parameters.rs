@@ -9,7 +9,7 @@
 //! from it, so an FMU with edited parameters computes exactly what lash computes for the edited
 //! scenario file.
 
-use crate::paths::set_path;
+use crate::paths::EditError;
 use crate::schema::Scenario;
 use lash_core::{
     Causality, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variability, Variable,
@@ -210,25 +210,21 @@ impl<S: Subsystem> WithParameters<S> {
         })
     }
 
-    /// The subsystem inside.
-    pub fn inner(&self) -> &S {
-        &self.inner
-    }
-
     fn parameter_values(&self, k: usize) -> &[f64] {
         &self.values[self.offsets[k]..self.offsets[k + 1]]
     }
 
     /// The scenario with the parameters' current values, validated.
     pub fn edited_scenario(&self) -> Result<Scenario, String> {
-        let mut t = self.base.clone();
-        for (k, p) in self.parameters.iter().enumerate() {
-            for (path, v) in p.paths.iter().zip(self.parameter_values(k)) {
-                set_path(&mut t, path, *v)?;
-            }
-        }
-        let text = toml::to_string(&t).map_err(|e| e.to_string())?;
-        crate::parse(&text).map_err(|problems| format!("the parameters make an invalid scenario: {problems}"))
+        let edits = self
+            .parameters
+            .iter()
+            .enumerate()
+            .flat_map(|(k, p)| p.paths.iter().map(String::as_str).zip(self.parameter_values(k).iter().copied()));
+        crate::paths::edited(&self.base, edits).map_err(|e| match e {
+            EditError::Path(m) => m,
+            EditError::Invalid(problems) => format!("the parameters make an invalid scenario: {problems}"),
+        })
     }
 }
 

@@ -2,6 +2,29 @@
 //! `bodies[1].mass`, `joints[1].point2[0]`): the handle that sweeps and FMU parameters use to edit
 //! a scenario.
 
+/// Why an edited scenario could not be made.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EditError {
+    /// A path that does not name a number of the scenario.
+    Path(String),
+    /// The edited scenario is not valid (every problem, with its field).
+    Invalid(lash_core::Problems),
+}
+
+/// The scenario `base` (as a TOML table) with each `(path, value)` written in, parsed and
+/// validated like a file.
+pub fn edited<'a>(
+    base: &toml::Table,
+    edits: impl IntoIterator<Item = (&'a str, f64)>,
+) -> Result<crate::Scenario, EditError> {
+    let mut table = base.clone();
+    for (path, value) in edits {
+        set_path(&mut table, path, value).map_err(EditError::Path)?;
+    }
+    let text = toml::to_string(&table).map_err(|e| EditError::Path(e.to_string()))?;
+    crate::parse(&text).map_err(EditError::Invalid)
+}
+
 /// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
 /// table. The field must exist and be a number.
 pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {

@@ -5,7 +5,7 @@
 use crate::spec::{ModelKind, Parameter, Sampling, SweepSpec};
 use lash_core::Problems;
 use lash_scenario::Scenario;
-use lash_scenario::paths::set_path;
+use lash_scenario::paths::{EditError, set_path};
 use rand::seq::SliceRandom;
 use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -126,12 +126,11 @@ impl Plan {
 
     /// The scenario of one run: the base with the run's values at their paths, validated.
     pub fn scenario(&self, run: &RunSpec) -> Result<Scenario, String> {
-        let mut t = self.base_table.clone();
-        for (par, v) in self.spec.parameters.iter().zip(&run.values) {
-            set_path(&mut t, &par.path, *v)?;
-        }
-        let text = toml::to_string(&t).map_err(|e| e.to_string())?;
-        lash_scenario::parse(&text).map_err(|p| format!("invalid parameter combination: {p}"))
+        let edits = self.spec.parameters.iter().map(|p| p.path.as_str()).zip(run.values.iter().copied());
+        lash_scenario::paths::edited(&self.base_table, edits).map_err(|e| match e {
+            EditError::Path(m) => m,
+            EditError::Invalid(p) => format!("invalid parameter combination: {p}"),
+        })
     }
 }
 

@@ -79,8 +79,8 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
     let mut in_component: Option<usize> = None;
     let mut depth_component = 0usize;
     let mut depth = 0usize;
-    let mut inline_ssv = String::new();
     let mut in_values = false;
+    let mut parameter: Option<String> = None;
     let number = |s: Option<String>, what: &str| -> Result<Option<f64>, String> {
         s.map(|v| v.trim().parse::<f64>().map_err(|_| format!("{what}: {v:?} is not a number"))).transpose()
     };
@@ -90,17 +90,8 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
             Event::End(end) => {
-                let n = end.local_name().as_ref().to_string();
-                if in_values {
-                    inline_ssv.push_str(&format!("</{n}>"));
-                    if n == "ParameterValues" {
-                        in_values = false;
-                        let values = parse_ssv(&inline_ssv)?;
-                        if let Some(k) = in_component {
-                            bind(&mut elements[k], values);
-                        }
-                        inline_ssv.clear();
-                    }
+                if end.local_name().as_ref() == "ParameterValues" {
+                    in_values = false;
                 }
                 if in_component.is_some() && depth == depth_component {
                     in_component = None;
@@ -116,18 +107,17 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
         }
         let tag = local(&e);
         if in_values {
-            let attrs: String = e
-                .attributes()
-                .flatten()
-                .map(|a| {
-                    format!(
-                        " {}=\"{}\"",
-                        a.key.local_name().as_ref(),
-                        unescape(&a.value).replace('&', "&amp;").replace('"', "&quot;")
-                    )
-                })
-                .collect();
-            inline_ssv.push_str(&format!("<{tag}{attrs}{}>", if empty { "/" } else { "" }));
+            // An inline parameter set: the same elements as an .ssv file.
+            match tag.as_str() {
+                "Parameter" => parameter = attr(&e, "name"),
+                "Real" | "Float64" | "Integer" => {
+                    if let (Some(k), Some(name), Some(v)) = (in_component, &parameter, attr(&e, "value")) {
+                        let v = number(Some(v), &format!("parameter {name}"))?.unwrap_or(f64::NAN);
+                        elements[k].parameters.insert(name.clone(), ParameterValue::Scalar(v));
+                    }
+                }
+                _ => {}
+            }
             continue;
         }
         match tag.as_str() {
@@ -175,10 +165,7 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
                     bind(&mut elements[k], values);
                 }
             }
-            "ParameterValues" if !empty => {
-                in_values = true;
-                inline_ssv = String::from("<ParameterValues>");
-            }
+            "ParameterValues" if !empty => in_values = true,
             "Connection" => {
                 let get = |a: &str| attr(&e, a).ok_or_else(|| format!("a Connection without {a}"));
                 let (se, sc, ee, ec) =
