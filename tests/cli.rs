@@ -313,3 +313,33 @@ fn example_files_are_the_builtin_scenarios() {
         );
     }
 }
+
+/// SIGINT and SIGTERM end `lash run` with a message saying where the rows so far are (exit 130),
+/// never a complete-looking folder.
+#[test]
+fn an_interrupted_run_says_what_it_kept() {
+    for signal in ["-INT", "-TERM"] {
+        let dir = scratch(&format!("interrupt{signal}"));
+        let out = dir.join("A");
+        let child = Command::new(env!("CARGO_BIN_EXE_lash"))
+            .args(["run", "A", "--horizon", "20", "--quiet", "--out", out.to_str().unwrap()])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Wait until rows are being written (header and at least one flushed buffer).
+        let partial = out.join("timeseries.csv.partial");
+        let waited = std::time::Instant::now();
+        while std::fs::metadata(&partial).map_or(0, |m| m.len()) < 10_000 {
+            assert!(waited.elapsed().as_secs() < 120, "the run wrote nothing");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let ok = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap().success();
+        assert!(ok);
+        let o = child.wait_with_output().unwrap();
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(130), "{signal}: {err}");
+        assert!(err.contains("interrupted") && err.contains("timeseries.csv.partial"), "{signal}: {err}");
+        assert!(partial.exists() && !out.join("timeseries.csv").exists() && !out.join("summary.json").exists());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

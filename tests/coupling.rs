@@ -188,3 +188,118 @@ fn observers_record_at_their_own_rates() {
     let e = master.run(&mut bad).unwrap_err().to_string();
     assert!(e.contains("observer interval"), "{e}");
 }
+
+/// A subsystem that behaves like `inner` until `at`, where its step ends with `outcome(t, h)`.
+struct Stopping<S> {
+    inner: S,
+    at: lash_core::Ticks,
+    outcome: fn(lash_core::Ticks, lash_core::Ticks) -> lash_core::StepOutcome,
+}
+
+impl<S: lash_core::Subsystem> lash_core::Subsystem for Stopping<S> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn variables(&self) -> &[lash_core::Variable] {
+        self.inner.variables()
+    }
+    fn setup(
+        &mut self,
+        start: lash_core::Ticks,
+        stop: Option<lash_core::Ticks>,
+    ) -> Result<(), lash_core::SubsystemError> {
+        self.inner.setup(start, stop)
+    }
+    fn initialize(&mut self) -> Result<(), lash_core::SubsystemError> {
+        self.inner.initialize()
+    }
+    fn set_f64(&mut self, refs: &[u32], values: &[f64]) -> Result<(), lash_core::SubsystemError> {
+        self.inner.set_f64(refs, values)
+    }
+    fn get_f64(&self, refs: &[u32], values: &mut [f64]) -> Result<(), lash_core::SubsystemError> {
+        self.inner.get_f64(refs, values)
+    }
+    fn do_step(
+        &mut self,
+        t: lash_core::Ticks,
+        h: lash_core::Ticks,
+    ) -> Result<lash_core::StepOutcome, lash_core::SubsystemError> {
+        let outcome = self.inner.do_step(t, h)?;
+        Ok(if t.0 + h.0 > self.at.0 { (self.outcome)(t, h) } else { outcome })
+    }
+    fn time(&self) -> lash_core::Ticks {
+        self.inner.time()
+    }
+    fn save_state(&self) -> Result<lash_core::SavedState, lash_core::SubsystemError> {
+        self.inner.save_state()
+    }
+    fn restore_state(&mut self, state: &lash_core::SavedState) -> Result<(), lash_core::SubsystemError> {
+        self.inner.restore_state(state)
+    }
+}
+
+#[test]
+fn the_interface_master_honours_early_returns_and_stop_requests() {
+    use lash_core::{StepOutcome, StopReason, Subsystem, Ticks};
+    use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
+    let a = builtin::by_name("A").unwrap();
+    let stop = Ticks::from_seconds(0.005).unwrap();
+    let at = Ticks::from_seconds(0.0021).unwrap();
+    let early: fn(Ticks, Ticks) -> StepOutcome = |t, h| StepOutcome::EarlyReturn { reached: Ticks(t.0 + h.0 / 2) };
+    let terminate: fn(Ticks, Ticks) -> StepOutcome = |t, h| StepOutcome::Terminate { reached: Ticks(t.0 + h.0) };
+    for (which, is_early, execution) in [
+        ("micro", true, Execution::Sequential),
+        ("micro", false, Execution::Sequential),
+        ("macro", true, Execution::Sequential),
+        ("macro", false, Execution::Threaded),
+    ] {
+        let outcome = if is_early { early } else { terminate };
+        let (mechanism, interface) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
+        let mut mechanism = Stopping { inner: mechanism, at: if which == "macro" { at } else { stop }, outcome };
+        let mut interface = Stopping { inner: interface, at: if which == "micro" { at } else { stop }, outcome };
+        mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+        interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+        let options = MasterOptions {
+            start: Ticks::ZERO,
+            stop,
+            macro_step: Ticks::from_seconds(1e-3).unwrap(),
+            micro_step: Ticks::from_seconds(1e-5).unwrap(),
+            interpolation: Interpolation::Linear,
+            coupling: Coupling::OneWay,
+            execution,
+        };
+        let signals =
+            vec![Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 }];
+        let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
+        let mut times = Vec::new();
+        let mut observer = |t: Ticks, _: &[f64]| -> Result<(), String> {
+            times.push(t);
+            Ok(())
+        };
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, Ticks::from_seconds(1e-5).unwrap())];
+        let stats = master.run(&mut observers).unwrap();
+        let (who, reason) = stats.stopped.unwrap_or_else(|| panic!("{which}: the stop was not reported"));
+        assert_eq!(who, which);
+        let last = *times.last().unwrap();
+        match (which, reason) {
+            // The micro step that crosses `at` (2.1 ms) is the last one tried: samples end before it.
+            ("micro", StopReason::EarlyReturn { reached }) => {
+                assert_eq!(reached, Ticks::from_seconds(0.002105).unwrap());
+                assert_eq!(last, Ticks::from_seconds(0.0021).unwrap());
+            }
+            // A stop requested at the end of a completed micro step keeps that step's sample.
+            ("micro", StopReason::Requested { reached }) => {
+                assert_eq!(reached, Ticks::from_seconds(0.00211).unwrap());
+                assert_eq!(last, Ticks::from_seconds(0.00211).unwrap());
+            }
+            // The macro step to 3 ms is the one that stops; one-way coupling computes it before the
+            // micro steps of [2, 3] ms, so the samples end at 2 ms.
+            ("macro", _) => {
+                assert_eq!(reason.to_string().contains("returned early"), is_early, "{reason}");
+                assert_eq!(last, Ticks::from_seconds(0.002).unwrap());
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+        assert!(stats.micro_steps < 500, "{which}: the master went on after the stop");
+    }
+}

@@ -13,9 +13,13 @@ use common::fmpy_python;
 #[test]
 fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     // The FMU's shared library is a cdylib that `cargo test` does not link anywhere: the README's
-    // test command builds it first (`cargo build --release --workspace`).
+    // test command builds it first (`cargo build --profile ci --workspace`).
     let lib = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_interface.so");
-    assert!(lib.exists(), "{} is missing: run `cargo build --release --workspace` before the tests", lib.display());
+    assert!(
+        lib.exists(),
+        "{} is missing: run the build step of the test command (`cargo build --profile ci --workspace`) first",
+        lib.display()
+    );
     let out = std::env::temp_dir().join(format!("lash-fmi-{}", std::process::id()));
     let pack = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "pack", "--out"]).arg(&out).output().unwrap();
     assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
@@ -130,7 +134,11 @@ fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
     use lash_fmi::import::ImportedFmu;
     use lash_orchestrate::Execution;
     let lib = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("liblash_interface.so");
-    assert!(lib.exists(), "{} is missing: run `cargo build --release --workspace` before the tests", lib.display());
+    assert!(
+        lib.exists(),
+        "{} is missing: run the build step of the test command (`cargo build --profile ci --workspace`) first",
+        lib.display()
+    );
     let out = packed("import");
     let cache = out.join("cache");
 
@@ -439,7 +447,7 @@ fn the_full_model_fmu_rolls_back_through_get_and_set_fmu_state() {
         let mut t = Ticks::ZERO;
         // Up to just before the first impacts, save, run across them, go back and run again.
         for _ in 0..100 {
-            fmu.do_step(t, h).unwrap();
+            assert_eq!(fmu.do_step(t, h).unwrap(), lash_core::StepOutcome::Completed);
             t = Ticks(t.0 + h.0);
         }
         let saved = fmu.save_state().unwrap();
@@ -448,7 +456,7 @@ fn the_full_model_fmu_rolls_back_through_get_and_set_fmu_state() {
             let mut trace = Vec::new();
             let mut values = vec![0.0; outputs.len()];
             for _ in 0..150 {
-                fmu.do_step(t, h).unwrap();
+                assert_eq!(fmu.do_step(t, h).unwrap(), lash_core::StepOutcome::Completed);
                 t = Ticks(t.0 + h.0);
                 fmu.get_f64(&outputs, &mut values).unwrap();
                 trace.extend_from_slice(&values);

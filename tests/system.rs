@@ -76,7 +76,11 @@ fn sensor_reference(input: &[f64], h: f64, fn_hz: f64, zeta: f64) -> Vec<f64> {
 #[test]
 fn third_party_fmus_and_a_plugin_in_a_system_file() {
     let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
-    assert!(plugin.exists(), "{} is missing: run `cargo build --release --workspace` first", plugin.display());
+    assert!(
+        plugin.exists(),
+        "{} is missing: run the build step of the test command (`cargo build --profile ci --workspace`) first",
+        plugin.display()
+    );
     let python = fmpy_python();
     let out = std::env::temp_dir().join(format!("lash-system-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
@@ -289,22 +293,42 @@ fn bad_system_files_are_clear_errors() {
         assert_eq!(o.status.code(), Some(2), "case {k}: {err}");
         assert!(err.contains(expected), "case {k}: expected {expected:?} in: {err}");
     }
-    // A parameter the plugin refuses at initialization stops the run (exit 1), naming it.
+    // A parameter the plugin refuses at initialization is a user error (exit 2) naming the field;
+    // no output is left behind.
     let file = out.join("refused.toml");
     std::fs::write(&file, base("[elements.parameters]\ndamping_ratio = 2.0\n")).unwrap();
     let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join("o").to_str().unwrap()]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("sensor") && err.contains("damping_ratio"), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("elements[0].parameters") && err.contains("damping_ratio"), "{err}");
+    assert!(!out.join("o/timeseries.csv").exists() && !out.join("o/timeseries.csv.partial").exists());
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// examples/systems/full-model-accelerometer.toml copied into `out`, its plugin path (where a
+/// user's `cargo build --release` puts the library) replaced by the test build's library.
+fn accelerometer_example(out: &Path) -> std::path::PathBuf {
+    let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/systems/full-model-accelerometer.toml");
+    std::fs::create_dir_all(out).unwrap();
+    let text = std::fs::read_to_string(&example).unwrap();
+    let users = "\"../../target/release/libaccelerometer.so\"";
+    assert!(text.contains(users), "the example's plugin path changed");
+    let file = out.join("full-model-accelerometer.toml");
+    std::fs::write(&file, text.replace(users, &format!("{:?}", plugin.display().to_string()))).unwrap();
+    file
 }
 
 #[test]
 fn the_example_system_runs() {
     let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");
-    assert!(plugin.exists(), "{} is missing: run `cargo build --release --workspace` first", plugin.display());
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/systems/full-model-accelerometer.toml");
+    assert!(
+        plugin.exists(),
+        "{} is missing: run the build step of the test command (`cargo build --profile ci --workspace`) first",
+        plugin.display()
+    );
     let out = std::env::temp_dir().join(format!("lash-system-example-{}", std::process::id()));
+    let file = accelerometer_example(&out);
     let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = read_csv(&out.join("timeseries.csv"));
@@ -404,7 +428,7 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
         out.join("full-ssp").to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let accelerometer = root.join("examples/systems/full-model-accelerometer.toml");
+    let accelerometer = accelerometer_example(&out);
     let o =
         lash(&["run", accelerometer.to_str().unwrap(), "--quiet", "--out", out.join("full-toml").to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -425,5 +449,102 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.code() == Some(2) && err.contains(expected), "{expected}: {err}");
     }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Value references are looked up through one mapping: an FMI 3.0 FMU whose references are
+/// sparse, out of order and aliased records the variables asked for (fmpy's values, bit for bit),
+/// parameters included. FMUs that ask to stop (FMI 3.0 terminateSimulation, FMI 2.0 fmi2Discard
+/// with fmi2Terminated) end the run cleanly with fmpy's rows; one that returns early is an error
+/// that keeps the rows so far; a refused parameter value is a user error (exit 2).
+#[test]
+fn sparse_value_references_stop_requests_and_early_returns() {
+    let python = fmpy_python();
+    let out = std::env::temp_dir().join(format!("lash-system-stop-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let run_py = |args: &[&str]| {
+        let o = Command::new(&python).args(args).current_dir(&out).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    run_py(&[root.join("tests/fmi/oscillator/build.py").to_str().unwrap(), "oscillator.fmu"]);
+    run_py(&[root.join("tests/fmi/vanderpol/build.py").to_str().unwrap(), "vanderpol.fmu"]);
+    let fmpy = |fmu: &str, csv: &str, start: &[&str]| {
+        let mut args = vec!["-m", "fmpy.cli", "simulate", fmu, "--stop-time", "0.5", "--output-interval", "0.01"];
+        args.extend(["--output-file", csv, "--start-values"]);
+        args.extend(start);
+        run_py(&args);
+        read_csv(&out.join(csv))
+    };
+    let system = |name: &str, element: &str, fmu: &str, parameters: &str, channels: &str| {
+        let file = out.join(format!("{name}.toml"));
+        let text = format!(
+            "name = \"{name}\"\nstop = 0.5\nstep = 0.01\n[[elements]]\nname = \"{element}\"\nfmu = \"{fmu}\"\nparameters = {{ {parameters} }}\n[output]\nchannels = [{channels}]\n"
+        );
+        std::fs::write(&file, text).unwrap();
+        let dir = out.join(name);
+        let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]);
+        (o, dir)
+    };
+    let bits = |a: &[f64], b: &[f64]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+
+    // Sparse (1003, 17, 2, 5), unordered and aliased (x = position) references.
+    let reference = fmpy("oscillator.fmu", "fmpy-osc.csv", &["k", "9"]);
+    let (o, dir) =
+        system("sparse", "o", "oscillator.fmu", "k = 9.0", r#""o.x", "o.v", "o.energy", "o.position", "o.k""#);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&dir.join("timeseries.csv"));
+    assert_eq!(csv.0, ["time", "o.x", "o.v", "o.energy", "o.position", "o.k"]);
+    assert_eq!(csv.1.len(), 51);
+    for v in ["x", "v", "energy", "position"] {
+        assert!(bits(&column(&csv, &format!("o.{v}")), &column(&reference, v)), "o.{v} differs from fmpy");
+    }
+    assert!(column(&csv, "o.k").iter().all(|&k| k == 9.0), "the parameter k is recorded as set");
+    assert!(column(&csv, "o.x").iter().any(|x| x.abs() > 0.5) && column(&csv, "o.v").iter().any(|v| v.abs() > 0.5));
+
+    // Stop requests: FMI 3.0 and FMI 2.0. The run ends where fmpy's does, with its rows, exit 0.
+    for (name, fmu, channels, vars) in [
+        ("stop3", "oscillator.fmu", r#""o.x", "o.v""#, ["x", "v"]),
+        ("stop2", "vanderpol.fmu", r#""o.x0", "o.x1""#, ["x0", "x1"]),
+    ] {
+        let reference = fmpy(fmu, &format!("fmpy-{name}.csv"), &["stop_at", "0.23"]);
+        assert_eq!(reference.1.len(), 24, "fmpy stops after the step that reaches 0.23 s");
+        let (o, dir) = system(name, "o", fmu, "stop_at = 0.23", channels);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{name}: {stderr}");
+        assert!(
+            stderr.contains("notice: element \"o\" asked to stop the simulation at t = 0.23 s"),
+            "{name}: {stderr}"
+        );
+        let csv = read_csv(&dir.join("timeseries.csv"));
+        assert_eq!(csv.1.len(), 24, "{name}");
+        for v in vars {
+            assert!(bits(&column(&csv, &format!("o.{v}")), &column(&reference, v)), "{name}: o.{v} differs from fmpy");
+        }
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(summary["stopped"]["element"], "o");
+        assert_eq!(summary["stopped"]["reached_s"], 0.23);
+        assert_eq!(summary["steps"], 23);
+    }
+
+    // An early return (not allowed by lash, like fmpy) is an error naming the element and the
+    // time; the rows up to the last whole step are kept as .partial.
+    let (o, dir) = system("early", "o", "oscillator.fmu", "return_early_at = 0.125", r#""o.x""#);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("element \"o\" returned early at t = 0.125 s"), "{stderr}");
+    assert!(!dir.join("timeseries.csv").exists() && !dir.join("summary.json").exists());
+    let partial = read_csv(&dir.join("timeseries.csv.partial"));
+    assert_eq!(partial.1.last().unwrap()[0], 0.12);
+    let free = fmpy("oscillator.fmu", "fmpy-osc-k4.csv", &["k", "4"]);
+    assert!(bits(&column(&partial, "o.x"), &column(&free, "x")[..13]), "the kept rows are fmpy's");
+
+    // A refused parameter value: exit 2, naming the field.
+    let (o, _) = system("bad", "o", "oscillator.fmu", "k = -1.0", r#""o.x""#);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("elements[0].parameters.k"), "{stderr}");
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -428,12 +428,17 @@ uniform = {{ low = 400.0, high = 600.0 }}
 /// rounds after an untimed warm-up round.
 pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
     use lash_core::{Causality, Subsystem, Ticks};
-    let cache = std::env::temp_dir().join(format!("lash-bench-fmu-{}", std::process::id()));
-    let result = (|| -> Result<(), CliError> {
+    let cache = lash_fmi::import::default_cache();
+    (|| -> Result<(), CliError> {
         let mut fmu =
             lash_fmi::import::ImportedFmu::open(path, &cache, "bench").map_err(|e| CliError::Input(e.to_string()))?;
         let fail = |e: lash_core::SubsystemError| CliError::Failure(format!("{}: {e}", path.display()));
-        let h = Ticks::from_seconds(0.01).map_err(|e| CliError::Failure(e.to_string()))?;
+        let (step, whence) = match fmu.description().default_step_size {
+            Some(h) => (h, "the FMU's default step size"),
+            None => (0.01, "no default step size in the FMU: 0.01 s"),
+        };
+        let h = Ticks::from_seconds(step)
+            .map_err(|e| CliError::Input(format!("{}: stepSize {step}: {e}", path.display())))?;
         let outputs: Vec<u32> =
             fmu.variables().iter().filter(|v| v.causality == Causality::Output).map(|v| v.value_reference).collect();
         let n_values: usize =
@@ -446,7 +451,12 @@ pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
         let mut round = |read: bool, t: &mut Ticks| -> Result<f64, CliError> {
             let start = Instant::now();
             for _ in 0..steps {
-                fmu.do_step(*t, h).map_err(fail)?;
+                if let Some(stop) = fmu.do_step(*t, h).map_err(fail)?.stop(*t, h) {
+                    return Err(CliError::Failure(format!(
+                        "{}: the FMU {stop}; a benchmark needs {steps} steps per round",
+                        path.display()
+                    )));
+                }
                 *t = Ticks(t.0 + h.0);
                 if read {
                     fmu.get_f64(&outputs, &mut values).map_err(fail)?;
@@ -464,17 +474,16 @@ pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
         }
         let (a, g) = (median(alone), median(with_get));
         println!(
-            "{}: FMI {} model {:?}, {} steps of 0.01 s per round, median of 5 rounds",
+            "{}: FMI {} model {:?}, {} steps of {} s ({whence}) per round, median of 5 rounds",
             path.display(),
             fmu.fmi_version(),
             fmu.description().model_name,
-            steps
+            steps,
+            h.seconds()
         );
         println!("  do_step alone:                 {:.1} ns per step", a * 1e9);
         println!("  do_step + get all {} outputs:   {:.1} ns per step", outputs.len(), g * 1e9);
         println!("  (target for a tiny FMU such as VanDerPol: ≤ 80 ns per step)");
         Ok(())
-    })();
-    let _ = std::fs::remove_dir_all(&cache);
-    result
+    })()
 }

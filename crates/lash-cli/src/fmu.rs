@@ -72,7 +72,7 @@ pub fn pack_quiet(out: &Path) -> Result<Vec<PathBuf>, CliError> {
 /// smoke simulation of 10 steps of the default step size with the start values.
 pub fn check(fmu: &Path) -> Result<(), CliError> {
     use lash_core::{Subsystem, Ticks};
-    let cache = std::env::temp_dir().join(format!("lash-fmu-check-{}", std::process::id()));
+    let cache = lash_fmi::import::default_cache();
     let result = (|| -> Result<String, CliError> {
         let mut imported =
             lash_fmi::import::ImportedFmu::open(fmu, &cache, "check").map_err(|e| CliError::Input(format!("{e}")))?;
@@ -90,8 +90,12 @@ pub fn check(fmu: &Path) -> Result<(), CliError> {
             .collect();
         let n: usize = d.variables.iter().filter(|v| outputs.contains(&v.value_reference)).map(|v| v.len()).sum();
         let mut values = vec![0.0; n];
+        let mut stopped = String::new();
         for k in 0..10 {
-            imported.do_step(Ticks(k * step.0), step).map_err(fail)?;
+            if let Some(stop) = imported.do_step(Ticks(k * step.0), step).map_err(fail)?.stop(Ticks(k * step.0), step) {
+                stopped = format!(" (the FMU {stop}, after {k} whole steps)");
+                break;
+            }
             imported.get_f64(&outputs, &mut values).map_err(fail)?;
             if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
                 return Err(CliError::Failure(format!(
@@ -103,7 +107,7 @@ pub fn check(fmu: &Path) -> Result<(), CliError> {
         }
         imported.terminate().map_err(fail)?;
         Ok(format!(
-            "{}: FMI {} co-simulation, model {:?}, {} variables ({} outputs); symbols, token and 10 steps of 1e-5 s: OK",
+            "{}: FMI {} co-simulation, model {:?}, {} variables ({} outputs); symbols, token and 10 steps of 1e-5 s: OK{stopped}",
             fmu.display(),
             d.fmi_version,
             d.model_name,
@@ -111,7 +115,6 @@ pub fn check(fmu: &Path) -> Result<(), CliError> {
             outputs.len()
         ))
     })();
-    let _ = std::fs::remove_dir_all(&cache);
     println!("{}", result?);
     Ok(())
 }

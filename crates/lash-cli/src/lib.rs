@@ -21,6 +21,7 @@
 mod bench;
 mod compare;
 mod fmu;
+mod output;
 mod plots;
 mod run;
 mod sweep;
@@ -268,12 +269,14 @@ pub enum CliError {
     Input(String),
     /// Failure while running or writing (exit 1).
     Failure(String),
+    /// Ended by SIGINT/SIGTERM, saying what was kept (exit 130).
+    Interrupted(String),
 }
 
 impl std::fmt::Display for CliError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            CliError::Input(m) | CliError::Failure(m) => f.write_str(m.trim_end()),
+            CliError::Input(m) | CliError::Failure(m) | CliError::Interrupted(m) => f.write_str(m.trim_end()),
         }
     }
 }
@@ -310,6 +313,7 @@ pub fn main() -> ExitCode {
             match e {
                 CliError::Input(_) => ExitCode::from(2),
                 CliError::Failure(_) => ExitCode::from(1),
+                CliError::Interrupted(_) => ExitCode::from(130),
             }
         }
     }
@@ -331,6 +335,7 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::S
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
         Command::Run { scenario, model, ideal, out, horizon, step, reduced, quiet } => {
+            output::catch_interrupts();
             if system::is_system(&scenario) {
                 return system::run(&scenario, &out, step, horizon, quiet);
             }

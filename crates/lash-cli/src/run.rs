@@ -2,27 +2,16 @@
 //! failure (the CSV stays as `timeseries.csv.partial`, no summary.json).
 
 use crate::CliError;
+use crate::output::CsvOutput;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lash_scenario::{Runner, Scenario};
-use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<(), CliError> {
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
-    std::fs::create_dir_all(out).map_err(|e| fail(&format!("cannot create {}", out.display()), e))?;
-    let csv_path = out.join("timeseries.csv");
-    let partial = out.join("timeseries.csv.partial");
     let summary_path = out.join("summary.json");
-    // A previous complete result in this folder must not survive as if it belonged to this run.
-    for p in [&csv_path, &summary_path] {
-        if p.exists() {
-            std::fs::remove_file(p).map_err(|e| fail(&format!("cannot remove old {}", p.display()), e))?;
-        }
-    }
-    let file = std::fs::File::create(&partial).map_err(|e| fail(&format!("cannot create {}", partial.display()), e))?;
-    let mut w = std::io::BufWriter::new(file);
-    writeln!(w, "{}", runner.header().join(",")).map_err(|e| fail("writing the CSV header", e))?;
+    let mut csv = CsvOutput::create(out, &runner.header(), &["summary.json"])?;
 
     let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -38,39 +27,20 @@ pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Re
         }
         bar.set_position((f * 1000.0) as u64);
     };
-    let mut line = String::with_capacity(1024);
-    let mut sink = |row: &[f64]| -> Result<(), String> {
-        use std::fmt::Write as _;
-        line.clear();
-        for (k, v) in row.iter().enumerate() {
-            if k > 0 {
-                line.push(',');
-            }
-            let a = v.abs();
-            if a == 0.0 || (1e-4..1e15).contains(&a) {
-                let _ = write!(line, "{v}");
-            } else {
-                let _ = write!(line, "{v:e}");
-            }
-        }
-        line.push('\n');
-        w.write_all(line.as_bytes()).map_err(|e| format!("output: {e}"))
-    };
+    let mut sink = |row: &[f64]| csv.row(row);
     let result = runner.execute(&mut sink, &mut progress);
     bar.finish_and_clear();
     let summary = match result {
         Ok(s) => s,
         Err(e) => {
-            let _ = w.flush();
-            return Err(CliError::Failure(format!(
-                "{e}\n(the samples up to the failure are in {}; no summary was written)",
-                partial.display()
-            )));
+            let kept = CsvOutput::kept(csv.abandon().as_deref());
+            if crate::output::interrupted() {
+                return Err(CliError::Interrupted(format!("{}: {kept}", crate::output::INTERRUPTED_MESSAGE)));
+            }
+            return Err(CliError::Failure(format!("{e}\n({kept})")));
         }
     };
-    w.flush().map_err(|e| fail("writing the CSV", e))?;
-    drop(w);
-    std::fs::rename(&partial, &csv_path).map_err(|e| fail("finishing the CSV", e))?;
+    csv.finish()?;
     std::fs::write(out.join("scenario.toml"), toml::to_string(s).map_err(|e| CliError::Failure(e.to_string()))?)
         .map_err(|e| fail("writing scenario.toml", e))?;
     let json = serde_json::to_string_pretty(&summary).map_err(|e| CliError::Failure(e.to_string()))?;

@@ -2,7 +2,7 @@
 //! built-in subsystems, written to `<out>/timeseries.csv` and `<out>/summary.json`.
 
 use crate::CliError;
-use std::io::Write;
+use crate::output::CsvOutput;
 use std::path::Path;
 
 /// True when `arg` names a system file rather than a scenario: an `.ssd`/`.ssp` file, or TOML
@@ -19,12 +19,15 @@ pub fn is_system(arg: &str) -> bool {
             .is_some_and(|t| t.get("elements").is_some_and(toml::Value::is_array))
 }
 
-/// Loads and runs a system file.
+/// Loads and runs a system file. FMUs are unpacked once into lash's cache (kept between runs,
+/// keyed by the archive's hash); an `.ssp` archive is unpacked into a temporary folder removed
+/// afterwards.
 pub fn run(arg: &str, out: &Path, step: Option<f64>, stop: Option<f64>, quiet: bool) -> Result<(), CliError> {
     let path = Path::new(arg);
-    let cache = std::env::temp_dir().join(format!("lash-system-{}", std::process::id()));
-    let result = run_in(path, out, &cache, step, stop, quiet);
-    let _ = std::fs::remove_dir_all(&cache);
+    let cache = lash_fmi::import::default_cache();
+    let scratch = std::env::temp_dir().join(format!("lash-system-{}", std::process::id()));
+    let result = run_in(path, out, &cache, &scratch, step, stop, quiet);
+    let _ = std::fs::remove_dir_all(&scratch);
     result
 }
 
@@ -32,13 +35,14 @@ fn run_in(
     path: &Path,
     out: &Path,
     cache: &Path,
+    scratch: &Path,
     step: Option<f64>,
     stop: Option<f64>,
     quiet: bool,
 ) -> Result<(), CliError> {
     let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let (mut spec, base) = if path.extension().is_some_and(|e| e == "ssd" || e == "ssp") {
-        lash_system::ssp::load(path, cache, step).map_err(CliError::Input)?
+        lash_system::ssp::load(path, scratch, step).map_err(CliError::Input)?
     } else {
         let text = std::fs::read_to_string(path).map_err(|e| input(e.to_string()))?;
         let spec = lash_system::spec::parse(&text).map_err(input)?;
@@ -51,29 +55,45 @@ fn run_in(
         spec.stop = spec.start + s;
     }
     let mut system = lash_system::System::new(&spec, &base, cache).map_err(|e| input(e.to_string()))?;
-    std::fs::create_dir_all(out).map_err(|e| CliError::Failure(format!("{}: {e}", out.display())))?;
-    let csv_path = out.join("timeseries.csv");
-    let fail = |e: &dyn std::fmt::Display| CliError::Failure(format!("{}: {e}", csv_path.display()));
-    let mut csv = std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(|e| fail(&e))?);
-    writeln!(csv, "{}", system.header().join(",")).map_err(|e| fail(&e))?;
-    let mut line = String::new();
-    let mut sink = |row: &[f64]| -> Result<(), String> {
-        line.clear();
-        for (i, v) in row.iter().enumerate() {
-            if i > 0 {
-                line.push(',');
-            }
-            line.push_str(&format!("{v:?}"));
+    let mut csv = CsvOutput::create(out, system.header(), &["summary.json"])?;
+    let result = system.run(&mut |row| csv.row(row));
+    let summary = match result {
+        Ok(s) => s,
+        Err(e) => {
+            let kept = CsvOutput::kept(csv.abandon().as_deref());
+            return Err(match e {
+                _ if crate::output::interrupted() => {
+                    CliError::Interrupted(format!("{}: {kept}", crate::output::INTERRUPTED_MESSAGE))
+                }
+                lash_system::SystemError::Input(m) => input(format!("{m}\n({kept})")),
+                other => CliError::Failure(format!("{}: {other}\n({kept})", path.display())),
+            });
         }
-        writeln!(csv, "{line}").map_err(|e| e.to_string())
     };
-    let summary = system.run(&mut sink).map_err(|e| match e {
-        lash_system::SystemError::Input(m) => input(m),
-        other => CliError::Failure(format!("{}: {other}", path.display())),
-    })?;
-    csv.flush().map_err(|e| fail(&e))?;
+    if let Some(stop) = summary.stopped.as_ref().filter(|s| !s.requested) {
+        // Nobody asked for this end: the run failed to reach its stop time.
+        let kept = CsvOutput::kept(csv.abandon().as_deref());
+        return Err(CliError::Failure(format!(
+            "{}: element {:?} {} (lash instantiates FMUs with earlyReturnAllowed = false)\n(rows up to t = {} s: {kept})",
+            path.display(),
+            stop.element,
+            stop.reason,
+            stop.last_row_s,
+        )));
+    }
+    let csv_path = csv.finish()?;
     let json = serde_json::to_string_pretty(&summary).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(out.join("summary.json"), json + "\n").map_err(|e| CliError::Failure(e.to_string()))?;
+    if let Some(stop) = &summary.stopped {
+        // A stop the FMU asked for is a normal end (exit 0), said even with --quiet.
+        eprintln!(
+            "notice: element {:?} {}; the run ended there, rows up to t = {} s are in {}",
+            stop.element,
+            stop.reason,
+            stop.last_row_s,
+            csv_path.display()
+        );
+    }
     if !quiet {
         eprintln!(
             "{} (system): {} steps, {} samples, {:.3} s wall → {}",

@@ -834,7 +834,7 @@ mod tests {
         values[10..12].copy_from_slice(fd.as_slice());
         s.set_f64(&(0..8).collect::<Vec<_>>(), &values).unwrap();
         let h = Ticks::from_seconds(5e-4).unwrap();
-        s.do_step(Ticks::ZERO, h).unwrap();
+        assert_eq!(s.do_step(Ticks::ZERO, h).unwrap(), lash_core::StepOutcome::Completed);
         let t = 5e-4;
         let inv = m.try_inverse().unwrap();
         let exact = inv * f * (t * t / 2.0) + inv * fd * (t * t * t / 6.0);
@@ -881,7 +881,7 @@ mod tests {
             let advance = |s: &mut InterfaceSubsystem, t: &mut Ticks, n: usize| -> Vec<f64> {
                 let mut out = Vec::new();
                 for _ in 0..n {
-                    s.do_step(*t, h).unwrap();
+                    assert_eq!(s.do_step(*t, h).unwrap(), lash_core::StepOutcome::Completed);
                     *t = Ticks(t.0 + h.0);
                     let mut v = [0.0; 4];
                     s.get_f64(&[vr::CONTACT_FORCE, vr::ECCENTRICITY], &mut v).unwrap();

@@ -10,7 +10,7 @@ mod time;
 
 pub use problems::{Problem, Problems};
 pub use subsystem::{
-    Causality, Coupling, Phase, SavedState, StepOutcome, Subsystem, SubsystemError, ValueReference, Variability,
-    Variable, VariableTable,
+    Causality, Coupling, Phase, SavedState, StepOutcome, StopReason, Subsystem, SubsystemError, ValueReference,
+    Variability, Variable, VariableTable, check_variable_table,
 };
 pub use time::{Ticks, TicksError};

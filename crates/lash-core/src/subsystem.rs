@@ -145,17 +145,78 @@ pub enum Coupling {
     TwoWay,
 }
 
-/// How a step ended.
+/// How a step ended. A master must look at every outcome: only [`StepOutcome::Completed`] means
+/// that the subsystem reached `t + h` and may be stepped on; use [`StepOutcome::reached`] and
+/// [`StepOutcome::stop`] rather than matching on `Completed` alone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[must_use = "a step may end early or ask the simulation to stop: the master must honour it"]
 pub enum StepOutcome {
     /// The whole step was taken.
     Completed,
     /// The subsystem stopped early at `reached` (for example at an event the master asked to
-    /// see); the master may retry or roll back (FMI `Discard` / early return).
+    /// see); FMI 3.0 `earlyReturn`. Its state is valid at `reached`.
     EarlyReturn {
         /// Time reached.
         reached: Ticks,
     },
+    /// The subsystem asks the simulation to end (FMI 3.0 `terminateSimulation`, FMI 2.0
+    /// `fmi2Discard` with `fmi2Terminated`). Its state is valid at `reached`; it must not be stepped
+    /// again.
+    Terminate {
+        /// Time reached.
+        reached: Ticks,
+    },
+}
+
+impl StepOutcome {
+    /// The time the subsystem reached, for a step from `t` of length `h`.
+    pub fn reached(self, t: Ticks, h: Ticks) -> Ticks {
+        match self {
+            StepOutcome::Completed => Ticks(t.0 + h.0),
+            StepOutcome::EarlyReturn { reached } | StepOutcome::Terminate { reached } => reached,
+        }
+    }
+
+    /// `None` for a completed step, else why the master has to stop.
+    pub fn stop(self, t: Ticks, h: Ticks) -> Option<StopReason> {
+        match self {
+            StepOutcome::Completed => None,
+            StepOutcome::EarlyReturn { reached } if reached.0 >= t.0 + h.0 => None,
+            StepOutcome::EarlyReturn { reached } => Some(StopReason::EarlyReturn { reached }),
+            StepOutcome::Terminate { reached } => Some(StopReason::Requested { reached }),
+        }
+    }
+}
+
+/// Why a master ended a run before its stop time without an error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopReason {
+    /// A subsystem asked the simulation to end at `reached`.
+    Requested {
+        /// Time the subsystem reached.
+        reached: Ticks,
+    },
+    /// A subsystem returned early at `reached`, inside a communication step; lash's masters take
+    /// no partial steps, so the run ends at the last communication point every element completed.
+    EarlyReturn {
+        /// Time the subsystem reached.
+        reached: Ticks,
+    },
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StopReason::Requested { reached } => {
+                write!(f, "asked to stop the simulation at t = {} s", reached.seconds())
+            }
+            StopReason::EarlyReturn { reached } => write!(
+                f,
+                "returned early at t = {} s, inside a communication step (lash's masters take no partial steps)",
+                reached.seconds()
+            ),
+        }
+    }
 }
 
 /// Errors of a subsystem call. Messages name the variable or the quantity concerned.
@@ -214,7 +275,9 @@ pub trait Subsystem: Send {
     /// A short name for messages and traces.
     fn name(&self) -> &str;
 
-    /// All variables, in value-reference order.
+    /// All variables. Contract: variable `i` has value reference `i` (positions and value
+    /// references are one mapping; an importer renumbers a foreign model's references and
+    /// translates them at its boundary). [`check_variable_table`] verifies it.
     fn variables(&self) -> &[Variable];
 
     /// Start time and optional stop time of the experiment (FMI `setupExperiment` /
@@ -248,10 +311,33 @@ pub trait Subsystem: Send {
     }
 }
 
+/// The variable with value reference `vr` (its position, by the [`Subsystem::variables`] contract).
+pub fn variable(variables: &[Variable], vr: ValueReference) -> Option<&Variable> {
+    variables.get(vr as usize).filter(|v| v.value_reference == vr)
+}
+
+/// Checks the [`Subsystem::variables`] contract (variable `i` has value reference `i`) and that
+/// names are unique; the error names the first offending variable.
+pub fn check_variable_table(variables: &[Variable]) -> Result<(), String> {
+    let mut names = std::collections::HashSet::with_capacity(variables.len());
+    for (i, v) in variables.iter().enumerate() {
+        if v.value_reference as usize != i {
+            return Err(format!(
+                "variable {:?} at position {i} has value reference {} (a subsystem's value references must be its positions)",
+                v.name, v.value_reference
+            ));
+        }
+        if !names.insert(v.name.as_str()) {
+            return Err(format!("variable name {:?} is used twice", v.name));
+        }
+    }
+    Ok(())
+}
+
 /// Total element count of the referenced variables, checking each reference.
 pub fn element_count(variables: &[Variable], refs: &[ValueReference]) -> Result<usize, SubsystemError> {
     refs.iter().try_fold(0, |n, &vr| {
-        variables.get(vr as usize).map(|v| n + v.len()).ok_or(SubsystemError::UnknownValueReference(vr))
+        variable(variables, vr).map(|v| n + v.len()).ok_or(SubsystemError::UnknownValueReference(vr))
     })
 }
 

@@ -565,7 +565,12 @@ pub unsafe fn do_step<M: Exportable>(
         }
         let result = inst.model.do_step(now, h);
         let reached = inst.model.time().seconds();
-        for (p, v) in [(event_handling_needed, false), (terminate_simulation, false), (early_return, false)] {
+        let (terminate, early) = match result {
+            Ok(StepOutcome::Terminate { reached: r }) => (true, r.0 < now.0 + h.0),
+            Ok(StepOutcome::EarlyReturn { .. }) => (false, true),
+            _ => (false, false),
+        };
+        for (p, v) in [(event_handling_needed, false), (terminate_simulation, terminate), (early_return, early)] {
             if !p.is_null() {
                 // SAFETY: per the contract above (fmi3Boolean is a C bool: one byte).
                 unsafe { *p = v };
@@ -576,8 +581,7 @@ pub unsafe fn do_step<M: Exportable>(
             unsafe { *last_successful_time = reached };
         }
         match result {
-            Ok(StepOutcome::Completed) => OK,
-            Ok(StepOutcome::EarlyReturn { .. }) => DISCARD,
+            Ok(StepOutcome::Completed | StepOutcome::EarlyReturn { .. } | StepOutcome::Terminate { .. }) => OK,
             Err(e) => {
                 inst.mode = Mode::Failed;
                 inst.fail(&format!("fmi3DoStep: {e}"))

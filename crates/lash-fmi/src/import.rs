@@ -59,6 +59,8 @@ pub struct Description {
     pub model_identifier: String,
     /// `generationTool` (empty when absent).
     pub generation_tool: String,
+    /// `DefaultExperiment stepSize`, when given.
+    pub default_step_size: Option<f64>,
     /// Float64 (3.0) / Real (2.0) variables; the independent variable is left out.
     pub variables: Vec<Variable>,
 }
@@ -84,9 +86,11 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
         token: String::new(),
         model_identifier: String::new(),
         generation_tool: String::new(),
+        default_step_size: None,
         variables: Vec::new(),
     };
     let mut current: Option<Variable> = None;
+    let mut aliases: Vec<(String, Option<String>)> = Vec::new();
     loop {
         let event = reader.read_event().map_err(|e| format!("XML error at byte {}: {e}", reader.buffer_position()))?;
         let (e, empty) = match &event {
@@ -96,8 +100,19 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                 if matches!(e.name().as_ref(), "Float64" | "ScalarVariable")
                     && let Some(v) = current.take()
                 {
+                    // FMI 3.0 aliases: further names of the same variable (same value reference).
+                    let named: Vec<Variable> = aliases
+                        .drain(..)
+                        .map(|(name, description)| Variable {
+                            name,
+                            description: description.unwrap_or_else(|| v.description.clone()),
+                            ..v.clone()
+                        })
+                        .collect();
                     d.variables.push(v);
+                    d.variables.extend(named);
                 }
+                aliases.clear();
                 continue;
             }
             Event::Eof => break,
@@ -111,6 +126,11 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                 d.generation_tool = attr(e, "generationTool").unwrap_or_default();
             }
             "CoSimulation" => d.model_identifier = attr(e, "modelIdentifier").unwrap_or_default(),
+            "DefaultExperiment" => {
+                d.default_step_size = attr(e, "stepSize")
+                    .and_then(|s| s.trim().parse::<f64>().ok())
+                    .filter(|h| h.is_finite() && *h > 0.0);
+            }
             "Float64" | "ScalarVariable" => {
                 let causality = match attr(e, "causality").as_deref() {
                     Some("independent") => None,
@@ -162,6 +182,10 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                     }
                 }
             }
+            "Alias" if current.is_some() => {
+                let name = attr(e, "name").ok_or("an Alias without a name")?;
+                aliases.push((name, attr(e, "description")));
+            }
             "Integer" | "Boolean" | "String" | "Enumeration" => current = None,
             _ => {}
         }
@@ -175,24 +199,47 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
     Ok(d)
 }
 
-/// Unpacks `fmu` into `cache/<stem>-<size>-<mtime>/` once and returns that folder.
+/// Where lash keeps unpacked FMUs between runs: `$LASH_CACHE`, else `$XDG_CACHE_HOME/lash`, else
+/// `~/.cache/lash`, else `lash-cache` in the temporary folder.
+pub fn default_cache() -> PathBuf {
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var("LASH_CACHE")
+        .or_else(|| var("XDG_CACHE_HOME").map(|p| p.join("lash")))
+        .or_else(|| var("HOME").map(|p| p.join(".cache").join("lash")))
+        .unwrap_or_else(|| std::env::temp_dir().join("lash-cache"))
+}
+
+/// Unpacks `fmu` into `cache/fmus/<stem>-<SHA-256 of the archive, 16 hex digits>/` once and
+/// returns that folder: the same archive is unpacked once and reused by every later run (and by
+/// concurrent ones: each unpacks into its own temporary folder and the first rename wins); an
+/// edited archive gets a new folder.
 pub fn unpack(fmu: &Path, cache: &Path) -> Result<PathBuf, ImportError> {
+    use sha2::Digest;
     let err = |m: String| ImportError::Archive { path: fmu.to_path_buf(), message: m };
-    let meta = std::fs::metadata(fmu).map_err(|e| err(e.to_string()))?;
-    let stamp =
-        meta.modified().ok().and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok()).map_or(0, |d| d.as_nanos());
+    let bytes = std::fs::read(fmu).map_err(|e| err(e.to_string()))?;
+    let digest = sha2::Sha256::digest(&bytes);
+    let hex: String = digest.iter().take(8).map(|b| format!("{b:02x}")).collect();
     let stem = fmu.file_stem().and_then(|s| s.to_str()).unwrap_or("fmu");
-    let dir = cache.join(format!("{stem}-{}-{stamp}", meta.len()));
+    let dir = cache.join("fmus").join(format!("{stem}-{hex}"));
     if dir.join("modelDescription.xml").is_file() {
         return Ok(dir);
     }
-    let file = std::fs::File::open(fmu).map_err(|e| err(e.to_string()))?;
-    let mut archive = zip::ZipArchive::new(file).map_err(|e| err(format!("not a zip archive: {e}")))?;
-    let partial = dir.with_extension("partial");
-    let _ = std::fs::remove_dir_all(&partial);
-    archive.extract(&partial).map_err(|e| err(format!("unpacking: {e}")))?;
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::rename(&partial, &dir).map_err(|e| err(e.to_string()))?;
+    let mut archive =
+        zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(|e| err(format!("not a zip archive: {e}")))?;
+    let nonce = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+    let partial = dir.with_extension(format!("partial-{}-{nonce}", std::process::id()));
+    std::fs::create_dir_all(&partial).map_err(|e| err(format!("cache folder {}: {e}", partial.display())))?;
+    if let Err(e) = archive.extract(&partial) {
+        let _ = std::fs::remove_dir_all(&partial);
+        return Err(err(format!("unpacking: {e}")));
+    }
+    if std::fs::rename(&partial, &dir).is_err() {
+        // Another run unpacked the same archive first: use its folder.
+        let _ = std::fs::remove_dir_all(&partial);
+        if !dir.join("modelDescription.xml").is_file() {
+            return Err(err(format!("cannot move the unpacked FMU to {}", dir.display())));
+        }
+    }
     Ok(dir)
 }
 
@@ -225,6 +272,14 @@ type Setup2 = unsafe extern "C" fn(*mut c_void, i32, f64, f64, i32, f64) -> i32;
 type GetReal2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut f64) -> i32;
 type SetReal2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const f64) -> i32;
 type DoStep2 = unsafe extern "C" fn(*mut c_void, f64, f64, i32) -> i32;
+type GetBooleanStatus2 = unsafe extern "C" fn(*mut c_void, i32, *mut i32) -> i32;
+type GetRealStatus2 = unsafe extern "C" fn(*mut c_void, i32, *mut f64) -> i32;
+
+/// `fmi2StatusKind` values.
+const FMI2_LAST_SUCCESSFUL_TIME: i32 = 2;
+const FMI2_TERMINATED: i32 = 3;
+/// `fmi2Discard` / `fmi3Discard`.
+const DISCARD: i32 = 2;
 
 /// `fmi2CallbackFunctions`. The logger is variadic in C (printf style): it is the C shim
 /// `lash_fmi2_logger` (c/fmi2_logger.c), which expands the message and passes it to
@@ -284,11 +339,23 @@ struct Functions2 {
     get_state: GetState,
     set_state: SetState,
     free_state: GetState,
+    /// `fmi2GetBooleanStatus` (asks whether a discarded step means "terminate").
+    boolean_status: Option<GetBooleanStatus2>,
+    /// `fmi2GetRealStatus` (the last successful time of a discarded step).
+    real_status: Option<GetRealStatus2>,
 }
 
 /// The version-specific side of an imported FMU.
 enum Api {
-    V3(Functions),
+    V3 {
+        functions: Functions,
+        /// Per variable (position = lash value reference), the FMU's own value reference.
+        native: Vec<u32>,
+        /// True when every native reference equals its position: calls pass through untranslated.
+        identity: bool,
+        /// Translated value references of one call (reused).
+        scratch: Mutex<Vec<u32>>,
+    },
     V2 {
         functions: Functions2,
         /// Per (regrouped) variable, its FMI 2.0 scalar value references.
@@ -592,7 +659,13 @@ impl ImportedFmu {
                     std::ptr::null(),
                 )
             };
-            (Api::V3(functions), instance, "fmi3InstantiateCoSimulation")
+            let native: Vec<u32> = description.variables.iter().map(|v| v.value_reference).collect();
+            let identity = native.iter().enumerate().all(|(i, &r)| r as usize == i);
+            for (i, v) in description.variables.iter_mut().enumerate() {
+                v.value_reference = i as u32;
+            }
+            let api = Api::V3 { functions, native, identity, scratch: Mutex::new(Vec::new()) };
+            (api, instance, "fmi3InstantiateCoSimulation")
         } else {
             let instantiate = sym!("fmi2Instantiate", Instantiate2);
             let functions = Functions2 {
@@ -607,6 +680,10 @@ impl ImportedFmu {
                 get_state: sym!("fmi2GetFMUstate", GetState),
                 set_state: sym!("fmi2SetFMUstate", SetState),
                 free_state: sym!("fmi2FreeFMUstate", GetState),
+                // SAFETY: the symbols have these signatures in fmi2Functions.h.
+                boolean_status: unsafe { library.get::<GetBooleanStatus2>(b"fmi2GetBooleanStatus\0") }.ok().map(|s| *s),
+                // SAFETY: as above.
+                real_status: unsafe { library.get::<GetRealStatus2>(b"fmi2GetRealStatus\0") }.ok().map(|s| *s),
             };
             let callbacks = Box::new(Callbacks2 {
                 logger: fmi2_logger(),
@@ -646,7 +723,8 @@ impl ImportedFmu {
         })
     }
 
-    /// The parsed model description (FMI 2.0: arrays regrouped, value references renumbered).
+    /// The parsed model description, as lash sees it: value references renumbered to positions
+    /// (FMI 2.0: arrays regrouped); [`ImportedFmu::native_value_reference`] gives the FMU's own.
     pub fn description(&self) -> &Description {
         &self.description
     }
@@ -662,6 +740,35 @@ impl ImportedFmu {
         }
         let messages = self.log.lock().map(|mut l| std::mem::take(&mut *l).join("; ")).unwrap_or_default();
         Err(SubsystemError::Other(format!("{}: {call} returned status {status}: {messages}", self.name)))
+    }
+
+    /// FMI 3.0: the FMU's own value references of `refs` (lash's are positions), into the scratch
+    /// buffer, or `refs` unchanged when the two numberings agree; calls `f` with them.
+    fn with_native<R>(
+        native: &[u32],
+        identity: bool,
+        scratch: &Mutex<Vec<u32>>,
+        refs: &[ValueReference],
+        f: impl FnOnce(&[u32]) -> R,
+    ) -> Result<R, SubsystemError> {
+        if let Some(&bad) = refs.iter().find(|&&r| r as usize >= native.len()) {
+            return Err(SubsystemError::UnknownValueReference(bad));
+        }
+        if identity {
+            return Ok(f(refs));
+        }
+        let mut buffer = scratch.lock().map_err(|_| SubsystemError::Other("importer scratch poisoned".into()))?;
+        buffer.clear();
+        buffer.extend(refs.iter().map(|&r| native[r as usize]));
+        Ok(f(&buffer))
+    }
+
+    /// The FMU's own value reference of lash's variable `vr` (FMI 2.0: of its first scalar).
+    pub fn native_value_reference(&self, vr: ValueReference) -> Option<u32> {
+        match &self.api {
+            Api::V3 { native, .. } => native.get(vr as usize).copied(),
+            Api::V2 { scalars, .. } => scalars.get(vr as usize).and_then(|s| s.first().copied()),
+        }
     }
 
     /// FMI 2.0: the scalar value references of `refs`, into the scratch buffer; calls `f` with
@@ -689,7 +796,7 @@ impl Drop for ImportedFmu {
     fn drop(&mut self) {
         let states = self.states.get_mut().map(std::mem::take).unwrap_or_default();
         let (free_state, free) = match &self.api {
-            Api::V3(f) => (f.free_state, f.free),
+            Api::V3 { functions: f, .. } => (f.free_state, f.free),
             Api::V2 { functions, .. } => (functions.free_state, functions.free),
         };
         for s in states {
@@ -715,7 +822,7 @@ impl Subsystem for ImportedFmu {
         self.time = start;
         let (has_stop, stop) = (stop.is_some(), stop.map_or(0.0, Ticks::seconds));
         match &self.api {
-            Api::V3(f) => {
+            Api::V3 { functions: f, .. } => {
                 // SAFETY: a live instance.
                 let s = unsafe { (f.enter_init)(self.instance, false, 0.0, start.seconds(), has_stop, stop) };
                 self.check("fmi3EnterInitializationMode", s)
@@ -733,7 +840,7 @@ impl Subsystem for ImportedFmu {
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
         let (exit, call) = match &self.api {
-            Api::V3(f) => (f.exit_init, "fmi3ExitInitializationMode"),
+            Api::V3 { functions: f, .. } => (f.exit_init, "fmi3ExitInitializationMode"),
             Api::V2 { functions, .. } => (functions.exit_init, "fmi2ExitInitializationMode"),
         };
         // SAFETY: a live instance.
@@ -743,9 +850,12 @@ impl Subsystem for ImportedFmu {
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         match &self.api {
-            Api::V3(f) => {
-                // SAFETY: a live instance; slices with their lengths.
-                let s = unsafe { (f.set)(self.instance, refs.as_ptr(), refs.len(), values.as_ptr(), values.len()) };
+            Api::V3 { functions: f, native, identity, scratch } => {
+                let instance = self.instance;
+                let s = Self::with_native(native, *identity, scratch, refs, |vrs| {
+                    // SAFETY: a live instance; slices with their lengths.
+                    unsafe { (f.set)(instance, vrs.as_ptr(), vrs.len(), values.as_ptr(), values.len()) }
+                })?;
                 self.check("fmi3SetFloat64", s)
             }
             Api::V2 { functions: f, scalars, scratch, .. } => {
@@ -761,9 +871,12 @@ impl Subsystem for ImportedFmu {
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
         match &self.api {
-            Api::V3(f) => {
-                // SAFETY: a live instance; slices with their lengths.
-                let s = unsafe { (f.get)(self.instance, refs.as_ptr(), refs.len(), values.as_mut_ptr(), values.len()) };
+            Api::V3 { functions: f, native, identity, scratch } => {
+                let n = values.len();
+                let s = Self::with_native(native, *identity, scratch, refs, |vrs| {
+                    // SAFETY: a live instance; slices with their lengths.
+                    unsafe { (f.get)(self.instance, vrs.as_ptr(), vrs.len(), values.as_mut_ptr(), n) }
+                })?;
                 self.check("fmi3GetFloat64", s)
             }
             Api::V2 { functions: f, scalars, scratch, .. } => {
@@ -778,8 +891,11 @@ impl Subsystem for ImportedFmu {
     }
 
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
+        let end = Ticks(t.0 + h.0);
+        // A time the FMU reports, kept inside the step (an FMU's float may land a tick off).
+        let at = |seconds: f64| Ticks::from_seconds(seconds).map_or(t, |r| Ticks(r.0.clamp(t.0, end.0)));
         match &self.api {
-            Api::V3(f) => {
+            Api::V3 { functions: f, .. } => {
                 let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
                 // SAFETY: a live instance; output pointers to locals.
                 let s = unsafe {
@@ -794,19 +910,39 @@ impl Subsystem for ImportedFmu {
                         &mut last,
                     )
                 };
+                if terminate && s <= DISCARD {
+                    self.time = if early || s == DISCARD { at(last) } else { end };
+                    return Ok(StepOutcome::Terminate { reached: self.time });
+                }
                 self.check("fmi3DoStep", s)?;
-                self.time = Ticks(t.0 + h.0);
-                Ok(if early {
-                    StepOutcome::EarlyReturn { reached: Ticks::from_seconds(last).unwrap_or(self.time) }
-                } else {
-                    StepOutcome::Completed
-                })
+                if early {
+                    self.time = at(last);
+                    return Ok(StepOutcome::EarlyReturn { reached: self.time });
+                }
+                self.time = end;
+                Ok(StepOutcome::Completed)
             }
             Api::V2 { functions: f, .. } => {
                 // SAFETY: a live instance.
                 let s = unsafe { (f.do_step)(self.instance, t.seconds(), h.seconds(), 1) };
+                if s == DISCARD
+                    && let Some(status) = f.boolean_status
+                {
+                    let mut terminated = 0;
+                    // SAFETY: a live instance, a pointer to a local.
+                    let ok = unsafe { status(self.instance, FMI2_TERMINATED, &mut terminated) } <= 1;
+                    if ok && terminated != 0 {
+                        let mut last = t.seconds();
+                        if let Some(real) = f.real_status {
+                            // SAFETY: as above.
+                            unsafe { real(self.instance, FMI2_LAST_SUCCESSFUL_TIME, &mut last) };
+                        }
+                        self.time = at(last);
+                        return Ok(StepOutcome::Terminate { reached: self.time });
+                    }
+                }
                 self.check("fmi2DoStep", s)?;
-                self.time = Ticks(t.0 + h.0);
+                self.time = end;
                 Ok(StepOutcome::Completed)
             }
         }
@@ -818,7 +954,7 @@ impl Subsystem for ImportedFmu {
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
         let (get_state, call) = match &self.api {
-            Api::V3(f) => (f.get_state, "fmi3GetFMUState"),
+            Api::V3 { functions: f, .. } => (f.get_state, "fmi3GetFMUState"),
             Api::V2 { functions, .. } => (functions.get_state, "fmi2GetFMUstate"),
         };
         let mut p = std::ptr::null_mut();
@@ -838,7 +974,7 @@ impl Subsystem for ImportedFmu {
             .downcast_ref::<(Arc<FmuState>, Ticks)>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not an imported FMU's".into()))?;
         let (set_state, call) = match &self.api {
-            Api::V3(f) => (f.set_state, "fmi3SetFMUState"),
+            Api::V3 { functions: f, .. } => (f.set_state, "fmi3SetFMUState"),
             Api::V2 { functions, .. } => (functions.set_state, "fmi2SetFMUstate"),
         };
         // SAFETY: a state from this instance.
@@ -850,7 +986,7 @@ impl Subsystem for ImportedFmu {
 
     fn terminate(&mut self) -> Result<(), SubsystemError> {
         let (terminate, call) = match &self.api {
-            Api::V3(f) => (f.terminate, "fmi3Terminate"),
+            Api::V3 { functions: f, .. } => (f.terminate, "fmi3Terminate"),
             Api::V2 { functions, .. } => (functions.terminate, "fmi2Terminate"),
         };
         // SAFETY: a live instance.
@@ -874,6 +1010,33 @@ mod tests {
             shape: Vec::new(),
             start: vec![vr as f64],
         }
+    }
+
+    #[test]
+    fn fmi3_aliases_are_further_names_of_one_value_reference() {
+        let xml = r#"<fmiModelDescription fmiVersion="3.0" modelName="m" instantiationToken="t">
+            <CoSimulation modelIdentifier="m"/>
+            <DefaultExperiment stepSize="0.02"/>
+            <ModelVariables>
+              <Float64 name="time" valueReference="0" causality="independent"/>
+              <Float64 name="x" valueReference="1003" causality="output" description="position">
+                <Alias name="position"/><Alias name="q" description="generalized coordinate"/>
+              </Float64>
+              <Float64 name="v" valueReference="17" causality="output"/>
+            </ModelVariables></fmiModelDescription>"#;
+        let d = parse_description(xml).unwrap();
+        let names: Vec<(&str, u32, &str)> =
+            d.variables.iter().map(|v| (v.name.as_str(), v.value_reference, v.description.as_str())).collect();
+        assert_eq!(
+            names,
+            [
+                ("x", 1003, "position"),
+                ("position", 1003, "position"),
+                ("q", 1003, "generalized coordinate"),
+                ("v", 17, "")
+            ]
+        );
+        assert_eq!(d.default_step_size, Some(0.02));
     }
 
     #[test]

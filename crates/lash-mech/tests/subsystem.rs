@@ -58,7 +58,7 @@ fn propagated_maps_at_minus_effective_force_reproduce_the_ideal_mechanism() {
             assert!((torque - expected_torque).abs() < 1e-8 * expected_torque.abs().max(1.0), "{clearance} {k}");
             // The macro's own acceleration output is the ideal one.
             assert!((value(&s, "slider.acceleration")[0] - expected_ax).abs() < 1e-8 * scale);
-            s.do_step(s.time(), h).unwrap();
+            assert_eq!(s.do_step(s.time(), h).unwrap(), lash_core::StepOutcome::Completed);
         }
     }
 }
@@ -71,8 +71,8 @@ fn two_way_with_a_centred_journal_follows_the_ideal_motion() {
     let h = Ticks::from_seconds(1e-3).unwrap();
     for _ in 0..12 {
         two.set_f64(&[vr::ECCENTRICITY, vr::ECCENTRICITY_RATE], &[0.0; 4]).unwrap();
-        one.do_step(one.time(), h).unwrap();
-        two.do_step(two.time(), h).unwrap();
+        assert_eq!(one.do_step(one.time(), h).unwrap(), lash_core::StepOutcome::Completed);
+        assert_eq!(two.do_step(two.time(), h).unwrap(), lash_core::StepOutcome::Completed);
     }
     let (q1, q2) = (one.state().0, two.state().0);
     let worst = q1.iter().zip(q2).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
@@ -86,15 +86,15 @@ fn rollback_replays_bit_for_bit_and_bad_calls_are_refused() {
     let mut s = subsystem("crank_pivot", Coupling::TwoWay);
     let h = Ticks::from_seconds(1e-3).unwrap();
     s.set_f64(&[vr::ECCENTRICITY], &[2e-5, -1e-5]).unwrap();
-    s.do_step(Ticks::ZERO, h).unwrap();
+    assert_eq!(s.do_step(Ticks::ZERO, h).unwrap(), lash_core::StepOutcome::Completed);
     let saved = s.save_state().unwrap();
     s.set_f64(&[vr::ECCENTRICITY, vr::ECCENTRICITY_RATE], &[3e-5, 0.0, 0.01, -0.02]).unwrap();
-    s.do_step(h, h).unwrap();
+    assert_eq!(s.do_step(h, h).unwrap(), lash_core::StepOutcome::Completed);
     let first = value(&s, "effective_force");
     s.restore_state(&saved).unwrap();
     assert_eq!(s.time(), h);
     s.set_f64(&[vr::ECCENTRICITY, vr::ECCENTRICITY_RATE], &[3e-5, 0.0, 0.01, -0.02]).unwrap();
-    s.do_step(h, h).unwrap();
+    assert_eq!(s.do_step(h, h).unwrap(), lash_core::StepOutcome::Completed);
     assert_eq!(
         first.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
         value(&s, "effective_force").iter().map(|v| v.to_bits()).collect::<Vec<_>>()

@@ -35,7 +35,7 @@
 //!   of micro steps.
 
 use crossbeam_channel::bounded;
-use lash_core::{Causality, Coupling, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_core::{Causality, Coupling, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
@@ -164,6 +164,44 @@ pub enum MasterError {
     /// An observer refused a sample.
     #[error("observer: {0}")]
     Observer(String),
+    /// A subsystem ended the run without an error (it asked to stop, or returned early). The
+    /// master turns this into [`MasterStats::stopped`]; it reaches callers only from
+    /// [`advance`].
+    #[error("{subsystem} subsystem {reason}")]
+    Stopped {
+        /// Which subsystem.
+        subsystem: &'static str,
+        /// Why.
+        reason: StopReason,
+    },
+}
+
+/// Steps `sub` from `t` by `h` and honours its [`lash_core::StepOutcome`]: `Ok(None)` when the
+/// step was completed; `Ok(Some(reason))` when it was completed and the subsystem asks to stop
+/// after it (the state at `t + h` is valid: record it, then end the run);
+/// [`MasterError::Stopped`] when it returned early or asked to stop inside the step. Every master
+/// steps subsystems through this function, so no outcome is mistaken for a completed step.
+pub fn advance(
+    sub: &mut dyn Subsystem,
+    who: &'static str,
+    t: Ticks,
+    h: Ticks,
+) -> Result<Option<StopReason>, MasterError> {
+    let outcome = sub.do_step(t, h).map_err(|source| MasterError::Subsystem { subsystem: who, source })?;
+    match outcome.stop(t, h) {
+        None => Ok(None),
+        Some(reason @ StopReason::Requested { reached }) if reached.0 == t.0 + h.0 => Ok(Some(reason)),
+        Some(reason) => Err(MasterError::Stopped { subsystem: who, reason }),
+    }
+}
+
+/// [`advance`] for a subsystem whose every stop ends the run at once (the macro subsystem of the
+/// interface master, whose nodes run ahead of the micro steps).
+fn advance_or_stop(sub: &mut dyn Subsystem, who: &'static str, t: Ticks, h: Ticks) -> Result<(), MasterError> {
+    match advance(sub, who, t, h)? {
+        None => Ok(()),
+        Some(reason) => Err(MasterError::Stopped { subsystem: who, reason }),
+    }
 }
 
 /// Counters and time split of a coupled run.
@@ -177,6 +215,11 @@ pub struct MasterStats {
     pub macro_seconds: f64,
     /// Wall time in micro steps, input interpolation and observers [s].
     pub micro_seconds: f64,
+    /// Set when a subsystem ended the run before the stop time without an error: which one
+    /// ("macro" or "micro") and why. Observers have every sample up to the last micro step
+    /// both subsystems completed.
+    #[serde(skip)]
+    pub stopped: Option<(&'static str, StopReason)>,
 }
 
 fn macro_err(source: SubsystemError) -> MasterError {
@@ -374,7 +417,7 @@ fn step_macro(
     if let Some((vrs, values)) = targets {
         sub.set_f64(&vrs, &values).map_err(macro_err)?;
     }
-    sub.do_step(t, h).map_err(macro_err)?;
+    advance_or_stop(sub, "macro", t, h)?;
     read_frame(sub, all, width)
 }
 
@@ -387,6 +430,10 @@ impl<'a> InterfaceMaster<'a> {
         signals: Vec<Signal>,
     ) -> Result<Self, MasterError> {
         let o = &options;
+        for sub in [&*macro_sub, &*micro_sub] {
+            lash_core::check_variable_table(sub.variables())
+                .map_err(|problem| MasterError::Variables { subsystem: sub.name().to_string(), problem })?;
+        }
         if o.micro_step.0 <= 0 || o.macro_step.exact_ratio(o.micro_step).is_none() {
             return Err(MasterError::Settings(format!(
                 "macro step {} s is not a whole multiple of the micro step {} s",
@@ -610,10 +657,14 @@ impl<'a> InterfaceMaster<'a> {
                     let s = j as f64 / per_macro as f64;
                     if j > 0 && !every_micro_step {
                         let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
-                        micro_sub.do_step(t, o.micro_step).map_err(micro_err)?;
+                        let stop = advance(micro_sub, "micro", t, o.micro_step)?;
                         micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
                         micro_count += 1;
                         observe(micro_count, j, t, &w, &micro_values, &mut signals, observers)?;
+                        if let Some(reason) = stop {
+                            stats.micro_steps = micro_count;
+                            return Err(MasterError::Stopped { subsystem: "micro", reason });
+                        }
                         continue;
                     }
                     for e in 0..4 {
@@ -629,12 +680,17 @@ impl<'a> InterfaceMaster<'a> {
                     }
                     micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
                     let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
-                    micro_sub.do_step(t, o.micro_step).map_err(micro_err)?;
+                    let stop = advance(micro_sub, "micro", t, o.micro_step)?;
                     micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
                     micro_count += 1;
                     observe(micro_count, j, t, &w, &micro_values, &mut signals, observers)?;
+                    if let Some(reason) = stop {
+                        stats.micro_steps = micro_count;
+                        return Err(MasterError::Stopped { subsystem: "micro", reason });
+                    }
                 }
                 drop(_span);
+                stats.micro_steps = micro_count;
                 stats.micro_seconds += started.elapsed().as_secs_f64();
                 if let Some((state, vrs, _)) = saved {
                     // Corrector: the macro steps again with the micro's eccentricity at t_k+1.
@@ -649,6 +705,14 @@ impl<'a> InterfaceMaster<'a> {
             Ok(())
         };
 
+        // A subsystem that stops the run ends it cleanly: the observers keep what they have.
+        let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| match run(frames, stats) {
+            Err(MasterError::Stopped { subsystem, reason }) => {
+                stats.stopped = Some((subsystem, reason));
+                Ok(())
+            }
+            other => other,
+        };
         match o.execution {
             Execution::Sequential => {
                 let mut frames = Frames::Local { sub: macro_sub, all: all_macro, width, seconds: 0.0 };

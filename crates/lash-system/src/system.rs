@@ -1,8 +1,8 @@
 //! A loaded system and its master.
 
 use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
-use lash_core::{Causality, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
-use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
+use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_orchestrate::{InterfaceMaster, MasterError, MasterOptions, Observer, Signal, advance};
 use std::path::Path;
 
 /// Why a system cannot be built or run.
@@ -11,11 +11,12 @@ pub enum SystemError {
     /// Bad input: the message names the field (`elements[1].fmu: …`).
     #[error("{0}")]
     Input(String),
-    /// A subsystem failed while running, naming the element and the time.
-    #[error("at t = {t} s, element {element:?}: {message}")]
+    /// A subsystem failed while running, naming the element and the time (when the master
+    /// knows it).
+    #[error("{}element {element:?}: {message}", t.map(|t| format!("at t = {t} s, ")).unwrap_or_default())]
     Simulation {
         /// Time [s].
-        t: f64,
+        t: Option<f64>,
         /// Element name.
         element: String,
         /// What it said.
@@ -39,17 +40,34 @@ struct Connection {
     buffer: Vec<f64>,
 }
 
+/// A run that a subsystem ended before the stop time, without an error.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Stop {
+    /// The element that stopped the run.
+    pub element: String,
+    /// Time the element reached [s].
+    pub reached_s: f64,
+    /// Time of the last recorded row [s].
+    pub last_row_s: f64,
+    /// What happened, in words.
+    pub reason: String,
+    /// True when the element asked to stop (FMI terminate); false for an early return.
+    pub requested: bool,
+}
+
 /// What a run did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RunSummary {
     /// System name.
     pub system: String,
-    /// Communication steps taken.
+    /// Communication steps completed by every element.
     pub steps: u64,
     /// Rows recorded.
     pub samples: u64,
     /// Wall time [s].
     pub wall_time_s: f64,
+    /// Set when an element ended the run before the stop time.
+    pub stopped: Option<Stop>,
 }
 
 /// A system ready to run.
@@ -153,6 +171,8 @@ impl System {
             }
             let source = e.source(base).map_err(|m| bad(format!("{field}: {m}")))?;
             let model = load(&source, &e.name, cache).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
+            lash_core::check_variable_table(model.variables())
+                .map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
             let mut parameters = Vec::new();
             for (pname, value) in &e.parameters {
                 let v = find(model.variables(), pname).ok_or_else(|| {
@@ -267,7 +287,9 @@ impl System {
                     name,
                     &[Causality::Output, Causality::Local, Causality::Parameter, Causality::Input],
                 )?;
-                let v = elements[k].model.variables()[vr as usize].clone();
+                let v = lash_core::subsystem::variable(elements[k].model.variables(), vr)
+                    .ok_or_else(|| bad(format!("{field}: {name} has no variable for value reference {vr}")))?
+                    .clone();
                 add(k, &v, &mut header);
             }
         }
@@ -297,7 +319,21 @@ impl System {
     }
 
     fn fail(&self, k: usize, t: Ticks, e: SubsystemError) -> SystemError {
-        SystemError::Simulation { t: t.seconds(), element: self.elements[k].name.clone(), message: e.to_string() }
+        SystemError::Simulation { t: Some(t.seconds()), element: self.elements[k].name.clone(), message: e.to_string() }
+    }
+
+    /// An element's refused initialization: the user's to fix (exit 2) when the system file gave
+    /// it parameter values (they are the likely cause, and the message lists them), a failure
+    /// otherwise.
+    fn refused_initialization(&self, k: usize, t: Ticks, e: SubsystemError) -> SystemError {
+        let given: Vec<&str> = self.elements[k].parameters.iter().map(|(_, n, _)| n.as_str()).collect();
+        if given.is_empty() && !matches!(e, SubsystemError::BadValue { .. }) {
+            return self.fail(k, t, e);
+        }
+        SystemError::Input(format!(
+            "elements[{k}].parameters (element {:?}, given {given:?}): initialization refused: {e}",
+            self.elements[k].name
+        ))
     }
 
     /// Sets every element up for the run and gives it its parameter values.
@@ -310,7 +346,11 @@ impl System {
             for p in 0..self.elements[k].parameters.len() {
                 let (vr, name, values) = self.elements[k].parameters[p].clone();
                 if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
-                    return Err(self.fail(k, start, SubsystemError::Other(format!("parameter {name}: {e}"))));
+                    // A refused parameter value is the user's to fix (exit 2), named by its field.
+                    return Err(SystemError::Input(format!(
+                        "elements[{k}].parameters.{name} (element {:?}): {values:?} refused: {e}",
+                        self.elements[k].name
+                    )));
                 }
             }
         }
@@ -378,14 +418,17 @@ impl System {
             self.gather(Some(k), start)?;
             self.scatter(k, start)?;
             if let Err(e) = self.elements[k].model.initialize() {
-                return Err(self.fail(k, start, e));
+                return Err(self.refused_initialization(k, start, e));
             }
         }
         let mut row = Vec::new();
         self.record(start, &mut row, sink)?;
         let mut samples = 1;
+        let mut last_row = start;
+        let mut stopped: Option<(usize, StopReason)> = None;
         let n = (stop.0 - start.0) / step.0;
-        for i in 0..n {
+        let mut steps = 0;
+        'steps: for i in 0..n {
             let t = Ticks(start.0 + i * step.0);
             if self.algorithm == Algorithm::Jacobi {
                 self.gather(None, t)?;
@@ -400,26 +443,64 @@ impl System {
                 }
                 self.scatter(k, t)?;
                 let h = Ticks(step.0 * d.min(n - i));
-                if let Err(e) = self.elements[k].model.do_step(t, h) {
-                    return Err(self.fail(k, t, e));
+                match advance(&mut *self.elements[k].model, "element", t, h) {
+                    Ok(None) => {}
+                    // A stop requested at the end of a whole step lets the others finish this
+                    // communication step, whose row is recorded (as fmpy does); a decimated
+                    // element's step ends beyond this point, so the run ends here.
+                    Ok(Some(reason)) => {
+                        stopped.get_or_insert((k, reason));
+                        if d > 1 {
+                            break 'steps;
+                        }
+                    }
+                    Err(MasterError::Stopped { reason, .. }) => {
+                        stopped.get_or_insert((k, reason));
+                        break 'steps;
+                    }
+                    Err(MasterError::Subsystem { source, .. }) => return Err(self.fail(k, t, source)),
+                    Err(other) => return Err(self.fail(k, t, SubsystemError::Other(other.to_string()))),
                 }
             }
-            if (i + 1) % self.output_every == 0 {
-                self.record(Ticks(t.0 + step.0), &mut row, sink)?;
+            steps += 1;
+            let end = Ticks(t.0 + step.0);
+            if (i + 1) % self.output_every == 0 || stopped.is_some() {
+                self.record(end, &mut row, sink)?;
                 samples += 1;
+                last_row = end;
+            }
+            if stopped.is_some() {
+                break;
             }
         }
         for k in 0..self.elements.len() {
             if let Err(e) = self.elements[k].model.terminate() {
-                return Err(self.fail(k, stop, e));
+                return Err(self.fail(k, Ticks(start.0 + steps * step.0), e));
             }
         }
+        let stopped = stopped.map(|(k, reason)| stop_of(self.elements[k].name.clone(), reason, last_row));
         Ok(RunSummary {
             system: self.name.clone(),
-            steps: n as u64,
+            steps: steps as u64,
             samples,
             wall_time_s: wall.elapsed().as_secs_f64(),
+            stopped,
         })
+    }
+}
+
+/// The summary's account of a run that `element` ended early.
+fn stop_of(element: String, reason: StopReason, last_row: Ticks) -> Stop {
+    let (reached, requested) = match reason {
+        StopReason::Requested { reached } => (reached, true),
+        StopReason::EarlyReturn { reached } => (reached, false),
+    };
+    Stop {
+        element,
+        reached_s: reached.seconds(),
+        last_row_s: last_row.seconds(),
+        reason: reason.to_string(),
+        requested,
     }
 }
 
@@ -436,6 +517,7 @@ impl System {
         let plan = self.interface.as_ref().expect("checked");
         let (m, c, options, signals, interval) =
             (plan.mechanism, plan.clearance, plan.options, plan.signals.clone(), plan.interval);
+        let names = [self.elements[m].name.clone(), self.elements[c].name.clone()];
         let (first, second) = self.elements.split_at_mut(m.max(c));
         let (macro_el, micro_el) =
             if m < c { (&mut first[m], &mut second[0]) } else { (&mut second[0], &mut first[c]) };
@@ -445,9 +527,11 @@ impl System {
             sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
             row: Vec<f64>,
             samples: u64,
+            last: Ticks,
         }
         impl Observer for Rows<'_> {
             fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
+                self.last = t;
                 self.row.clear();
                 self.row.push(t.seconds());
                 self.row.extend_from_slice(signals);
@@ -455,21 +539,27 @@ impl System {
                 (self.sink)(&self.row)
             }
         }
-        let mut rows = Rows { sink, row: Vec::new(), samples: 0 };
+        let mut rows = Rows { sink, row: Vec::new(), samples: 0, last: start };
         let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut rows, interval)];
-        master.run(&mut observers).map_err(|e| SystemError::Simulation {
-            t: f64::NAN,
-            element: "interface master".into(),
-            message: e.to_string(),
+        let element = |who: &str| if who == "macro" { names[0].clone() } else { names[1].clone() };
+        let stats = master.run(&mut observers).map_err(|e| match e {
+            MasterError::Subsystem { subsystem, source } => SystemError::Simulation {
+                t: match &source {
+                    SubsystemError::Simulation { t, .. } => Some(*t),
+                    _ => None,
+                },
+                element: element(subsystem),
+                message: source.to_string(),
+            },
+            MasterError::Observer(m) => SystemError::Output(m),
+            other => {
+                SystemError::Simulation { t: None, element: "interface master".into(), message: other.to_string() }
+            }
         })?;
-        let samples = rows.samples;
-        let steps = (stop.0 - start.0) / self.step.0;
-        Ok(RunSummary {
-            system: self.name.clone(),
-            steps: steps as u64,
-            samples,
-            wall_time_s: wall.elapsed().as_secs_f64(),
-        })
+        let (samples, last_row) = (rows.samples, rows.last);
+        let steps = stats.macro_steps.min(((stop.0 - start.0) / self.step.0) as u64);
+        let stopped = stats.stopped.map(|(who, reason)| stop_of(element(who), reason, last_row));
+        Ok(RunSummary { system: self.name.clone(), steps, samples, wall_time_s: wall.elapsed().as_secs_f64(), stopped })
     }
 }
 

@@ -250,7 +250,7 @@ mod tests {
             let (wn, zeta) = (2.0 * std::f64::consts::PI * 2000.0, 0.6);
             let wd = wn * (1.0f64 - zeta * zeta).sqrt();
             for _ in 0..(3e-3 / h) as usize {
-                s.do_step(t, step).unwrap();
+                assert_eq!(s.do_step(t, step).unwrap(), lash_core::StepOutcome::Completed);
                 t = Ticks(t.0 + step.0);
                 let x = t.seconds();
                 let exact = 9.81

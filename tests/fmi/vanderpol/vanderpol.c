@@ -3,7 +3,9 @@
  * integrated with forward Euler at a fixed internal step of 1e-3 s (ten steps per doStep of
  * 0.01 s), like the Modelica Association's Reference FMU of the same name. It is the third-party
  * FMU of lash's importer tests and of `lash bench fmu` (the per-step cost of the importer).
- * Value references: 0 x0, 1 x1, 2 mu. Self-contained: the fmi2 types are declared here. */
+ * Value references: 0 x0, 1 x1, 2 mu, 3 stop_at (once reached, fmi2DoStep answers fmi2Discard and
+ * fmi2GetBooleanStatus(fmi2Terminated) is true: the FMU asks the master to stop). Self-contained:
+ * the fmi2 types are declared here. */
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,8 +35,8 @@ typedef struct {
 #define SOLVER_STEP 1e-3
 
 typedef struct {
-    double x0, x1, mu, time;
-    int initialized;
+    double x0, x1, mu, stop_at, time;
+    int initialized, terminated;
     const fmi2CallbackFunctions *cb;
     char name[64];
 } Model;
@@ -60,6 +62,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     m->x0 = 2.0;
     m->x1 = 0.0;
     m->mu = 1.0;
+    m->stop_at = 1e9;
     m->cb = cb;
     strncpy(m->name, name ? name : "vanderpol", sizeof m->name - 1);
     return m;
@@ -84,7 +87,7 @@ fmi2Status fmi2Terminate(fmi2Component c) { return c ? fmi2OK : fmi2Error; }
 fmi2Status fmi2Reset(fmi2Component c) {
     if (!c) return fmi2Error;
     Model *m = c;
-    m->x0 = 2.0; m->x1 = 0.0; m->mu = 1.0; m->time = 0.0; m->initialized = 0;
+    m->x0 = 2.0; m->x1 = 0.0; m->mu = 1.0; m->stop_at = 1e9; m->time = 0.0; m->initialized = 0; m->terminated = 0;
     return fmi2OK;
 }
 
@@ -96,6 +99,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
         case 0: value[i] = m->x0; break;
         case 1: value[i] = m->x1; break;
         case 2: value[i] = m->mu; break;
+        case 3: value[i] = m->stop_at; break;
         default: log_error(m, "unknown value reference"); return fmi2Error;
         }
     }
@@ -107,7 +111,8 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     if (!m || (n && (!vr || !value))) return fmi2Error;
     for (size_t i = 0; i < n; i++) {
         if (vr[i] == 2 && !m->initialized) m->mu = value[i];
-        else { log_error(m, "only the parameter mu can be set, before initialization"); return fmi2Error; }
+        else if (vr[i] == 3 && !m->initialized) m->stop_at = value[i];
+        else { log_error(m, "only the parameters mu and stop_at can be set, before initialization"); return fmi2Error; }
     }
     return fmi2OK;
 }
@@ -115,7 +120,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior) {
     (void)no_prior;
     Model *m = c;
-    if (!m || !m->initialized || !(h > 0)) return fmi2Error;
+    if (!m || !m->initialized || m->terminated || !(h > 0)) return fmi2Error;
     /* Whole solver steps of exactly SOLVER_STEP: float noise on h (a master that sends
      * t_{k+1} - t_k) does not change the result. */
     long n = (long)(h / SOLVER_STEP + 0.5);
@@ -127,6 +132,24 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_pr
         m->x1 += SOLVER_STEP * d1;
     }
     m->time = t + h;
+    if (m->time >= m->stop_at - 1e-12) {
+        m->terminated = 1;
+        return fmi2Discard;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *x) {
+    Model *m = c;
+    if (!m || !x || k != fmi2Terminated) return fmi2Discard;
+    *x = m->terminated;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *x) {
+    Model *m = c;
+    if (!m || !x || k != fmi2LastSuccessfulTime) return fmi2Discard;
+    *x = m->time;
     return fmi2OK;
 }
 
@@ -152,7 +175,5 @@ UNSUPPORTED(fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2V
                                                     const fmi2Integer o[], fmi2Real x[]))
 UNSUPPORTED(fmi2Status fmi2CancelStep(fmi2Component c))
 UNSUPPORTED(fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *x))
-UNSUPPORTED(fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *x))
 UNSUPPORTED(fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *x))
-UNSUPPORTED(fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *x))
 UNSUPPORTED(fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *x))

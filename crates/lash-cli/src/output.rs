@@ -1,0 +1,119 @@
+//! The one time-series writer of the command line: `timeseries.csv` streamed into
+//! `timeseries.csv.partial` and renamed only when the run finished, so a folder never holds a
+//! complete-looking result of a failed or interrupted run. Numbers are written in the shortest
+//! form that reads back to the same `f64` (plain between 1e-4 and 1e15, exponent otherwise).
+
+use crate::CliError;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set by SIGINT/SIGTERM: the next row ends the run, which then says what it kept.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// The message of a run ended by a signal.
+pub const INTERRUPTED_MESSAGE: &str = "interrupted (SIGINT/SIGTERM)";
+
+/// Installs the SIGINT/SIGTERM handler (once; later calls do nothing). A run writing through a
+/// [`CsvOutput`] then stops at its next row, keeps the rows so far and exits with a message.
+pub fn catch_interrupts() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let _ = ctrlc::set_handler(|| {
+            if INTERRUPTED.swap(true, Ordering::SeqCst) {
+                // A second signal: the user insists.
+                std::process::exit(130);
+            }
+        });
+    });
+}
+
+/// True once a signal asked the process to stop.
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::Relaxed)
+}
+
+/// A CSV being written into an output folder.
+pub struct CsvOutput {
+    writer: std::io::BufWriter<std::fs::File>,
+    partial: PathBuf,
+    done: PathBuf,
+    line: String,
+    rows: u64,
+}
+
+fn io(what: &str, e: std::io::Error) -> CliError {
+    CliError::Failure(format!("{what}: {e}"))
+}
+
+impl CsvOutput {
+    /// Creates `out` if needed, removes an earlier run's `timeseries.csv` and `stale` files (they
+    /// must not survive as if they belonged to this run), and writes the header.
+    pub fn create(out: &Path, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
+        std::fs::create_dir_all(out).map_err(|e| io(&format!("cannot create {}", out.display()), e))?;
+        let done = out.join("timeseries.csv");
+        let partial = out.join("timeseries.csv.partial");
+        for p in std::iter::once(done.clone()).chain(stale.iter().map(|s| out.join(s))) {
+            if p.exists() {
+                std::fs::remove_file(&p).map_err(|e| io(&format!("cannot remove old {}", p.display()), e))?;
+            }
+        }
+        let file =
+            std::fs::File::create(&partial).map_err(|e| io(&format!("cannot create {}", partial.display()), e))?;
+        let mut writer = std::io::BufWriter::new(file);
+        writeln!(writer, "{}", header.join(",")).map_err(|e| io("writing the CSV header", e))?;
+        Ok(Self { writer, partial, done, line: String::with_capacity(1024), rows: 0 })
+    }
+
+    /// Writes one row.
+    pub fn row(&mut self, row: &[f64]) -> Result<(), String> {
+        use std::fmt::Write as _;
+        if interrupted() {
+            return Err(INTERRUPTED_MESSAGE.into());
+        }
+        self.line.clear();
+        for (k, v) in row.iter().enumerate() {
+            if k > 0 {
+                self.line.push(',');
+            }
+            let a = v.abs();
+            if a == 0.0 || (1e-4..1e15).contains(&a) {
+                let _ = write!(self.line, "{v}");
+            } else {
+                let _ = write!(self.line, "{v:e}");
+            }
+        }
+        self.line.push('\n');
+        self.rows += 1;
+        self.writer.write_all(self.line.as_bytes()).map_err(|e| format!("output: {e}"))
+    }
+
+    /// The run finished: flushes and renames to `timeseries.csv`, which it returns.
+    pub fn finish(mut self) -> Result<PathBuf, CliError> {
+        self.writer.flush().map_err(|e| io("writing the CSV", e))?;
+        drop(self.writer);
+        std::fs::rename(&self.partial, &self.done).map_err(|e| io("finishing the CSV", e))?;
+        Ok(self.done)
+    }
+
+    /// The run failed or was interrupted: flushes what was written and returns the partial
+    /// file's path (for the message that says what was kept), or removes it and returns `None`
+    /// when no row was written (a run refused before it started leaves nothing behind).
+    pub fn abandon(mut self) -> Option<PathBuf> {
+        let _ = self.writer.flush();
+        drop(self.writer);
+        if self.rows == 0 {
+            let _ = std::fs::remove_file(&self.partial);
+            return None;
+        }
+        Some(self.partial)
+    }
+
+    /// The words for a message about what an abandoned run kept.
+    pub fn kept(partial: Option<&Path>) -> String {
+        match partial {
+            Some(p) => format!("the samples so far are in {}; no summary was written", p.display()),
+            None => "no sample was written".into(),
+        }
+    }
+}

@@ -1,0 +1,201 @@
+/* A small FMI 3.0 co-simulation FMU written without lash, for the importer's tests:
+ *   x' = v,  v' = (force - k x) / 1 kg,
+ * symplectic Euler at a fixed internal step of 1e-3 s. Its value references are sparse, listed out
+ * of order and aliased (x and position share 1003), so a master that confuses a value reference
+ * with a position in the variable list reads the wrong variable. Two parameters exercise the
+ * step outcomes: stop_at (terminateSimulation once reached) and return_early_at (earlyReturn
+ * with lastSuccessfulTime at that time). Self-contained: the fmi3 types are declared here. */
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+
+typedef void *fmi3Instance;
+typedef void *fmi3InstanceEnvironment;
+typedef void *fmi3FMUState;
+typedef uint32_t fmi3ValueReference;
+typedef double fmi3Float64;
+typedef bool fmi3Boolean;
+typedef const char *fmi3String;
+typedef enum { fmi3OK, fmi3Warning, fmi3Discard, fmi3Error, fmi3Fatal } fmi3Status;
+typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3String, fmi3String);
+
+#define TOKEN "{5b1e7a52-9c1f-4d0e-a3f3-0a1c2e3d4f50}"
+#define SOLVER_STEP 1e-3
+
+enum { VR_X = 1003, VR_V = 17, VR_ENERGY = 2, VR_K = 5, VR_FORCE = 3, VR_STOP = 99, VR_EARLY = 98, VR_TIME = 0 };
+
+typedef struct {
+    double x, v, k, force, stop_at, early_at, time;
+    int initialized;
+    fmi3InstanceEnvironment env;
+    fmi3LogMessageCallback log;
+} Model;
+
+static void fail(Model *m, const char *message) {
+    if (m && m->log) m->log(m->env, fmi3Error, "logStatusError", message);
+}
+
+static double *slot(Model *m, fmi3ValueReference vr) {
+    switch (vr) {
+    case VR_X: return &m->x;
+    case VR_V: return &m->v;
+    case VR_K: return &m->k;
+    case VR_FORCE: return &m->force;
+    case VR_STOP: return &m->stop_at;
+    case VR_EARLY: return &m->early_at;
+    case VR_TIME: return &m->time;
+    default: return NULL;
+    }
+}
+
+const char *fmi3GetVersion(void) { return "3.0"; }
+fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean on, size_t n, const fmi3String cats[]) {
+    (void)c; (void)on; (void)n; (void)cats;
+    return fmi3OK;
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resources, fmi3Boolean visible,
+                                         fmi3Boolean logging, fmi3Boolean event_mode, fmi3Boolean early_allowed,
+                                         const fmi3ValueReference required[], size_t n_required,
+                                         fmi3InstanceEnvironment env, fmi3LogMessageCallback log, void *intermediate) {
+    (void)name; (void)resources; (void)visible; (void)logging; (void)event_mode; (void)early_allowed;
+    (void)required; (void)n_required; (void)intermediate;
+    if (!token || strcmp(token, TOKEN) != 0) return NULL;
+    Model *m = calloc(1, sizeof(Model));
+    if (!m) return NULL;
+    m->x = 1.0; m->k = 4.0; m->stop_at = 1e9; m->early_at = 1e9;
+    m->env = env; m->log = log;
+    return m;
+}
+fmi3Instance fmi3InstantiateModelExchange(fmi3String a, fmi3String b, fmi3String c, fmi3Boolean d, fmi3Boolean e,
+                                          fmi3InstanceEnvironment f, fmi3LogMessageCallback g) {
+    (void)a; (void)b; (void)c; (void)d; (void)e; (void)f; (void)g;
+    return NULL;
+}
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String a, fmi3String b, fmi3String c, fmi3Boolean d, fmi3Boolean e,
+                                               fmi3InstanceEnvironment f, fmi3LogMessageCallback g, void *h) {
+    (void)a; (void)b; (void)c; (void)d; (void)e; (void)f; (void)g; (void)h;
+    return NULL;
+}
+void fmi3FreeInstance(fmi3Instance c) { free(c); }
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean tol_defined, fmi3Float64 tol, fmi3Float64 start,
+                                       fmi3Boolean stop_defined, fmi3Float64 stop) {
+    (void)tol_defined; (void)tol; (void)stop_defined; (void)stop;
+    if (!c) return fmi3Error;
+    ((Model *)c)->time = start;
+    return fmi3OK;
+}
+fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
+    if (!c) return fmi3Error;
+    ((Model *)c)->initialized = 1;
+    return fmi3OK;
+}
+fmi3Status fmi3EnterStepMode(fmi3Instance c) { return c ? fmi3OK : fmi3Error; }
+fmi3Status fmi3Terminate(fmi3Instance c) { return c ? fmi3OK : fmi3Error; }
+fmi3Status fmi3Reset(fmi3Instance c) {
+    Model *m = c;
+    if (!m) return fmi3Error;
+    m->x = 1.0; m->v = 0.0; m->k = 4.0; m->force = 0.0; m->stop_at = 1e9; m->early_at = 1e9;
+    m->time = 0.0; m->initialized = 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Float64 value[], size_t nv) {
+    Model *m = c;
+    if (!m || nv != n || (n && (!vr || !value))) return fmi3Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_ENERGY) { value[i] = 0.5 * m->v * m->v + 0.5 * m->k * m->x * m->x; continue; }
+        double *p = slot(m, vr[i]);
+        if (!p) { fail(m, "fmi3GetFloat64: unknown value reference"); return fmi3Error; }
+        value[i] = *p;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Float64 value[],
+                          size_t nv) {
+    Model *m = c;
+    if (!m || nv != n || (n && (!vr || !value))) return fmi3Error;
+    for (size_t i = 0; i < n; i++) {
+        int parameter = vr[i] == VR_K || vr[i] == VR_STOP || vr[i] == VR_EARLY;
+        if (vr[i] == VR_FORCE || (parameter && !m->initialized)) {
+            if (!isfinite(value[i]) || (vr[i] == VR_K && !(value[i] > 0))) {
+                fail(m, "fmi3SetFloat64: k must be > 0 and values finite");
+                return fmi3Error;
+            }
+            *slot(m, vr[i]) = value[i];
+        } else {
+            fail(m, "fmi3SetFloat64: only force, and the parameters before initialization, can be set");
+            return fmi3Error;
+        }
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean no_prior, fmi3Boolean *event,
+                      fmi3Boolean *terminate, fmi3Boolean *early, fmi3Float64 *last) {
+    (void)no_prior;
+    Model *m = c;
+    if (!m || !m->initialized || !(h > 0)) return fmi3Error;
+    *event = false; *terminate = false; *early = false;
+    double end = t + h;
+    int returning_early = m->early_at > t && m->early_at < end - 1e-12;
+    if (returning_early) end = m->early_at;
+    long n = (long)((end - t) / SOLVER_STEP + 0.5);
+    for (long k = 0; k < n; k++) {
+        m->v += SOLVER_STEP * (m->force - m->k * m->x);
+        m->x += SOLVER_STEP * m->v;
+    }
+    m->time = end;
+    *last = end;
+    if (returning_early) *early = true;
+    if (end >= m->stop_at - 1e-12) *terminate = true;
+    return fmi3OK;
+}
+
+typedef struct { Model model; } State;
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) {
+    if (!c || !s) return fmi3Error;
+    if (!*s) *s = malloc(sizeof(State));
+    if (!*s) return fmi3Error;
+    ((State *)*s)->model = *(Model *)c;
+    return fmi3OK;
+}
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState s) {
+    if (!c || !s) return fmi3Error;
+    *(Model *)c = ((State *)s)->model;
+    return fmi3OK;
+}
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) {
+    (void)c;
+    if (s && *s) { free(*s); *s = NULL; }
+    return fmi3OK;
+}
+
+/* The rest of fmi3Functions.h: not supported, answered with fmi3Error (argument lists are not
+ * read, so they are declared without parameters). */
+#define UNSUPPORTED(name) fmi3Status name() { return fmi3Error; }
+UNSUPPORTED(fmi3EnterEventMode) UNSUPPORTED(fmi3GetFloat32) UNSUPPORTED(fmi3GetInt8) UNSUPPORTED(fmi3GetUInt8)
+UNSUPPORTED(fmi3GetInt16) UNSUPPORTED(fmi3GetUInt16) UNSUPPORTED(fmi3GetInt32) UNSUPPORTED(fmi3GetUInt32)
+UNSUPPORTED(fmi3GetInt64) UNSUPPORTED(fmi3GetUInt64) UNSUPPORTED(fmi3GetBoolean) UNSUPPORTED(fmi3GetString)
+UNSUPPORTED(fmi3GetBinary) UNSUPPORTED(fmi3GetClock) UNSUPPORTED(fmi3SetFloat32) UNSUPPORTED(fmi3SetInt8)
+UNSUPPORTED(fmi3SetUInt8) UNSUPPORTED(fmi3SetInt16) UNSUPPORTED(fmi3SetUInt16) UNSUPPORTED(fmi3SetInt32)
+UNSUPPORTED(fmi3SetUInt32) UNSUPPORTED(fmi3SetInt64) UNSUPPORTED(fmi3SetUInt64) UNSUPPORTED(fmi3SetBoolean)
+UNSUPPORTED(fmi3SetString) UNSUPPORTED(fmi3SetBinary) UNSUPPORTED(fmi3SetClock)
+UNSUPPORTED(fmi3GetNumberOfVariableDependencies) UNSUPPORTED(fmi3GetVariableDependencies)
+UNSUPPORTED(fmi3SerializedFMUStateSize) UNSUPPORTED(fmi3SerializeFMUState) UNSUPPORTED(fmi3DeserializeFMUState)
+UNSUPPORTED(fmi3GetDirectionalDerivative) UNSUPPORTED(fmi3GetAdjointDerivative)
+UNSUPPORTED(fmi3EnterConfigurationMode) UNSUPPORTED(fmi3ExitConfigurationMode)
+UNSUPPORTED(fmi3GetIntervalDecimal) UNSUPPORTED(fmi3GetIntervalFraction) UNSUPPORTED(fmi3GetShiftDecimal)
+UNSUPPORTED(fmi3GetShiftFraction) UNSUPPORTED(fmi3SetIntervalDecimal) UNSUPPORTED(fmi3SetIntervalFraction)
+UNSUPPORTED(fmi3SetShiftDecimal) UNSUPPORTED(fmi3SetShiftFraction) UNSUPPORTED(fmi3EvaluateDiscreteStates)
+UNSUPPORTED(fmi3UpdateDiscreteStates) UNSUPPORTED(fmi3EnterContinuousTimeMode)
+UNSUPPORTED(fmi3CompletedIntegratorStep) UNSUPPORTED(fmi3SetTime) UNSUPPORTED(fmi3SetContinuousStates)
+UNSUPPORTED(fmi3GetContinuousStateDerivatives) UNSUPPORTED(fmi3GetEventIndicators)
+UNSUPPORTED(fmi3GetContinuousStates) UNSUPPORTED(fmi3GetNominalsOfContinuousStates)
+UNSUPPORTED(fmi3GetNumberOfEventIndicators) UNSUPPORTED(fmi3GetNumberOfContinuousStates)
+UNSUPPORTED(fmi3GetOutputDerivatives) UNSUPPORTED(fmi3ActivateModelPartition)
