@@ -76,6 +76,10 @@ fn attr(e: &quick_xml::events::BytesStart<'_>, name: &str) -> Option<String> {
     })
 }
 
+/// The most elements lash accepts in one FMU's variables (arrays included): 2²⁴ (128 MiB of
+/// `f64`), so a description cannot make a master allocate without bound.
+pub const MAX_ELEMENTS: usize = 1 << 24;
+
 /// Parses a model description.
 pub fn parse_description(xml: &str) -> Result<Description, String> {
     use quick_xml::events::Event;
@@ -170,6 +174,10 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                     let n = attr(e, "start")
                         .and_then(|s| s.trim().parse::<usize>().ok())
                         .ok_or("a Dimension without a literal start (structural parameters are not supported)")?;
+                    let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
+                    if total.is_none_or(|t| t > MAX_ELEMENTS) {
+                        return Err(format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name));
+                    }
                     v.shape.push(n);
                 }
             }
@@ -189,6 +197,10 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
             "Integer" | "Boolean" | "String" | "Enumeration" => current = None,
             _ => {}
         }
+    }
+    let total = d.variables.iter().try_fold(0usize, |a, v| a.checked_add(v.len()));
+    if total.is_none_or(|t| t > MAX_ELEMENTS) {
+        return Err(format!("the variables hold more than {MAX_ELEMENTS} elements together"));
     }
     if d.fmi_version.is_empty() {
         return Err("no fmiModelDescription element with an fmiVersion".into());
