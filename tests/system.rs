@@ -163,7 +163,7 @@ to = "sensor.acceleration"
         assert_eq!(lash_csv.1.len(), 201);
         // Each FMU run by lash equals fmpy's run of it, bit for bit (same steps, same calls).
         for (element, fmu) in [("c", "vanderpol.fmu"), ("py", "vanderpol_py.fmu")] {
-            let fmpy = read_csv(&out.join(format!("fmpy-{fmu}-10ms.csv")));
+            let fmpy = read_fmpy_csv(&out.join(format!("fmpy-{fmu}-10ms.csv")));
             for v in ["x0", "x1"] {
                 let (a, b) = (column(&lash_csv, &format!("{element}.{v}")), column(&fmpy, v));
                 assert_eq!(a.len(), b.len());
@@ -171,7 +171,7 @@ to = "sensor.acceleration"
             }
         }
         // Decimation 2: the element steps by 0.02 s every other point, like fmpy at 0.02 s.
-        let fmpy20 = read_csv(&out.join("fmpy-vanderpol.fmu-20ms.csv"));
+        let fmpy20 = read_fmpy_csv(&out.join("fmpy-vanderpol.fmu-20ms.csv"));
         let slow = column(&lash_csv, "slow.x0");
         let even: Vec<f64> = slow.iter().step_by(2).copied().collect();
         assert_eq!(even, column(&fmpy20, "x0"));
@@ -475,7 +475,7 @@ fn sparse_value_references_stop_requests_and_early_returns() {
         args.extend(["--output-file", csv, "--start-values"]);
         args.extend(start);
         run_py(&args);
-        read_csv(&out.join(csv))
+        read_fmpy_csv(&out.join(csv))
     };
     let system = |name: &str, element: &str, fmu: &str, parameters: &str, channels: &str| {
         let file = out.join(format!("{name}.toml"));
@@ -546,5 +546,144 @@ fn sparse_value_references_stop_requests_and_early_returns() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("elements[0].parameters.k"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// (header, rows) of fmpy's CSV, Booleans read as 0 and 1.
+fn read_fmpy_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let fixed: String = text.replace("True", "1").replace("False", "0");
+    let file = path.with_extension("numbers.csv");
+    std::fs::write(&file, fixed).unwrap();
+    read_csv(&file)
+}
+
+/// Variables of every numeric type, FMI 3.0 and 2.0: imported, set as parameters (UInt8,
+/// Enumeration, String, a Float64 input), recorded (Int32, Int64, Boolean, Float32) as fmpy
+/// records them, connected across types (an FMI 2.0 Boolean output into an FMI 3.0 Int32
+/// input); values that do not fit a type are refused naming the field.
+#[test]
+fn every_variable_type_is_imported_set_recorded_and_connected() {
+    let python = fmpy_python();
+    let out = std::env::temp_dir().join(format!("lash-system-types-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let run_py = |args: &[&str]| {
+        let o = Command::new(&python).args(args).current_dir(&out).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    run_py(&[root.join("tests/fmi/oscillator/build.py").to_str().unwrap(), "oscillator.fmu"]);
+    run_py(&[root.join("tests/fmi/vanderpol/build.py").to_str().unwrap(), "vanderpol.fmu"]);
+    run_py(&[
+        "-m",
+        "fmpy.cli",
+        "simulate",
+        "oscillator.fmu",
+        "--stop-time",
+        "1",
+        "--output-interval",
+        "0.01",
+        "--output-file",
+        "fmpy-types.csv",
+        "--start-values",
+        "gain",
+        "3",
+        "gear",
+        "2",
+        "label",
+        "hello",
+        "force",
+        "0.5",
+    ]);
+    let reference = read_fmpy_csv(&out.join("fmpy-types.csv"));
+    let run = |name: &str, text: &str| {
+        let file = out.join(format!("{name}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let dir = out.join(name);
+        (lash(&["run", file.to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]), dir)
+    };
+    let system = |parameters: &str, channels: &str| {
+        format!(
+            "name = \"types\"\nstop = 1.0\nstep = 0.01\n[[elements]]\nname = \"o\"\nfmu = \"oscillator.fmu\"\nparameters = {{ {parameters} }}\n[output]\nchannels = [{channels}]\n"
+        )
+    };
+    let (o, dir) = run(
+        "types",
+        &system(
+            r#"gain = 3, gear = 2, label = "hello", force = 0.5"#,
+            r#""o.x", "o.x32", "o.steps", "o.ticks", "o.moving", "o.kicks_seen", "o.gain", "o.gear""#,
+        ),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&dir.join("timeseries.csv"));
+    assert_eq!(csv.1.len(), 101);
+    let same = |a: &[f64], b: &[f64]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+    for v in ["x", "steps", "ticks", "moving", "kicks_seen"] {
+        assert!(same(&column(&csv, &format!("o.{v}")), &column(&reference, v)), "o.{v} differs from fmpy");
+    }
+    // Float32: the same single-precision values (fmpy prints them in their shortest f32 form).
+    let as_f32 = |v: Vec<f64>| v.into_iter().map(|x| (x as f32).to_bits()).collect::<Vec<_>>();
+    assert_eq!(as_f32(column(&csv, "o.x32")), as_f32(column(&reference, "x32")));
+    assert!(column(&csv, "o.moving").contains(&1.0) && column(&csv, "o.moving").contains(&0.0));
+    assert_eq!(*column(&csv, "o.ticks").last().unwrap(), 1000.0);
+    assert!(column(&csv, "o.gain").iter().all(|&g| g == 3.0) && column(&csv, "o.gear").iter().all(|&g| g == 2.0));
+
+    // Across types and standards: FMI 2.0 Boolean `positive` into the FMI 3.0 Int32 input `kick`.
+    // Gauss-Seidel: the oscillator's step k sees vdp's value at its step end, so its running sum
+    // of kicks is the sum of `positive` over the rows after the first.
+    let text = r#"name = "across"
+stop = 4.0
+step = 0.01
+[[elements]]
+name = "v"
+fmu = "vanderpol.fmu"
+parameters = { label = "first" }
+[[elements]]
+name = "o"
+fmu = "oscillator.fmu"
+[[connections]]
+from = "v.positive"
+to = "o.kick"
+[output]
+channels = ["v.positive", "v.steps", "o.kicks_seen"]
+"#;
+    let (o, dir) = run("across", text);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&dir.join("timeseries.csv"));
+    let (positive, kicks) = (column(&csv, "v.positive"), column(&csv, "o.kicks_seen"));
+    let mut sum = 0.0;
+    for k in 1..positive.len() {
+        sum += positive[k];
+        assert_eq!(kicks[k], sum, "row {k}");
+    }
+    assert!(positive.contains(&0.0) && positive.contains(&1.0), "x0 changes sign within 4 s");
+    assert_eq!(column(&csv, "v.steps"), (0..401).map(f64::from).collect::<Vec<_>>());
+
+    // Strings through the importer: a parameter set before initialization, read back as output.
+    let cache = out.join("cache");
+    let mut fmu = lash_fmi::import::ImportedFmu::open(&out.join("oscillator.fmu"), &cache, "o").unwrap();
+    use lash_core::Subsystem;
+    let find = |name: &str| fmu.variables().iter().find(|v| v.name == name).unwrap().value_reference;
+    let (label, label_out) = (find("label"), find("label_out"));
+    fmu.setup(lash_core::Ticks::ZERO, None).unwrap();
+    fmu.set_string(label, "spring–mass").unwrap();
+    fmu.initialize().unwrap();
+    assert_eq!(fmu.get_string(label_out).unwrap(), "spring–mass");
+    assert!(fmu.get_f64(&[label_out], &mut [0.0]).unwrap_err().to_string().contains("String"));
+
+    // Values that do not fit their type: exit 2, naming the field and the type.
+    for (parameters, channels, expected) in [
+        ("gain = 300", r#""o.x""#, "elements[0].parameters.gain: 300 is not a valid UInt8"),
+        ("gear = 1.5", r#""o.x""#, "elements[0].parameters.gear: 1.5 is not a valid Enumeration"),
+        ("label = 3", r#""o.x""#, "elements[0].parameters.label: a String parameter takes text"),
+        ("k = \"stiff\"", r#""o.x""#, "elements[0].parameters.k: a Float64 parameter takes a number, not text"),
+        ("", r#""o.label_out""#, "output.channels[0]: o.label_out is a String variable"),
+    ] {
+        let (o, _) = run("bad-type", &system(parameters, channels));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{parameters}: {err}");
+        assert!(err.contains(expected), "expected {expected:?} in: {err}");
+    }
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -439,10 +439,18 @@ pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
         };
         let h = Ticks::from_seconds(step)
             .map_err(|e| CliError::Input(format!("{}: stepSize {step}: {e}", path.display())))?;
-        let outputs: Vec<u32> =
-            fmu.variables().iter().filter(|v| v.causality == Causality::Output).map(|v| v.value_reference).collect();
-        let n_values: usize =
-            fmu.variables().iter().filter(|v| v.causality == Causality::Output).map(|v| v.len()).sum();
+        let outputs: Vec<u32> = fmu
+            .variables()
+            .iter()
+            .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
+            .map(|v| v.value_reference)
+            .collect();
+        let n_values: usize = fmu
+            .variables()
+            .iter()
+            .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
+            .map(|v| v.len())
+            .sum();
         let mut values = vec![0.0; n_values];
         fmu.setup(Ticks::ZERO, None).map_err(fail)?;
         fmu.initialize().map_err(fail)?;

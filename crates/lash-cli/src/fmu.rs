@@ -68,6 +68,18 @@ pub fn pack_quiet(out: &Path) -> Result<Vec<PathBuf>, CliError> {
         .collect()
 }
 
+/// "3 Float64, 1 Int32, …": the variables by kind, in the order kinds first appear.
+fn kinds(variables: &[lash_core::Variable]) -> String {
+    let mut counts: Vec<(lash_core::ValueKind, usize)> = Vec::new();
+    for v in variables {
+        match counts.iter_mut().find(|(k, _)| *k == v.kind) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((v.kind, 1)),
+        }
+    }
+    counts.iter().map(|(k, n)| format!("{n} {}", k.name())).collect::<Vec<_>>().join(", ")
+}
+
 /// `lash fmu check <file.fmu>`: structure (archive, description, binary, symbols, token) and a
 /// smoke simulation of 10 steps of the default step size with the start values.
 pub fn check(fmu: &Path) -> Result<(), CliError> {
@@ -85,7 +97,7 @@ pub fn check(fmu: &Path) -> Result<(), CliError> {
         let outputs: Vec<u32> = d
             .variables
             .iter()
-            .filter(|v| v.causality == lash_core::Causality::Output)
+            .filter(|v| v.causality == lash_core::Causality::Output && v.kind.is_numeric())
             .map(|v| v.value_reference)
             .collect();
         let n: usize = d.variables.iter().filter(|v| outputs.contains(&v.value_reference)).map(|v| v.len()).sum();
@@ -107,11 +119,12 @@ pub fn check(fmu: &Path) -> Result<(), CliError> {
         }
         imported.terminate().map_err(fail)?;
         Ok(format!(
-            "{}: FMI {} co-simulation, model {:?}, {} variables ({} outputs); symbols, token and 10 steps of 1e-5 s: OK{stopped}",
+            "{}: FMI {} co-simulation, model {:?}, {} variables ({}; {} numeric outputs read); symbols, token and 10 steps of 1e-5 s: OK{stopped}",
             fmu.display(),
             d.fmi_version,
             d.model_name,
             d.variables.len(),
+            kinds(&d.variables),
             outputs.len()
         ))
     })();

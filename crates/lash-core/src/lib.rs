@@ -10,7 +10,7 @@ mod time;
 
 pub use problems::{Problem, Problems};
 pub use subsystem::{
-    Causality, Coupling, Phase, SavedState, StepOutcome, StopReason, Subsystem, SubsystemError, ValueReference,
-    Variability, Variable, VariableTable, check_variable_table,
+    Causality, Coupling, Phase, SavedState, StepOutcome, StopReason, Subsystem, SubsystemError, ValueKind,
+    ValueReference, Variability, Variable, VariableTable, check_variable_table,
 };
 pub use time::{Ticks, TicksError};

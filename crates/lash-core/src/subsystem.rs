@@ -43,6 +43,144 @@ pub enum Variability {
     Continuous,
 }
 
+/// The type of a variable's values (FMI 3.0's types; FMI 2.0's Real, Integer, Boolean, String and
+/// Enumeration map to Float64, Int32, Boolean, String and Enumeration).
+///
+/// Numeric kinds (every kind but String, Binary and Clock) are read and written through
+/// [`Subsystem::get_f64`] / [`Subsystem::set_f64`]: a value converts exactly to `f64` (integers up
+/// to 2⁵³ in magnitude; a Boolean is 0 or 1; an Enumeration its integer), and a value written must
+/// be representable in the kind ([`ValueKind::check`]). Strings go through
+/// [`Subsystem::get_string`] / [`Subsystem::set_string`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
+pub enum ValueKind {
+    /// 64-bit float (FMI 2.0 Real).
+    #[default]
+    Float64,
+    /// 32-bit float.
+    Float32,
+    /// 8-bit signed integer.
+    Int8,
+    /// 8-bit unsigned integer.
+    UInt8,
+    /// 16-bit signed integer.
+    Int16,
+    /// 16-bit unsigned integer.
+    UInt16,
+    /// 32-bit signed integer (FMI 2.0 Integer).
+    Int32,
+    /// 32-bit unsigned integer.
+    UInt32,
+    /// 64-bit signed integer.
+    Int64,
+    /// 64-bit unsigned integer.
+    UInt64,
+    /// Boolean (0 or 1 as a number).
+    Boolean,
+    /// Enumeration (its integer value; FMI 2.0 32-bit, FMI 3.0 64-bit).
+    Enumeration,
+    /// Text.
+    String,
+    /// Bytes (FMI 3.0): listed, not read or written.
+    Binary,
+    /// Clock (FMI 3.0, scheduled or event mode): listed, not read or written.
+    Clock,
+}
+
+impl ValueKind {
+    /// True for the kinds read and written as numbers.
+    pub fn is_numeric(self) -> bool {
+        !matches!(self, ValueKind::String | ValueKind::Binary | ValueKind::Clock)
+    }
+
+    /// The FMI 3.0 name of the type.
+    pub fn name(self) -> &'static str {
+        match self {
+            ValueKind::Float64 => "Float64",
+            ValueKind::Float32 => "Float32",
+            ValueKind::Int8 => "Int8",
+            ValueKind::UInt8 => "UInt8",
+            ValueKind::Int16 => "Int16",
+            ValueKind::UInt16 => "UInt16",
+            ValueKind::Int32 => "Int32",
+            ValueKind::UInt32 => "UInt32",
+            ValueKind::Int64 => "Int64",
+            ValueKind::UInt64 => "UInt64",
+            ValueKind::Boolean => "Boolean",
+            ValueKind::Enumeration => "Enumeration",
+            ValueKind::String => "String",
+            ValueKind::Binary => "Binary",
+            ValueKind::Clock => "Clock",
+        }
+    }
+
+    /// The kind named `name` (FMI 3.0 type element, or FMI 2.0 type element with `fmi2 = true`).
+    pub fn from_element(name: &str, fmi2: bool) -> Option<Self> {
+        Some(match name {
+            "Real" if fmi2 => ValueKind::Float64,
+            "Integer" if fmi2 => ValueKind::Int32,
+            "Float64" => ValueKind::Float64,
+            "Float32" => ValueKind::Float32,
+            "Int8" => ValueKind::Int8,
+            "UInt8" => ValueKind::UInt8,
+            "Int16" => ValueKind::Int16,
+            "UInt16" => ValueKind::UInt16,
+            "Int32" => ValueKind::Int32,
+            "UInt32" => ValueKind::UInt32,
+            "Int64" => ValueKind::Int64,
+            "UInt64" => ValueKind::UInt64,
+            "Boolean" => ValueKind::Boolean,
+            "Enumeration" => ValueKind::Enumeration,
+            "String" => ValueKind::String,
+            "Binary" => ValueKind::Binary,
+            "Clock" => ValueKind::Clock,
+            _ => return None,
+        })
+    }
+
+    /// Whether `v` can be written to a variable of this kind without loss: finite, and for
+    /// integer kinds integral and in range (Booleans 0 or 1); the error says why not.
+    pub fn check(self, v: f64) -> Result<(), String> {
+        let integral = |lo: f64, hi: f64| {
+            if v.fract() != 0.0 || !(lo..=hi).contains(&v) {
+                Err(format!("{v} is not a valid {} (an integer in [{lo}, {hi}])", self.name()))
+            } else {
+                Ok(())
+            }
+        };
+        match self {
+            _ if v.is_nan() => Err(format!("NaN is not a {}", self.name())),
+            ValueKind::Float64 => Ok(()),
+            ValueKind::Float32 => {
+                if v.is_finite() && (v as f32).is_infinite() {
+                    Err(format!("{v} is out of the Float32 range"))
+                } else {
+                    Ok(())
+                }
+            }
+            ValueKind::Int8 => integral(-128.0, 127.0),
+            ValueKind::UInt8 => integral(0.0, 255.0),
+            ValueKind::Int16 => integral(-32768.0, 32767.0),
+            ValueKind::UInt16 => integral(0.0, 65535.0),
+            ValueKind::Int32 => integral(-2147483648.0, 2147483647.0),
+            ValueKind::UInt32 => integral(0.0, 4294967295.0),
+            // Integers beyond 2⁵³ are not all representable in f64: the exact range is refused
+            // beyond it rather than rounded silently.
+            ValueKind::Int64 | ValueKind::Enumeration => integral(-9007199254740992.0, 9007199254740992.0),
+            ValueKind::UInt64 => integral(0.0, 9007199254740992.0),
+            ValueKind::Boolean => {
+                if v == 0.0 || v == 1.0 {
+                    Ok(())
+                } else {
+                    Err(format!("{v} is not a Boolean (0 or 1)"))
+                }
+            }
+            ValueKind::String | ValueKind::Binary | ValueKind::Clock => {
+                Err(format!("a {} variable takes no number", self.name()))
+            }
+        }
+    }
+}
+
 /// The description of one variable.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Variable {
@@ -60,8 +198,10 @@ pub struct Variable {
     pub description: String,
     /// Array dimensions, empty for a scalar (`[2, 2]` for M̃). Values are flattened row-major.
     pub shape: Vec<usize>,
-    /// Start value(s), one per element.
+    /// Start value(s), one per element (numeric kinds).
     pub start: Vec<f64>,
+    /// The type of its values.
+    pub kind: ValueKind,
 }
 
 impl Variable {
@@ -112,6 +252,7 @@ impl VariableTable {
             description: description.to_string(),
             shape: shape.to_vec(),
             start,
+            kind: ValueKind::Float64,
         });
         vr
     }
@@ -305,6 +446,17 @@ pub trait Subsystem: Send {
     /// Returns to a snapshot taken from this subsystem.
     fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError>;
 
+    /// Reads a String variable.
+    fn get_string(&self, vr: ValueReference) -> Result<String, SubsystemError> {
+        Err(SubsystemError::Other(format!("{}: value reference {vr}: no String variables", self.name())))
+    }
+
+    /// Writes a String variable (a parameter before initialization, or an input).
+    fn set_string(&mut self, vr: ValueReference, value: &str) -> Result<(), SubsystemError> {
+        let _ = value;
+        Err(SubsystemError::Other(format!("{}: value reference {vr}: no String variables", self.name())))
+    }
+
     /// Ends the run (FMI `terminate`).
     fn terminate(&mut self) -> Result<(), SubsystemError> {
         Ok(())
@@ -390,6 +542,36 @@ mod tests {
         assert_eq!(element_count(t.variables(), &[1, 0, 1]).unwrap(), 8);
         assert_eq!(element_count(t.variables(), &[2]), Err(SubsystemError::UnknownValueReference(2)));
         assert_eq!(find_variable(t.variables(), "effective_force").unwrap().value_reference, 1);
+    }
+
+    #[test]
+    fn value_kinds_accept_exactly_the_values_they_can_hold() {
+        use ValueKind::*;
+        for (kind, ok, bad) in [
+            (Int8, [-128.0, 127.0], [128.0, 0.5]),
+            (UInt8, [0.0, 255.0], [-1.0, 256.0]),
+            (Int16, [-32768.0, 32767.0], [32768.0, 1.25]),
+            (UInt16, [0.0, 65535.0], [65536.0, -0.5]),
+            (Int32, [-2147483648.0, 2147483647.0], [2147483648.0, 1e10]),
+            (UInt32, [0.0, 4294967295.0], [4294967296.0, -1.0]),
+            (Int64, [-9007199254740992.0, 9007199254740992.0], [1e16, f64::INFINITY]),
+            (UInt64, [0.0, 9007199254740992.0], [-1.0, 1e300]),
+            (Boolean, [0.0, 1.0], [2.0, 0.5]),
+            (Enumeration, [1.0, -3.0], [1.5, f64::NAN]),
+            (Float32, [1e38, -1e-30], [1e39, f64::NAN]),
+        ] {
+            for v in ok {
+                assert!(kind.check(v).is_ok(), "{kind:?} refused {v}");
+            }
+            for v in bad {
+                assert!(kind.check(v).is_err(), "{kind:?} accepted {v}");
+            }
+        }
+        assert!(Float64.check(f64::INFINITY).is_ok() && Float64.check(f64::NAN).is_err());
+        assert!(String.check(0.0).is_err() && !String.is_numeric() && Boolean.is_numeric());
+        assert_eq!(ValueKind::from_element("Integer", true), Some(Int32));
+        assert_eq!(ValueKind::from_element("Integer", false), None);
+        assert_eq!(ValueKind::from_element("UInt16", false), Some(UInt16));
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! unparsable description, a binary for another platform, a library that does not load, a missing
 //! symbol, a refused instantiation (with the FMU's own log messages).
 
-use lash_core::subsystem::{Causality, Variability};
+use lash_core::subsystem::{Causality, ValueKind, Variability};
 use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::path::{Path, PathBuf};
@@ -61,7 +61,8 @@ pub struct Description {
     pub generation_tool: String,
     /// `DefaultExperiment stepSize`, when given.
     pub default_step_size: Option<f64>,
-    /// Float64 (3.0) / Real (2.0) variables; the independent variable is left out.
+    /// The variables of every type, in file order (FMI 3.0 aliases after their variable); the
+    /// independent variable is left out.
     pub variables: Vec<Variable>,
 }
 
@@ -93,17 +94,40 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
         default_step_size: None,
         variables: Vec::new(),
     };
+    // The variable being read (FMI 3.0: a type element; FMI 2.0: a ScalarVariable, whose type
+    // comes from its child element), its aliases, and whether it came from a ScalarVariable.
     let mut current: Option<Variable> = None;
     let mut aliases: Vec<(String, Option<String>)> = Vec::new();
+    let mut scalar = false;
+    let mut in_variables = false;
+    // Inside an FMI 2.0 ScalarVariable element (its children are type elements, not variables).
+    let mut in_scalar = false;
+    let number_list = |s: &str, kind: ValueKind| -> Vec<f64> {
+        s.split_whitespace()
+            .filter_map(|x| match (kind, x) {
+                (ValueKind::Boolean, "true") => Some(1.0),
+                (ValueKind::Boolean, "false") => Some(0.0),
+                _ => x.parse().ok(),
+            })
+            .collect()
+    };
     loop {
         let event = reader.read_event().map_err(|e| format!("XML error at byte {}: {e}", reader.buffer_position()))?;
         let (e, empty) = match &event {
             Event::Start(e) => (e, false),
             Event::Empty(e) => (e, true),
             Event::End(e) => {
-                if matches!(e.name().as_ref(), "Float64" | "ScalarVariable")
-                    && let Some(v) = current.take()
-                {
+                let name = e.name();
+                let name: &str = name.as_ref();
+                let closes =
+                    if scalar { name == "ScalarVariable" } else { ValueKind::from_element(name, false).is_some() };
+                if name == "ModelVariables" {
+                    in_variables = false;
+                }
+                if name == "ScalarVariable" {
+                    in_scalar = false;
+                }
+                if closes && let Some(v) = current.take() {
                     // FMI 3.0 aliases: further names of the same variable (same value reference).
                     let named: Vec<Variable> = aliases
                         .drain(..)
@@ -115,14 +139,19 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                         .collect();
                     d.variables.push(v);
                     d.variables.extend(named);
+                    aliases.clear();
                 }
-                aliases.clear();
                 continue;
             }
             Event::Eof => break,
             _ => continue,
         };
-        match e.name().as_ref() {
+        let element: String = {
+            let name = e.name();
+            let name: &str = name.as_ref();
+            name.to_string()
+        };
+        match element.as_str() {
             "fmiModelDescription" => {
                 d.fmi_version = attr(e, "fmiVersion").unwrap_or_default();
                 d.model_name = attr(e, "modelName").unwrap_or_default();
@@ -135,10 +164,44 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                     .and_then(|s| s.trim().parse::<f64>().ok())
                     .filter(|h| h.is_finite() && *h > 0.0);
             }
-            "Float64" | "ScalarVariable" => {
+            "ModelVariables" => in_variables = !empty,
+            "Dimension" => {
+                if let Some(v) = current.as_mut() {
+                    let n = attr(e, "start")
+                        .and_then(|s| s.trim().parse::<usize>().ok())
+                        .ok_or("a Dimension without a literal start (structural parameters are not supported)")?;
+                    let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
+                    if total.is_none_or(|t| t > MAX_ELEMENTS) {
+                        return Err(format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name));
+                    }
+                    v.shape.push(n);
+                }
+            }
+            "Alias" if current.is_some() => {
+                let name = attr(e, "name").ok_or("an Alias without a name")?;
+                aliases.push((name, attr(e, "description")));
+            }
+            // FMI 2.0: the type element inside a ScalarVariable gives its kind, unit and start.
+            other if scalar && current.is_some() && ValueKind::from_element(other, true).is_some() => {
+                if let (Some(v), Some(kind)) = (current.as_mut(), ValueKind::from_element(other, true)) {
+                    v.kind = kind;
+                    v.unit = attr(e, "unit").unwrap_or_default();
+                    if let Some(start) = attr(e, "start") {
+                        v.start = number_list(&start, kind);
+                    }
+                }
+            }
+            other
+                if in_variables
+                    && !in_scalar
+                    && (other == "ScalarVariable" || ValueKind::from_element(other, false).is_some()) =>
+            {
+                scalar = other == "ScalarVariable";
+                in_scalar = scalar && !empty;
+                let kind = ValueKind::from_element(other, false).unwrap_or(ValueKind::Float64);
                 let causality = match attr(e, "causality").as_deref() {
                     Some("independent") => None,
-                    Some("parameter") => Some(Causality::Parameter),
+                    Some("parameter" | "structuralParameter") => Some(Causality::Parameter),
                     Some("input") => Some(Causality::Input),
                     Some("output") => Some(Causality::Output),
                     _ => Some(Causality::Local),
@@ -159,42 +222,16 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                     unit: attr(e, "unit").unwrap_or_default(),
                     description: attr(e, "description").unwrap_or_default(),
                     shape: Vec::new(),
-                    start: attr(e, "start")
-                        .map(|s| s.split_whitespace().filter_map(|x| x.parse().ok()).collect())
-                        .unwrap_or_default(),
+                    start: attr(e, "start").map(|s| number_list(&s, kind)).unwrap_or_default(),
+                    kind,
                 };
                 if empty {
                     d.variables.push(variable);
                 } else {
                     current = Some(variable);
+                    aliases.clear();
                 }
             }
-            "Dimension" => {
-                if let Some(v) = current.as_mut() {
-                    let n = attr(e, "start")
-                        .and_then(|s| s.trim().parse::<usize>().ok())
-                        .ok_or("a Dimension without a literal start (structural parameters are not supported)")?;
-                    let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
-                    if total.is_none_or(|t| t > MAX_ELEMENTS) {
-                        return Err(format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name));
-                    }
-                    v.shape.push(n);
-                }
-            }
-            "Real" => {
-                // FMI 2.0: the type element inside ScalarVariable carries unit and start.
-                if let Some(v) = current.as_mut() {
-                    v.unit = attr(e, "unit").unwrap_or_default();
-                    if let Some(s) = attr(e, "start").and_then(|s| s.trim().parse().ok()) {
-                        v.start = vec![s];
-                    }
-                }
-            }
-            "Alias" if current.is_some() => {
-                let name = attr(e, "name").ok_or("an Alias without a name")?;
-                aliases.push((name, attr(e, "description")));
-            }
-            "Integer" | "Boolean" | "String" | "Enumeration" => current = None,
             _ => {}
         }
     }
@@ -444,6 +481,143 @@ unsafe extern "C" fn log_message(env: *mut c_void, status: i32, _category: *cons
     }
 }
 
+/// A typed getter of either standard; the values pointer is untyped (every `fmi3GetX` /
+/// `fmi2GetX` has the same shape apart from the element type, and pointers share one ABI).
+#[derive(Clone, Copy)]
+enum RawGet {
+    V3(unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut c_void, usize) -> i32),
+    V2(unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut c_void) -> i32),
+}
+
+/// A typed setter of either standard (see [`RawGet`]).
+#[derive(Clone, Copy)]
+enum RawSet {
+    V3(unsafe extern "C" fn(*mut c_void, *const u32, usize, *const c_void, usize) -> i32),
+    V2(unsafe extern "C" fn(*mut c_void, *const u32, usize, *const c_void) -> i32),
+}
+
+/// One kind's getter and setter with their names (None: the FMU lacks the symbol).
+type Accessors = (ValueKind, &'static str, Option<RawGet>, &'static str, Option<RawSet>);
+
+/// Every kind's accessors, resolved once (a missing one is an error only if a variable of that
+/// kind is read or written).
+struct Typed {
+    accessors: Vec<Accessors>,
+}
+
+impl Typed {
+    fn get(&self, kind: ValueKind) -> Result<(&'static str, RawGet), SubsystemError> {
+        let &(_, name, f, ..) = self.find(kind)?;
+        f.map(|f| (name, f)).ok_or_else(|| SubsystemError::Other(format!("the FMU has no {name}")))
+    }
+
+    fn set(&self, kind: ValueKind) -> Result<(&'static str, RawSet), SubsystemError> {
+        let &(.., name, f) = self.find(kind)?;
+        f.map(|f| (name, f)).ok_or_else(|| SubsystemError::Other(format!("the FMU has no {name}")))
+    }
+
+    fn find(&self, kind: ValueKind) -> Result<&Accessors, SubsystemError> {
+        self.accessors
+            .iter()
+            .find(|a| a.0 == kind)
+            .ok_or_else(|| SubsystemError::Other(format!("{} variables are not read or written by lash", kind.name())))
+    }
+}
+
+/// How one element of a numeric kind is stored in the C arrays of a typed call.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Native {
+    F64,
+    F32,
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    /// FMI 3.0 `fmi3Boolean` (C `bool`, one byte).
+    Bool8,
+}
+
+impl Native {
+    /// The C representation of `kind` in FMI 3.0 (`v3`) or FMI 2.0.
+    fn of(kind: ValueKind, v3: bool) -> Option<Self> {
+        Some(match kind {
+            ValueKind::Float64 => Native::F64,
+            ValueKind::Float32 => Native::F32,
+            ValueKind::Int8 => Native::I8,
+            ValueKind::UInt8 => Native::U8,
+            ValueKind::Int16 => Native::I16,
+            ValueKind::UInt16 => Native::U16,
+            ValueKind::Int32 => Native::I32,
+            ValueKind::UInt32 => Native::U32,
+            ValueKind::Int64 => Native::I64,
+            ValueKind::UInt64 => Native::U64,
+            ValueKind::Boolean if v3 => Native::Bool8,
+            // fmi2Boolean is a C int; FMI 2.0 enumerations are fmi2Integer.
+            ValueKind::Boolean => Native::I32,
+            ValueKind::Enumeration if v3 => Native::I64,
+            ValueKind::Enumeration => Native::I32,
+            ValueKind::String | ValueKind::Binary | ValueKind::Clock => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Native::F64 | Native::I64 | Native::U64 => 8,
+            Native::F32 | Native::I32 | Native::U32 => 4,
+            Native::I16 | Native::U16 => 2,
+            Native::I8 | Native::U8 | Native::Bool8 => 1,
+        }
+    }
+
+    /// The element at the start of `b` (native byte order), as f64.
+    fn read(self, b: &[u8]) -> f64 {
+        macro_rules! get {
+            ($t:ty) => {
+                <$t>::from_ne_bytes(b[..std::mem::size_of::<$t>()].try_into().expect("sized")) as f64
+            };
+        }
+        match self {
+            Native::F64 => get!(f64),
+            Native::F32 => get!(f32),
+            Native::I8 => get!(i8),
+            Native::U8 => get!(u8),
+            Native::I16 => get!(i16),
+            Native::U16 => get!(u16),
+            Native::I32 => get!(i32),
+            Native::U32 => get!(u32),
+            Native::I64 => get!(i64),
+            Native::U64 => get!(u64),
+            Native::Bool8 => f64::from(u8::from(b[0] != 0)),
+        }
+    }
+
+    /// Writes `v` (already checked against the variable's kind) at the start of `b`.
+    fn write(self, v: f64, b: &mut [u8]) {
+        macro_rules! put {
+            ($t:ty) => {
+                b[..std::mem::size_of::<$t>()].copy_from_slice(&(v as $t).to_ne_bytes())
+            };
+        }
+        match self {
+            Native::F64 => put!(f64),
+            Native::F32 => put!(f32),
+            Native::I8 => put!(i8),
+            Native::U8 => put!(u8),
+            Native::I16 => put!(i16),
+            Native::U16 => put!(u16),
+            Native::I32 => put!(i32),
+            Native::U32 => put!(u32),
+            Native::I64 => put!(i64),
+            Native::U64 => put!(u64),
+            Native::Bool8 => b[0] = u8::from(v != 0.0),
+        }
+    }
+}
+
 /// An FMU snapshot, freed with its instance.
 struct FmuState(*mut c_void);
 // SAFETY: an FMU state is an opaque handle owned by one instance, used from one thread at a time.
@@ -459,6 +633,16 @@ pub struct ImportedFmu {
     instance: *mut c_void,
     log: Box<Log>,
     time: Ticks,
+    /// Accessors of every type.
+    typed: Typed,
+    /// True when every variable is Float64: values pass through one batched call.
+    all_float64: bool,
+    /// Per variable, whether it is Float64 (a call naming only those takes the batched path).
+    float64: Vec<bool>,
+    /// Bytes of one typed call (reused).
+    bytes: Mutex<Vec<u8>>,
+    /// Native value references of one typed call (reused).
+    vr_scratch: Mutex<Vec<u32>>,
     /// Every FMU state taken, freed with the instance (FMI has no way to free one from a
     /// `SavedState` alone).
     states: Mutex<Vec<Arc<FmuState>>>,
@@ -485,7 +669,7 @@ fn regroup(scalars: &[Variable]) -> (Vec<Variable>, Vec<Vec<u32>>) {
         let parsed = split(&v.name);
         let joins = match (&parsed, &open, vars.last()) {
             (Some((base, idx)), Some((open_base, max)), Some(last)) => {
-                base == open_base && idx.len() == max.len() && last.causality == v.causality
+                base == open_base && idx.len() == max.len() && last.causality == v.causality && last.kind == v.kind
             }
             _ => false,
         };
@@ -713,6 +897,9 @@ impl ImportedFmu {
             let api = Api::V2 { functions, scalars, scratch: Mutex::new(Vec::new()), _callbacks: callbacks };
             (api, instance, "fmi2Instantiate")
         };
+        let typed = Self::resolve_typed(&library, v3);
+        let float64: Vec<bool> = description.variables.iter().map(|v| v.kind == ValueKind::Float64).collect();
+        let all_float64 = float64.iter().all(|&f| f);
         if instance.is_null() {
             let messages = log.lock().map(|l| l.join("; ")).unwrap_or_default();
             let messages = if messages.is_empty() {
@@ -730,6 +917,11 @@ impl ImportedFmu {
             instance,
             log,
             time: Ticks::ZERO,
+            typed,
+            all_float64,
+            float64,
+            bytes: Mutex::new(Vec::new()),
+            vr_scratch: Mutex::new(Vec::new()),
             states: Mutex::new(Vec::new()),
             _library: library,
         })
@@ -781,6 +973,214 @@ impl ImportedFmu {
             Api::V3 { native, .. } => native.get(vr as usize).copied(),
             Api::V2 { scalars, .. } => scalars.get(vr as usize).and_then(|s| s.first().copied()),
         }
+    }
+
+    /// Every kind's accessors, by their standard names.
+    fn resolve_typed(library: &libloading::Library, v3: bool) -> Typed {
+        type G3 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut c_void, usize) -> i32;
+        type S3 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const c_void, usize) -> i32;
+        type G2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut c_void) -> i32;
+        type S2 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const c_void) -> i32;
+        let kinds3: [(ValueKind, &'static str, &'static str); 13] = [
+            (ValueKind::Float64, "fmi3GetFloat64", "fmi3SetFloat64"),
+            (ValueKind::Float32, "fmi3GetFloat32", "fmi3SetFloat32"),
+            (ValueKind::Int8, "fmi3GetInt8", "fmi3SetInt8"),
+            (ValueKind::UInt8, "fmi3GetUInt8", "fmi3SetUInt8"),
+            (ValueKind::Int16, "fmi3GetInt16", "fmi3SetInt16"),
+            (ValueKind::UInt16, "fmi3GetUInt16", "fmi3SetUInt16"),
+            (ValueKind::Int32, "fmi3GetInt32", "fmi3SetInt32"),
+            (ValueKind::UInt32, "fmi3GetUInt32", "fmi3SetUInt32"),
+            (ValueKind::Int64, "fmi3GetInt64", "fmi3SetInt64"),
+            (ValueKind::UInt64, "fmi3GetUInt64", "fmi3SetUInt64"),
+            (ValueKind::Boolean, "fmi3GetBoolean", "fmi3SetBoolean"),
+            (ValueKind::Enumeration, "fmi3GetInt64", "fmi3SetInt64"),
+            (ValueKind::String, "fmi3GetString", "fmi3SetString"),
+        ];
+        let kinds2: [(ValueKind, &'static str, &'static str); 5] = [
+            (ValueKind::Float64, "fmi2GetReal", "fmi2SetReal"),
+            (ValueKind::Int32, "fmi2GetInteger", "fmi2SetInteger"),
+            (ValueKind::Boolean, "fmi2GetBoolean", "fmi2SetBoolean"),
+            (ValueKind::Enumeration, "fmi2GetInteger", "fmi2SetInteger"),
+            (ValueKind::String, "fmi2GetString", "fmi2SetString"),
+        ];
+        let symbol = |name: &str| -> Option<*const c_void> {
+            let name = format!("{name}\0");
+            // SAFETY: only the address is taken here; it is called with the signature of the
+            // standard's header for that name.
+            unsafe { library.get::<*const c_void>(name.as_bytes()) }.ok().map(|s| *s)
+        };
+        let accessors = if v3 {
+            kinds3
+                .iter()
+                .map(|&(kind, get, set)| {
+                    // SAFETY: the fmi3 typed accessors have the G3/S3 shapes (values pointer untyped).
+                    let g = symbol(get).map(|p| RawGet::V3(unsafe { std::mem::transmute::<*const c_void, G3>(p) }));
+                    // SAFETY: as above.
+                    let s = symbol(set).map(|p| RawSet::V3(unsafe { std::mem::transmute::<*const c_void, S3>(p) }));
+                    (kind, get, g, set, s)
+                })
+                .collect()
+        } else {
+            kinds2
+                .iter()
+                .map(|&(kind, get, set)| {
+                    // SAFETY: the fmi2 typed accessors have the G2/S2 shapes (values pointer untyped).
+                    let g = symbol(get).map(|p| RawGet::V2(unsafe { std::mem::transmute::<*const c_void, G2>(p) }));
+                    // SAFETY: as above.
+                    let s = symbol(set).map(|p| RawSet::V2(unsafe { std::mem::transmute::<*const c_void, S2>(p) }));
+                    (kind, get, g, set, s)
+                })
+                .collect()
+        };
+        Typed { accessors }
+    }
+
+    /// The FMU's own value references of lash's variable `vr` (FMI 2.0: one per element).
+    fn native_refs(&self, vr: ValueReference) -> Result<Vec<u32>, SubsystemError> {
+        match &self.api {
+            Api::V3 { native, .. } => {
+                native.get(vr as usize).map(|&r| vec![r]).ok_or(SubsystemError::UnknownValueReference(vr))
+            }
+            Api::V2 { scalars, .. } => {
+                scalars.get(vr as usize).cloned().ok_or(SubsystemError::UnknownValueReference(vr))
+            }
+        }
+    }
+
+    fn variable(&self, vr: ValueReference) -> Result<&Variable, SubsystemError> {
+        lash_core::subsystem::variable(&self.description.variables, vr).ok_or(SubsystemError::UnknownValueReference(vr))
+    }
+
+    /// True when every referenced variable is Float64 (unknown references are left to the
+    /// batched call, which reports them).
+    fn only_float64(&self, refs: &[ValueReference]) -> bool {
+        self.all_float64 || refs.iter().all(|&r| self.float64.get(r as usize).is_none_or(|&f| f))
+    }
+
+    /// Reads variables of any numeric kind, one typed call each (the path of FMUs that are not
+    /// all Float64).
+    fn get_numeric(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        let poisoned = || SubsystemError::Other("importer scratch poisoned".into());
+        let mut vrs = self.vr_scratch.lock().map_err(|_| poisoned())?;
+        let mut bytes = self.bytes.lock().map_err(|_| poisoned())?;
+        let (mut i, mut at) = (0, 0);
+        // Runs of references of one kind go through one typed call.
+        while i < refs.len() {
+            let kind = self.variable(refs[i])?.kind;
+            let native = self.native_of(refs[i])?;
+            vrs.clear();
+            let mut n = 0;
+            let mut j = i;
+            while j < refs.len() && self.variable(refs[j])?.kind == kind {
+                n += self.variable(refs[j])?.len();
+                self.push_native_refs(refs[j], &mut vrs)?;
+                j += 1;
+            }
+            let count = values.len();
+            let out = values
+                .get_mut(at..at + n)
+                .ok_or_else(|| SubsystemError::BadArguments(format!("{count} values for more elements")))?;
+            bytes.clear();
+            bytes.resize(n * native.size(), 0);
+            let (call, get) = self.typed.get(kind)?;
+            let status = match get {
+                // SAFETY: a live instance; `bytes` holds n elements of the kind's C type.
+                RawGet::V3(f) => unsafe { f(self.instance, vrs.as_ptr(), vrs.len(), bytes.as_mut_ptr().cast(), n) },
+                // SAFETY: as above (FMI 2.0: one scalar per element, vrs.len() == n).
+                RawGet::V2(f) => unsafe { f(self.instance, vrs.as_ptr(), vrs.len(), bytes.as_mut_ptr().cast()) },
+            };
+            self.check(call, status)?;
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = native.read(&bytes[k * native.size()..]);
+            }
+            at += n;
+            i = j;
+        }
+        if at != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {at} elements", values.len())));
+        }
+        Ok(())
+    }
+
+    /// The C representation of variable `vr`'s values, or why it has none.
+    fn native_of(&self, vr: ValueReference) -> Result<Native, SubsystemError> {
+        let var = self.variable(vr)?;
+        Native::of(var.kind, matches!(self.api, Api::V3 { .. })).ok_or_else(|| SubsystemError::BadValue {
+            name: var.name.clone(),
+            problem: format!("is a {} variable, not a number", var.kind.name()),
+        })
+    }
+
+    /// Appends the FMU's own value references of `vr` (FMI 2.0: one per element) to `out`.
+    fn push_native_refs(&self, vr: ValueReference, out: &mut Vec<u32>) -> Result<(), SubsystemError> {
+        match &self.api {
+            Api::V3 { native, .. } => {
+                out.push(*native.get(vr as usize).ok_or(SubsystemError::UnknownValueReference(vr))?)
+            }
+            Api::V2 { scalars, .. } => {
+                out.extend_from_slice(scalars.get(vr as usize).ok_or(SubsystemError::UnknownValueReference(vr))?)
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes variables of any numeric kind, each value checked against its kind.
+    fn set_numeric(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        let mut at = 0;
+        for &r in refs {
+            let var = self.variable(r)?;
+            let native =
+                Native::of(var.kind, matches!(self.api, Api::V3 { .. })).ok_or_else(|| SubsystemError::BadValue {
+                    name: var.name.clone(),
+                    problem: format!("is a {} variable, not a number", var.kind.name()),
+                })?;
+            let n = var.len();
+            let given = values
+                .get(at..at + n)
+                .ok_or_else(|| SubsystemError::BadArguments(format!("{} values for more elements", values.len())))?;
+            let mut bytes = std::mem::take(
+                &mut *self.bytes.lock().map_err(|_| SubsystemError::Other("importer scratch poisoned".into()))?,
+            );
+            bytes.clear();
+            bytes.resize(n * native.size(), 0);
+            for (k, &v) in given.iter().enumerate() {
+                var.kind.check(v).map_err(|problem| SubsystemError::BadValue { name: var.name.clone(), problem })?;
+                native.write(v, &mut bytes[k * native.size()..]);
+            }
+            let vrs = self.native_refs(r)?;
+            let (call, set) = self.typed.set(var.kind)?;
+            let status = match set {
+                // SAFETY: a live instance; `bytes` holds n elements of the kind's C type.
+                RawSet::V3(f) => unsafe { f(self.instance, vrs.as_ptr(), vrs.len(), bytes.as_ptr().cast(), n) },
+                // SAFETY: as above.
+                RawSet::V2(f) => unsafe { f(self.instance, vrs.as_ptr(), vrs.len(), bytes.as_ptr().cast()) },
+            };
+            if let Ok(mut scratch) = self.bytes.lock() {
+                *scratch = bytes;
+            }
+            self.check(call, status)?;
+            at += n;
+        }
+        if at != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {at} elements", values.len())));
+        }
+        Ok(())
+    }
+
+    /// A scalar String variable's native reference, or why not.
+    fn string_ref(&self, vr: ValueReference) -> Result<u32, SubsystemError> {
+        let var = self.variable(vr)?;
+        if var.kind != ValueKind::String || var.len() != 1 {
+            return Err(SubsystemError::BadValue {
+                name: var.name.clone(),
+                problem: format!(
+                    "is a {} variable with {} element(s), not a String scalar",
+                    var.kind.name(),
+                    var.len()
+                ),
+            });
+        }
+        Ok(self.native_refs(vr)?[0])
     }
 
     /// FMI 2.0: the scalar value references of `refs`, into the scratch buffer; calls `f` with
@@ -861,6 +1261,9 @@ impl Subsystem for ImportedFmu {
     }
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        if !self.only_float64(refs) {
+            return self.set_numeric(refs, values);
+        }
         match &self.api {
             Api::V3 { functions: f, native, identity, scratch } => {
                 let instance = self.instance;
@@ -882,6 +1285,9 @@ impl Subsystem for ImportedFmu {
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        if !self.only_float64(refs) {
+            return self.get_numeric(refs, values);
+        }
         match &self.api {
             Api::V3 { functions: f, native, identity, scratch } => {
                 let n = values.len();
@@ -996,6 +1402,43 @@ impl Subsystem for ImportedFmu {
         Ok(())
     }
 
+    fn get_string(&self, vr: ValueReference) -> Result<String, SubsystemError> {
+        let native = self.string_ref(vr)?;
+        let (call, get) = self.typed.get(ValueKind::String)?;
+        let mut text: *const c_char = std::ptr::null();
+        let out = (&mut text as *mut *const c_char).cast::<c_void>();
+        let status = match get {
+            // SAFETY: a live instance; one string pointer written by the FMU.
+            RawGet::V3(f) => unsafe { f(self.instance, &native, 1, out, 1) },
+            // SAFETY: as above.
+            RawGet::V2(f) => unsafe { f(self.instance, &native, 1, out) },
+        };
+        self.check(call, status)?;
+        if text.is_null() {
+            return Err(SubsystemError::Other(format!("{}: {call} returned a null string", self.name)));
+        }
+        // SAFETY: a NUL-terminated string owned by the FMU, valid until its next call.
+        Ok(unsafe { CStr::from_ptr(text) }.to_string_lossy().into_owned())
+    }
+
+    fn set_string(&mut self, vr: ValueReference, value: &str) -> Result<(), SubsystemError> {
+        let native = self.string_ref(vr)?;
+        let text = CString::new(value).map_err(|_| SubsystemError::BadValue {
+            name: self.variable(vr).map(|v| v.name.clone()).unwrap_or_default(),
+            problem: "a string with a NUL character".into(),
+        })?;
+        let (call, set) = self.typed.set(ValueKind::String)?;
+        let pointer = text.as_ptr();
+        let values = (&pointer as *const *const c_char).cast::<c_void>();
+        let status = match set {
+            // SAFETY: a live instance; one string that outlives the call.
+            RawSet::V3(f) => unsafe { f(self.instance, &native, 1, values, 1) },
+            // SAFETY: as above.
+            RawSet::V2(f) => unsafe { f(self.instance, &native, 1, values) },
+        };
+        self.check(call, status)
+    }
+
     fn terminate(&mut self) -> Result<(), SubsystemError> {
         let (terminate, call) = match &self.api {
             Api::V3 { functions: f, .. } => (f.terminate, "fmi3Terminate"),
@@ -1021,6 +1464,7 @@ mod tests {
             description: String::new(),
             shape: Vec::new(),
             start: vec![vr as f64],
+            kind: ValueKind::Float64,
         }
     }
 

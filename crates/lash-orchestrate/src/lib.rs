@@ -253,6 +253,12 @@ fn lookup(
         subsystem: who.to_string(),
         problem: format!("has no variable {name:?}"),
     })?;
+    if v.kind != lash_core::ValueKind::Float64 {
+        return Err(MasterError::Variables {
+            subsystem: who.to_string(),
+            problem: format!("variable {name:?} is {}, the coupling needs Float64", v.kind.name()),
+        });
+    }
     if v.causality != causality {
         return Err(MasterError::Variables {
             subsystem: who.to_string(),

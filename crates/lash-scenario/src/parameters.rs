@@ -188,6 +188,7 @@ impl<S: Subsystem> WithParameters<S> {
                 description: format!("scenario field {}", p.field()),
                 shape: if p.array { vec![p.paths.len()] } else { vec![] },
                 start: p.start.clone(),
+                kind: lash_core::ValueKind::Float64,
             });
         }
         offsets.push(values.len());

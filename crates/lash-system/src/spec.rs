@@ -119,22 +119,29 @@ fn one() -> u32 {
     1
 }
 
-/// A parameter value: a scalar or the elements of an array.
+/// A parameter value: a number, a Boolean, the elements of an array, or text (for a String
+/// variable).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(untagged)]
 pub enum ParameterValue {
-    /// A scalar.
+    /// A scalar (any numeric variable: integers, enumerations and Booleans take whole numbers).
     Scalar(f64),
+    /// A Boolean (`true` = 1, `false` = 0).
+    Boolean(bool),
     /// An array's elements (row-major).
     Array(Vec<f64>),
+    /// Text, for a String variable.
+    Text(String),
 }
 
 impl ParameterValue {
-    /// The value(s) as a slice.
-    pub fn values(&self) -> Vec<f64> {
+    /// The value(s) as numbers; `None` for text.
+    pub fn values(&self) -> Option<Vec<f64>> {
         match self {
-            ParameterValue::Scalar(v) => vec![*v],
-            ParameterValue::Array(v) => v.clone(),
+            ParameterValue::Scalar(v) => Some(vec![*v]),
+            ParameterValue::Boolean(b) => Some(vec![f64::from(u8::from(*b))]),
+            ParameterValue::Array(v) => Some(v.clone()),
+            ParameterValue::Text(_) => None,
         }
     }
 }

@@ -1,7 +1,7 @@
 //! A loaded system and its master.
 
 use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
-use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueKind, ValueReference, Variable};
 use lash_orchestrate::{InterfaceMaster, MasterError, MasterOptions, Observer, Signal, advance};
 use std::path::Path;
 
@@ -27,17 +27,26 @@ pub enum SystemError {
     Output(String),
 }
 
+/// A parameter's value as it will be set: numbers (any numeric kind) or text (a String).
+#[derive(Debug, Clone)]
+enum Setting {
+    Numbers(Vec<f64>),
+    Text(String),
+}
+
 struct Element {
     name: String,
     model: Box<dyn Subsystem>,
     decimation: i64,
-    parameters: Vec<(ValueReference, String, Vec<f64>)>,
+    parameters: Vec<(ValueReference, String, Setting)>,
 }
 
 struct Connection {
     from: (usize, ValueReference),
     to: (usize, ValueReference),
     buffer: Vec<f64>,
+    /// A String connection: the text passes through `text`.
+    text: Option<String>,
 }
 
 /// A run that a subsystem ended before the stop time, without an error.
@@ -184,22 +193,42 @@ impl System {
                         .collect();
                     bad(format!("{field}.parameters.{pname}: no such parameter (parameters and inputs: {names:?})"))
                 })?;
-                let values = value.values();
-                if values.len() != v.len() {
-                    return Err(bad(format!(
-                        "{field}.parameters.{pname}: {} value(s) for {} element(s)",
-                        values.len(),
-                        v.len()
-                    )));
-                }
-                parameters.push((v.value_reference, pname.clone(), values));
+                let setting = match (v.kind, value.values()) {
+                    (ValueKind::String, None) => match value {
+                        crate::spec::ParameterValue::Text(t) => Setting::Text(t.clone()),
+                        _ => unreachable!("only text has no numbers"),
+                    },
+                    (ValueKind::String, Some(_)) => {
+                        return Err(bad(format!("{field}.parameters.{pname}: a String parameter takes text")));
+                    }
+                    (kind, None) => {
+                        return Err(bad(format!(
+                            "{field}.parameters.{pname}: a {} parameter takes a number, not text",
+                            kind.name()
+                        )));
+                    }
+                    (kind, Some(values)) => {
+                        if values.len() != v.len() {
+                            return Err(bad(format!(
+                                "{field}.parameters.{pname}: {} value(s) for {} element(s)",
+                                values.len(),
+                                v.len()
+                            )));
+                        }
+                        if let Some(problem) = values.iter().find_map(|&x| kind.check(x).err()) {
+                            return Err(bad(format!("{field}.parameters.{pname}: {problem}")));
+                        }
+                        Setting::Numbers(values)
+                    }
+                };
+                parameters.push((v.value_reference, pname.clone(), setting));
             }
             elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation), parameters });
         }
         let lookup = |field: &str,
                       name: &str,
                       want: &[Causality]|
-         -> Result<(usize, ValueReference, usize), SystemError> {
+         -> Result<(usize, ValueReference, usize, ValueKind), SystemError> {
             let (el, var) = split(field, name)?;
             let k =
                 elements.iter().position(|e| e.name == el).ok_or_else(|| bad(format!("{field}: no element {el:?}")))?;
@@ -216,7 +245,7 @@ impl System {
             if !want.contains(&v.causality) {
                 return Err(bad(format!("{field}: {name} is {:?}, expected {want:?}", v.causality)));
             }
-            Ok((k, v.value_reference, v.len()))
+            Ok((k, v.value_reference, v.len(), v.kind))
         };
         if spec.algorithm == Algorithm::Interface {
             let plan = interface_plan(spec, &elements, start, stop, step, interval)?;
@@ -257,10 +286,25 @@ impl System {
                     c.from, from.2, c.to, to.2
                 )));
             }
+            // Numbers connect across numeric kinds (the value passes as f64 and must fit the
+            // input's kind when set); Strings connect to Strings; Binary and Clock not at all.
+            let text = match (from.3, to.3) {
+                (a, b) if a.is_numeric() && b.is_numeric() => None,
+                (ValueKind::String, ValueKind::String) if from.2 == 1 => Some(String::new()),
+                (a, b) => {
+                    return Err(bad(format!(
+                        "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers and String scalars to String scalars",
+                        c.from,
+                        a.name(),
+                        c.to,
+                        b.name()
+                    )));
+                }
+            };
             if connections.iter().any(|x: &Connection| x.to == (to.0, to.1)) {
                 return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
             }
-            connections.push(Connection { from: (from.0, from.1), to: (to.0, to.1), buffer: vec![0.0; from.2] });
+            connections.push(Connection { from: (from.0, from.1), to: (to.0, to.1), buffer: vec![0.0; from.2], text });
         }
         let mut channels = Vec::new();
         let mut header = vec!["time [s]".to_string()];
@@ -274,19 +318,31 @@ impl System {
             channels.push((k, v.value_reference, v.len()));
         };
         if spec.output.channels.is_empty() {
+            // Every numeric output (String, Binary and Clock outputs are not recorded).
             for k in 0..elements.len() {
-                for v in elements[k].model.variables().iter().filter(|v| v.causality == Causality::Output) {
+                for v in elements[k]
+                    .model
+                    .variables()
+                    .iter()
+                    .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
+                {
                     add(k, v, &mut header);
                 }
             }
         } else {
             for (i, name) in spec.output.channels.iter().enumerate() {
                 let field = format!("output.channels[{i}]");
-                let (k, vr, _) = lookup(
+                let (k, vr, _, kind) = lookup(
                     &field,
                     name,
                     &[Causality::Output, Causality::Local, Causality::Parameter, Causality::Input],
                 )?;
+                if !kind.is_numeric() {
+                    return Err(bad(format!(
+                        "{field}: {name} is a {} variable; the time series records numbers only",
+                        kind.name()
+                    )));
+                }
                 let v = lash_core::subsystem::variable(elements[k].model.variables(), vr)
                     .ok_or_else(|| bad(format!("{field}: {name} has no variable for value reference {vr}")))?
                     .clone();
@@ -344,11 +400,19 @@ impl System {
                 return Err(self.fail(k, start, e));
             }
             for p in 0..self.elements[k].parameters.len() {
-                let (vr, name, values) = self.elements[k].parameters[p].clone();
-                if let Err(e) = self.elements[k].model.set_f64(&[vr], &values) {
+                let (vr, name, setting) = self.elements[k].parameters[p].clone();
+                let result = match &setting {
+                    Setting::Numbers(values) => self.elements[k].model.set_f64(&[vr], values),
+                    Setting::Text(text) => self.elements[k].model.set_string(vr, text),
+                };
+                if let Err(e) = result {
                     // A refused parameter value is the user's to fix (exit 2), named by its field.
+                    let shown = match &setting {
+                        Setting::Numbers(v) => format!("{v:?}"),
+                        Setting::Text(t) => format!("{t:?}"),
+                    };
                     return Err(SystemError::Input(format!(
-                        "elements[{k}].parameters.{name} (element {:?}): {values:?} refused: {e}",
+                        "elements[{k}].parameters.{name} (element {:?}): {shown} refused: {e}",
                         self.elements[k].name
                     )));
                 }
@@ -364,8 +428,12 @@ impl System {
             if only_to.is_some_and(|k| k != to.0) {
                 continue;
             }
-            let Connection { buffer, .. } = &mut self.connections[c];
-            if let Err(e) = self.elements[from.0].model.get_f64(&[from.1], buffer) {
+            let Connection { buffer, text, .. } = &mut self.connections[c];
+            let result = match text {
+                Some(text) => self.elements[from.0].model.get_string(from.1).map(|s| *text = s),
+                None => self.elements[from.0].model.get_f64(&[from.1], buffer),
+            };
+            if let Err(e) = result {
                 return Err(self.fail(from.0, t, e));
             }
         }
@@ -379,8 +447,12 @@ impl System {
             if to.0 != k {
                 continue;
             }
-            let Connection { buffer, .. } = &self.connections[c];
-            if let Err(e) = self.elements[k].model.set_f64(&[to.1], buffer) {
+            let Connection { buffer, text, .. } = &self.connections[c];
+            let result = match text {
+                Some(text) => self.elements[k].model.set_string(to.1, text),
+                None => self.elements[k].model.set_f64(&[to.1], buffer),
+            };
+            if let Err(e) = result {
                 return Err(self.fail(k, t, e));
             }
         }

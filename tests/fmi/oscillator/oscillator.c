@@ -4,7 +4,13 @@
  * of order and aliased (x and position share 1003), so a master that confuses a value reference
  * with a position in the variable list reads the wrong variable. Two parameters exercise the
  * step outcomes: stop_at (terminateSimulation once reached) and return_early_at (earlyReturn
- * with lastSuccessfulTime at that time). Self-contained: the fmi3 types are declared here. */
+ * with lastSuccessfulTime at that time). Variables of other types than Float64 exercise the
+ * importer's typed access: steps (Int32 output: doStep calls), moving (Boolean output:
+ * |v| > 0.5), ticks (Int64 output: internal solver steps), x32 (Float32 output), kicks_seen
+ * (Int32 output: the sum of the kick input over the steps), kick (Int32 input, added to the
+ * force), gain (UInt8 parameter, multiplies the force input), gear (Enumeration parameter,
+ * multiplies k), label (String parameter, echoed by the String output label_out).
+ * Self-contained: the fmi3 types are declared here. */
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -26,9 +32,15 @@ typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3
 #define SOLVER_STEP 1e-3
 
 enum { VR_X = 1003, VR_V = 17, VR_ENERGY = 2, VR_K = 5, VR_FORCE = 3, VR_STOP = 99, VR_EARLY = 98, VR_TIME = 0 };
+enum { VR_STEPS = 40, VR_MOVING = 41, VR_TICKS = 44, VR_X32 = 46, VR_KICKS = 48, VR_KICK = 47, VR_GAIN = 42,
+       VR_GEAR = 45, VR_LABEL = 43, VR_LABEL_OUT = 49 };
 
 typedef struct {
     double x, v, k, force, stop_at, early_at, time;
+    int32_t steps, kick, kicks_seen;
+    int64_t ticks, gear;
+    uint8_t gain;
+    char label[64];
     int initialized;
     fmi3InstanceEnvironment env;
     fmi3LogMessageCallback log;
@@ -67,6 +79,8 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
     Model *m = calloc(1, sizeof(Model));
     if (!m) return NULL;
     m->x = 1.0; m->k = 4.0; m->stop_at = 1e9; m->early_at = 1e9;
+    m->gain = 1; m->gear = 1;
+    strcpy(m->label, "oscillator");
     m->env = env; m->log = log;
     return m;
 }
@@ -100,6 +114,8 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     Model *m = c;
     if (!m) return fmi3Error;
     m->x = 1.0; m->v = 0.0; m->k = 4.0; m->force = 0.0; m->stop_at = 1e9; m->early_at = 1e9;
+    m->steps = 0; m->kick = 0; m->kicks_seen = 0; m->ticks = 0; m->gear = 1; m->gain = 1;
+    strcpy(m->label, "oscillator");
     m->time = 0.0; m->initialized = 0;
     return fmi3OK;
 }
@@ -146,14 +162,104 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     int returning_early = m->early_at > t && m->early_at < end - 1e-12;
     if (returning_early) end = m->early_at;
     long n = (long)((end - t) / SOLVER_STEP + 0.5);
+    double stiffness = m->k * (double)m->gear, force = m->force * m->gain + m->kick;
     for (long k = 0; k < n; k++) {
-        m->v += SOLVER_STEP * (m->force - m->k * m->x);
+        m->v += SOLVER_STEP * (force - stiffness * m->x);
         m->x += SOLVER_STEP * m->v;
     }
+    m->ticks += n;
+    m->steps += 1;
+    m->kicks_seen += m->kick;
     m->time = end;
     *last = end;
     if (returning_early) *early = true;
     if (end >= m->stop_at - 1e-12) *terminate = true;
+    return fmi3OK;
+}
+
+
+#define CHECK(n, nv) if (!m || (nv) != (n) || ((n) && (!vr || !value))) return fmi3Error
+fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, int32_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_STEPS) value[i] = m->steps;
+        else if (vr[i] == VR_KICKS) value[i] = m->kicks_seen;
+        else if (vr[i] == VR_KICK) value[i] = m->kick;
+        else { fail(m, "fmi3GetInt32: not an Int32 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const int32_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_KICK) m->kick = value[i];
+        else { fail(m, "fmi3SetInt32: only kick can be set"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, int64_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_TICKS) value[i] = m->ticks;
+        else if (vr[i] == VR_GEAR) value[i] = m->gear;
+        else { fail(m, "fmi3GetInt64: not an Int64 or Enumeration variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const int64_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_GEAR && !m->initialized && (value[i] == 1 || value[i] == 2)) m->gear = value[i];
+        else { fail(m, "fmi3SetInt64: gear (1 or 2) can be set before initialization"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetUInt8(fmi3Instance c, const fmi3ValueReference vr[], size_t n, uint8_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_GAIN) value[i] = m->gain;
+        else { fail(m, "fmi3GetUInt8: not a UInt8 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetUInt8(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const uint8_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_GAIN && !m->initialized) m->gain = value[i];
+        else { fail(m, "fmi3SetUInt8: gain can be set before initialization"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, bool value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_MOVING) value[i] = fabs(m->v) > 0.5;
+        else { fail(m, "fmi3GetBoolean: not a Boolean variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetFloat32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, float value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_X32) value[i] = (float)m->x;
+        else { fail(m, "fmi3GetFloat32: not a Float32 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetString(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3String value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_LABEL || vr[i] == VR_LABEL_OUT) value[i] = m->label;
+        else { fail(m, "fmi3GetString: not a String variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetString(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3String value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_LABEL && !m->initialized && value[i] && strlen(value[i]) < sizeof m->label) strcpy(m->label, value[i]);
+        else { fail(m, "fmi3SetString: label (under 64 bytes) can be set before initialization"); return fmi3Error; }
+    }
     return fmi3OK;
 }
 
@@ -179,13 +285,13 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) {
 /* The rest of fmi3Functions.h: not supported, answered with fmi3Error (argument lists are not
  * read, so they are declared without parameters). */
 #define UNSUPPORTED(name) fmi3Status name() { return fmi3Error; }
-UNSUPPORTED(fmi3EnterEventMode) UNSUPPORTED(fmi3GetFloat32) UNSUPPORTED(fmi3GetInt8) UNSUPPORTED(fmi3GetUInt8)
-UNSUPPORTED(fmi3GetInt16) UNSUPPORTED(fmi3GetUInt16) UNSUPPORTED(fmi3GetInt32) UNSUPPORTED(fmi3GetUInt32)
-UNSUPPORTED(fmi3GetInt64) UNSUPPORTED(fmi3GetUInt64) UNSUPPORTED(fmi3GetBoolean) UNSUPPORTED(fmi3GetString)
+UNSUPPORTED(fmi3EnterEventMode) UNSUPPORTED(fmi3GetInt8) 
+UNSUPPORTED(fmi3GetInt16) UNSUPPORTED(fmi3GetUInt16) UNSUPPORTED(fmi3GetUInt32)
+UNSUPPORTED(fmi3GetUInt64) 
 UNSUPPORTED(fmi3GetBinary) UNSUPPORTED(fmi3GetClock) UNSUPPORTED(fmi3SetFloat32) UNSUPPORTED(fmi3SetInt8)
-UNSUPPORTED(fmi3SetUInt8) UNSUPPORTED(fmi3SetInt16) UNSUPPORTED(fmi3SetUInt16) UNSUPPORTED(fmi3SetInt32)
-UNSUPPORTED(fmi3SetUInt32) UNSUPPORTED(fmi3SetInt64) UNSUPPORTED(fmi3SetUInt64) UNSUPPORTED(fmi3SetBoolean)
-UNSUPPORTED(fmi3SetString) UNSUPPORTED(fmi3SetBinary) UNSUPPORTED(fmi3SetClock)
+UNSUPPORTED(fmi3SetInt16) UNSUPPORTED(fmi3SetUInt16) 
+UNSUPPORTED(fmi3SetUInt32) UNSUPPORTED(fmi3SetUInt64) UNSUPPORTED(fmi3SetBoolean)
+UNSUPPORTED(fmi3SetBinary) UNSUPPORTED(fmi3SetClock)
 UNSUPPORTED(fmi3GetNumberOfVariableDependencies) UNSUPPORTED(fmi3GetVariableDependencies)
 UNSUPPORTED(fmi3SerializedFMUStateSize) UNSUPPORTED(fmi3SerializeFMUState) UNSUPPORTED(fmi3DeserializeFMUState)
 UNSUPPORTED(fmi3GetDirectionalDerivative) UNSUPPORTED(fmi3GetAdjointDerivative)

@@ -4,8 +4,9 @@
  * 0.01 s), like the Modelica Association's Reference FMU of the same name. It is the third-party
  * FMU of lash's importer tests and of `lash bench fmu` (the per-step cost of the importer).
  * Value references: 0 x0, 1 x1, 2 mu, 3 stop_at (once reached, fmi2DoStep answers fmi2Discard and
- * fmi2GetBooleanStatus(fmi2Terminated) is true: the FMU asks the master to stop). Self-contained:
- * the fmi2 types are declared here. */
+ * fmi2GetBooleanStatus(fmi2Terminated) is true: the FMU asks the master to stop), 4 steps (Integer
+ * output: doStep calls), 5 positive (Boolean output: x0 > 0), 6 label (String parameter).
+ * Self-contained: the fmi2 types are declared here. */
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,7 +37,8 @@ typedef struct {
 
 typedef struct {
     double x0, x1, mu, stop_at, time;
-    int initialized, terminated;
+    int initialized, terminated, steps;
+    char label[64];
     const fmi2CallbackFunctions *cb;
     char name[64];
 } Model;
@@ -63,6 +65,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     m->x1 = 0.0;
     m->mu = 1.0;
     m->stop_at = 1e9;
+    strcpy(m->label, "vanderpol");
     m->cb = cb;
     strncpy(m->name, name ? name : "vanderpol", sizeof m->name - 1);
     return m;
@@ -87,7 +90,8 @@ fmi2Status fmi2Terminate(fmi2Component c) { return c ? fmi2OK : fmi2Error; }
 fmi2Status fmi2Reset(fmi2Component c) {
     if (!c) return fmi2Error;
     Model *m = c;
-    m->x0 = 2.0; m->x1 = 0.0; m->mu = 1.0; m->stop_at = 1e9; m->time = 0.0; m->initialized = 0; m->terminated = 0;
+    m->x0 = 2.0; m->x1 = 0.0; m->mu = 1.0; m->stop_at = 1e9; m->time = 0.0; m->initialized = 0; m->terminated = 0; m->steps = 0;
+    strcpy(m->label, "vanderpol");
     return fmi2OK;
 }
 
@@ -132,6 +136,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_pr
         m->x1 += SOLVER_STEP * d1;
     }
     m->time = t + h;
+    m->steps += 1;
     if (m->time >= m->stop_at - 1e-12) {
         m->terminated = 1;
         return fmi2Discard;
@@ -153,14 +158,51 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *
     return fmi2OK;
 }
 
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer value[]) {
+    Model *m = c;
+    if (!m || (n && (!vr || !value))) return fmi2Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == 4) value[i] = m->steps;
+        else { log_error(m, "fmi2GetInteger: not an Integer variable"); return fmi2Error; }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean value[]) {
+    Model *m = c;
+    if (!m || (n && (!vr || !value))) return fmi2Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == 5) value[i] = m->x0 > 0;
+        else { log_error(m, "fmi2GetBoolean: not a Boolean variable"); return fmi2Error; }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String value[]) {
+    Model *m = c;
+    if (!m || (n && (!vr || !value))) return fmi2Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == 6) value[i] = m->label;
+        else { log_error(m, "fmi2GetString: not a String variable"); return fmi2Error; }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String value[]) {
+    Model *m = c;
+    if (!m || (n && (!vr || !value))) return fmi2Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == 6 && !m->initialized && value[i] && strlen(value[i]) < sizeof m->label) strcpy(m->label, value[i]);
+        else { log_error(m, "fmi2SetString: label (under 64 bytes) can be set before initialization"); return fmi2Error; }
+    }
+    return fmi2OK;
+}
+
 /* The rest of fmi2Functions.h: not supported, answered with fmi2Error. */
 #define UNSUPPORTED(decl) decl { return fmi2Error; }
-UNSUPPORTED(fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference v[], size_t n, fmi2Integer x[]))
-UNSUPPORTED(fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference v[], size_t n, fmi2Boolean x[]))
-UNSUPPORTED(fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference v[], size_t n, fmi2String x[]))
 UNSUPPORTED(fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference v[], size_t n, const fmi2Integer x[]))
 UNSUPPORTED(fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference v[], size_t n, const fmi2Boolean x[]))
-UNSUPPORTED(fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference v[], size_t n, const fmi2String x[]))
 UNSUPPORTED(fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s))
 UNSUPPORTED(fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s))
 UNSUPPORTED(fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s))
