@@ -549,13 +549,19 @@ fn sparse_value_references_stop_requests_and_early_returns() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// (header, rows) of fmpy's CSV, Booleans read as 0 and 1.
+/// (header, rows) of fmpy's CSV, Booleans read as 0 and 1, array columns ("1 2 3") as NaN.
 fn read_fmpy_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let fixed: String = text.replace("True", "1").replace("False", "0");
-    let file = path.with_extension("numbers.csv");
-    std::fs::write(&file, fixed).unwrap();
-    read_csv(&file)
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header =
+        lines.next().unwrap().split(',').map(|h| h.trim_matches('"').split(" [").next().unwrap().to_string()).collect();
+    let value = |v: &str| match v {
+        "True" => 1.0,
+        "False" => 0.0,
+        v => v.parse::<f64>().unwrap_or(f64::NAN),
+    };
+    let rows = lines.map(|l| l.split(',').map(value).collect()).collect();
+    (header, rows)
 }
 
 /// Variables of every numeric type, FMI 3.0 and 2.0: imported, set as parameters (UInt8,
@@ -685,5 +691,98 @@ channels = ["v.positive", "v.steps", "o.kicks_seen"]
         assert_eq!(o.status.code(), Some(2), "{parameters}: {err}");
         assert!(err.contains(expected), "expected {expected:?} in: {err}");
     }
+    // A structural parameter sizes an array (FMI 3.0 configuration mode): `modes` has n
+    // elements, (i + 1) x each, in and out of process; the default n is 3.
+    for (isolate, n) in [("", None), ("", Some(5)), ("isolate = true", Some(7))] {
+        let parameters = n.map_or(String::new(), |n| format!("n = {n}"));
+        let text = system(&parameters, r#""o.x", "o.modes""#)
+            .replace("fmu = \"oscillator.fmu\"\n", &format!("fmu = \"oscillator.fmu\"\n{isolate}\n"));
+        let (o, dir) = run("structural", &text);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let csv = read_csv(&dir.join("timeseries.csv"));
+        let n = n.unwrap_or(3);
+        assert_eq!(csv.0.len(), 2 + n, "{:?}", csv.0);
+        let x = column(&csv, "o.x");
+        for i in 0..n {
+            let modes = column(&csv, &format!("o.modes[{i}]"));
+            assert!(modes.iter().zip(&x).all(|(m, x)| m.to_bits() == ((i + 1) as f64 * x).to_bits()), "modes[{i}]");
+        }
+    }
+    for (parameters, expected) in [
+        ("n = 65", "structural parameters [\"n\"] refused"),
+        ("n = 2.5", "elements[0].parameters.n: 2.5 is not a valid UInt64"),
+    ] {
+        let (o, _) = run("bad-structural", &system(parameters, r#""o.modes""#));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{parameters}: {err}");
+        assert!(err.contains(expected), "expected {expected:?} in: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `isolate = true` runs an FMU in a child process: the results are the in-process ones bit for
+/// bit, and an FMU that aborts, segfaults or hangs becomes an error naming the element, the FMU,
+/// the time and the signal (or the timeout), with the rows so far kept. Without isolation such an
+/// FMU takes lash down with it (documented; checked here for abort()).
+#[test]
+fn isolated_fmus_survive_crashes_and_hangs() {
+    let python = fmpy_python();
+    let out = std::env::temp_dir().join(format!("lash-system-isolate-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for (script, fmu) in
+        [("tests/fmi/vanderpol/build.py", "vanderpol.fmu"), ("tests/fmi/oscillator/build.py", "oscillator.fmu")]
+    {
+        let o = Command::new(&python).arg(root.join(script)).arg(fmu).current_dir(&out).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let run = |name: &str, isolate: &str, fault: &str| {
+        let text = format!(
+            "name = \"iso\"\nstop = 1.0\nstep = 0.01\n[[elements]]\nname = \"v\"\nfmu = \"vanderpol.fmu\"\n{isolate}\nparameters = {{ mu = 1.5{fault} }}\n[[elements]]\nname = \"o\"\nfmu = \"oscillator.fmu\"\n{isolate}\n[[connections]]\nfrom = \"v.x0\"\nto = \"o.force\"\n"
+        );
+        let file = out.join(format!("{name}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let dir = out.join(name);
+        (lash(&["run", file.to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]), dir)
+    };
+    // Same bits in and out of process.
+    let (a, dir_a) = run("inprocess", "", "");
+    let (b, dir_b) = run("isolated", "isolate = true", "");
+    assert!(a.status.success() && b.status.success(), "{}", String::from_utf8_lossy(&b.stderr));
+    let (ca, cb) = (read_csv(&dir_a.join("timeseries.csv")), read_csv(&dir_b.join("timeseries.csv")));
+    assert_eq!(ca.0, cb.0);
+    assert_eq!(ca.1.len(), 101);
+    for (ra, rb) in ca.1.iter().zip(&cb.1) {
+        assert!(ra.iter().zip(rb).all(|(x, y)| x.to_bits() == y.to_bits()), "rows differ at t = {}", ra[0]);
+    }
+    // Crashes and a hang at 0.5 s.
+    for (fault, expected) in [
+        ("1", "the FMU crashed with signal 6 (SIGABRT)"),
+        ("2", "the FMU crashed with signal 11 (SIGSEGV)"),
+        ("3", "no answer within 1 s: the FMU hangs (its process was killed)"),
+    ] {
+        let (o, dir) = run(
+            &format!("fault{fault}"),
+            "isolate = true\ntimeout = 1.0",
+            &format!(", fault = {fault}, fault_at = 0.5"),
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "fault {fault}: {err}");
+        for part in ["element \"v\"", "vanderpol.fmu", "do_step at t = 0.5 s", expected, "timeseries.csv.partial"] {
+            assert!(err.contains(part), "fault {fault}: {part:?} missing from: {err}");
+        }
+        let kept = read_csv(&dir.join("timeseries.csv.partial"));
+        assert_eq!(kept.1.len(), 51, "fault {fault}: rows up to 0.5 s are kept");
+        assert!(kept.1.iter().zip(&ca.1).all(|(x, y)| x == y), "fault {fault}: the kept rows are the healthy run's");
+    }
+    // `lash fmu check --isolate` runs the smoke simulation in a child process.
+    let fmu = out.join("oscillator.fmu");
+    let o = lash(&["fmu", "check", fmu.to_str().unwrap(), "--isolate", "--timeout", "5"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("isolated in a child process"));
+    // Not isolated, abort() ends lash itself (by the signal, as it does fmpy and libcosim).
+    let (o, _) = run("unisolated", "", ", fault = 1, fault_at = 0.5");
+    assert_eq!(o.status.code(), None, "lash was ended by a signal");
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -424,37 +424,36 @@ uniform = {{ low = 400.0, high = 600.0 }}
 
 /// `lash bench fmu <file.fmu>`: the cost of one co-simulation step of any FMU through lash's
 /// importer (`ImportedFmu::do_step`: tick-to-seconds conversion, the C call, the status check),
-/// alone and followed by reading every output, at the FMU's default step size. Medians of five
-/// rounds after an untimed warm-up round.
-pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
+/// alone and followed by reading every numeric output, at the FMU's default step size. Medians of
+/// five rounds after an untimed warm-up round. With `isolate`, the same for the FMU in a child
+/// process (`IsolatedFmu`), in the same run, and the ratio.
+pub fn fmu(path: &std::path::Path, quick: bool, isolate: bool) -> Result<(), CliError> {
     use lash_core::{Causality, Subsystem, Ticks};
     let cache = lash_fmi::import::default_cache();
-    (|| -> Result<(), CliError> {
-        let mut fmu =
-            lash_fmi::import::ImportedFmu::open(path, &cache, "bench").map_err(|e| CliError::Input(e.to_string()))?;
+    let fmu = lash_fmi::import::ImportedFmu::open(path, &cache, "bench").map_err(|e| CliError::Input(e.to_string()))?;
+    let (step, whence) = match fmu.description().default_step_size {
+        Some(h) => (h, "the FMU's default step size"),
+        None => (0.01, "no default step size in the FMU: 0.01 s"),
+    };
+    let h =
+        Ticks::from_seconds(step).map_err(|e| CliError::Input(format!("{}: stepSize {step}: {e}", path.display())))?;
+    let steps: i64 = if quick { 100_000 } else { 1_000_000 };
+    println!(
+        "{}: FMI {} model {:?}, {} steps of {} s ({whence}) per round, median of 5 rounds",
+        path.display(),
+        fmu.fmi_version(),
+        fmu.description().model_name,
+        steps,
+        h.seconds()
+    );
+    // Steps `fmu` for five timed rounds (plus a warm-up); medians of (do_step alone, with reads).
+    let measure = |fmu: &mut dyn Subsystem, steps: i64| -> Result<(f64, f64, usize), CliError> {
         let fail = |e: lash_core::SubsystemError| CliError::Failure(format!("{}: {e}", path.display()));
-        let (step, whence) = match fmu.description().default_step_size {
-            Some(h) => (h, "the FMU's default step size"),
-            None => (0.01, "no default step size in the FMU: 0.01 s"),
-        };
-        let h = Ticks::from_seconds(step)
-            .map_err(|e| CliError::Input(format!("{}: stepSize {step}: {e}", path.display())))?;
-        let outputs: Vec<u32> = fmu
-            .variables()
-            .iter()
-            .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
-            .map(|v| v.value_reference)
-            .collect();
-        let n_values: usize = fmu
-            .variables()
-            .iter()
-            .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
-            .map(|v| v.len())
-            .sum();
-        let mut values = vec![0.0; n_values];
+        let numeric = |v: &&lash_core::Variable| v.causality == Causality::Output && v.kind.is_numeric();
+        let outputs: Vec<u32> = fmu.variables().iter().filter(numeric).map(|v| v.value_reference).collect();
+        let mut values = vec![0.0; fmu.variables().iter().filter(numeric).map(|v| v.len()).sum()];
         fmu.setup(Ticks::ZERO, None).map_err(fail)?;
         fmu.initialize().map_err(fail)?;
-        let steps: i64 = if quick { 100_000 } else { 1_000_000 };
         let mut t = Ticks::ZERO;
         let mut round = |read: bool, t: &mut Ticks| -> Result<f64, CliError> {
             let start = Instant::now();
@@ -474,24 +473,32 @@ pub fn fmu(path: &std::path::Path, quick: bool) -> Result<(), CliError> {
             Ok(start.elapsed().as_secs_f64() / steps as f64)
         };
         round(true, &mut t)?;
-        let mut alone = Vec::new();
-        let mut with_get = Vec::new();
+        let (mut alone, mut with_get) = (Vec::new(), Vec::new());
         for _ in 0..5 {
             alone.push(round(false, &mut t)?);
             with_get.push(round(true, &mut t)?);
         }
-        let (a, g) = (median(alone), median(with_get));
+        Ok((median(alone), median(with_get), outputs.len()))
+    };
+    let mut fmu = fmu;
+    let (a, g, n) = measure(&mut fmu, steps)?;
+    drop(fmu);
+    println!("  in process:  do_step alone {:>10.1} ns per step", a * 1e9);
+    println!("               do_step + get all {n} numeric outputs {:>10.1} ns per step", g * 1e9);
+    println!("  (target for a tiny FMU such as VanDerPol in process: ≤ 80 ns per step)");
+    if isolate {
+        let host = std::env::current_exe().map_err(|e| CliError::Failure(format!("the lash executable: {e}")))?;
+        let mut isolated =
+            lash_fmi::isolate::IsolatedFmu::spawn(&host, path, &cache, "bench", std::time::Duration::from_secs(60))
+                .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+        // A round trip between processes costs microseconds: a hundredth of the steps.
+        let (ia, ig, _) = measure(&mut isolated, (steps / 100).max(1000))?;
+        println!("  isolated:    do_step alone {:>10.1} ns per step ({:.0}× in process)", ia * 1e9, ia / a);
         println!(
-            "{}: FMI {} model {:?}, {} steps of {} s ({whence}) per round, median of 5 rounds",
-            path.display(),
-            fmu.fmi_version(),
-            fmu.description().model_name,
-            steps,
-            h.seconds()
+            "               do_step + get all {n} numeric outputs {:>10.1} ns per step ({:.0}× in process)",
+            ig * 1e9,
+            ig / g
         );
-        println!("  do_step alone:                 {:.1} ns per step", a * 1e9);
-        println!("  do_step + get all {} outputs:   {:.1} ns per step", outputs.len(), g * 1e9);
-        println!("  (target for a tiny FMU such as VanDerPol: ≤ 80 ns per step)");
-        Ok(())
-    })()
+    }
+    Ok(())
 }

@@ -81,53 +81,59 @@ fn kinds(variables: &[lash_core::Variable]) -> String {
 }
 
 /// `lash fmu check <file.fmu>`: structure (archive, description, binary, symbols, token) and a
-/// smoke simulation of 10 steps of the default step size with the start values.
-pub fn check(fmu: &Path) -> Result<(), CliError> {
+/// smoke simulation of 10 steps of 1e-5 s with the start values; `isolate` runs the FMU in a child
+/// process (each call waits at most `timeout` seconds), so that a crash or a hang is reported.
+pub fn check(fmu: &Path, isolate: bool, timeout: f64) -> Result<(), CliError> {
     use lash_core::{Subsystem, Ticks};
     let cache = lash_fmi::import::default_cache();
-    let result = (|| -> Result<String, CliError> {
-        let mut imported =
+    let (mut model, version): (Box<dyn Subsystem>, String) = if isolate {
+        let timeout =
+            std::time::Duration::try_from_secs_f64(timeout).ok().filter(|t| !t.is_zero()).ok_or_else(|| {
+                CliError::Input(format!("--timeout: must be a positive number of seconds, got {timeout}"))
+            })?;
+        let host = std::env::current_exe().map_err(|e| CliError::Failure(format!("the lash executable: {e}")))?;
+        let isolated = lash_fmi::isolate::IsolatedFmu::spawn(&host, fmu, &cache, "check", timeout)
+            .map_err(|e| CliError::Input(format!("{}: {e}", fmu.display())))?;
+        let version = isolated.fmi_version().to_string();
+        (Box::new(isolated), version)
+    } else {
+        let imported =
             lash_fmi::import::ImportedFmu::open(fmu, &cache, "check").map_err(|e| CliError::Input(format!("{e}")))?;
-        let d = imported.description().clone();
-        let step = Ticks::from_seconds(1e-5).map_err(|e| CliError::Failure(e.to_string()))?;
-        let fail =
-            |e: lash_core::SubsystemError| CliError::Failure(format!("{}: smoke simulation: {e}", fmu.display()));
-        imported.setup(Ticks::ZERO, None).map_err(fail)?;
-        imported.initialize().map_err(fail)?;
-        let outputs: Vec<u32> = d
-            .variables
-            .iter()
-            .filter(|v| v.causality == lash_core::Causality::Output && v.kind.is_numeric())
-            .map(|v| v.value_reference)
-            .collect();
-        let n: usize = d.variables.iter().filter(|v| outputs.contains(&v.value_reference)).map(|v| v.len()).sum();
-        let mut values = vec![0.0; n];
-        let mut stopped = String::new();
-        for k in 0..10 {
-            if let Some(stop) = imported.do_step(Ticks(k * step.0), step).map_err(fail)?.stop(Ticks(k * step.0), step) {
-                stopped = format!(" (the FMU {stop}, after {k} whole steps)");
-                break;
-            }
-            imported.get_f64(&outputs, &mut values).map_err(fail)?;
-            if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
-                return Err(CliError::Failure(format!(
-                    "{}: smoke simulation: output element {bad} is {} after step {k}",
-                    fmu.display(),
-                    values[bad]
-                )));
-            }
+        let version = imported.fmi_version().to_string();
+        (Box::new(imported), version)
+    };
+    let variables = model.variables().to_vec();
+    let step = Ticks::from_seconds(1e-5).map_err(|e| CliError::Failure(e.to_string()))?;
+    let fail = |e: lash_core::SubsystemError| CliError::Failure(format!("{}: smoke simulation: {e}", fmu.display()));
+    model.setup(Ticks::ZERO, None).map_err(fail)?;
+    model.initialize().map_err(fail)?;
+    let numeric_outputs =
+        || variables.iter().filter(|v| v.causality == lash_core::Causality::Output && v.kind.is_numeric());
+    let outputs: Vec<u32> = numeric_outputs().map(|v| v.value_reference).collect();
+    let mut values = vec![0.0; numeric_outputs().map(|v| v.len()).sum()];
+    let mut stopped = String::new();
+    for k in 0..10 {
+        if let Some(stop) = model.do_step(Ticks(k * step.0), step).map_err(fail)?.stop(Ticks(k * step.0), step) {
+            stopped = format!(" (the FMU {stop}, after {k} whole steps)");
+            break;
         }
-        imported.terminate().map_err(fail)?;
-        Ok(format!(
-            "{}: FMI {} co-simulation, model {:?}, {} variables ({}; {} numeric outputs read); symbols, token and 10 steps of 1e-5 s: OK{stopped}",
-            fmu.display(),
-            d.fmi_version,
-            d.model_name,
-            d.variables.len(),
-            kinds(&d.variables),
-            outputs.len()
-        ))
-    })();
-    println!("{}", result?);
+        model.get_f64(&outputs, &mut values).map_err(fail)?;
+        if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
+            return Err(CliError::Failure(format!(
+                "{}: smoke simulation: output element {bad} is {} after step {k}",
+                fmu.display(),
+                values[bad]
+            )));
+        }
+    }
+    model.terminate().map_err(fail)?;
+    println!(
+        "{}: FMI {version} co-simulation{}, {} variables ({}; {} numeric outputs read); symbols, token and 10 steps of 1e-5 s: OK{stopped}",
+        fmu.display(),
+        if isolate { " (isolated in a child process)" } else { "" },
+        variables.len(),
+        kinds(&variables),
+        outputs.len()
+    );
     Ok(())
 }

@@ -206,6 +206,9 @@ enum Command {
         what: Option<String>,
         /// The FMU of `lash bench fmu`.
         file: Option<std::path::PathBuf>,
+        /// `lash bench fmu`: also measure the FMU in a child process (isolated).
+        #[arg(long)]
+        isolate: bool,
     },
     /// Parameter sweep of a scenario into a Parquet dataset (data.parquet, params.parquet,
     /// manifest.json): parallel, resumable (re-run the same command), shardable.
@@ -259,6 +262,25 @@ enum FmuCommand {
     Check {
         /// The .fmu file.
         fmu: std::path::PathBuf,
+        /// Run the FMU in a child process: a crash or a hang is reported, not inherited.
+        #[arg(long)]
+        isolate: bool,
+        /// With --isolate: the longest wait for one call [s].
+        #[arg(long, default_value_t = 60.0)]
+        timeout: f64,
+    },
+    /// (internal) Serve one FMU to a parent lash over standard input and output: the child
+    /// process of an isolated element.
+    #[command(hide = true)]
+    Host {
+        /// The .fmu file.
+        fmu: std::path::PathBuf,
+        /// Where FMUs are unpacked.
+        #[arg(long)]
+        cache: std::path::PathBuf,
+        /// The element's name.
+        #[arg(long)]
+        name: String,
     },
 }
 
@@ -399,9 +421,9 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             }
             Ok(())
         }
-        Command::Bench { quick, what, file } => match (what.as_deref(), file) {
+        Command::Bench { quick, what, file, isolate } => match (what.as_deref(), file) {
             (Some("sweep"), None) => bench::sweep(quick),
-            (Some("fmu"), Some(file)) => bench::fmu(&file, quick),
+            (Some("fmu"), Some(file)) => bench::fmu(&file, quick, isolate),
             (Some("fmu"), None) => Err(CliError::Input("lash bench fmu: give the .fmu file".into())),
             (_, Some(file)) => Err(CliError::Input(format!("lash bench: unexpected argument {}", file.display()))),
             _ => bench::run(quick),
@@ -412,6 +434,9 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
         },
         Command::Fmu { command: FmuCommand::Pack { out } } => fmu::pack(&out),
-        Command::Fmu { command: FmuCommand::Check { fmu } } => fmu::check(&fmu),
+        Command::Fmu { command: FmuCommand::Check { fmu, isolate, timeout } } => fmu::check(&fmu, isolate, timeout),
+        Command::Fmu { command: FmuCommand::Host { fmu, cache, name } } => {
+            std::process::exit(lash_fmi::isolate::serve(&fmu, &cache, &name))
+        }
     }
 }

@@ -29,6 +29,9 @@ pub enum Causality {
     Output,
     /// Internal quantity exposed for observation.
     Local,
+    /// A parameter that sizes arrays (FMI 3.0 `structuralParameter`): set through
+    /// [`Subsystem::configure`] before [`Subsystem::setup`].
+    StructuralParameter,
 }
 
 /// How a variable changes in time (FMI variability).
@@ -182,7 +185,7 @@ impl ValueKind {
 }
 
 /// The description of one variable.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Variable {
     /// Name, dotted for structure (`effective_force`, `slider.ax.gain`).
     pub name: String,
@@ -445,6 +448,16 @@ pub trait Subsystem: Send {
 
     /// Returns to a snapshot taken from this subsystem.
     fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError>;
+
+    /// Sets structural parameters (FMI 3.0 configuration mode), before [`Subsystem::setup`].
+    /// Arrays sized by them change shape: read [`Subsystem::variables`] again afterwards.
+    fn configure(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        let _ = values;
+        Err(SubsystemError::Other(format!(
+            "{}: value references {refs:?}: no structural parameters (nothing to configure)",
+            self.name()
+        )))
+    }
 
     /// Reads a String variable.
     fn get_string(&self, vr: ValueReference) -> Result<String, SubsystemError> {

@@ -98,6 +98,7 @@ fn units_and_experiment(x: &mut String, info: &ModelInfo, variables: &[Variable]
 fn causality(c: Causality) -> &'static str {
     match c {
         Causality::Parameter => "parameter",
+        Causality::StructuralParameter => "structuralParameter",
         Causality::Input => "input",
         Causality::Output => "output",
         Causality::Local => "local",
@@ -144,7 +145,7 @@ pub fn fmi3(info: &ModelInfo, variables: &[Variable]) -> String {
             let _ = write!(attrs, r#" unit="{}""#, escape(&v.unit));
         }
         match v.causality {
-            Causality::Input | Causality::Parameter => {
+            Causality::Input | Causality::Parameter | Causality::StructuralParameter => {
                 let start: Vec<String> = v.start.iter().map(|s| number(*s)).collect();
                 let _ = write!(attrs, r#" start="{}""#, start.join(" "));
             }
@@ -227,7 +228,7 @@ pub fn fmi2(info: &ModelInfo, variables: &[Variable]) -> String {
             index += 1;
             let mut real = String::new();
             match v.causality {
-                Causality::Input | Causality::Parameter => {
+                Causality::Input | Causality::Parameter | Causality::StructuralParameter => {
                     let _ = write!(real, r#" start="{}""#, number(v.start.get(e).copied().unwrap_or(0.0)));
                 }
                 Causality::Output | Causality::Local => {}

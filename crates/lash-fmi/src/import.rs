@@ -64,6 +64,9 @@ pub struct Description {
     /// The variables of every type, in file order (FMI 3.0 aliases after their variable); the
     /// independent variable is left out.
     pub variables: Vec<Variable>,
+    /// Per variable, per array axis: the FMU's value reference of the structural parameter that
+    /// sizes it (`None`: a literal size). A sized axis holds the parameter's current value.
+    pub dimension_refs: Vec<Vec<Option<u32>>>,
 }
 
 fn attr(e: &quick_xml::events::BytesStart<'_>, name: &str) -> Option<String> {
@@ -93,7 +96,9 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
         generation_tool: String::new(),
         default_step_size: None,
         variables: Vec::new(),
+        dimension_refs: Vec::new(),
     };
+    let mut dims: Vec<Option<u32>> = Vec::new();
     // The variable being read (FMI 3.0: a type element; FMI 2.0: a ScalarVariable, whose type
     // comes from its child element), its aliases, and whether it came from a ScalarVariable.
     let mut current: Option<Variable> = None;
@@ -137,6 +142,9 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                             ..v.clone()
                         })
                         .collect();
+                    for _ in 0..=named.len() {
+                        d.dimension_refs.push(dims.clone());
+                    }
                     d.variables.push(v);
                     d.variables.extend(named);
                     aliases.clear();
@@ -167,14 +175,26 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
             "ModelVariables" => in_variables = !empty,
             "Dimension" => {
                 if let Some(v) = current.as_mut() {
-                    let n = attr(e, "start")
-                        .and_then(|s| s.trim().parse::<usize>().ok())
-                        .ok_or("a Dimension without a literal start (structural parameters are not supported)")?;
+                    // A literal size, or the value reference of the structural parameter that
+                    // sizes this axis (resolved from its start value below).
+                    let literal = attr(e, "start").and_then(|s| s.trim().parse::<usize>().ok());
+                    let sized_by = attr(e, "valueReference").and_then(|s| s.trim().parse::<u32>().ok());
+                    let n = match (literal, sized_by) {
+                        (Some(n), _) => n,
+                        (None, Some(_)) => 0,
+                        (None, None) => {
+                            return Err(format!(
+                                "variable {:?}: a Dimension needs a start or a valueReference",
+                                v.name
+                            ));
+                        }
+                    };
                     let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
                     if total.is_none_or(|t| t > MAX_ELEMENTS) {
                         return Err(format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name));
                     }
                     v.shape.push(n);
+                    dims.push(if literal.is_some() { None } else { sized_by });
                 }
             }
             "Alias" if current.is_some() => {
@@ -201,7 +221,8 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                 let kind = ValueKind::from_element(other, false).unwrap_or(ValueKind::Float64);
                 let causality = match attr(e, "causality").as_deref() {
                     Some("independent") => None,
-                    Some("parameter" | "structuralParameter") => Some(Causality::Parameter),
+                    Some("parameter") => Some(Causality::Parameter),
+                    Some("structuralParameter") => Some(Causality::StructuralParameter),
                     Some("input") => Some(Causality::Input),
                     Some("output") => Some(Causality::Output),
                     _ => Some(Causality::Local),
@@ -225,8 +246,10 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                     start: attr(e, "start").map(|s| number_list(&s, kind)).unwrap_or_default(),
                     kind,
                 };
+                dims.clear();
                 if empty {
                     d.variables.push(variable);
+                    d.dimension_refs.push(Vec::new());
                 } else {
                     current = Some(variable);
                     aliases.clear();
@@ -235,10 +258,11 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
             _ => {}
         }
     }
-    let total = d.variables.iter().try_fold(0usize, |a, v| a.checked_add(v.len()));
-    if total.is_none_or(|t| t > MAX_ELEMENTS) {
-        return Err(format!("the variables hold more than {MAX_ELEMENTS} elements together"));
-    }
+    let start_values: Vec<(u32, Option<f64>)> =
+        d.variables.iter().map(|v| (v.value_reference, v.start.first().copied())).collect();
+    resize(&mut d.variables, &d.dimension_refs, |vr| {
+        start_values.iter().find(|(r, _)| *r == vr).and_then(|(_, s)| *s)
+    })?;
     if d.fmi_version.is_empty() {
         return Err("no fmiModelDescription element with an fmiVersion".into());
     }
@@ -256,6 +280,39 @@ pub fn default_cache() -> PathBuf {
         .or_else(|| var("XDG_CACHE_HOME").map(|p| p.join("lash")))
         .or_else(|| var("HOME").map(|p| p.join(".cache").join("lash")))
         .unwrap_or_else(|| std::env::temp_dir().join("lash-cache"))
+}
+
+/// Gives every axis sized by a structural parameter the parameter's value (`value_of` its FMU
+/// value reference) and checks the sizes: whole, non-negative, and at most [`MAX_ELEMENTS`] in all.
+fn resize(
+    variables: &mut [Variable],
+    dimension_refs: &[Vec<Option<u32>>],
+    value_of: impl Fn(u32) -> Option<f64>,
+) -> Result<(), String> {
+    for (v, refs) in variables.iter_mut().zip(dimension_refs) {
+        for (axis, r) in refs.iter().enumerate() {
+            let Some(r) = r else { continue };
+            let value = value_of(*r).ok_or_else(|| {
+                format!("variable {:?}: its size refers to value reference {r}, which has no value", v.name)
+            })?;
+            if !(value >= 0.0 && value.fract() == 0.0 && value <= MAX_ELEMENTS as f64) {
+                return Err(format!(
+                    "variable {:?}: size {value} (value reference {r}) is not a valid array size",
+                    v.name
+                ));
+            }
+            if let Some(n) = v.shape.get_mut(axis) {
+                *n = value as usize;
+            }
+        }
+    }
+    let total = variables.iter().try_fold(0usize, |a, v| {
+        v.shape.iter().try_fold(1usize, |p, &n| p.checked_mul(n)).and_then(|n| a.checked_add(n))
+    });
+    if total.is_none_or(|t| t > MAX_ELEMENTS) {
+        return Err(format!("the variables hold more than {MAX_ELEMENTS} elements together"));
+    }
+    Ok(())
 }
 
 /// Unpacks `fmu` into `cache/fmus/<stem>-<SHA-256 of the archive, 16 hex digits>/` once and
@@ -633,6 +690,8 @@ pub struct ImportedFmu {
     instance: *mut c_void,
     log: Box<Log>,
     time: Ticks,
+    /// The FMU archive (or plugin library) it came from, named in every error.
+    origin: PathBuf,
     /// Accessors of every type.
     typed: Typed,
     /// True when every variable is Float64: values pass through one batched call.
@@ -643,6 +702,8 @@ pub struct ImportedFmu {
     bytes: Mutex<Vec<u8>>,
     /// Native value references of one typed call (reused).
     vr_scratch: Mutex<Vec<u32>>,
+    /// `fmi3EnterConfigurationMode` and `fmi3ExitConfigurationMode` (FMI 3.0, when present).
+    configuration: Option<(Unary, Unary)>,
     /// Every FMU state taken, freed with the instance (FMI has no way to free one from a
     /// `SavedState` alone).
     states: Mutex<Vec<Arc<FmuState>>>,
@@ -720,13 +781,15 @@ impl ImportedFmu {
     /// Imports `fmu` (FMI 3.0 or 2.0 co-simulation; unpacked into `cache` once) and
     /// instantiates it.
     pub fn open(fmu: &Path, cache: &Path, instance_name: &str) -> Result<Self, ImportError> {
-        Self::open_unpacked(fmu, cache, instance_name).map_err(|e| match e {
+        let mut imported = Self::open_unpacked(fmu, cache, instance_name).map_err(|e| match e {
             // The library sits in the cache: say which FMU it came from.
             ImportError::Library { path, message } => {
                 ImportError::Library { path, message: format!("{message} (from {})", fmu.display()) }
             }
             other => other,
-        })
+        })?;
+        imported.origin = fmu.to_path_buf();
+        Ok(imported)
     }
 
     fn open_unpacked(fmu: &Path, cache: &Path, instance_name: &str) -> Result<Self, ImportError> {
@@ -893,11 +956,21 @@ impl ImportedFmu {
             let instance =
                 unsafe { instantiate(cname.as_ptr(), 1, token.as_ptr(), resources.as_ptr(), &*callbacks, 0, 0) };
             let (variables, scalars) = regroup(&description.variables);
+            description.dimension_refs = vec![Vec::new(); variables.len()];
             description.variables = variables;
             let api = Api::V2 { functions, scalars, scratch: Mutex::new(Vec::new()), _callbacks: callbacks };
             (api, instance, "fmi2Instantiate")
         };
         let typed = Self::resolve_typed(&library, v3);
+        let configuration = if v3 {
+            // SAFETY: the symbols have the `Unary` signature in fmi3Functions.h.
+            let enter = unsafe { library.get::<Unary>(b"fmi3EnterConfigurationMode\0") }.ok().map(|s| *s);
+            // SAFETY: as above.
+            let exit = unsafe { library.get::<Unary>(b"fmi3ExitConfigurationMode\0") }.ok().map(|s| *s);
+            enter.zip(exit)
+        } else {
+            None
+        };
         let float64: Vec<bool> = description.variables.iter().map(|v| v.kind == ValueKind::Float64).collect();
         let all_float64 = float64.iter().all(|&f| f);
         if instance.is_null() {
@@ -917,11 +990,13 @@ impl ImportedFmu {
             instance,
             log,
             time: Ticks::ZERO,
+            origin: lib_path.to_path_buf(),
             typed,
             all_float64,
             float64,
             bytes: Mutex::new(Vec::new()),
             vr_scratch: Mutex::new(Vec::new()),
+            configuration,
             states: Mutex::new(Vec::new()),
             _library: library,
         })
@@ -943,7 +1018,11 @@ impl ImportedFmu {
             return Ok(());
         }
         let messages = self.log.lock().map(|mut l| std::mem::take(&mut *l).join("; ")).unwrap_or_default();
-        Err(SubsystemError::Other(format!("{}: {call} returned status {status}: {messages}", self.name)))
+        Err(SubsystemError::Other(format!(
+            "{} ({}): {call} returned status {status}: {messages}",
+            self.name,
+            self.origin.display()
+        )))
     }
 
     /// FMI 3.0: the FMU's own value references of `refs` (lash's are positions), into the scratch
@@ -1399,6 +1478,60 @@ impl Subsystem for ImportedFmu {
         let s = unsafe { set_state(self.instance, fmu_state.0) };
         self.check(call, s)?;
         self.time = *time;
+        Ok(())
+    }
+
+    fn configure(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        let mut at = 0;
+        let mut given: Vec<(u32, f64)> = Vec::new();
+        for &r in refs {
+            let var = self.variable(r)?;
+            if var.causality != Causality::StructuralParameter || var.len() != 1 {
+                return Err(SubsystemError::BadValue {
+                    name: var.name.clone(),
+                    problem: "is not a scalar structural parameter".into(),
+                });
+            }
+            let native = self.native_refs(r)?[0];
+            given.push((native, *values.get(at).ok_or_else(|| SubsystemError::BadArguments("too few values".into()))?));
+            at += 1;
+        }
+        if at != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {at} elements", values.len())));
+        }
+        let (enter, exit) = self
+            .configuration
+            .ok_or_else(|| SubsystemError::Other(format!("{}: the FMU has no configuration mode", self.name)))?;
+        // SAFETY: a live, instantiated instance.
+        let s = unsafe { enter(self.instance) };
+        self.check("fmi3EnterConfigurationMode", s)?;
+        let set = self.set_numeric(refs, values);
+        // SAFETY: as above; configuration mode is left whatever the setting did.
+        let s = unsafe { exit(self.instance) };
+        set?;
+        self.check("fmi3ExitConfigurationMode", s)?;
+        // The arrays sized by these parameters take their new sizes (others keep theirs).
+        let current: Vec<(u32, Option<f64>)> = self
+            .description
+            .variables
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (self.native_value_reference(i as u32).unwrap_or(u32::MAX), v.start.first().copied()))
+            .collect();
+        let value_of = |vr: u32| {
+            given
+                .iter()
+                .find(|(r, _)| *r == vr)
+                .map(|(_, v)| *v)
+                .or_else(|| current.iter().find(|(r, _)| *r == vr).and_then(|(_, s)| *s))
+        };
+        let Description { variables, dimension_refs, .. } = &mut self.description;
+        resize(variables, dimension_refs, value_of).map_err(SubsystemError::Other)?;
+        for (vr, value) in refs.iter().zip(values) {
+            if let Some(v) = self.description.variables.get_mut(*vr as usize) {
+                v.start = vec![*value];
+            }
+        }
         Ok(())
     }
 

@@ -19,5 +19,6 @@ pub mod description;
 pub mod fmi2;
 pub mod fmi3;
 pub mod import;
+pub mod isolate;
 
 pub use description::{ModelInfo, instantiation_token};

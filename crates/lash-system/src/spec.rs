@@ -113,6 +113,13 @@ pub struct ElementSpec {
     /// Parameter (or start) values by variable name: a number, or a list for an array.
     #[serde(default)]
     pub parameters: BTreeMap<String, ParameterValue>,
+    /// Run the FMU in a child process: a crash or a hang of the FMU becomes an error naming the
+    /// element, the time and the signal, and the output so far is kept (FMUs only).
+    #[serde(default)]
+    pub isolate: bool,
+    /// With `isolate`: the longest wait for one call of the FMU [s] (default 60).
+    #[serde(default)]
+    pub timeout: Option<f64>,
 }
 
 fn one() -> u32 {

@@ -144,6 +144,8 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
                     builtin: None,
                     decimation: 1,
                     parameters: BTreeMap::new(),
+                    isolate: false,
+                    timeout: None,
                 };
                 if source.ends_with(".so") {
                     spec.plugin = Some(source);

@@ -114,7 +114,22 @@ fn split<'a>(field: &str, name: &'a str) -> Result<(&'a str, &'a str), SystemErr
         .ok_or_else(|| SystemError::Input(format!("{field}: {name:?} is not of the form element.variable")))
 }
 
-fn load(source: &ElementSource, name: &str, cache: &Path) -> Result<Box<dyn Subsystem>, String> {
+/// How an element that names an FMU is run.
+#[derive(Debug, Clone, Copy)]
+enum Isolation {
+    /// In this process.
+    InProcess,
+    /// In a child process, each call waiting at most this long.
+    Child(std::time::Duration),
+}
+
+fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) -> Result<Box<dyn Subsystem>, String> {
+    if let (ElementSource::Fmu(path), Isolation::Child(timeout)) = (source, isolation) {
+        let host = std::env::current_exe().map_err(|e| format!("the lash executable: {e}"))?;
+        let isolated = lash_fmi::isolate::IsolatedFmu::spawn(&host, path, cache, name, timeout)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        return Ok(Box::new(isolated));
+    }
     Ok(match source {
         ElementSource::Fmu(path) => {
             Box::new(lash_fmi::import::ImportedFmu::open(path, cache, name).map_err(|e| e.to_string())?)
@@ -179,16 +194,65 @@ impl System {
                 return Err(bad(format!("{field}.decimation: must be ≥ 1")));
             }
             let source = e.source(base).map_err(|m| bad(format!("{field}: {m}")))?;
-            let model = load(&source, &e.name, cache).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
+            let isolation = match (e.isolate, e.timeout, &source) {
+                (false, None, _) => Isolation::InProcess,
+                (false, Some(_), _) => return Err(bad(format!("{field}.timeout: only with isolate = true"))),
+                (true, _, ElementSource::Fmu(_)) => {
+                    let seconds = e.timeout.unwrap_or(60.0);
+                    let timeout =
+                        std::time::Duration::try_from_secs_f64(seconds).ok().filter(|t| !t.is_zero()).ok_or_else(
+                            || bad(format!("{field}.timeout: must be a positive number of seconds, got {seconds}")),
+                        )?;
+                    Isolation::Child(timeout)
+                }
+                (true, _, _) => return Err(bad(format!("{field}.isolate: only FMU elements run in a child process"))),
+            };
+            let model =
+                load(&source, &e.name, cache, isolation).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
             lash_core::check_variable_table(model.variables())
                 .map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
+            // Structural parameters first (FMI 3.0 configuration mode): they size arrays, so the
+            // other parameters and every connection are checked against the new shapes.
+            let mut model = model;
+            let (mut refs, mut values, mut names) = (Vec::new(), Vec::new(), Vec::new());
+            for (pname, value) in &e.parameters {
+                let Some(v) = find(model.variables(), pname) else { continue };
+                if v.causality != Causality::StructuralParameter {
+                    continue;
+                }
+                let number = match value.values().as_deref() {
+                    Some([x]) => *x,
+                    _ => {
+                        return Err(bad(format!(
+                            "{field}.parameters.{pname}: a structural parameter takes one number"
+                        )));
+                    }
+                };
+                v.kind.check(number).map_err(|p| bad(format!("{field}.parameters.{pname}: {p}")))?;
+                refs.push(v.value_reference);
+                values.push(number);
+                names.push(pname.clone());
+            }
+            if !refs.is_empty() {
+                model.configure(&refs, &values).map_err(|err| {
+                    bad(format!("{field}.parameters ({}): structural parameters {names:?} refused: {err}", e.name))
+                })?;
+            }
             let mut parameters = Vec::new();
             for (pname, value) in &e.parameters {
+                if names.contains(pname) {
+                    continue;
+                }
                 let v = find(model.variables(), pname).ok_or_else(|| {
                     let names: Vec<&str> = model
                         .variables()
                         .iter()
-                        .filter(|v| matches!(v.causality, Causality::Parameter | Causality::Input))
+                        .filter(|v| {
+                            matches!(
+                                v.causality,
+                                Causality::Parameter | Causality::Input | Causality::StructuralParameter
+                            )
+                        })
                         .map(|v| v.name.as_str())
                         .collect();
                     bad(format!("{field}.parameters.{pname}: no such parameter (parameters and inputs: {names:?})"))

@@ -9,7 +9,9 @@
  * |v| > 0.5), ticks (Int64 output: internal solver steps), x32 (Float32 output), kicks_seen
  * (Int32 output: the sum of the kick input over the steps), kick (Int32 input, added to the
  * force), gain (UInt8 parameter, multiplies the force input), gear (Enumeration parameter,
- * multiplies k), label (String parameter, echoed by the String output label_out).
+ * multiplies k), label (String parameter, echoed by the String output label_out). A structural
+ * parameter sizes an array: modes (Float64 output, n elements: modes[i] = (i + 1) x), n (UInt64
+ * structural parameter, set in configuration mode, 0 to 64).
  * Self-contained: the fmi3 types are declared here. */
 #include <stdbool.h>
 #include <stddef.h>
@@ -32,6 +34,7 @@ typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3
 #define SOLVER_STEP 1e-3
 
 enum { VR_X = 1003, VR_V = 17, VR_ENERGY = 2, VR_K = 5, VR_FORCE = 3, VR_STOP = 99, VR_EARLY = 98, VR_TIME = 0 };
+enum { VR_N = 60, VR_MODES = 61, MAX_MODES = 64 };
 enum { VR_STEPS = 40, VR_MOVING = 41, VR_TICKS = 44, VR_X32 = 46, VR_KICKS = 48, VR_KICK = 47, VR_GAIN = 42,
        VR_GEAR = 45, VR_LABEL = 43, VR_LABEL_OUT = 49 };
 
@@ -40,8 +43,9 @@ typedef struct {
     int32_t steps, kick, kicks_seen;
     int64_t ticks, gear;
     uint8_t gain;
+    uint64_t n;
     char label[64];
-    int initialized;
+    int initialized, configuring;
     fmi3InstanceEnvironment env;
     fmi3LogMessageCallback log;
 } Model;
@@ -79,7 +83,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
     Model *m = calloc(1, sizeof(Model));
     if (!m) return NULL;
     m->x = 1.0; m->k = 4.0; m->stop_at = 1e9; m->early_at = 1e9;
-    m->gain = 1; m->gear = 1;
+    m->gain = 1; m->gear = 1; m->n = 3;
     strcpy(m->label, "oscillator");
     m->env = env; m->log = log;
     return m;
@@ -109,12 +113,42 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     return fmi3OK;
 }
 fmi3Status fmi3EnterStepMode(fmi3Instance c) { return c ? fmi3OK : fmi3Error; }
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance c) {
+    Model *m = c;
+    if (!m || m->initialized) return fmi3Error;
+    m->configuring = 1;
+    return fmi3OK;
+}
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance c) {
+    Model *m = c;
+    if (!m || !m->configuring) return fmi3Error;
+    m->configuring = 0;
+    return fmi3OK;
+}
+fmi3Status fmi3GetUInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, uint64_t value[], size_t nv) {
+    Model *m = c;
+    if (!m || nv != n || (n && (!vr || !value))) return fmi3Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_N) value[i] = m->n;
+        else { fail(m, "fmi3GetUInt64: not a UInt64 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetUInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const uint64_t value[], size_t nv) {
+    Model *m = c;
+    if (!m || nv != n || (n && (!vr || !value))) return fmi3Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_N && m->configuring && value[i] <= MAX_MODES) m->n = value[i];
+        else { fail(m, "fmi3SetUInt64: n (0 to 64) is set in configuration mode"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
 fmi3Status fmi3Terminate(fmi3Instance c) { return c ? fmi3OK : fmi3Error; }
 fmi3Status fmi3Reset(fmi3Instance c) {
     Model *m = c;
     if (!m) return fmi3Error;
     m->x = 1.0; m->v = 0.0; m->k = 4.0; m->force = 0.0; m->stop_at = 1e9; m->early_at = 1e9;
-    m->steps = 0; m->kick = 0; m->kicks_seen = 0; m->ticks = 0; m->gear = 1; m->gain = 1;
+    m->steps = 0; m->kick = 0; m->kicks_seen = 0; m->ticks = 0; m->gear = 1; m->gain = 1; m->n = 3;
     strcpy(m->label, "oscillator");
     m->time = 0.0; m->initialized = 0;
     return fmi3OK;
@@ -122,13 +156,21 @@ fmi3Status fmi3Reset(fmi3Instance c) {
 
 fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Float64 value[], size_t nv) {
     Model *m = c;
-    if (!m || nv != n || (n && (!vr || !value))) return fmi3Error;
+    if (!m || (n && (!vr || !value))) return fmi3Error;
+    size_t j = 0;
     for (size_t i = 0; i < n; i++) {
-        if (vr[i] == VR_ENERGY) { value[i] = 0.5 * m->v * m->v + 0.5 * m->k * m->x * m->x; continue; }
+        if (vr[i] == VR_MODES) {
+            if (j + m->n > nv) { fail(m, "fmi3GetFloat64: too few values for modes"); return fmi3Error; }
+            for (uint64_t k = 0; k < m->n; k++) value[j++] = (double)(k + 1) * m->x;
+            continue;
+        }
+        if (j >= nv) { fail(m, "fmi3GetFloat64: too few values"); return fmi3Error; }
+        if (vr[i] == VR_ENERGY) { value[j++] = 0.5 * m->v * m->v + 0.5 * m->k * m->x * m->x; continue; }
         double *p = slot(m, vr[i]);
         if (!p) { fail(m, "fmi3GetFloat64: unknown value reference"); return fmi3Error; }
-        value[i] = *p;
+        value[j++] = *p;
     }
+    if (j != nv) { fail(m, "fmi3GetFloat64: wrong number of values"); return fmi3Error; }
     return fmi3OK;
 }
 
@@ -287,15 +329,15 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) {
 #define UNSUPPORTED(name) fmi3Status name() { return fmi3Error; }
 UNSUPPORTED(fmi3EnterEventMode) UNSUPPORTED(fmi3GetInt8) 
 UNSUPPORTED(fmi3GetInt16) UNSUPPORTED(fmi3GetUInt16) UNSUPPORTED(fmi3GetUInt32)
-UNSUPPORTED(fmi3GetUInt64) 
+
 UNSUPPORTED(fmi3GetBinary) UNSUPPORTED(fmi3GetClock) UNSUPPORTED(fmi3SetFloat32) UNSUPPORTED(fmi3SetInt8)
 UNSUPPORTED(fmi3SetInt16) UNSUPPORTED(fmi3SetUInt16) 
-UNSUPPORTED(fmi3SetUInt32) UNSUPPORTED(fmi3SetUInt64) UNSUPPORTED(fmi3SetBoolean)
+UNSUPPORTED(fmi3SetUInt32) UNSUPPORTED(fmi3SetBoolean)
 UNSUPPORTED(fmi3SetBinary) UNSUPPORTED(fmi3SetClock)
 UNSUPPORTED(fmi3GetNumberOfVariableDependencies) UNSUPPORTED(fmi3GetVariableDependencies)
 UNSUPPORTED(fmi3SerializedFMUStateSize) UNSUPPORTED(fmi3SerializeFMUState) UNSUPPORTED(fmi3DeserializeFMUState)
 UNSUPPORTED(fmi3GetDirectionalDerivative) UNSUPPORTED(fmi3GetAdjointDerivative)
-UNSUPPORTED(fmi3EnterConfigurationMode) UNSUPPORTED(fmi3ExitConfigurationMode)
+
 UNSUPPORTED(fmi3GetIntervalDecimal) UNSUPPORTED(fmi3GetIntervalFraction) UNSUPPORTED(fmi3GetShiftDecimal)
 UNSUPPORTED(fmi3GetShiftFraction) UNSUPPORTED(fmi3SetIntervalDecimal) UNSUPPORTED(fmi3SetIntervalFraction)
 UNSUPPORTED(fmi3SetShiftDecimal) UNSUPPORTED(fmi3SetShiftFraction) UNSUPPORTED(fmi3EvaluateDiscreteStates)

@@ -5,8 +5,11 @@
  * FMU of lash's importer tests and of `lash bench fmu` (the per-step cost of the importer).
  * Value references: 0 x0, 1 x1, 2 mu, 3 stop_at (once reached, fmi2DoStep answers fmi2Discard and
  * fmi2GetBooleanStatus(fmi2Terminated) is true: the FMU asks the master to stop), 4 steps (Integer
- * output: doStep calls), 5 positive (Boolean output: x0 > 0), 6 label (String parameter).
+ * output: doStep calls), 5 positive (Boolean output: x0 > 0), 6 label (String parameter), 7 fault and
+ * 8 fault_at (parameters: from the step that starts at fault_at on, fault 1 calls abort(), 2
+ * dereferences a null pointer, 3 loops for ever: the misbehaving FMUs of the isolation tests).
  * Self-contained: the fmi2 types are declared here. */
+#include <signal.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,7 +39,7 @@ typedef struct {
 #define SOLVER_STEP 1e-3
 
 typedef struct {
-    double x0, x1, mu, stop_at, time;
+    double x0, x1, mu, stop_at, fault, fault_at, time;
     int initialized, terminated, steps;
     char label[64];
     const fmi2CallbackFunctions *cb;
@@ -65,6 +68,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     m->x1 = 0.0;
     m->mu = 1.0;
     m->stop_at = 1e9;
+    m->fault_at = 1e9;
     strcpy(m->label, "vanderpol");
     m->cb = cb;
     strncpy(m->name, name ? name : "vanderpol", sizeof m->name - 1);
@@ -104,6 +108,8 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
         case 1: value[i] = m->x1; break;
         case 2: value[i] = m->mu; break;
         case 3: value[i] = m->stop_at; break;
+        case 7: value[i] = m->fault; break;
+        case 8: value[i] = m->fault_at; break;
         default: log_error(m, "unknown value reference"); return fmi2Error;
         }
     }
@@ -116,6 +122,8 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     for (size_t i = 0; i < n; i++) {
         if (vr[i] == 2 && !m->initialized) m->mu = value[i];
         else if (vr[i] == 3 && !m->initialized) m->stop_at = value[i];
+        else if (vr[i] == 7 && !m->initialized) m->fault = value[i];
+        else if (vr[i] == 8 && !m->initialized) m->fault_at = value[i];
         else { log_error(m, "only the parameters mu and stop_at can be set, before initialization"); return fmi2Error; }
     }
     return fmi2OK;
@@ -125,6 +133,11 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_pr
     (void)no_prior;
     Model *m = c;
     if (!m || !m->initialized || m->terminated || !(h > 0)) return fmi2Error;
+    if (t >= m->fault_at - 1e-12) {
+        if (m->fault == 1) abort();
+        if (m->fault == 2) { volatile int *nowhere = NULL; *nowhere = 1; }
+        if (m->fault == 3) { volatile int spin = 1; while (spin) {} }
+    }
     /* Whole solver steps of exactly SOLVER_STEP: float noise on h (a master that sends
      * t_{k+1} - t_k) does not change the result. */
     long n = (long)(h / SOLVER_STEP + 0.5);
