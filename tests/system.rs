@@ -503,6 +503,13 @@ fn sparse_value_references_stop_requests_and_early_returns() {
     assert!(column(&csv, "o.k").iter().all(|&k| k == 9.0), "the parameter k is recorded as set");
     assert!(column(&csv, "o.x").iter().any(|x| x.abs() > 0.5) && column(&csv, "o.v").iter().any(|v| v.abs() > 0.5));
 
+    // FMI 2.0 aliases: `position` shares x0's value reference.
+    let (o, dir) = system("alias2", "v", "vanderpol.fmu", "mu = 1.5", r#""v.x0", "v.position""#);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&dir.join("timeseries.csv"));
+    assert_eq!(column(&csv, "v.x0"), column(&csv, "v.position"));
+    assert!(column(&csv, "v.x0").windows(2).any(|w| w[0] != w[1]));
+
     // Stop requests: FMI 3.0 and FMI 2.0. The run ends where fmpy's does, with its rows, exit 0.
     for (name, fmu, channels, vars) in [
         ("stop3", "oscillator.fmu", r#""o.x", "o.v""#, ["x", "v"]),
@@ -691,6 +698,33 @@ channels = ["v.positive", "v.steps", "o.kicks_seen"]
         assert_eq!(o.status.code(), Some(2), "{parameters}: {err}");
         assert!(err.contains(expected), "expected {expected:?} in: {err}");
     }
+    // Bytes: a Binary parameter (hexadecimal text) echoed by a Binary output, connected to the
+    // Binary input of a second instance, which reports the length and first byte it received.
+    let text = r#"name = "bytes"
+stop = 0.1
+step = 0.01
+[[elements]]
+name = "a"
+fmu = "oscillator.fmu"
+parameters = { blob = "ca fe 01" }
+[[elements]]
+name = "b"
+fmu = "oscillator.fmu"
+[[connections]]
+from = "a.blob_out"
+to = "b.blob_in"
+[output]
+channels = ["b.blob_in_length", "b.blob_in_first"]
+"#;
+    let (o, dir) = run("bytes", text);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&dir.join("timeseries.csv"));
+    assert!(column(&csv, "b.blob_in_length").iter().all(|&n| n == 3.0));
+    assert!(column(&csv, "b.blob_in_first").iter().all(|&b| b == f64::from(0xca)));
+    let (o, _) = run("bad-bytes", &text.replace("ca fe 01", "cafe0"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("elements[0].parameters.blob") && err.contains("odd number"), "{err}");
     // A structural parameter sizes an array (FMI 3.0 configuration mode): `modes` has n
     // elements, (i + 1) x each, in and out of process; the default n is 3.
     for (isolate, n) in [("", None), ("", Some(5)), ("isolate = true", Some(7))] {

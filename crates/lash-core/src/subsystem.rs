@@ -53,7 +53,8 @@ pub enum Variability {
 /// [`Subsystem::get_f64`] / [`Subsystem::set_f64`]: a value converts exactly to `f64` (integers up
 /// to 2⁵³ in magnitude; a Boolean is 0 or 1; an Enumeration its integer), and a value written must
 /// be representable in the kind ([`ValueKind::check`]). Strings go through
-/// [`Subsystem::get_string`] / [`Subsystem::set_string`].
+/// [`Subsystem::get_string`] / [`Subsystem::set_string`], bytes through [`Subsystem::get_binary`] /
+/// [`Subsystem::set_binary`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
 pub enum ValueKind {
     /// 64-bit float (FMI 2.0 Real).
@@ -83,7 +84,7 @@ pub enum ValueKind {
     Enumeration,
     /// Text.
     String,
-    /// Bytes (FMI 3.0): listed, not read or written.
+    /// Bytes (FMI 3.0), through [`Subsystem::get_binary`] / [`Subsystem::set_binary`].
     Binary,
     /// Clock (FMI 3.0, scheduled or event mode): listed, not read or written.
     Clock,
@@ -468,6 +469,17 @@ pub trait Subsystem: Send {
     fn set_string(&mut self, vr: ValueReference, value: &str) -> Result<(), SubsystemError> {
         let _ = value;
         Err(SubsystemError::Other(format!("{}: value reference {vr}: no String variables", self.name())))
+    }
+
+    /// Reads a Binary variable (FMI 3.0).
+    fn get_binary(&self, vr: ValueReference) -> Result<Vec<u8>, SubsystemError> {
+        Err(SubsystemError::Other(format!("{}: value reference {vr}: no Binary variables", self.name())))
+    }
+
+    /// Writes a Binary variable (a parameter before initialization, or an input).
+    fn set_binary(&mut self, vr: ValueReference, value: &[u8]) -> Result<(), SubsystemError> {
+        let _ = value;
+        Err(SubsystemError::Other(format!("{}: value reference {vr}: no Binary variables", self.name())))
     }
 
     /// Ends the run (FMI `terminate`).

@@ -370,6 +370,8 @@ type GetF64 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut f64, usi
 type SetF64 = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const f64, usize) -> i32;
 type DoStep = unsafe extern "C" fn(*mut c_void, f64, f64, bool, *mut bool, *mut bool, *mut bool, *mut f64) -> i32;
 type GetState = unsafe extern "C" fn(*mut c_void, *mut *mut c_void) -> i32;
+type GetBinary = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut usize, *mut *const u8, usize) -> i32;
+type SetBinary = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const usize, *const *const u8, usize) -> i32;
 type SetState = unsafe extern "C" fn(*mut c_void, *mut c_void) -> i32;
 
 type Instantiate2 =
@@ -704,6 +706,8 @@ pub struct ImportedFmu {
     vr_scratch: Mutex<Vec<u32>>,
     /// `fmi3EnterConfigurationMode` and `fmi3ExitConfigurationMode` (FMI 3.0, when present).
     configuration: Option<(Unary, Unary)>,
+    /// `fmi3GetBinary` and `fmi3SetBinary` (FMI 3.0, when present).
+    binary: Option<(GetBinary, SetBinary)>,
     /// Every FMU state taken, freed with the instance (FMI has no way to free one from a
     /// `SavedState` alone).
     states: Mutex<Vec<Arc<FmuState>>>,
@@ -971,6 +975,15 @@ impl ImportedFmu {
         } else {
             None
         };
+        let binary = if v3 {
+            // SAFETY: the symbols have these signatures in fmi3Functions.h.
+            let get = unsafe { library.get::<GetBinary>(b"fmi3GetBinary\0") }.ok().map(|s| *s);
+            // SAFETY: as above.
+            let set = unsafe { library.get::<SetBinary>(b"fmi3SetBinary\0") }.ok().map(|s| *s);
+            get.zip(set)
+        } else {
+            None
+        };
         let float64: Vec<bool> = description.variables.iter().map(|v| v.kind == ValueKind::Float64).collect();
         let all_float64 = float64.iter().all(|&f| f);
         if instance.is_null() {
@@ -997,6 +1010,7 @@ impl ImportedFmu {
             bytes: Mutex::new(Vec::new()),
             vr_scratch: Mutex::new(Vec::new()),
             configuration,
+            binary,
             states: Mutex::new(Vec::new()),
             _library: library,
         })
@@ -1244,6 +1258,22 @@ impl ImportedFmu {
             return Err(SubsystemError::BadArguments(format!("{} values for {at} elements", values.len())));
         }
         Ok(())
+    }
+
+    /// A scalar Binary variable's native reference, or why not.
+    fn binary_ref(&self, vr: ValueReference) -> Result<u32, SubsystemError> {
+        let var = self.variable(vr)?;
+        if var.kind != ValueKind::Binary || var.len() != 1 {
+            return Err(SubsystemError::BadValue {
+                name: var.name.clone(),
+                problem: format!(
+                    "is a {} variable with {} element(s), not a Binary scalar",
+                    var.kind.name(),
+                    var.len()
+                ),
+            });
+        }
+        Ok(self.native_refs(vr)?[0])
     }
 
     /// A scalar String variable's native reference, or why not.
@@ -1570,6 +1600,38 @@ impl Subsystem for ImportedFmu {
             RawSet::V2(f) => unsafe { f(self.instance, &native, 1, values) },
         };
         self.check(call, status)
+    }
+
+    fn get_binary(&self, vr: ValueReference) -> Result<Vec<u8>, SubsystemError> {
+        let native = self.binary_ref(vr)?;
+        let (get, _) =
+            self.binary.ok_or_else(|| SubsystemError::Other(format!("{}: the FMU has no fmi3GetBinary", self.name)))?;
+        let (mut size, mut data): (usize, *const u8) = (0, std::ptr::null());
+        // SAFETY: a live instance; one size and one pointer written by the FMU.
+        let status = unsafe { get(self.instance, &native, 1, &mut size, &mut data, 1) };
+        self.check("fmi3GetBinary", status)?;
+        if data.is_null() {
+            return if size == 0 {
+                Ok(Vec::new())
+            } else {
+                Err(SubsystemError::Other(format!("{}: fmi3GetBinary returned a null pointer", self.name)))
+            };
+        }
+        if size > crate::import::MAX_ELEMENTS {
+            return Err(SubsystemError::Other(format!("{}: fmi3GetBinary returned {size} bytes", self.name)));
+        }
+        // SAFETY: `size` bytes owned by the FMU, valid until its next call.
+        Ok(unsafe { std::slice::from_raw_parts(data, size) }.to_vec())
+    }
+
+    fn set_binary(&mut self, vr: ValueReference, value: &[u8]) -> Result<(), SubsystemError> {
+        let native = self.binary_ref(vr)?;
+        let (_, set) =
+            self.binary.ok_or_else(|| SubsystemError::Other(format!("{}: the FMU has no fmi3SetBinary", self.name)))?;
+        let (size, data) = (value.len(), value.as_ptr());
+        // SAFETY: a live instance; one value of `size` bytes that outlives the call.
+        let status = unsafe { set(self.instance, &native, 1, &size, &data, 1) };
+        self.check("fmi3SetBinary", status)
     }
 
     fn terminate(&mut self) -> Result<(), SubsystemError> {

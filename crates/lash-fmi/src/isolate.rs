@@ -42,6 +42,10 @@ pub enum Request {
     RestoreState(u64),
     /// [`Subsystem::terminate`].
     Terminate,
+    /// [`Subsystem::set_binary`].
+    SetBinary(ValueReference, Vec<u8>),
+    /// [`Subsystem::get_binary`].
+    GetBinary(ValueReference),
     /// [`Subsystem::configure`]; answered with [`Reply::Variables`].
     Configure(Vec<ValueReference>, Vec<f64>),
 }
@@ -63,6 +67,8 @@ pub enum Reply {
     State(u64),
     /// The call failed: the message.
     Error(String),
+    /// Bytes read.
+    Bytes(Vec<u8>),
     /// The variables after a configuration (arrays resized).
     Variables(Vec<Variable>),
 }
@@ -149,6 +155,8 @@ pub fn serve(fmu: &Path, cache: &Path, name: &str) -> i32 {
                 None => Reply::Error(format!("no saved state {k}")),
             },
             Request::Terminate => model.terminate().map_or_else(error, |_| Reply::Done),
+            Request::SetBinary(vr, bytes) => model.set_binary(vr, &bytes).map_or_else(error, |_| Reply::Done),
+            Request::GetBinary(vr) => model.get_binary(vr).map_or_else(error, Reply::Bytes),
             Request::Configure(refs, values) => match model.configure(&refs, &values) {
                 Ok(()) => Reply::Variables(model.variables().to_vec()),
                 Err(e) => error(e),
@@ -460,6 +468,17 @@ impl Subsystem for IsolatedFmu {
 
     fn terminate(&mut self) -> Result<(), SubsystemError> {
         self.done("terminate", Request::Terminate)
+    }
+
+    fn get_binary(&self, vr: ValueReference) -> Result<Vec<u8>, SubsystemError> {
+        match self.call("get_binary", Request::GetBinary(vr))? {
+            Reply::Bytes(b) => Ok(b),
+            other => Err(SubsystemError::Other(format!("get_binary: unexpected answer {other:?}"))),
+        }
+    }
+
+    fn set_binary(&mut self, vr: ValueReference, value: &[u8]) -> Result<(), SubsystemError> {
+        self.done("set_binary", Request::SetBinary(vr, value.to_vec()))
     }
 
     fn configure(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {

@@ -27,11 +27,31 @@ pub enum SystemError {
     Output(String),
 }
 
-/// A parameter's value as it will be set: numbers (any numeric kind) or text (a String).
+/// A parameter's value as it will be set: numbers (any numeric kind), text (a String) or bytes
+/// (a Binary, given as hexadecimal text).
 #[derive(Debug, Clone)]
 enum Setting {
     Numbers(Vec<f64>),
     Text(String),
+    Bytes(Vec<u8>),
+}
+
+/// Bytes from hexadecimal text (`"0a1B ff"`: pairs of hex digits, spaces and an optional `0x`
+/// ignored).
+fn hex_bytes(text: &str) -> Result<Vec<u8>, String> {
+    let digits: Vec<u8> = text.trim().trim_start_matches("0x").bytes().filter(|b| !b.is_ascii_whitespace()).collect();
+    if !digits.len().is_multiple_of(2) {
+        return Err(format!("{text:?}: an odd number of hexadecimal digits"));
+    }
+    digits
+        .chunks(2)
+        .map(|pair| {
+            std::str::from_utf8(pair)
+                .ok()
+                .and_then(|p| u8::from_str_radix(p, 16).ok())
+                .ok_or_else(|| format!("{text:?}: not hexadecimal bytes"))
+        })
+        .collect()
 }
 
 struct Element {
@@ -45,8 +65,15 @@ struct Connection {
     from: (usize, ValueReference),
     to: (usize, ValueReference),
     buffer: Vec<f64>,
-    /// A String connection: the text passes through `text`.
-    text: Option<String>,
+    /// What a String or Binary connection carries (None for numbers).
+    carried: Option<Carried>,
+}
+
+/// The value of a connection that does not carry numbers.
+#[derive(Debug, Clone)]
+enum Carried {
+    Text(String),
+    Bytes(Vec<u8>),
 }
 
 /// A run that a subsystem ended before the stop time, without an error.
@@ -257,13 +284,23 @@ impl System {
                         .collect();
                     bad(format!("{field}.parameters.{pname}: no such parameter (parameters and inputs: {names:?})"))
                 })?;
+                let text = match value {
+                    crate::spec::ParameterValue::Text(t) => Some(t.clone()),
+                    _ => None,
+                };
                 let setting = match (v.kind, value.values()) {
-                    (ValueKind::String, None) => match value {
-                        crate::spec::ParameterValue::Text(t) => Setting::Text(t.clone()),
-                        _ => unreachable!("only text has no numbers"),
-                    },
+                    (ValueKind::String, None) => Setting::Text(text.unwrap_or_default()),
                     (ValueKind::String, Some(_)) => {
                         return Err(bad(format!("{field}.parameters.{pname}: a String parameter takes text")));
+                    }
+                    (ValueKind::Binary, None) => Setting::Bytes(
+                        hex_bytes(&text.unwrap_or_default())
+                            .map_err(|m| bad(format!("{field}.parameters.{pname}: {m}")))?,
+                    ),
+                    (ValueKind::Binary, Some(_)) => {
+                        return Err(bad(format!(
+                            "{field}.parameters.{pname}: a Binary parameter takes hexadecimal text (\"0a1b\")"
+                        )));
                     }
                     (kind, None) => {
                         return Err(bad(format!(
@@ -352,12 +389,13 @@ impl System {
             }
             // Numbers connect across numeric kinds (the value passes as f64 and must fit the
             // input's kind when set); Strings connect to Strings; Binary and Clock not at all.
-            let text = match (from.3, to.3) {
+            let carried = match (from.3, to.3) {
                 (a, b) if a.is_numeric() && b.is_numeric() => None,
-                (ValueKind::String, ValueKind::String) if from.2 == 1 => Some(String::new()),
+                (ValueKind::String, ValueKind::String) if from.2 == 1 => Some(Carried::Text(String::new())),
+                (ValueKind::Binary, ValueKind::Binary) if from.2 == 1 => Some(Carried::Bytes(Vec::new())),
                 (a, b) => {
                     return Err(bad(format!(
-                        "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers and String scalars to String scalars",
+                        "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers, String scalars to String scalars and Binary scalars to Binary scalars",
                         c.from,
                         a.name(),
                         c.to,
@@ -368,7 +406,12 @@ impl System {
             if connections.iter().any(|x: &Connection| x.to == (to.0, to.1)) {
                 return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
             }
-            connections.push(Connection { from: (from.0, from.1), to: (to.0, to.1), buffer: vec![0.0; from.2], text });
+            connections.push(Connection {
+                from: (from.0, from.1),
+                to: (to.0, to.1),
+                buffer: vec![0.0; from.2],
+                carried,
+            });
         }
         let mut channels = Vec::new();
         let mut header = vec!["time [s]".to_string()];
@@ -468,12 +511,14 @@ impl System {
                 let result = match &setting {
                     Setting::Numbers(values) => self.elements[k].model.set_f64(&[vr], values),
                     Setting::Text(text) => self.elements[k].model.set_string(vr, text),
+                    Setting::Bytes(bytes) => self.elements[k].model.set_binary(vr, bytes),
                 };
                 if let Err(e) = result {
                     // A refused parameter value is the user's to fix (exit 2), named by its field.
                     let shown = match &setting {
                         Setting::Numbers(v) => format!("{v:?}"),
                         Setting::Text(t) => format!("{t:?}"),
+                        Setting::Bytes(b) => format!("{} bytes", b.len()),
                     };
                     return Err(SystemError::Input(format!(
                         "elements[{k}].parameters.{name} (element {:?}): {shown} refused: {e}",
@@ -492,10 +537,12 @@ impl System {
             if only_to.is_some_and(|k| k != to.0) {
                 continue;
             }
-            let Connection { buffer, text, .. } = &mut self.connections[c];
-            let result = match text {
-                Some(text) => self.elements[from.0].model.get_string(from.1).map(|s| *text = s),
-                None => self.elements[from.0].model.get_f64(&[from.1], buffer),
+            let Connection { buffer, carried, .. } = &mut self.connections[c];
+            let source = &self.elements[from.0].model;
+            let result = match carried {
+                Some(Carried::Text(text)) => source.get_string(from.1).map(|s| *text = s),
+                Some(Carried::Bytes(bytes)) => source.get_binary(from.1).map(|b| *bytes = b),
+                None => source.get_f64(&[from.1], buffer),
             };
             if let Err(e) = result {
                 return Err(self.fail(from.0, t, e));
@@ -511,10 +558,12 @@ impl System {
             if to.0 != k {
                 continue;
             }
-            let Connection { buffer, text, .. } = &self.connections[c];
-            let result = match text {
-                Some(text) => self.elements[k].model.set_string(to.1, text),
-                None => self.elements[k].model.set_f64(&[to.1], buffer),
+            let Connection { buffer, carried, .. } = &self.connections[c];
+            let target = &mut self.elements[k].model;
+            let result = match carried {
+                Some(Carried::Text(text)) => target.set_string(to.1, text),
+                Some(Carried::Bytes(bytes)) => target.set_binary(to.1, bytes),
+                None => target.set_f64(&[to.1], buffer),
             };
             if let Err(e) = result {
                 return Err(self.fail(k, t, e));

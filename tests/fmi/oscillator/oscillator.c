@@ -11,7 +11,9 @@
  * force), gain (UInt8 parameter, multiplies the force input), gear (Enumeration parameter,
  * multiplies k), label (String parameter, echoed by the String output label_out). A structural
  * parameter sizes an array: modes (Float64 output, n elements: modes[i] = (i + 1) x), n (UInt64
- * structural parameter, set in configuration mode, 0 to 64).
+ * structural parameter, set in configuration mode, 0 to 64). Bytes: blob (Binary parameter, up to
+ * 64 bytes) echoed by the Binary output blob_out; blob_in (Binary input) whose length and first
+ * byte are the Int32 outputs blob_in_length and blob_in_first.
  * Self-contained: the fmi3 types are declared here. */
 #include <stdbool.h>
 #include <stddef.h>
@@ -35,6 +37,7 @@ typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3
 
 enum { VR_X = 1003, VR_V = 17, VR_ENERGY = 2, VR_K = 5, VR_FORCE = 3, VR_STOP = 99, VR_EARLY = 98, VR_TIME = 0 };
 enum { VR_N = 60, VR_MODES = 61, MAX_MODES = 64 };
+enum { VR_BLOB = 70, VR_BLOB_OUT = 71, VR_BLOB_IN = 72, VR_BLOB_IN_LENGTH = 73, VR_BLOB_IN_FIRST = 74, MAX_BLOB = 64 };
 enum { VR_STEPS = 40, VR_MOVING = 41, VR_TICKS = 44, VR_X32 = 46, VR_KICKS = 48, VR_KICK = 47, VR_GAIN = 42,
        VR_GEAR = 45, VR_LABEL = 43, VR_LABEL_OUT = 49 };
 
@@ -44,6 +47,8 @@ typedef struct {
     int64_t ticks, gear;
     uint8_t gain;
     uint64_t n;
+    uint8_t blob[64], blob_in[64];
+    size_t blob_size, blob_in_size;
     char label[64];
     int initialized, configuring;
     fmi3InstanceEnvironment env;
@@ -225,6 +230,8 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
     Model *m = c; CHECK(n, nv);
     for (size_t i = 0; i < n; i++) {
         if (vr[i] == VR_STEPS) value[i] = m->steps;
+        else if (vr[i] == VR_BLOB_IN_LENGTH) value[i] = (int32_t)m->blob_in_size;
+        else if (vr[i] == VR_BLOB_IN_FIRST) value[i] = m->blob_in_size ? m->blob_in[0] : -1;
         else if (vr[i] == VR_KICKS) value[i] = m->kicks_seen;
         else if (vr[i] == VR_KICK) value[i] = m->kick;
         else { fail(m, "fmi3GetInt32: not an Int32 variable"); return fmi3Error; }
@@ -305,6 +312,31 @@ fmi3Status fmi3SetString(fmi3Instance c, const fmi3ValueReference vr[], size_t n
     return fmi3OK;
 }
 
+
+typedef uint8_t fmi3Byte;
+fmi3Status fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n, size_t sizes[],
+                         const fmi3Byte *value[], size_t nv) {
+    Model *m = c;
+    if (!m || nv != n || (n && (!vr || !value || !sizes))) return fmi3Error;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_BLOB || vr[i] == VR_BLOB_OUT) { value[i] = m->blob; sizes[i] = m->blob_size; }
+        else { fail(m, "fmi3GetBinary: not a Binary output"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const size_t sizes[],
+                         const fmi3Byte *const value[], size_t nv) {
+    Model *m = c;
+    if (!m || nv != n || (n && (!vr || !value || !sizes))) return fmi3Error;
+    for (size_t i = 0; i < n; i++) {
+        if (sizes[i] > MAX_BLOB || (sizes[i] && !value[i])) { fail(m, "fmi3SetBinary: at most 64 bytes"); return fmi3Error; }
+        if (vr[i] == VR_BLOB && !m->initialized) { memcpy(m->blob, value[i], sizes[i]); m->blob_size = sizes[i]; }
+        else if (vr[i] == VR_BLOB_IN) { memcpy(m->blob_in, value[i], sizes[i]); m->blob_in_size = sizes[i]; }
+        else { fail(m, "fmi3SetBinary: blob before initialization, or blob_in"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+
 typedef struct { Model model; } State;
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) {
     if (!c || !s) return fmi3Error;
@@ -330,10 +362,10 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) {
 UNSUPPORTED(fmi3EnterEventMode) UNSUPPORTED(fmi3GetInt8) 
 UNSUPPORTED(fmi3GetInt16) UNSUPPORTED(fmi3GetUInt16) UNSUPPORTED(fmi3GetUInt32)
 
-UNSUPPORTED(fmi3GetBinary) UNSUPPORTED(fmi3GetClock) UNSUPPORTED(fmi3SetFloat32) UNSUPPORTED(fmi3SetInt8)
+UNSUPPORTED(fmi3GetClock) UNSUPPORTED(fmi3SetFloat32) UNSUPPORTED(fmi3SetInt8)
 UNSUPPORTED(fmi3SetInt16) UNSUPPORTED(fmi3SetUInt16) 
 UNSUPPORTED(fmi3SetUInt32) UNSUPPORTED(fmi3SetBoolean)
-UNSUPPORTED(fmi3SetBinary) UNSUPPORTED(fmi3SetClock)
+UNSUPPORTED(fmi3SetClock)
 UNSUPPORTED(fmi3GetNumberOfVariableDependencies) UNSUPPORTED(fmi3GetVariableDependencies)
 UNSUPPORTED(fmi3SerializedFMUStateSize) UNSUPPORTED(fmi3SerializeFMUState) UNSUPPORTED(fmi3DeserializeFMUState)
 UNSUPPORTED(fmi3GetDirectionalDerivative) UNSUPPORTED(fmi3GetAdjointDerivative)
