@@ -594,7 +594,7 @@ fn every_variable_type_is_imported_set_recorded_and_connected() {
         "simulate",
         "oscillator.fmu",
         "--stop-time",
-        "1",
+        "1.2",
         "--output-interval",
         "0.01",
         "--output-file",
@@ -618,28 +618,37 @@ fn every_variable_type_is_imported_set_recorded_and_connected() {
     };
     let system = |parameters: &str, channels: &str| {
         format!(
-            "name = \"types\"\nstop = 1.0\nstep = 0.01\n[[elements]]\nname = \"o\"\nfmu = \"oscillator.fmu\"\nparameters = {{ {parameters} }}\n[output]\nchannels = [{channels}]\n"
+            "name = \"types\"\nstop = 1.2\nstep = 0.01\n[[elements]]\nname = \"o\"\nfmu = \"oscillator.fmu\"\nparameters = {{ {parameters} }}\n[output]\nchannels = [{channels}]\n"
         )
     };
     let (o, dir) = run(
         "types",
         &system(
             r#"gain = 3, gear = 2, label = "hello", force = 0.5"#,
-            r#""o.x", "o.x32", "o.steps", "o.ticks", "o.moving", "o.kicks_seen", "o.gain", "o.gear""#,
+            r#""o.x", "o.x32", "o.steps", "o.ticks", "o.moving", "o.kicks_seen", "o.gain", "o.gear", "o.wave8", "o.count16", "o.wave16", "o.count32""#,
         ),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = read_csv(&dir.join("timeseries.csv"));
-    assert_eq!(csv.1.len(), 101);
+    assert_eq!(csv.1.len(), 121);
     let same = |a: &[f64], b: &[f64]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-    for v in ["x", "steps", "ticks", "moving", "kicks_seen"] {
+    for v in ["x", "steps", "ticks", "moving", "kicks_seen", "wave8", "count16", "wave16", "count32"] {
         assert!(same(&column(&csv, &format!("o.{v}")), &column(&reference, v)), "o.{v} differs from fmpy");
     }
     // Float32: the same single-precision values (fmpy prints them in their shortest f32 form).
     let as_f32 = |v: Vec<f64>| v.into_iter().map(|x| (x as f32).to_bits()).collect::<Vec<_>>();
     assert_eq!(as_f32(column(&csv, "o.x32")), as_f32(column(&reference, "x32")));
     assert!(column(&csv, "o.moving").contains(&1.0) && column(&csv, "o.moving").contains(&0.0));
-    assert_eq!(*column(&csv, "o.ticks").last().unwrap(), 1000.0);
+    assert_eq!(*column(&csv, "o.ticks").last().unwrap(), 1200.0);
+    // The integer outputs reach their types' extremes and wrap as the C types do.
+    let lowest = |v: Vec<f64>| v.into_iter().fold(f64::MAX, f64::min);
+    assert_eq!(lowest(column(&csv, "o.wave8")), -100.0);
+    assert_eq!(lowest(column(&csv, "o.wave16")), -30000.0);
+    assert!(column(&csv, "o.count32").iter().any(|&c| c > 4.0e9));
+    assert!(
+        column(&csv, "o.count16").windows(2).any(|w| w[1] < w[0])
+            && column(&csv, "o.count32").windows(2).any(|w| w[1] < w[0])
+    );
     assert!(column(&csv, "o.gain").iter().all(|&g| g == 3.0) && column(&csv, "o.gear").iter().all(|&g| g == 2.0));
 
     // Across types and standards: FMI 2.0 Boolean `positive` into the FMI 3.0 Int32 input `kick`.

@@ -13,7 +13,9 @@
  * parameter sizes an array: modes (Float64 output, n elements: modes[i] = (i + 1) x), n (UInt64
  * structural parameter, set in configuration mode, 0 to 64). Bytes: blob (Binary parameter, up to
  * 64 bytes) echoed by the Binary output blob_out; blob_in (Binary input) whose length and first
- * byte are the Int32 outputs blob_in_length and blob_in_first.
+ * byte are the Int32 outputs blob_in_length and blob_in_first. The remaining integer types are
+ * outputs derived from the step count s: wave8 (Int8, (s mod 200) - 100), count16 (UInt16,
+ * 1000 s mod 65536), wave16 (Int16, 300 (s mod 200) - 30000), count32 (UInt32, 4e7 s mod 2^32).
  * Self-contained: the fmi3 types are declared here. */
 #include <stdbool.h>
 #include <stddef.h>
@@ -37,6 +39,7 @@ typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3
 
 enum { VR_X = 1003, VR_V = 17, VR_ENERGY = 2, VR_K = 5, VR_FORCE = 3, VR_STOP = 99, VR_EARLY = 98, VR_TIME = 0 };
 enum { VR_N = 60, VR_MODES = 61, MAX_MODES = 64 };
+enum { VR_WAVE8 = 80, VR_COUNT16 = 81, VR_WAVE16 = 82, VR_COUNT32 = 83 };
 enum { VR_BLOB = 70, VR_BLOB_OUT = 71, VR_BLOB_IN = 72, VR_BLOB_IN_LENGTH = 73, VR_BLOB_IN_FIRST = 74, MAX_BLOB = 64 };
 enum { VR_STEPS = 40, VR_MOVING = 41, VR_TICKS = 44, VR_X32 = 46, VR_KICKS = 48, VR_KICK = 47, VR_GAIN = 42,
        VR_GEAR = 45, VR_LABEL = 43, VR_LABEL_OUT = 49 };
@@ -246,6 +249,40 @@ fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
     }
     return fmi3OK;
 }
+
+fmi3Status fmi3GetInt8(fmi3Instance c, const fmi3ValueReference vr[], size_t n, int8_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_WAVE8) value[i] = (int8_t)(m->steps % 200 - 100);
+        else { fail(m, "fmi3GetInt8: not an Int8 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetUInt16(fmi3Instance c, const fmi3ValueReference vr[], size_t n, uint16_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_COUNT16) value[i] = (uint16_t)((uint32_t)m->steps * 1000u);
+        else { fail(m, "fmi3GetUInt16: not a UInt16 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetInt16(fmi3Instance c, const fmi3ValueReference vr[], size_t n, int16_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_WAVE16) value[i] = (int16_t)(300 * (m->steps % 200) - 30000);
+        else { fail(m, "fmi3GetInt16: not an Int16 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3GetUInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, uint32_t value[], size_t nv) {
+    Model *m = c; CHECK(n, nv);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] == VR_COUNT32) value[i] = (uint32_t)((uint64_t)m->steps * 40000000u);
+        else { fail(m, "fmi3GetUInt32: not a UInt32 variable"); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+
 fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, int64_t value[], size_t nv) {
     Model *m = c; CHECK(n, nv);
     for (size_t i = 0; i < n; i++) {
@@ -359,8 +396,8 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) {
 /* The rest of fmi3Functions.h: not supported, answered with fmi3Error (argument lists are not
  * read, so they are declared without parameters). */
 #define UNSUPPORTED(name) fmi3Status name() { return fmi3Error; }
-UNSUPPORTED(fmi3EnterEventMode) UNSUPPORTED(fmi3GetInt8) 
-UNSUPPORTED(fmi3GetInt16) UNSUPPORTED(fmi3GetUInt16) UNSUPPORTED(fmi3GetUInt32)
+UNSUPPORTED(fmi3EnterEventMode) 
+
 
 UNSUPPORTED(fmi3GetClock) UNSUPPORTED(fmi3SetFloat32) UNSUPPORTED(fmi3SetInt8)
 UNSUPPORTED(fmi3SetInt16) UNSUPPORTED(fmi3SetUInt16) 
