@@ -147,7 +147,27 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
     assert!(out.join("full/timeseries.csv").exists() && out.join("reduced/timeseries.csv").exists());
     let c: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
-    assert!(c["speedup"].as_f64().unwrap() > 1.0, "{c}");
+    // Timings on one clock, simulation and output apart, and the three ratios.
+    for model in ["full", "reduced", "full_rk4_at_micro_step"] {
+        let t = &c["timing"][model];
+        let (sim, out, total) =
+            (t["simulation_s"].as_f64().unwrap(), t["output_s"].as_f64().unwrap(), t["total_s"].as_f64().unwrap());
+        assert!(sim > 0.0 && out > 0.0 && (sim + out - total).abs() <= 1e-9 * total, "{model}: {t}");
+    }
+    let s = &c["speedup"];
+    let converged = s["simulation_vs_converged_full"].as_f64().unwrap();
+    assert!(converged > 1.0, "{c}");
+    let ratio = |a: &str, b: &str| {
+        c["timing"][a]["simulation_s"].as_f64().unwrap() / c["timing"][b]["simulation_s"].as_f64().unwrap()
+    };
+    assert!((converged - ratio("full", "reduced")).abs() < 1e-12 * converged);
+    assert!(
+        (s["simulation_at_equal_step"].as_f64().unwrap() - ratio("full_rk4_at_micro_step", "reduced")).abs() < 1e-9
+    );
+    assert!(s["whole_run_equal_recording"].as_f64().unwrap() > 0.0);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("reduced/summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["timing"], c["timing"]["reduced"], "summary.json carries the same split");
     let ax = &c["channels"]["slider.ax"];
     for key in ["peak_full", "peak_reduced", "relative_rms_error", "spectral_distance", "band_powers_full"] {
         assert!(!ax[key].is_null(), "comparison lacks channels.slider.ax.{key}");

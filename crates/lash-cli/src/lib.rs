@@ -368,7 +368,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             match model {
                 ModelKind::Full => {
                     let mut r = lash_scenario::Run::new(&s, lash_scenario::BuildOptions { ideal });
-                    run::run(&s, &mut r, &out, quiet)
+                    run::run(&s, &mut r, &out, quiet).map(|_| ())
                 }
                 ModelKind::Reduced => {
                     if ideal {
@@ -376,7 +376,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     }
                     let mut r = lash_scenario::ReducedRun::new(&s, reduced.options())
                         .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                    run::run(&s, &mut r, &out, quiet)
+                    run::run(&s, &mut r, &out, quiet).map(|_| ())
                 }
             }
         }

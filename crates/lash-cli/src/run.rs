@@ -1,5 +1,6 @@
 //! `lash run`: streams the CSV, then writes the summary; nothing is left looking complete on
-//! failure (the CSV stays as `timeseries.csv.partial`, no summary.json).
+//! failure (the CSV stays as `timeseries.csv.partial`, no summary.json). The wall time of the run
+//! is split, on one clock, into simulation and output (formatting and writing the CSV rows).
 
 use crate::CliError;
 use crate::output::CsvOutput;
@@ -8,7 +9,19 @@ use lash_scenario::{Runner, Scenario};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<(), CliError> {
+/// Wall times of one run on one monotonic clock [s]: the simulation (everything but the output),
+/// the output (formatting and writing the rows, and the final flush), and the whole run.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Timing {
+    /// Simulation alone [s].
+    pub simulation_s: f64,
+    /// Formatting and writing the CSV [s].
+    pub output_s: f64,
+    /// Both [s].
+    pub total_s: f64,
+}
+
+pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<Timing, CliError> {
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     let summary_path = out.join("summary.json");
     let mut csv = CsvOutput::create(out, &runner.header(), &["summary.json"])?;
@@ -27,8 +40,16 @@ pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Re
         }
         bar.set_position((f * 1000.0) as u64);
     };
-    let mut sink = |row: &[f64]| csv.row(row);
+    let mut output = Duration::ZERO;
+    let mut sink = |row: &[f64]| {
+        let t = Instant::now();
+        let r = csv.row(row);
+        output += t.elapsed();
+        r
+    };
+    let run_started = Instant::now();
     let result = runner.execute(&mut sink, &mut progress);
+    let mut total = run_started.elapsed();
     bar.finish_and_clear();
     let summary = match result {
         Ok(s) => s,
@@ -40,24 +61,38 @@ pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Re
             return Err(CliError::Failure(format!("{e}\n({kept})")));
         }
     };
+    let flush = Instant::now();
     csv.finish()?;
+    let flushed = flush.elapsed();
+    (output, total) = (output + flushed, total + flushed);
+    let timing = Timing {
+        simulation_s: (total - output).as_secs_f64(),
+        output_s: output.as_secs_f64(),
+        total_s: total.as_secs_f64(),
+    };
     std::fs::write(out.join("scenario.toml"), toml::to_string(s).map_err(|e| CliError::Failure(e.to_string()))?)
         .map_err(|e| fail("writing scenario.toml", e))?;
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| CliError::Failure(e.to_string()))?;
+    let mut json = serde_json::to_value(&summary).map_err(|e| CliError::Failure(e.to_string()))?;
+    if let Some(map) = json.as_object_mut() {
+        map.insert("timing".into(), serde_json::to_value(timing).map_err(|e| CliError::Failure(e.to_string()))?);
+    }
+    let json = serde_json::to_string_pretty(&json).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(&summary_path, json + "\n").map_err(|e| fail("writing summary.json", e))?;
     let impacts: Vec<String> =
         summary.clearances.iter().map(|c| format!("{}: {} impacts", c.name, c.impacts)).collect();
     eprintln!(
-        "{} ({}): {} samples, {} steps ({} rejected), {:.3} s CPU{}{} → {}",
+        "{} ({}): {} samples, {} steps ({} rejected), wall {:.3} s = simulation {:.3} s + output {:.3} s{}{} → {}",
         summary.scenario,
         summary.model,
         summary.samples,
         summary.steps,
         summary.rejected_steps,
-        summary.cpu_time_s,
+        timing.total_s,
+        timing.simulation_s,
+        timing.output_s,
         if impacts.is_empty() { "" } else { ", " },
         impacts.join(", "),
         out.display()
     );
-    Ok(())
+    Ok(timing)
 }
