@@ -14,7 +14,7 @@
 use crate::model::{BodyId, Mechanism};
 use crate::solver::{MechError, Solver};
 use crate::{Pose, Vec2, cross, perp};
-use nalgebra::{DVector, Matrix2};
+use nalgebra::{DMatrix, DVector, Matrix2};
 
 /// Where the interface is: the journal centre on one body, the bearing centre on another.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,7 +74,184 @@ fn interface_rate(iface: &Interface, poses: &[Pose], x: &[f64]) -> Vec2 {
     part(iface.journal_body, iface.journal_point) - part(iface.bearing_body, iface.bearing_point)
 }
 
-/// Effective terms of `iface` for the cut mechanism `mech` at `(t, q, q̇)`.
+/// One clearance joint among several coupled through the cut mechanism: where its journal and
+/// bearing centres are, and the radii at which its friction force acts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClearanceInterface {
+    /// Journal and bearing centres.
+    pub interface: Interface,
+    /// Journal radius R_J [m] (the friction force acts at the contact point, R_J from the journal
+    /// centre).
+    pub journal_radius: f64,
+    /// Bearing radius R_B [m].
+    pub bearing_radius: f64,
+}
+
+/// The effective terms of k clearance joints at once (n = 2k interface coordinates: joint j's
+/// eccentricity is coordinates 2j, 2j + 1), with the maps that propagate the contact forces back.
+///
+/// With f_c (n: the contact force on each journal, through the joint centres) and F_T (k: each
+/// joint's tangential friction force, whose moments −R_J F_T on the journal body and +R_B F_T on the
+/// bearing body are not carried by forces through the centres):
+///
+/// ```text
+///     ẅ = W f_c + W_T F_T + a_free,   M̃ = W⁻¹,   f̃ = M̃ a_free,
+///     q̈ = q̈_free + G [f_c; F_T],      λ = λ_free + Λ [f_c; F_T].
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoupledTerms {
+    /// Mobility W = J A Jᵀ (n × n) [1/kg]; its off-diagonal 2 × 2 blocks couple the joints.
+    pub mobility: DMatrix<f64>,
+    /// Effective mass M̃ = W⁻¹ [kg]; `None` when W is singular.
+    pub effective_mass: Option<DMatrix<f64>>,
+    /// Free interface accelerations a_free (n) [m/s²].
+    pub free_acceleration: DVector<f64>,
+    /// Effective forces f̃ = M̃ a_free (n) [N] (zero when W is singular).
+    pub effective_force: DVector<f64>,
+    /// W_T (n × k): interface accelerations per unit friction force F_T of each joint, through its
+    /// moments alone [1/kg].
+    pub friction_mobility: DMatrix<f64>,
+    /// Generalized accelerations with f_c = 0 and F_T = 0.
+    pub free_accelerations: Vec<f64>,
+    /// Columns of G (3k): q̈ per unit force along x, along y on each journal (2j, 2j + 1), then per
+    /// unit friction force of each joint (2k + j).
+    pub gain: Vec<Vec<f64>>,
+    /// Multipliers with f_c = 0 and F_T = 0.
+    pub free_lambda: Vec<f64>,
+    /// Columns of Λ, in the order of `gain`.
+    pub lambda_gain: Vec<Vec<f64>>,
+}
+
+impl CoupledTerms {
+    /// q̈ = q̈_free + G [f_c; F_T].
+    pub fn accelerations(&self, contact_forces: &[f64], friction_forces: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(&self.free_accelerations);
+        for (column, &f) in self.gain.iter().zip(contact_forces.iter().chain(friction_forces)) {
+            for (o, g) in out.iter_mut().zip(column) {
+                *o += g * f;
+            }
+        }
+    }
+}
+
+/// Effective terms of the clearance joints `joints` of the cut mechanism `mech` (every one of them
+/// removed) at `(t, q, q̇)`. One factorisation serves the 3k + 1 solves.
+pub fn coupled_effective_terms(
+    mech: &Mechanism,
+    solver: &mut Solver,
+    joints: &[ClearanceInterface],
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<CoupledTerms, MechError> {
+    let n = q.len();
+    let m = mech.constraint_count();
+    let k = joints.len();
+    solver.set_state(mech, t, q, qd);
+    solver.factor()?;
+    solver.solve(mech, qd);
+    let free_accelerations = solver.accelerations.clone();
+    let free_lambda: Vec<f64> = solver.lambda.iter().copied().collect();
+    let poses = solver.poses.clone();
+    let zero_gamma = vec![0.0; m];
+    let mut gain = vec![vec![0.0; n]; 3 * k];
+    let mut lambda_gain = vec![vec![0.0; m]; 3 * k];
+    let mut lambda = DVector::zeros(m);
+    let mut force = vec![0.0; n];
+    for (j, joint) in joints.iter().enumerate() {
+        let iface = &joint.interface;
+        for (i, e) in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)].into_iter().enumerate() {
+            // Jᵀ e: the unit force on the journal point and its opposite on the bearing point.
+            force.fill(0.0);
+            for (body, point, sign) in
+                [(iface.journal_body, iface.journal_point, 1.0), (iface.bearing_body, iface.bearing_point, -1.0)]
+            {
+                if let BodyId::Body(b) = body {
+                    let a = poses[b].rotate(point);
+                    force[3 * b] += sign * e.x;
+                    force[3 * b + 1] += sign * e.y;
+                    force[3 * b + 2] += sign * cross(a, e);
+                }
+            }
+            solver.solve_with(&force, &zero_gamma, &mut gain[2 * j + i], &mut lambda);
+            lambda_gain[2 * j + i].copy_from_slice(lambda.as_slice());
+        }
+        // The friction force's moments per unit F_T: −R_J on the journal body, +R_B on the
+        // bearing body (f_J = −F_N n − F_T t acts at r_J + R_J n, and (R_J n) × (−t) = −R_J).
+        force.fill(0.0);
+        for (body, moment) in [(iface.journal_body, -joint.journal_radius), (iface.bearing_body, joint.bearing_radius)]
+        {
+            if let BodyId::Body(b) = body {
+                force[3 * b + 2] += moment;
+            }
+        }
+        solver.solve_with(&force, &zero_gamma, &mut gain[2 * k + j], &mut lambda);
+        lambda_gain[2 * k + j].copy_from_slice(lambda.as_slice());
+    }
+    let dim = 2 * k;
+    let mut mobility = DMatrix::zeros(dim, dim);
+    let mut friction_mobility = DMatrix::zeros(dim, k);
+    let mut free_acceleration = DVector::zeros(dim);
+    // J̇ q̇ = −ω_J² a_J + ω_B² a_B.
+    let centripetal = |body: BodyId, point: Vec2| -> Vec2 {
+        match body {
+            BodyId::Ground => Vec2::zeros(),
+            BodyId::Body(b) => -poses[b].rotate(point) * (poses[b].angular_velocity * poses[b].angular_velocity),
+        }
+    };
+    for (row, joint) in joints.iter().enumerate() {
+        let iface = &joint.interface;
+        for c in 0..dim {
+            let w = interface_rate(iface, &poses, &gain[c]);
+            mobility[(2 * row, c)] = w.x;
+            mobility[(2 * row + 1, c)] = w.y;
+        }
+        for c in 0..k {
+            let w = interface_rate(iface, &poses, &gain[dim + c]);
+            friction_mobility[(2 * row, c)] = w.x;
+            friction_mobility[(2 * row + 1, c)] = w.y;
+        }
+        let a = interface_rate(iface, &poses, &free_accelerations)
+            + centripetal(iface.journal_body, iface.journal_point)
+            - centripetal(iface.bearing_body, iface.bearing_point);
+        free_acceleration[2 * row] = a.x;
+        free_acceleration[2 * row + 1] = a.y;
+    }
+    let effective_mass = invert(&mobility);
+    let effective_force = effective_mass.as_ref().map_or(DVector::zeros(dim), |mt| mt * &free_acceleration);
+    Ok(CoupledTerms {
+        mobility,
+        effective_mass,
+        free_acceleration,
+        effective_force,
+        friction_mobility,
+        free_accelerations,
+        gain,
+        free_lambda,
+        lambda_gain,
+    })
+}
+
+/// W⁻¹, or `None` when W is singular (relative to its largest entry). The 2 × 2 case keeps the
+/// closed-form inverse of one joint.
+fn invert(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let scale = w.abs().max();
+    if w.nrows() == 2 {
+        let m = Matrix2::new(w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]);
+        if m.determinant().abs() <= 1e-12 * scale * scale {
+            return None;
+        }
+        return m.try_inverse().map(|i| DMatrix::from_row_slice(2, 2, &[i[(0, 0)], i[(0, 1)], i[(1, 0)], i[(1, 1)]]));
+    }
+    let lu = w.clone().lu();
+    let inverse = lu.try_inverse()?;
+    // Singular to working precision: the inverse's scale betrays it.
+    let condition = inverse.abs().max() * scale * w.nrows() as f64;
+    (condition.is_finite() && condition < 1e12).then_some(inverse)
+}
+
+/// Effective terms of one interface `iface` for the cut mechanism `mech` at `(t, q, q̇)`: the
+/// coupled terms of a single joint (without its friction column), as 2 × 2 values.
 pub fn effective_terms(
     mech: &Mechanism,
     solver: &mut Solver,
@@ -83,59 +260,20 @@ pub fn effective_terms(
     q: &[f64],
     qd: &[f64],
 ) -> Result<EffectiveTerms, MechError> {
-    let n = q.len();
-    let m = mech.constraint_count();
-    solver.set_state(mech, t, q, qd);
-    solver.factor()?;
-    solver.solve(mech, qd);
-    let free_accelerations = solver.accelerations.clone();
-    let free_lambda: Vec<f64> = solver.lambda.iter().copied().collect();
-    let poses = solver.poses.clone();
-    let zero_gamma = vec![0.0; m];
-    let mut gain = [vec![0.0; n], vec![0.0; n]];
-    let mut lambda_gain = [vec![0.0; m], vec![0.0; m]];
-    let mut lambda = DVector::zeros(m);
-    for (i, e) in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)].into_iter().enumerate() {
-        // Jᵀ e: the unit force on the journal point and its opposite on the bearing point.
-        let mut force = vec![0.0; n];
-        for (body, point, sign) in
-            [(iface.journal_body, iface.journal_point, 1.0), (iface.bearing_body, iface.bearing_point, -1.0)]
-        {
-            if let BodyId::Body(k) = body {
-                let a = poses[k].rotate(point);
-                force[3 * k] += sign * e.x;
-                force[3 * k + 1] += sign * e.y;
-                force[3 * k + 2] += sign * cross(a, e);
-            }
-        }
-        solver.solve_with(&force, &zero_gamma, &mut gain[i], &mut lambda);
-        lambda_gain[i].copy_from_slice(lambda.as_slice());
-    }
-    let w0 = interface_rate(iface, &poses, &gain[0]);
-    let w1 = interface_rate(iface, &poses, &gain[1]);
-    let mobility = Matrix2::new(w0.x, w1.x, w0.y, w1.y);
-    // J̇ q̇ = −ω_J² a_J + ω_B² a_B.
-    let centripetal = |body: BodyId, point: Vec2| -> Vec2 {
-        match body {
-            BodyId::Ground => Vec2::zeros(),
-            BodyId::Body(k) => -poses[k].rotate(point) * (poses[k].angular_velocity * poses[k].angular_velocity),
-        }
-    };
-    let free_acceleration = interface_rate(iface, &poses, &free_accelerations)
-        + centripetal(iface.journal_body, iface.journal_point)
-        - centripetal(iface.bearing_body, iface.bearing_point);
-    let scale = mobility.abs().max();
-    let effective_mass =
-        if mobility.determinant().abs() > 1e-12 * scale * scale { mobility.try_inverse() } else { None };
-    let effective_force = effective_mass.map_or(Vec2::zeros(), |mt| mt * free_acceleration);
+    let joint = ClearanceInterface { interface: *iface, journal_radius: 0.0, bearing_radius: 0.0 };
+    let c = coupled_effective_terms(mech, solver, &[joint], t, q, qd)?;
+    let two = |m: &DMatrix<f64>| Matrix2::new(m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]);
+    let mut gain = c.gain.into_iter();
+    let mut lambda_gain = c.lambda_gain.into_iter();
+    let next = |it: &mut std::vec::IntoIter<Vec<f64>>| it.next().expect("three columns");
     Ok(EffectiveTerms {
-        mobility,
-        effective_mass,
-        free_acceleration,
-        effective_force,
-        free_accelerations,
-        gain,
-        free_lambda,
-        lambda_gain,
+        mobility: two(&c.mobility),
+        effective_mass: c.effective_mass.as_ref().map(two),
+        free_acceleration: Vec2::new(c.free_acceleration[0], c.free_acceleration[1]),
+        effective_force: Vec2::new(c.effective_force[0], c.effective_force[1]),
+        free_accelerations: c.free_accelerations,
+        gain: [next(&mut gain), next(&mut gain)],
+        free_lambda: c.free_lambda,
+        lambda_gain: [next(&mut lambda_gain), next(&mut lambda_gain)],
     })
 }

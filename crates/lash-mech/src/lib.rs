@@ -25,7 +25,9 @@ pub mod model;
 pub mod solver;
 pub mod subsystem;
 
-pub use interface::{EffectiveTerms, Interface, effective_terms};
+pub use interface::{
+    ClearanceInterface, CoupledTerms, EffectiveTerms, Interface, coupled_effective_terms, effective_terms,
+};
 pub use kinematics::{
     PointKinematics, assemble, driver_torque, initial_guess, joint_reaction, kinetic_energy, point_kinematics,
     velocity_analysis,

@@ -130,3 +130,119 @@ fn identities_hold_at_many_crank_angles_for_both_clearance_locations() {
         }
     }
 }
+
+/// Two clearance joints at once (crank–ground and rod–slider of the slider-crank), coupled through
+/// the cut mechanism: the 4 × 4 effective mass by the KKT route equals the null-space route, its
+/// off-diagonal blocks do not vanish, f_c = −f̃ reproduces the ideal mechanism with both joints
+/// closed (and f̃ of each joint is minus its ideal reaction), and the friction columns equal the
+/// null-space response to the friction moments.
+#[test]
+fn two_coupled_joints_satisfy_the_identities() {
+    let ideal = ideal_slider_crank();
+    let names = ["crank_pivot", "rod_slider"];
+    let mut cut_m = ideal.clone();
+    cut_m.joints.retain(|j| !names.contains(&j.name.as_str()));
+    let mut closed = cut_m.clone();
+    let (radius_j, radius_b) = (9.5e-3, 10.0e-3);
+    let mut joints = Vec::new();
+    for name in names {
+        let j = ideal.joints.iter().find(|j| j.name == name).unwrap().clone();
+        joints.push(ClearanceInterface {
+            interface: Interface {
+                journal_body: j.body_i,
+                journal_point: j.point_i,
+                bearing_body: j.body_j,
+                bearing_point: j.point_j,
+            },
+            journal_radius: radius_j,
+            bearing_radius: radius_b,
+        });
+        closed.joints.push(j);
+    }
+    let (mut s_ideal, mut s_cut) = (Solver::new(&closed), Solver::new(&cut_m));
+    let (mut q, _) = kinematics::initial_guess(&closed);
+    let period = 2.0 * std::f64::consts::PI / OMEGA;
+    let n = q.len();
+    let mass = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+        n,
+        closed.bodies.iter().flat_map(|b| [b.mass, b.mass, b.inertia]),
+    ));
+    let (mut coupling, mut friction) = (0.0f64, 0.0f64);
+    for i in 0..16 {
+        let t = period * ((i as f64 * 0.618_033_988_75).fract());
+        assemble(&closed, t, &mut q, &mut s_ideal, 1e-14).unwrap();
+        let mut qd = vec![0.0; n];
+        velocity_analysis(&closed, t, &q, &mut qd, &mut s_ideal).unwrap();
+        let terms = coupled_effective_terms(&cut_m, &mut s_cut, &joints, t, &q, &qd).unwrap();
+        let mt = terms.effective_mass.clone().expect("two joints of a slider-crank have full mobility");
+        assert_eq!((mt.nrows(), terms.friction_mobility.shape()), (4, (4, 2)));
+
+        // 1. KKT route = null-space route, W = J R (RᵀMR)⁻¹ RᵀJᵀ, with J of both interfaces by
+        // finite differences.
+        let phi_q = constraint_jacobian(&cut_m, t, &q);
+        let mut padded = DMatrix::zeros(n, n);
+        padded.view_mut((0, 0), (phi_q.nrows(), n)).copy_from(&phi_q);
+        let svd = padded.svd(false, true);
+        let v_t = svd.v_t.unwrap();
+        let null: Vec<usize> = (0..n).filter(|&k| svd.singular_values[k] < 1e-9).collect();
+        assert_eq!(null.len(), n - phi_q.nrows(), "cut system mobility");
+        let mut r = DMatrix::zeros(n, null.len());
+        for (c, &k) in null.iter().enumerate() {
+            r.set_column(c, &v_t.row(k).transpose());
+        }
+        let mut jac = DMatrix::zeros(4, n);
+        for (j, joint) in joints.iter().enumerate() {
+            jac.view_mut((2 * j, 0), (2, n)).copy_from(&interface_jacobian(&joint.interface, &q));
+        }
+        let a_reduced = &r * (r.transpose() * &mass * &r).try_inverse().unwrap() * r.transpose();
+        let w_null = &jac * &a_reduced * jac.transpose();
+        let mt_null = w_null.clone().try_inverse().unwrap();
+        let rel = (&mt - &mt_null).abs().max() / mt.abs().max();
+        assert!(rel < 1e-6, "t = {t}: M̃ KKT vs null space ({rel:e})\n{mt}\n{mt_null}");
+        coupling = coupling.max(mt.view((0, 2), (2, 2)).abs().max() / mt.abs().max());
+
+        // 2. f_c = −f̃ on both joints gives the ideal mechanism's accelerations, and f̃ of each
+        // joint is minus the ideal joint's reaction on its journal.
+        s_ideal.accelerations(&closed, t, &q, &qd, |_| {}).unwrap();
+        let f: Vec<f64> = terms.effective_force.iter().map(|x| -x).collect();
+        let mut qdd = vec![0.0; n];
+        terms.accelerations(&f, &[0.0, 0.0], &mut qdd);
+        let scale = s_ideal.accelerations.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for k in 0..n {
+            assert!((qdd[k] - s_ideal.accelerations[k]).abs() < 1e-9 * scale, "t = {t}: q̈[{k}]");
+        }
+        for j in 0..2 {
+            let reaction = joint_reaction(&closed, &s_ideal, closed.joints.len() - 2 + j);
+            let ft = nalgebra::Vector2::new(terms.effective_force[2 * j], terms.effective_force[2 * j + 1]);
+            assert!(
+                (ft + reaction).norm() < 1e-8 * reaction.norm().max(1.0),
+                "t = {t}, joint {j}: f̃ {ft} vs {reaction}"
+            );
+        }
+
+        // 3. Friction columns: the interface response to the moments −R_J (journal body) and +R_B
+        // (bearing body) per unit friction force, by the null-space route.
+        for (j, joint) in joints.iter().enumerate() {
+            let mut tau = nalgebra::DVector::zeros(n);
+            for (body, moment) in [(joint.interface.journal_body, -radius_j), (joint.interface.bearing_body, radius_b)]
+            {
+                if let BodyId::Body(b) = body {
+                    tau[3 * b + 2] += moment;
+                }
+            }
+            let response = &jac * &a_reduced * tau;
+            let column = terms.friction_mobility.column(j);
+            // On the scale of the interface's response to a force at the bearing radius (a moment
+            // on the driven crank, or on the guided slider, moves nothing: a zero column).
+            let scale = terms.mobility.abs().max() * radius_b;
+            let error = (&response - column).abs().max() / scale;
+            assert!(error < 1e-6, "t = {t}, joint {j}: W_T {column} vs {response} ({error:e})");
+            friction = friction.max(column.abs().max() / scale);
+        }
+    }
+    assert!(
+        coupling > 1e-3,
+        "the joints are coupled: off-diagonal blocks of M̃ up to {coupling:e} of the largest entry"
+    );
+    assert!(friction > 1e-3, "the rod's friction moment moves the rod–slider interface ({friction:e})");
+}
