@@ -452,6 +452,35 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// A scratch folder holding the test FMUs built from C (`oscillator.fmu`, FMI 3.0;
+/// `vanderpol.fmu`, FMI 2.0), and fmpy's Python to run there.
+struct FmuScratch {
+    out: std::path::PathBuf,
+    python: std::path::PathBuf,
+}
+
+impl FmuScratch {
+    fn new(tag: &str) -> Self {
+        let out = std::env::temp_dir().join(format!("lash-system-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        std::fs::create_dir_all(&out).unwrap();
+        let scratch = Self { out, python: fmpy_python() };
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        for (script, fmu) in
+            [("tests/fmi/oscillator/build.py", "oscillator.fmu"), ("tests/fmi/vanderpol/build.py", "vanderpol.fmu")]
+        {
+            scratch.py(&[root.join(script).to_str().unwrap(), fmu]);
+        }
+        scratch
+    }
+
+    /// Runs fmpy's Python in the folder; it must succeed.
+    fn py(&self, args: &[&str]) {
+        let o = Command::new(&self.python).args(args).current_dir(&self.out).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+}
+
 /// Value references are looked up through one mapping: an FMI 3.0 FMU whose references are
 /// sparse, out of order and aliased records the variables asked for (fmpy's values, bit for bit),
 /// parameters included. FMUs that ask to stop (FMI 3.0 terminateSimulation, FMI 2.0 fmi2Discard
@@ -459,17 +488,8 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
 /// that keeps the rows so far; a refused parameter value is a user error (exit 2).
 #[test]
 fn sparse_value_references_stop_requests_and_early_returns() {
-    let python = fmpy_python();
-    let out = std::env::temp_dir().join(format!("lash-system-stop-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    std::fs::create_dir_all(&out).unwrap();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let run_py = |args: &[&str]| {
-        let o = Command::new(&python).args(args).current_dir(&out).output().unwrap();
-        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
-    };
-    run_py(&[root.join("tests/fmi/oscillator/build.py").to_str().unwrap(), "oscillator.fmu"]);
-    run_py(&[root.join("tests/fmi/vanderpol/build.py").to_str().unwrap(), "vanderpol.fmu"]);
+    let scratch = FmuScratch::new("stop");
+    let (out, run_py) = (&scratch.out, |args: &[&str]| scratch.py(args));
     let fmpy = |fmu: &str, csv: &str, start: &[&str]| {
         let mut args = vec!["-m", "fmpy.cli", "simulate", fmu, "--stop-time", "0.5", "--output-interval", "0.01"];
         args.extend(["--output-file", csv, "--start-values"]);
@@ -553,7 +573,7 @@ fn sparse_value_references_stop_requests_and_early_returns() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("elements[0].parameters.k"), "{stderr}");
-    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(out);
 }
 
 /// (header, rows) of fmpy's CSV, Booleans read as 0 and 1, array columns ("1 2 3") as NaN.
@@ -577,17 +597,8 @@ fn read_fmpy_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 /// input); values that do not fit a type are refused naming the field.
 #[test]
 fn every_variable_type_is_imported_set_recorded_and_connected() {
-    let python = fmpy_python();
-    let out = std::env::temp_dir().join(format!("lash-system-types-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    std::fs::create_dir_all(&out).unwrap();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let run_py = |args: &[&str]| {
-        let o = Command::new(&python).args(args).current_dir(&out).output().unwrap();
-        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
-    };
-    run_py(&[root.join("tests/fmi/oscillator/build.py").to_str().unwrap(), "oscillator.fmu"]);
-    run_py(&[root.join("tests/fmi/vanderpol/build.py").to_str().unwrap(), "vanderpol.fmu"]);
+    let scratch = FmuScratch::new("types");
+    let (out, run_py) = (&scratch.out, |args: &[&str]| scratch.py(args));
     run_py(&[
         "-m",
         "fmpy.cli",
@@ -760,7 +771,7 @@ channels = ["b.blob_in_length", "b.blob_in_first"]
         assert_eq!(o.status.code(), Some(2), "{parameters}: {err}");
         assert!(err.contains(expected), "expected {expected:?} in: {err}");
     }
-    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(out);
 }
 
 /// `isolate = true` runs an FMU in a child process: the results are the in-process ones bit for
@@ -769,17 +780,8 @@ channels = ["b.blob_in_length", "b.blob_in_first"]
 /// FMU takes lash down with it (documented; checked here for abort()).
 #[test]
 fn isolated_fmus_survive_crashes_and_hangs() {
-    let python = fmpy_python();
-    let out = std::env::temp_dir().join(format!("lash-system-isolate-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    std::fs::create_dir_all(&out).unwrap();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for (script, fmu) in
-        [("tests/fmi/vanderpol/build.py", "vanderpol.fmu"), ("tests/fmi/oscillator/build.py", "oscillator.fmu")]
-    {
-        let o = Command::new(&python).arg(root.join(script)).arg(fmu).current_dir(&out).output().unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
+    let scratch = FmuScratch::new("isolate");
+    let out = &scratch.out;
     let run = |name: &str, isolate: &str, fault: &str| {
         let text = format!(
             "name = \"iso\"\nstop = 1.0\nstep = 0.01\n[[elements]]\nname = \"v\"\nfmu = \"vanderpol.fmu\"\n{isolate}\nparameters = {{ mu = 1.5{fault} }}\n[[elements]]\nname = \"o\"\nfmu = \"oscillator.fmu\"\n{isolate}\n[[connections]]\nfrom = \"v.x0\"\nto = \"o.force\"\n"
@@ -827,5 +829,5 @@ fn isolated_fmus_survive_crashes_and_hangs() {
     // Not isolated, abort() ends lash itself (by the signal, as it does fmpy and libcosim).
     let (o, _) = run("unisolated", "", ", fault = 1, fault_at = 0.5");
     assert_eq!(o.status.code(), None, "lash was ended by a signal");
-    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(out);
 }
