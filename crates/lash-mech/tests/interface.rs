@@ -50,6 +50,28 @@ fn constraint_jacobian(m: &Mechanism, t: f64, q: &[f64]) -> DMatrix<f64> {
     jac
 }
 
+/// The null-space route's constrained inverse mass R (RᵀMR)⁻¹ Rᵀ of the cut mechanism at (t, q),
+/// R an orthonormal basis of null(Φ_q) from the SVD of Φ_q by finite differences.
+fn null_space_inverse_mass(cut_m: &Mechanism, t: f64, q: &[f64]) -> DMatrix<f64> {
+    let phi_q = constraint_jacobian(cut_m, t, q);
+    let n = q.len();
+    let mut padded = DMatrix::zeros(n, n);
+    padded.view_mut((0, 0), (phi_q.nrows(), n)).copy_from(&phi_q);
+    let svd = padded.svd(false, true);
+    let v_t = svd.v_t.unwrap();
+    let null: Vec<usize> = (0..n).filter(|&k| svd.singular_values[k] < 1e-9).collect();
+    assert_eq!(null.len(), n - phi_q.nrows(), "cut system mobility");
+    let mut r = DMatrix::zeros(n, null.len());
+    for (c, &k) in null.iter().enumerate() {
+        r.set_column(c, &v_t.row(k).transpose());
+    }
+    let mass = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+        n,
+        cut_m.bodies.iter().flat_map(|b| [b.mass, b.mass, b.inertia]),
+    ));
+    &r * (r.transpose() * &mass * &r).try_inverse().unwrap() * r.transpose()
+}
+
 #[test]
 fn identities_hold_at_many_crank_angles_for_both_clearance_locations() {
     for joint in ["crank_pivot", "rod_slider"] {
@@ -71,25 +93,9 @@ fn identities_hold_at_many_crank_angles_for_both_clearance_locations() {
             let mt = terms.effective_mass.expect("slider-crank interfaces have full mobility");
 
             // 1. KKT route = null-space route M̃ = (J R (RᵀMR)⁻¹ RᵀJᵀ)⁻¹.
-            let phi_q = constraint_jacobian(&cut_m, t, &q);
             let n = q.len();
-            let mut padded = DMatrix::zeros(n, n);
-            padded.view_mut((0, 0), (phi_q.nrows(), n)).copy_from(&phi_q);
-            let svd = padded.svd(false, true);
-            let v_t = svd.v_t.unwrap();
-            let null: Vec<usize> = (0..n).filter(|&k| svd.singular_values[k] < 1e-9).collect();
-            assert_eq!(null.len(), n - phi_q.nrows(), "{joint}: cut system mobility");
-            let mut r = DMatrix::zeros(n, null.len());
-            for (c, &k) in null.iter().enumerate() {
-                r.set_column(c, &v_t.row(k).transpose());
-            }
-            let mass = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
-                n,
-                ideal_m.bodies.iter().flat_map(|b| [b.mass, b.mass, b.inertia]),
-            ));
             let jac = interface_jacobian(&iface, &q);
-            let reduced = r.transpose() * &mass * &r;
-            let w = &jac * &r * reduced.try_inverse().unwrap() * r.transpose() * jac.transpose();
+            let w = &jac * null_space_inverse_mass(&cut_m, t, &q) * jac.transpose();
             let mt_null = Matrix2::new(w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]).try_inverse().unwrap();
             let rel = (mt - mt_null).abs().max() / mt.abs().max();
             assert!(rel < 1e-6, "{joint} t = {t}: M̃ KKT {mt} vs null space {mt_null} ({rel:e})");
@@ -163,10 +169,6 @@ fn two_coupled_joints_satisfy_the_identities() {
     let (mut q, _) = kinematics::initial_guess(&closed);
     let period = 2.0 * std::f64::consts::PI / OMEGA;
     let n = q.len();
-    let mass = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
-        n,
-        closed.bodies.iter().flat_map(|b| [b.mass, b.mass, b.inertia]),
-    ));
     let (mut coupling, mut friction) = (0.0f64, 0.0f64);
     for i in 0..16 {
         let t = period * ((i as f64 * 0.618_033_988_75).fract());
@@ -179,22 +181,11 @@ fn two_coupled_joints_satisfy_the_identities() {
 
         // 1. KKT route = null-space route, W = J R (RᵀMR)⁻¹ RᵀJᵀ, with J of both interfaces by
         // finite differences.
-        let phi_q = constraint_jacobian(&cut_m, t, &q);
-        let mut padded = DMatrix::zeros(n, n);
-        padded.view_mut((0, 0), (phi_q.nrows(), n)).copy_from(&phi_q);
-        let svd = padded.svd(false, true);
-        let v_t = svd.v_t.unwrap();
-        let null: Vec<usize> = (0..n).filter(|&k| svd.singular_values[k] < 1e-9).collect();
-        assert_eq!(null.len(), n - phi_q.nrows(), "cut system mobility");
-        let mut r = DMatrix::zeros(n, null.len());
-        for (c, &k) in null.iter().enumerate() {
-            r.set_column(c, &v_t.row(k).transpose());
-        }
         let mut jac = DMatrix::zeros(4, n);
         for (j, joint) in joints.iter().enumerate() {
             jac.view_mut((2 * j, 0), (2, n)).copy_from(&interface_jacobian(&joint.interface, &q));
         }
-        let a_reduced = &r * (r.transpose() * &mass * &r).try_inverse().unwrap() * r.transpose();
+        let a_reduced = null_space_inverse_mass(&cut_m, t, &q);
         let w_null = &jac * &a_reduced * jac.transpose();
         let mt_null = w_null.clone().try_inverse().unwrap();
         let rel = (&mt - &mt_null).abs().max() / mt.abs().max();
