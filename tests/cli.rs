@@ -179,7 +179,16 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
     for f in figures {
         let svg = std::fs::read_to_string(out.join(f)).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("<polyline"), "{f} is not a drawn SVG");
+        // Every figure says which curve is which, with the ideal mechanism as the reference.
+        for label in ["full model (converged)", "reduced interface model"] {
+            assert!(svg.contains(label), "{f} lacks the legend entry {label:?}");
+        }
+        // The ideal mechanism has no contact force; it has every other compared channel.
+        assert_eq!(svg.contains("(clearance joint closed)"), !f.contains("crank_pivot.force"), "{f}");
+        assert!(!svg.contains("100000.0"), "{f}: tick labels in engineering notation");
     }
+    let time_figure = std::fs::read_to_string(out.join("figures/slider.ax.svg")).unwrap();
+    assert!(time_figure.contains("crank angle [°]") && time_figure.contains("time [ms]"));
 }
 
 #[test]

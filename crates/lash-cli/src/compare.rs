@@ -8,7 +8,7 @@ use std::path::Path;
 const FIRST_WINDOW: f64 = 2e-3;
 
 /// Upper end of the spectra drawn in the figures [Hz] (the seeds show the low kilohertz range).
-const FIGURE_MAX_FREQUENCY: f64 = 10_000.0;
+const FIGURE_MAX_FREQUENCY: f64 = 20_000.0;
 
 fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {
     let text = std::fs::read_to_string(path).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
@@ -53,6 +53,10 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
         Err(format!("{}", lash_scenario::validate(&fixed)))
     };
 
+    // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
+    let ideal_dir = out.join("ideal");
+    let ideal_ok = crate::run::run(s, &mut Run::new(s, BuildOptions { ideal: true }), &ideal_dir, true).is_ok();
+    let ideal_rows = if ideal_ok { Some(read_csv(&ideal_dir.join("timeseries.csv"))?) } else { None };
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;
     let (sf, sr) = (read_json(&full_dir.join("summary.json"))?, read_json(&reduced_dir.join("summary.json"))?);
@@ -72,12 +76,24 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
     std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
     let mut figures = Vec::new();
     let col = |header: &[String], name: &str| header.iter().position(|h| h.starts_with(&format!("{name} [")));
+    // Crank angle [°] against time, when the first driver turns its body at constant speed.
+    let constant_speed = s.drivers.first().and_then(|d| match d.motion {
+        lash_mech::Motion::ConstantSpeed { angle0, omega } => Some((angle0, omega)),
+        _ => None,
+    });
+    let angle_of = constant_speed.map(|(angle0, omega)| move |t: f64| (angle0 + omega * t).to_degrees());
+    let crank_angle = angle_of.as_ref().map(|f| f as &dyn Fn(f64) -> f64);
     for name in metrics.keys() {
         let (Some(kf), Some(kr)) = (col(&hf, name), col(&hr, name)) else { continue };
         let unit = hf[kf].rsplit_once('[').map_or("", |(_, u)| u.trim_end_matches(']'));
         let time: Vec<f64> = full.iter().map(|r| r[0]).collect();
         let (yf, yr): (Vec<f64>, Vec<f64>) = full.iter().zip(&red).map(|(a, b)| (a[kf], b[kr])).unzip();
-        for path in crate::plots::comparison_figures(&figures_dir, name, unit, &time, &yf, &yr, FIGURE_MAX_FREQUENCY)? {
+        let yi: Option<Vec<f64>> = ideal_rows.as_ref().and_then(|(hi, rows)| {
+            let ki = col(hi, name)?;
+            (rows.len() == full.len()).then(|| rows.iter().map(|r| r[ki]).collect())
+        });
+        let channel = crate::plots::Channel { name, unit, time: &time, full: &yf, reduced: &yr, ideal: yi.as_deref() };
+        for path in crate::plots::comparison_figures(&figures_dir, &channel, crank_angle, FIGURE_MAX_FREQUENCY)? {
             figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
         }
     }
