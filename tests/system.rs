@@ -662,6 +662,52 @@ fn every_variable_type_is_imported_set_recorded_and_connected() {
     );
     assert!(column(&csv, "o.gain").iter().all(|&g| g == 3.0) && column(&csv, "o.gear").iter().all(|&g| g == 2.0));
 
+    // The same parameters from SSP: an .ssv file with Integer, Enumeration, String and Real
+    // values (and a Boolean one, which the FMU has no parameter for: refused, naming it).
+    let ssv = |extra: &str| {
+        format!(
+            r#"<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="o">
+  <ssv:Parameters>
+    <ssv:Parameter name="gain"><ssv:Integer value="3"/></ssv:Parameter>
+    <ssv:Parameter name="gear"><ssv:Enumeration value="2"/></ssv:Parameter>
+    <ssv:Parameter name="label"><ssv:String value="hello"/></ssv:Parameter>
+    <ssv:Parameter name="force"><ssv:Real value="0.5"/></ssv:Parameter>{extra}
+  </ssv:Parameters>
+</ssv:ParameterSet>"#
+        )
+    };
+    let ssd = r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" version="1.0" name="types">
+  <ssd:System name="types">
+    <ssd:Elements>
+      <ssd:Component name="o" source="oscillator.fmu">
+        <ssd:ParameterBindings><ssd:ParameterBinding source="o.ssv"/></ssd:ParameterBindings>
+      </ssd:Component>
+    </ssd:Elements>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="1.2">
+    <ssd:Annotations><ssc:Annotation type="org.lash"><lash:Step xmlns:lash="https://lash.dev" value="0.01"/></ssc:Annotation></ssd:Annotations>
+  </ssd:DefaultExperiment>
+</ssd:SystemStructureDescription>"#;
+    std::fs::write(out.join("types.ssd"), ssd).unwrap();
+    std::fs::write(out.join("o.ssv"), ssv("")).unwrap();
+    let ssp_dir = out.join("types-ssp");
+    let o = lash(&["run", out.join("types.ssd").to_str().unwrap(), "--quiet", "--out", ssp_dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let from_ssp = read_csv(&ssp_dir.join("timeseries.csv"));
+    for v in ["x", "steps", "wave8"] {
+        assert!(same(&column(&from_ssp, &format!("o.{v}")), &column(&reference, v)), "SSP: o.{v} differs from fmpy");
+    }
+    std::fs::write(
+        out.join("o.ssv"),
+        ssv("\n    <ssv:Parameter name=\"moving\"><ssv:Boolean value=\"true\"/></ssv:Parameter>"),
+    )
+    .unwrap();
+    let o = lash(&["run", out.join("types.ssd").to_str().unwrap(), "--quiet", "--out", ssp_dir.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("moving"), "{err}");
+
     // Across types and standards: FMI 2.0 Boolean `positive` into the FMI 3.0 Int32 input `kick`.
     // Gauss-Seidel: the oscillator's step k sees vdp's value at its step end, so its running sum
     // of kicks is the sum of `positive` over the rows after the first.

@@ -3,7 +3,7 @@
 //!
 //! What is read: the system's components (`ssd:Component` with `source`, FMUs; a source ending in
 //! `.so` is a lash plugin), connections between component connectors, parameter bindings (inline
-//! `ssv:ParameterValues` or a `source` `.ssv` file, Real values), and the default experiment's
+//! `ssv:ParameterValues` or a `source` `.ssv` file: Real, Integer, Enumeration, Boolean and String values), and the default experiment's
 //! start and stop times. SSP has no communication step of its own: lash reads it from an
 //! `ssd:Annotation type="org.lash"` element `<lash:Step value="…"/>`, else from
 //! `DefaultExperiment`'s `lash:step` attribute, else the caller gives it.
@@ -26,8 +26,27 @@ fn local(e: &BytesStart<'_>) -> String {
     e.local_name().as_ref().to_string()
 }
 
-/// Parameter values of an `.ssv` document (or an inline `ssv:ParameterValues`): `name → value`.
-pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, f64>, String> {
+/// The value of one SSV type element (`ssv:Real`, `ssv:Integer`, `ssv:Enumeration`,
+/// `ssv:Boolean`, `ssv:String`) of parameter `name`, or `None` for another element.
+fn ssv_value(tag: &str, value: Option<String>, name: &str) -> Result<Option<ParameterValue>, String> {
+    let Some(v) = value else { return Ok(None) };
+    Ok(match tag {
+        "Real" | "Float64" | "Integer" | "Enumeration" => Some(ParameterValue::Scalar(
+            v.trim().parse().map_err(|_| format!("parameter {name}: value {v:?} is not a number"))?,
+        )),
+        "Boolean" => Some(ParameterValue::Boolean(match v.trim() {
+            "true" | "1" => true,
+            "false" | "0" => false,
+            other => return Err(format!("parameter {name}: value {other:?} is not a Boolean")),
+        })),
+        "String" => Some(ParameterValue::Text(v)),
+        _ => None,
+    })
+}
+
+/// Parameter values of an `.ssv` document (or an inline `ssv:ParameterValues`): `name → value`
+/// (Real, Integer, Enumeration, Boolean and String parameters).
+pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, ParameterValue>, String> {
     let mut reader = quick_xml::Reader::from_str(xml);
     let mut out = BTreeMap::new();
     let mut current: Option<String> = None;
@@ -35,14 +54,13 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, f64>, String> {
         match reader.read_event().map_err(|e| format!("not valid XML: {e}"))? {
             Event::Start(e) | Event::Empty(e) => match local(&e).as_str() {
                 "Parameter" => current = attr(&e, "name"),
-                "Real" | "Float64" | "Integer" => {
-                    if let (Some(name), Some(v)) = (&current, attr(&e, "value")) {
-                        let v: f64 =
-                            v.trim().parse().map_err(|_| format!("parameter {name}: value {v:?} is not a number"))?;
-                        out.insert(name.clone(), v);
+                tag => {
+                    if let Some(name) = &current
+                        && let Some(value) = ssv_value(tag, attr(&e, "value"), name)?
+                    {
+                        out.insert(name.clone(), value);
                     }
                 }
-                _ => {}
             },
             Event::Eof => break,
             _ => {}
@@ -110,13 +128,13 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
             // An inline parameter set: the same elements as an .ssv file.
             match tag.as_str() {
                 "Parameter" => parameter = attr(&e, "name"),
-                "Real" | "Float64" | "Integer" => {
-                    if let (Some(k), Some(name), Some(v)) = (in_component, &parameter, attr(&e, "value")) {
-                        let v = number(Some(v), &format!("parameter {name}"))?.unwrap_or(f64::NAN);
-                        elements[k].parameters.insert(name.clone(), ParameterValue::Scalar(v));
+                tag => {
+                    if let (Some(k), Some(name)) = (in_component, &parameter)
+                        && let Some(value) = ssv_value(tag, attr(&e, "value"), name)?
+                    {
+                        elements[k].parameters.insert(name.clone(), value);
                     }
                 }
-                _ => {}
             }
             continue;
         }
@@ -194,8 +212,6 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
     })
 }
 
-fn bind(element: &mut ElementSpec, values: BTreeMap<String, f64>) {
-    for (k, v) in values {
-        element.parameters.insert(k, ParameterValue::Scalar(v));
-    }
+fn bind(element: &mut ElementSpec, values: BTreeMap<String, ParameterValue>) {
+    element.parameters.extend(values);
 }
