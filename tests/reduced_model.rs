@@ -1,5 +1,5 @@
 //! The reduced interface model (one-way coupling) against the converged full model, and the
-//! zero-order-hold trap of physics.md §5.1.
+//! zero-order-hold trap (holding M̃ and f̃ over a macro step produces spurious impacts).
 
 use lash_orchestrate::Interpolation;
 mod common;

@@ -7,7 +7,7 @@ use std::path::Path;
 /// Pointwise errors are also reported over this first window, through the first impacts [s].
 const FIRST_WINDOW: f64 = 2e-3;
 
-/// Upper end of the spectra drawn in the figures [Hz] (the seeds show the low kilohertz range).
+/// Upper end of the spectra drawn in the figures [Hz] (the reduced-interface-model papers show the low kilohertz range).
 const FIGURE_MAX_FREQUENCY: f64 = 20_000.0;
 
 fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {
@@ -40,7 +40,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
     }
     let full_timing = crate::run::run(s, &mut Run::new(s, BuildOptions::default()), &full_dir, quiet)?;
     let reduced_timing = crate::run::run(s, &mut reduced, &reduced_dir, quiet)?;
-    // The full model at the reduced model's micro step with RK4 (the seeds' setting): the speed-up
+    // The full model at the reduced model's micro step with RK4 (the reduced-interface-model papers' setting): the speed-up
     // at equal step. It is not converged (impacts last about five such steps), so its results
     // are not compared, only its time; a blow-up is reported, not fatal.
     let fixed_dir = out.join("full-fixed-step");
@@ -71,7 +71,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
         compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW).map_err(CliError::Failure)?;
     // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
     metrics.retain(|_, m| m.peak_full > 1e-6);
-    // Figures (the seeds' figures 2–3): every compared channel over time and its spectrum.
+    // Figures (the reduced-interface-model papers' figures 2–3): every compared channel over time and its spectrum.
     let figures_dir = out.join("figures");
     std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
     let mut figures = Vec::new();

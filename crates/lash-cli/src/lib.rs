@@ -61,7 +61,7 @@ pub enum InterpolationArg {
 /// Coupling of the reduced model.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CouplingArg {
-    /// The ideal mechanism's motion is the real one (the seeds' method).
+    /// The ideal mechanism's motion is the real one (the reduced-interface-model papers' method).
     OneWay,
     /// The averaged contact force acts back on the mechanism.
     TwoWay,
@@ -88,7 +88,7 @@ pub struct ReducedArgs {
     /// Reduced model: interpolation of the macro terms across a macro step.
     #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
     interpolation: InterpolationArg,
-    /// Reduced model: one-way (seeds) or two-way coupling.
+    /// Reduced model: one-way (as in the reduced-interface-model papers) or two-way coupling.
     #[arg(long, value_enum, default_value_t = CouplingArg::OneWay)]
     coupling: CouplingArg,
     /// Reduced model: run the macro subsystem on its own thread (one-way only; same results).

@@ -1,4 +1,4 @@
-//! SVG figures of `lash compare` (the seeds' figures 2–3): a channel of the full and the reduced
+//! SVG figures of `lash compare` (the reduced-interface-model papers' figures 2–3): a channel of the full and the reduced
 //! model over time, overlaid on the ideal mechanism's (the clearance joint closed), with the crank
 //! angle as a second axis when the crank turns at constant speed; and its one-sided amplitude
 //! spectrum (Hann window) on a logarithmic amplitude axis, where the kilohertz impact content that

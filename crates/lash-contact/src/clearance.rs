@@ -1,4 +1,4 @@
-//! The planar revolute clearance joint (physics.md §1).
+//! The planar revolute clearance joint (docs/theory.md §2).
 
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;

@@ -338,7 +338,7 @@ mod tests {
     #[test]
     fn hertz_stiffness_of_the_benchmark() {
         let k = hertz_stiffness(&Material::STEEL, &Material::STEEL, 0.0095, 0.010);
-        // physics.md: ≈ 6.61e10 N/m^1.5; independent arithmetic: E* = E/(2(1−ν²)), R* = 0.19 m.
+        // Expected ≈ 6.61e10 N/m^1.5; independent arithmetic: E* = E/(2(1−ν²)), R* = 0.19 m.
         let e_star = 207e9 / (2.0 * (1.0 - 0.09));
         let expected = 4.0 / 3.0 * e_star * 0.19f64.sqrt();
         assert!((k - expected).abs() < 1e-6 * expected);

@@ -1,6 +1,6 @@
 //! The micro subsystem of the reduced interface model: the clearance interface alone,
 //! `M̃(t) ẅ = f̃(t) + f_c(e, ė)` with state (e, ė), driven by the macro subsystem's effective mass
-//! M̃ and effective force f̃ (physics.md §4; seeds 000/001).
+//! M̃ and effective force f̃ (docs/theory.md §6).
 //!
 //! Inputs arrive at each communication point as a value and a rate (FMI input derivatives, as
 //! separate variables so FMI 3.0 carries them too): inside a step the model sees
@@ -8,7 +8,7 @@
 //! slope of the segment, so the micro model follows the interpolant exactly; with cubic Hermite it
 //! follows it to O(h_r²) per step.
 //!
-//! Two integrators: fixed-step RK4 (the seeds' choice; one contact-law evaluation per stage, the
+//! Two integrators: fixed-step RK4 (the reduced-interface-model papers' choice; one contact-law evaluation per stage, the
 //! 2×2 solve by Cramer's rule, no allocation, no trigonometry), and error-controlled DOPRI5 with
 //! location of contact onset and exit (a 2-DOF model can afford a converged answer).
 

@@ -174,7 +174,7 @@ fn realised_restitution_equals_independent_reference() {
 
 #[test]
 fn realised_restitution_of_the_literature() {
-    // physics.md §2: Lankarani–Nikravesh realises ≈ 0.725 for a nominal 0.5 (its derivation
+    // The literature: Lankarani–Nikravesh realises ≈ 0.725 for a nominal 0.5 (its derivation
     // assumes high restitution); Flores and Hu–Guo track the nominal value closely.
     let ln = library_restitution(&ContactLaw::LankaraniNikravesh(hyst(0.5)), 1.0);
     assert!((ln - 0.725).abs() < 0.01, "LN realised {ln}");

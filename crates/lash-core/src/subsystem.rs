@@ -282,7 +282,7 @@ pub fn find_variable<'a>(variables: &'a [Variable], name: &str) -> Option<&'a Va
 #[serde(rename_all = "snake_case")]
 pub enum Coupling {
     /// The ideal mechanism's motion is taken as the real one; f_c only feeds the sensors
-    /// (seeds 000/001).
+    /// (the reduced-interface-model papers).
     #[default]
     OneWay,
     /// The impulse-averaged contact force acts back on the mechanism, which then runs without the

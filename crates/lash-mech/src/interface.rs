@@ -1,4 +1,4 @@
-//! Effective interface terms of a cut mechanism (physics.md §4; seeds 000/001).
+//! Effective interface terms of a cut mechanism (docs/theory.md §6).
 //!
 //! The cut system is the mechanism with one clearance joint removed. Its interface coordinate is
 //! g(q) = r_J − r_B (journal centre minus bearing centre), J = ∂g/∂q, w = ġ = J q̇. With a force

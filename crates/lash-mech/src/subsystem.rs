@@ -1,7 +1,7 @@
 //! The macro subsystem of the reduced interface model: the mechanism around one clearance joint,
 //! as a [`Subsystem`].
 //!
-//! * **One-way coupling** (the seeds' method): the ideal mechanism (clearance joint closed) is the
+//! * **One-way coupling** (the reduced-interface-model papers' method): the ideal mechanism (clearance joint closed) is the
 //!   motion. Fully driven mechanisms take the exact kinematic analysis at each communication point;
 //!   mechanisms with degrees of freedom are integrated (DOPRI5, tight tolerances, no events needed).
 //! * **Two-way coupling**: the mechanism is integrated with the clearance joint replaced by a

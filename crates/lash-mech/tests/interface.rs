@@ -1,4 +1,4 @@
-//! The exact identities of the effective interface terms (physics.md §4), at many crank angles and
+//! The exact identities of the effective interface terms (docs/theory.md §6), at many crank angles and
 //! for both clearance locations: A (crank–ground) and B (rod–slider).
 
 mod common;

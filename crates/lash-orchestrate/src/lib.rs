@@ -16,7 +16,7 @@
 //!
 //! * **Interpolation** of the coupling inputs across the macro step: linear (default), cubic
 //!   Hermite (slopes from neighbouring nodes, angular velocities with their exported derivatives),
-//!   or zero-order hold (for study: physics.md §5.1). The micro subsystem gets values and rates at
+//!   or zero-order hold (for study only: holding M̃ and f̃ over a macro step produces spurious impacts). The micro subsystem gets values and rates at
 //!   each micro step.
 //! * **One-way coupling**: the macro runs ahead (one node for linear, two for Hermite).
 //!   **Two-way coupling** (predictor–corrector with rollback): the macro state at t_k is saved; the
@@ -29,7 +29,7 @@
 //!   results are bit-identical.
 //! * **Observers** receive the [`Signal`]s they asked for at their own interval (a multiple of h_r):
 //!   micro outputs, macro outputs interpolated in time (cubic Hermite with a derivative, linear
-//!   without), and propagated quantities `free + gain · f_c` (physics.md §4: no solve in the micro
+//!   without), and propagated quantities `free + gain · f_c` (docs/theory.md §6: no solve in the micro
 //!   loop).
 //! * **Tracing**: a `macro_step` span per macro step and a `micro_interval` span per macro interval
 //!   of micro steps.

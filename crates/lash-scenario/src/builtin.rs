@@ -1,6 +1,6 @@
-//! Built-in scenarios of physics.md §6, by name.
+//! The built-in scenarios (A, B and their variants, radial engines), by name.
 //!
-//! * `A` — the seeds' case: clearance at the crank–ground joint (c = 100 µm); `A-200um`.
+//! * `A` — the reduced-interface-model papers' case: clearance at the crank–ground joint (c = 100 µm); `A-200um`.
 //! * `B` — benchmark slider-crank, clearance at the rod–slider joint (c = 0.5 mm);
 //!   `B-0.25mm`, `B-0.1mm`, `B-0.02mm`, and `B-frictionless`.
 //!
@@ -164,7 +164,7 @@ pub fn scenario_b(c: f64) -> Scenario {
     let name = if c == 0.5e-3 { "B".to_string() } else { format!("B-{}mm", c * 1e3) };
     let mut s = slider_crank(
         &name,
-        "Benchmark slider-crank (physics.md §6 B): clearance at the rod–slider joint; the journal is \
+        "Benchmark slider-crank (Flores-type, scenario B): clearance at the rod–slider joint; the journal is \
          the slider pin, the bearing is in the rod's small end.",
     );
     s.clearances.push(clearance("rod_slider", "slider", c, AMBROSIO));
@@ -176,7 +176,7 @@ pub fn scenario_a(c: f64) -> Scenario {
     let name = if c == 100e-6 { "A".to_string() } else { format!("A-{}um", (c * 1e6).round()) };
     let mut s = slider_crank(
         &name,
-        "The seeds' case (physics.md §6 A): clearance at the crank–ground joint; the bearing is fixed \
+        "The reduced-interface-model papers' case (scenario A): clearance at the crank–ground joint; the bearing is fixed \
          to the ground at the origin, the journal is the crank's pivot pin; the crank's absolute \
          angle is prescribed.",
     );

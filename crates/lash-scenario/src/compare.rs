@@ -1,4 +1,4 @@
-//! Full-versus-reduced comparison metrics chosen for chaotic impact responses (physics.md §5.3):
+//! Full-versus-reduced comparison metrics chosen for chaotic impact responses (large clearances make the response chaotic: docs/validation.md):
 //! peaks, RMS, pointwise errors (whole run and over the first impacts), Hann-windowed one-sided
 //! amplitude spectra, their relative distance, and band powers.
 

@@ -3,7 +3,7 @@
 //! * [`schema`]: the TOML format (serde structs, units documented).
 //! * [`parse`]: reads a file and returns either a valid [`Scenario`] or every problem, each with
 //!   its field path (`bodies[1].mass: must be > 0, got -1`).
-//! * [`builtin`]: scenarios A and B of physics.md §6 by name.
+//! * [`builtin`]: scenarios A and B (and variants) by name.
 //! * [`Run`]: builds the full (or ideal) model, integrates it, samples every output channel and
 //!   returns a [`Summary`].
 

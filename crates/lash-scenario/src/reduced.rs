@@ -1,4 +1,4 @@
-//! The reduced interface model of a scenario (seeds 000/001, physics.md §4): builds the macro
+//! The reduced interface model of a scenario (docs/theory.md §6): builds the macro
 //! subsystem ([`lash_mech::MechanismSubsystem`]), the micro subsystem
 //! ([`lash_contact::micro::InterfaceSubsystem`]) and runs them with the multirate master
 //! ([`lash_orchestrate::InterfaceMaster`]), recording the same channels as the full model:
@@ -9,7 +9,7 @@
 //!   micro step (no solve in the micro loop);
 //! * clearance quantities: micro outputs.
 //!
-//! As in the seeds, f_c acts through the journal and bearing centres: the moment of friction about
+//! As in the reduced-interface-model papers, f_c acts through the journal and bearing centres: the moment of friction about
 //! the journal centre (R_J F_T) is not propagated.
 
 use crate::build::{BuildOptions, build_model};
@@ -31,7 +31,7 @@ pub struct ReducedOptions {
     pub micro_step: f64,
     /// Interpolation of the macro terms across a macro step.
     pub interpolation: Interpolation,
-    /// One-way (seeds) or two-way coupling.
+    /// One-way (as in the reduced-interface-model papers) or two-way coupling.
     pub coupling: Coupling,
     /// Sequential or threaded.
     pub execution: Execution,

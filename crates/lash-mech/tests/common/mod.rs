@@ -31,7 +31,7 @@ pub fn revolute(name: &str, bi: BodyId, pi: [f64; 2], bj: BodyId, pj: [f64; 2]) 
     }
 }
 
-/// Scenario B's mechanism with all joints ideal (physics.md §6).
+/// Scenario B's mechanism with all joints ideal (docs/validation.md).
 pub fn ideal_slider_crank() -> Mechanism {
     use BodyId::*;
     Mechanism {
