@@ -116,32 +116,31 @@ fn overlay(
     }
     let x_fmt = |v: &f64| engineering(*v);
     let y_fmt = |v: &f64| engineering(*v);
+    // Axis descriptions and engineering tick labels, the same on every kind of chart.
+    macro_rules! mesh {
+        ($chart:expr) => {
+            $chart
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc(y_label)
+                .x_label_formatter(&x_fmt)
+                .y_label_formatter(&y_fmt)
+                .draw()
+                .map_err(|e| fail(path, e))?
+        };
+    }
     if log_y {
         let mut chart = builder
             .build_cartesian_2d(x0..x1, (floor.max(y0.max(f64::MIN_POSITIVE))..y1.max(floor * 10.0)).log_scale())
             .map_err(|e| fail(path, e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .draw()
-            .map_err(|e| fail(path, e))?;
+        mesh!(chart);
         draw!(chart);
     } else if let Some(angle) = angle {
         let mut chart = builder
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| fail(path, e))?
             .set_secondary_coord(angle(x0)..angle(x1), y0..y1);
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .draw()
-            .map_err(|e| fail(path, e))?;
+        mesh!(chart);
         chart
             .configure_secondary_axes()
             .x_desc("crank angle [°]")
@@ -151,14 +150,7 @@ fn overlay(
         draw!(chart);
     } else {
         let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(|e| fail(path, e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .draw()
-            .map_err(|e| fail(path, e))?;
+        mesh!(chart);
         draw!(chart);
     }
     root.present().map_err(|e| fail(path, e))

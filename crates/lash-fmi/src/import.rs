@@ -1128,18 +1128,6 @@ impl ImportedFmu {
         Typed { accessors }
     }
 
-    /// The FMU's own value references of lash's variable `vr` (FMI 2.0: one per element).
-    fn native_refs(&self, vr: ValueReference) -> Result<Vec<u32>, SubsystemError> {
-        match &self.api {
-            Api::V3 { native, .. } => {
-                native.get(vr as usize).map(|&r| vec![r]).ok_or(SubsystemError::UnknownValueReference(vr))
-            }
-            Api::V2 { scalars, .. } => {
-                scalars.get(vr as usize).cloned().ok_or(SubsystemError::UnknownValueReference(vr))
-            }
-        }
-    }
-
     fn variable(&self, vr: ValueReference) -> Result<&Variable, SubsystemError> {
         lash_core::subsystem::variable(&self.description.variables, vr).ok_or(SubsystemError::UnknownValueReference(vr))
     }
@@ -1240,7 +1228,8 @@ impl ImportedFmu {
                 var.kind.check(v).map_err(|problem| SubsystemError::BadValue { name: var.name.clone(), problem })?;
                 native.write(v, &mut bytes[k * native.size()..]);
             }
-            let vrs = self.native_refs(r)?;
+            let mut vrs = Vec::with_capacity(n);
+            self.push_native_refs(r, &mut vrs)?;
             let (call, set) = self.typed.set(var.kind)?;
             let status = match set {
                 // SAFETY: a live instance; `bytes` holds n elements of the kind's C type.
@@ -1273,7 +1262,7 @@ impl ImportedFmu {
                 ),
             });
         }
-        Ok(self.native_refs(vr)?[0])
+        self.native_value_reference(vr).ok_or(SubsystemError::UnknownValueReference(vr))
     }
 
     /// A scalar String variable's native reference, or why not.
@@ -1289,7 +1278,7 @@ impl ImportedFmu {
                 ),
             });
         }
-        Ok(self.native_refs(vr)?[0])
+        self.native_value_reference(vr).ok_or(SubsystemError::UnknownValueReference(vr))
     }
 
     /// FMI 2.0: the scalar value references of `refs`, into the scratch buffer; calls `f` with
@@ -1522,7 +1511,7 @@ impl Subsystem for ImportedFmu {
                     problem: "is not a scalar structural parameter".into(),
                 });
             }
-            let native = self.native_refs(r)?[0];
+            let native = self.native_value_reference(r).ok_or(SubsystemError::UnknownValueReference(r))?;
             given.push((native, *values.get(at).ok_or_else(|| SubsystemError::BadArguments("too few values".into()))?));
             at += 1;
         }

@@ -53,8 +53,8 @@ pub enum Request {
 /// An answer from the child.
 #[derive(Debug, Serialize, Deserialize)]
 pub enum Reply {
-    /// The FMU is imported: its name, FMI version and variables.
-    Hello(String, String, Vec<Variable>),
+    /// The FMU is imported: its FMI version and variables.
+    Hello(String, Vec<Variable>),
     /// The call succeeded.
     Done,
     /// Values read.
@@ -112,7 +112,7 @@ pub fn serve(fmu: &Path, cache: &Path, name: &str) -> i32 {
             return 2;
         }
     };
-    let hello = Reply::Hello(model.name().to_string(), model.fmi_version().to_string(), model.variables().to_vec());
+    let hello = Reply::Hello(model.fmi_version().to_string(), model.variables().to_vec());
     if write_message(&mut output, &hello).is_err() {
         return 1;
     }
@@ -286,7 +286,7 @@ impl IsolatedFmu {
             watch,
         };
         match isolated.answer("import", None).map_err(|e| e.to_string())? {
-            Reply::Hello(_, version, variables) => {
+            Reply::Hello(version, variables) => {
                 isolated.fmi_version = version;
                 isolated.variables = variables;
                 Ok(isolated)
