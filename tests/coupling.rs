@@ -53,34 +53,43 @@ fn crank_rotation(header: &[String], rows: &[Vec<f64>]) -> f64 {
 
 #[test]
 fn two_way_coupling_changes_a_torque_driven_crank_like_the_full_model() {
-    // Frictionless: the seeds' interface model applies f_c at the joint centres (no friction
-    // moment), so the full model is comparable term for term.
-    let mut s = builtin::by_name("A-motor").unwrap();
-    s.clearances[0].friction = FrictionLaw::None;
-    let (_, hi, ideal) = rows(&mut Run::new(&s, BuildOptions { ideal: true }));
-    let (_, hf, full) = rows(&mut Run::new(&s, BuildOptions::default()));
-    let reduced = |coupling| {
-        let (summary, h, r) =
-            rows(&mut ReducedRun::new(&s, ReducedOptions { coupling, ..Default::default() }).unwrap());
-        assert!(summary.clearances[0].impacts > 3);
-        crank_rotation(&h, &r)
-    };
-    let base = crank_rotation(&hi, &ideal);
-    let full_change = crank_rotation(&hf, &full) - base;
-    let one_way_change = reduced(Coupling::OneWay) - base;
-    let two_way_change = reduced(Coupling::TwoWay) - base;
-    eprintln!(
-        "crank rotation over {} s: ideal {base:.5} rad; change by the clearance: full {full_change:.5}, one-way \
-         {one_way_change:.5}, two-way {two_way_change:.5}",
-        s.simulation.horizon
-    );
-    assert!(full_change < -0.05, "the clearance slows the crank in the full model: {full_change}");
-    // One-way coupling keeps the ideal motion (integrated at a tighter tolerance than `--ideal`).
-    assert!(one_way_change.abs() < 1e-4, "one-way coupling keeps the ideal motion: {one_way_change}");
-    assert!(
-        (two_way_change - full_change).abs() < 0.3 * full_change.abs(),
-        "two-way {two_way_change} vs full {full_change}"
-    );
+    // Frictionless, and with the scenario's friction: the friction moments (R_J F_T on the crank
+    // about its pivot) act in the micro model and, averaged over each macro step, on the macro
+    // mechanism.
+    for friction in [false, true] {
+        let mut s = builtin::by_name("A-motor").unwrap();
+        if !friction {
+            s.clearances[0].friction = FrictionLaw::None;
+        }
+        let (_, hi, ideal) = rows(&mut Run::new(&s, BuildOptions { ideal: true }));
+        let (_, hf, full) = rows(&mut Run::new(&s, BuildOptions::default()));
+        let reduced = |coupling| {
+            let (summary, h, r) =
+                rows(&mut ReducedRun::new(&s, ReducedOptions { coupling, ..Default::default() }).unwrap());
+            assert!(summary.clearances[0].impacts > 3);
+            crank_rotation(&h, &r)
+        };
+        let base = crank_rotation(&hi, &ideal);
+        let full_change = crank_rotation(&hf, &full) - base;
+        let one_way_change = reduced(Coupling::OneWay) - base;
+        let two_way_change = reduced(Coupling::TwoWay) - base;
+        eprintln!(
+            "friction {friction}: crank rotation over {} s: ideal {base:.5} rad; change by the clearance: full \
+             {full_change:.5}, one-way {one_way_change:.5}, two-way {two_way_change:.5}",
+            s.simulation.horizon
+        );
+        assert!(full_change < -0.05, "the clearance slows the crank in the full model: {full_change}");
+        // One-way coupling keeps the ideal motion (integrated at a tighter tolerance than `--ideal`).
+        assert!(one_way_change.abs() < 1e-4, "one-way coupling keeps the ideal motion: {one_way_change}");
+        // Frictionless: 8 % off (bound 30 %). With friction, before the friction moments were
+        // propagated two-way recovered only 20 % of the slow-down; now it overshoots by 35 %
+        // (docs/validation.md): bound 50 %.
+        let bound = if friction { 0.5 } else { 0.3 };
+        assert!(
+            (two_way_change - full_change).abs() < bound * full_change.abs(),
+            "friction {friction}: two-way {two_way_change} vs full {full_change}"
+        );
+    }
 }
 
 #[test]
@@ -154,7 +163,7 @@ fn observers_record_at_their_own_rates() {
         Signal::Propagated {
             name: "slider.ax".into(),
             free: ("slider.acceleration_free".into(), 0),
-            gain: ("slider.acceleration_gain".into(), 0, 1),
+            gain: ("slider.acceleration_gain".into(), 0),
         },
     ];
     let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();

@@ -210,7 +210,7 @@ fn master_slider_acceleration(
     let signals = vec![Signal::Propagated {
         name: "slider.ax".into(),
         free: ("slider.acceleration_free".into(), 0),
-        gain: ("slider.acceleration_gain".into(), 0, 1),
+        gain: ("slider.acceleration_gain".into(), 0),
     }];
     let mut master = InterfaceMaster::new(mechanism, interface, options, signals).unwrap();
     let mut values = Vec::new();

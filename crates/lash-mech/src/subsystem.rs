@@ -1,5 +1,5 @@
-//! The macro subsystem of the reduced interface model: the mechanism around one clearance joint,
-//! as a [`Subsystem`].
+//! The macro subsystem of the reduced interface model: the mechanism around its k clearance joints
+//! (all coupled: n = 2k interface coordinates), as a [`Subsystem`].
 //!
 //! * **One-way coupling** (the reduced-interface-model papers' method): the ideal mechanism (clearance joint closed) is the
 //!   motion. Fully driven mechanisms take the exact kinematic analysis at each communication point;
@@ -20,7 +20,7 @@
 //! Hermite interpolation. One KKT factorisation per communication point serves all of it.
 
 use crate::Vec2;
-use crate::interface::{EffectiveTerms, Interface, effective_terms};
+use crate::interface::{ClearanceInterface, CoupledTerms, coupled_effective_terms};
 use crate::kinematics::{assemble, driver_torque, initial_guess, joint_reaction, point_kinematics, velocity_analysis};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
@@ -56,24 +56,31 @@ pub enum Probe {
     },
 }
 
-/// The eccentricity prescribed across a step: cubic Hermite from (e, ė) at `start` to (e, ė) at
-/// `start + span`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct PrescribedEccentricity {
+/// The eccentricities prescribed across a step: for each joint the cubic Hermite from (e, ė) at
+/// `start` to (e, ė) at `start + span`, and the mean friction force F_T of each joint over the
+/// step (its moments act on the journal and bearing bodies).
+#[derive(Debug, Clone, PartialEq)]
+struct Prescribed {
     start: f64,
     span: f64,
-    from: [Vec2; 2],
-    to: [Vec2; 2],
+    /// e then ė at the start (n each).
+    from: Vec<f64>,
+    /// e then ė at the end (n each).
+    to: Vec<f64>,
+    /// Mean friction force of each joint over the step [N].
+    friction: Vec<f64>,
 }
 
-impl PrescribedEccentricity {
-    /// e, ė, ë at `t`.
-    fn at(&self, t: f64) -> [Vec2; 3] {
+impl Prescribed {
+    /// e, ė, ë of joint `j` at `t`.
+    fn at(&self, t: f64, j: usize) -> [Vec2; 3] {
+        let n = self.from.len() / 2;
+        let pick = |v: &[f64], k: usize| Vec2::new(v[k + 2 * j], v[k + 2 * j + 1]);
         let h = self.span;
         let s = ((t - self.start) / h).clamp(0.0, 1.0);
         let (s2, s3) = (s * s, s * s * s);
-        let [ea, va] = self.from;
-        let [eb, vb] = self.to;
+        let (ea, va) = (pick(&self.from, 0), pick(&self.from, n));
+        let (eb, vb) = (pick(&self.to, 0), pick(&self.to, n));
         let e = ea * (2.0 * s3 - 3.0 * s2 + 1.0)
             + va * (h * (s3 - 2.0 * s2 + s))
             + eb * (-2.0 * s3 + 3.0 * s2)
@@ -88,24 +95,38 @@ impl PrescribedEccentricity {
                 / (h * h);
         [e, v, a]
     }
-}
 
-/// Shifts the two rows of the closed clearance joint so that r_J − r_B = e(t).
-fn apply_offset(solver: &mut Solver, row: usize, [e, v, a]: [Vec2; 3]) {
-    solver.phi[row] -= e.x;
-    solver.phi[row + 1] -= e.y;
-    solver.nu[row] += v.x;
-    solver.nu[row + 1] += v.y;
-    solver.gamma[row] += a.x;
-    solver.gamma[row + 1] += a.y;
+    /// Shifts the rows of the closed clearance joints so that r_J − r_B = e(t) and adds the
+    /// friction moments to the generalized forces.
+    fn apply(&self, solver: &mut Solver, rows: &[usize], joints: &[ClearanceInterface], t: f64) {
+        for (j, &row) in rows.iter().enumerate() {
+            let [e, v, a] = self.at(t, j);
+            solver.phi[row] -= e.x;
+            solver.phi[row + 1] -= e.y;
+            solver.nu[row] += v.x;
+            solver.nu[row + 1] += v.y;
+            solver.gamma[row] += a.x;
+            solver.gamma[row + 1] += a.y;
+        }
+        for (joint, &f) in joints.iter().zip(&self.friction) {
+            for (body, arm) in [
+                (joint.interface.journal_body, -joint.journal_radius),
+                (joint.interface.bearing_body, joint.bearing_radius),
+            ] {
+                if let BodyId::Body(b) = body {
+                    solver.forces[3 * b + 2] += arm * f;
+                }
+            }
+        }
+    }
 }
 
 /// The mechanism ODE integrated by a dynamic macro subsystem: the ideal mechanism, its clearance
-/// joint optionally moved by a prescribed eccentricity.
+/// joints optionally moved by prescribed eccentricities.
 struct MechanismOde<'a> {
     mech: &'a Mechanism,
     solver: &'a mut Solver,
-    offset: Option<(usize, PrescribedEccentricity)>,
+    prescribed: Option<(&'a Prescribed, &'a [usize], &'a [ClearanceInterface])>,
     error: Option<String>,
 }
 
@@ -117,10 +138,10 @@ impl OdeSystem for MechanismOde<'_> {
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
         let n = y.len() / 2;
         let (q, qd) = y.split_at(n);
-        let offset = self.offset;
+        let prescribed = self.prescribed;
         let r = self.solver.accelerations(self.mech, t, q, qd, |s| {
-            if let Some((row, e)) = offset {
-                apply_offset(s, row, e.at(t));
+            if let Some((p, rows, joints)) = prescribed {
+                p.apply(s, rows, joints, t);
             }
         });
         match r {
@@ -141,33 +162,39 @@ impl OdeSystem for MechanismOde<'_> {
 }
 
 /// Fixed value references of the mechanism subsystem (probe variables follow in probe order).
+/// n = 2k interface coordinates for k clearance joints; per-joint quantities have k elements
+/// (scalars when k = 1).
 pub mod vr {
     use lash_core::ValueReference;
-    /// Output M̃ (2×2) [kg].
+    /// Output M̃ (n × n) [kg].
     pub const EFFECTIVE_MASS: ValueReference = 0;
-    /// Output f̃ (2) [N].
+    /// Output f̃ (n) [N].
     pub const EFFECTIVE_FORCE: ValueReference = 1;
-    /// Output W = M̃⁻¹ (2×2) [1/kg].
+    /// Output W = M̃⁻¹ (n × n) [1/kg].
     pub const MOBILITY: ValueReference = 2;
-    /// Output a_free (2) [m/s²].
+    /// Output a_free (n) [m/s²].
     pub const FREE_ACCELERATION: ValueReference = 3;
-    /// Output ω of the journal body.
-    pub const JOURNAL_ANGULAR_VELOCITY: ValueReference = 4;
-    /// Output α of the journal body.
-    pub const JOURNAL_ANGULAR_ACCELERATION: ValueReference = 5;
-    /// Output ω of the bearing body.
-    pub const BEARING_ANGULAR_VELOCITY: ValueReference = 6;
-    /// Output α of the bearing body.
-    pub const BEARING_ANGULAR_ACCELERATION: ValueReference = 7;
+    /// Output H = M̃ W_T (n × k): interface force equivalent to each joint's friction moments.
+    pub const FRICTION_MOMENT_FORCE: ValueReference = 4;
+    /// Output ω of each journal body (k).
+    pub const JOURNAL_ANGULAR_VELOCITY: ValueReference = 5;
+    /// Output α of each journal body (k).
+    pub const JOURNAL_ANGULAR_ACCELERATION: ValueReference = 6;
+    /// Output ω of each bearing body (k).
+    pub const BEARING_ANGULAR_VELOCITY: ValueReference = 7;
+    /// Output α of each bearing body (k).
+    pub const BEARING_ANGULAR_ACCELERATION: ValueReference = 8;
     /// Output max |Φ| of the macro's own constraints.
-    pub const CONSTRAINT_ERROR: ValueReference = 8;
-    /// Input (two-way coupling): eccentricity at the end of the next step (2) [m].
-    pub const ECCENTRICITY: ValueReference = 9;
-    /// Input (two-way coupling): its rate (2) [m/s].
-    pub const ECCENTRICITY_RATE: ValueReference = 10;
+    pub const CONSTRAINT_ERROR: ValueReference = 9;
+    /// Input (two-way coupling): eccentricities at the end of the next step (n) [m].
+    pub const ECCENTRICITY: ValueReference = 10;
+    /// Input (two-way coupling): their rates (n) [m/s].
+    pub const ECCENTRICITY_RATE: ValueReference = 11;
+    /// Input (two-way coupling): each joint's mean friction force over the next step (k) [N].
+    pub const FRICTION_FORCE: ValueReference = 12;
 }
 
-/// The mechanism around one clearance joint as the macro [`Subsystem`].
+/// The mechanism around its clearance joints as the macro [`Subsystem`].
 pub struct MechanismSubsystem {
     name: String,
     variables: Vec<Variable>,
@@ -175,7 +202,7 @@ pub struct MechanismSubsystem {
     values: Vec<f64>,
     cut: Mechanism,
     ideal: Mechanism,
-    interface: Interface,
+    joints: Vec<ClearanceInterface>,
     probes: Vec<Probe>,
     coupling: Coupling,
     kinematic: bool,
@@ -185,44 +212,70 @@ pub struct MechanismSubsystem {
     qdd: Vec<f64>,
     time: Ticks,
     phase: Phase,
-    /// (e, ė) at the current time and the targets at the end of the next step (two-way).
-    eccentricity: [Vec2; 2],
-    eccentricity_target: [Vec2; 2],
-    offset_row: usize,
-    last_offset: Option<PrescribedEccentricity>,
+    /// e then ė at the current time (2n), the targets at the end of the next step (2n) and the
+    /// mean friction forces over it (k) (two-way).
+    eccentricity: Vec<f64>,
+    target: Vec<f64>,
+    friction: Vec<f64>,
+    offset_rows: Vec<usize>,
+    last_prescribed: Option<Prescribed>,
     ideal_solver: Solver,
     cut_solver: Solver,
     /// The effective terms at the current communication point.
-    pub terms: Option<EffectiveTerms>,
+    pub terms: Option<CoupledTerms>,
     /// Steps and right-hand-side evaluations of the dynamic integration.
     pub integration_stats: lash_ode::Stats,
 }
 
+/// Shape of a per-joint quantity with element shape `inner` (`inner ++ [k]`, `inner` for k = 1).
+fn per_joint(k: usize, inner: &[usize]) -> Vec<usize> {
+    let mut shape = inner.to_vec();
+    if k > 1 {
+        shape.push(k);
+    }
+    shape
+}
+
 impl MechanismSubsystem {
-    /// A macro subsystem for the cut mechanism `cut` (clearance joint removed) and the ideal
-    /// mechanism `ideal` (joint closed), with the given probes.
+    /// A macro subsystem for the cut mechanism `cut` (every clearance joint removed) and the ideal
+    /// mechanism `ideal` (the joints closed: its last `joints.len()` joints, in the same order),
+    /// with the given probes.
     pub fn new(
         name: &str,
         cut: Mechanism,
         ideal: Mechanism,
-        interface: Interface,
+        joints: Vec<ClearanceInterface>,
         probes: Vec<Probe>,
         coupling: Coupling,
     ) -> Self {
         use Causality::{Input, Output};
         use Variability::Continuous as C;
+        let (k, n) = (joints.len(), 2 * joints.len());
+        let g = n + k;
+        let pj = per_joint(k, &[]);
         let mut t = VariableTable::new();
-        t.add("effective_mass", Output, C, "kg", "effective mass M~ of the interface", &[2, 2], &[0.0]);
-        t.add("effective_force", Output, C, "N", "effective force f~ (M~ w'' = f~ + f_c)", &[2], &[0.0]);
-        t.add("mobility", Output, C, "1/kg", "W = inverse of M~", &[2, 2], &[0.0]);
-        t.add("free_acceleration", Output, C, "m/s^2", "interface acceleration with f_c = 0", &[2], &[0.0]);
-        t.add("journal_angular_velocity", Output, C, "rad/s", "angular velocity of the journal body", &[], &[0.0]);
-        t.add("journal_angular_acceleration", Output, C, "rad/s^2", "its rate", &[], &[0.0]);
-        t.add("bearing_angular_velocity", Output, C, "rad/s", "angular velocity of the bearing body", &[], &[0.0]);
-        t.add("bearing_angular_acceleration", Output, C, "rad/s^2", "its rate", &[], &[0.0]);
+        t.add("effective_mass", Output, C, "kg", "effective mass M~ of the interface", &[n, n], &[0.0]);
+        t.add("effective_force", Output, C, "N", "effective force f~ (M~ w'' = f~ + f_c + H F_T)", &[n], &[0.0]);
+        t.add("mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
+        t.add("free_acceleration", Output, C, "m/s^2", "interface acceleration with f_c = 0", &[n], &[0.0]);
+        t.add(
+            "friction_moment_force",
+            Output,
+            C,
+            "1",
+            "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)",
+            &per_joint(k, &[n]),
+            &[0.0],
+        );
+        t.add("journal_angular_velocity", Output, C, "rad/s", "angular velocity of the journal body", &pj, &[0.0]);
+        t.add("journal_angular_acceleration", Output, C, "rad/s^2", "its rate", &pj, &[0.0]);
+        t.add("bearing_angular_velocity", Output, C, "rad/s", "angular velocity of the bearing body", &pj, &[0.0]);
+        t.add("bearing_angular_acceleration", Output, C, "rad/s^2", "its rate", &pj, &[0.0]);
         t.add("constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
-        t.add("eccentricity", Input, C, "m", "journal minus bearing centre at the step end (two-way)", &[2], &[0.0]);
-        t.add("eccentricity_rate", Input, C, "m/s", "its rate at the step end (two-way)", &[2], &[0.0]);
+        t.add("eccentricity", Input, C, "m", "journal minus bearing centres at the step end (two-way)", &[n], &[0.0]);
+        t.add("eccentricity_rate", Input, C, "m/s", "their rates at the step end (two-way)", &[n], &[0.0]);
+        t.add("friction_force", Input, C, "N", "mean friction force over the next step (two-way)", &pj, &[0.0]);
+        // Gains per unit load: the contact forces (n), then the friction forces (k).
         for p in &probes {
             match p {
                 Probe::Point { name, .. } => {
@@ -230,17 +283,41 @@ impl MechanismSubsystem {
                     t.add(format!("{name}.velocity"), Output, C, "m/s", "point velocity", &[2], &[0.0]);
                     t.add(format!("{name}.acceleration"), Output, C, "m/s^2", "macro's own", &[2], &[0.0]);
                     t.add(format!("{name}.acceleration_free"), Output, C, "m/s^2", "at f_c = 0", &[2], &[0.0]);
-                    t.add(format!("{name}.acceleration_gain"), Output, C, "m/s^2/N", "per unit f_c", &[2, 2], &[0.0]);
+                    t.add(
+                        format!("{name}.acceleration_gain"),
+                        Output,
+                        C,
+                        "m/s^2/N",
+                        "per unit contact force (f_c), then per unit friction force (F_T)",
+                        &[2, g],
+                        &[0.0],
+                    );
                 }
                 Probe::JointReaction { name, .. } => {
                     t.add(format!("{name}.reaction"), Output, C, "N", "macro's own", &[2], &[0.0]);
                     t.add(format!("{name}.reaction_free"), Output, C, "N", "at f_c = 0", &[2], &[0.0]);
-                    t.add(format!("{name}.reaction_gain"), Output, C, "1", "per unit f_c", &[2, 2], &[0.0]);
+                    t.add(
+                        format!("{name}.reaction_gain"),
+                        Output,
+                        C,
+                        "1",
+                        "per unit contact force (f_c), then per unit friction force (F_T)",
+                        &[2, g],
+                        &[0.0],
+                    );
                 }
                 Probe::DriverTorque { name, .. } => {
                     t.add(format!("{name}.torque"), Output, C, "N.m", "macro's own", &[], &[0.0]);
                     t.add(format!("{name}.torque_free"), Output, C, "N.m", "at f_c = 0", &[], &[0.0]);
-                    t.add(format!("{name}.torque_gain"), Output, C, "m", "per unit f_c", &[2], &[0.0]);
+                    t.add(
+                        format!("{name}.torque_gain"),
+                        Output,
+                        C,
+                        "m",
+                        "per unit contact force (f_c), then per unit friction force (F_T)",
+                        &[g],
+                        &[0.0],
+                    );
                 }
             }
         }
@@ -253,9 +330,10 @@ impl MechanismSubsystem {
         }
         offsets.push(at);
         let kinematic = coupling == Coupling::OneWay && ideal.constraint_count() == ideal.coordinate_count();
-        // The closed clearance joint is the ideal mechanism's last joint.
-        let offset_row = ideal.joint_row(ideal.joints.len() - 1);
-        let n = cut.coordinate_count();
+        // The closed clearance joints are the ideal mechanism's last joints.
+        let first = ideal.joints.len() - k;
+        let offset_rows = (0..k).map(|j| ideal.joint_row(first + j)).collect();
+        let coordinates = cut.coordinate_count();
         Self {
             name: name.to_string(),
             variables,
@@ -265,20 +343,21 @@ impl MechanismSubsystem {
             cut_solver: Solver::new(&cut),
             cut,
             ideal,
-            interface,
+            joints,
             probes,
             coupling,
             kinematic,
             integrator: Dopri5Options { rtol: 1e-10, atol: 1e-12, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 },
-            q: vec![0.0; n],
-            qd: vec![0.0; n],
-            qdd: vec![0.0; n],
+            q: vec![0.0; coordinates],
+            qd: vec![0.0; coordinates],
+            qdd: vec![0.0; coordinates],
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
-            eccentricity: [Vec2::zeros(); 2],
-            eccentricity_target: [Vec2::zeros(); 2],
-            offset_row,
-            last_offset: None,
+            eccentricity: vec![0.0; 2 * n],
+            target: vec![0.0; 2 * n],
+            friction: vec![0.0; k],
+            offset_rows,
+            last_prescribed: None,
             terms: None,
             integration_stats: lash_ode::Stats::default(),
         }
@@ -324,89 +403,119 @@ impl MechanismSubsystem {
     /// Terms and every output at the current state.
     fn refresh(&mut self) -> Result<(), String> {
         let t = self.time.seconds();
-        let terms = effective_terms(&self.cut, &mut self.cut_solver, &self.interface, t, &self.q, &self.qd)
+        let terms = coupled_effective_terms(&self.cut, &mut self.cut_solver, &self.joints, t, &self.q, &self.qd)
             .map_err(|e| e.to_string())?;
-        let Some(mass) = terms.effective_mass else {
+        let Some(mass) = terms.effective_mass.clone() else {
             return Err(format!(
-                "the interface mobility W = {:?} is singular: the cut mechanism cannot move the journal freely in \
-                 both directions",
+                "the interface mobility W = {} is singular: the cut mechanism cannot move the journals freely in \
+                 every direction",
                 terms.mobility
             ));
         };
-        // The macro's own motion has ë = 0 (one-way) or ë of the prescribed eccentricity (two-way);
-        // the interface force that produces it is M̃ (ë − a_free), which is −f̃ in one-way coupling.
-        let own = match (self.coupling, self.last_offset) {
-            (Coupling::TwoWay, Some(e)) => mass * (e.at(t)[2] - terms.free_acceleration),
-            _ => -terms.effective_force,
-        };
-        terms.accelerations(own, &mut self.qdd);
+        let (k, n) = (self.joints.len(), 2 * self.joints.len());
+        // The macro's own motion has ẅ = 0 (one-way) or ẅ of the prescribed eccentricities
+        // (two-way, with the friction forces F̄_T); the interface force that produces it is
+        // M̃ (ẅ − a_free) − H F̄_T, which is −f̃ in one-way coupling.
+        let friction_moment_force = &mass * &terms.friction_mobility;
+        let mut own = vec![0.0; n + k];
+        match (self.coupling, &self.last_prescribed) {
+            (Coupling::TwoWay, Some(p)) => {
+                let mut wdd = nalgebra::DVector::zeros(n);
+                for j in 0..k {
+                    let a = p.at(t, j)[2];
+                    wdd[2 * j] = a.x;
+                    wdd[2 * j + 1] = a.y;
+                }
+                let friction = nalgebra::DVector::from_column_slice(&p.friction);
+                let f = &mass * (wdd - &terms.free_acceleration) - &friction_moment_force * &friction;
+                own[..n].copy_from_slice(f.as_slice());
+                own[n..].copy_from_slice(&p.friction);
+            }
+            _ => {
+                for (o, f) in own.iter_mut().zip(terms.effective_force.iter()) {
+                    *o = -f;
+                }
+            }
+        }
+        terms.accelerations(&own[..n], &own[n..], &mut self.qdd);
         let omega = |b: BodyId, v: &[f64]| match b {
             BodyId::Body(k) => v[3 * k + 2],
             BodyId::Ground => 0.0,
         };
-        let iface = self.interface;
-        let mut put = |vr: ValueReference, v: &[f64]| {
-            self.values[self.offsets[vr as usize]..self.offsets[vr as usize + 1]].copy_from_slice(v)
-        };
-        put(vr::EFFECTIVE_MASS, &[mass[(0, 0)], mass[(0, 1)], mass[(1, 0)], mass[(1, 1)]]);
+        let row_major = |m: &nalgebra::DMatrix<f64>| -> Vec<f64> { m.transpose().as_slice().to_vec() };
+        let joints = &self.joints;
+        let (values, offsets) = (&mut self.values, &self.offsets);
+        let mut put =
+            |vr: ValueReference, v: &[f64]| values[offsets[vr as usize]..offsets[vr as usize + 1]].copy_from_slice(v);
+        put(vr::EFFECTIVE_MASS, &row_major(&mass));
         put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
-        let w = terms.mobility;
-        put(vr::MOBILITY, &[w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]]);
+        put(vr::MOBILITY, &row_major(&terms.mobility));
         put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
-        put(vr::JOURNAL_ANGULAR_VELOCITY, &[omega(iface.journal_body, &self.qd)]);
-        put(vr::JOURNAL_ANGULAR_ACCELERATION, &[omega(iface.journal_body, &self.qdd)]);
-        put(vr::BEARING_ANGULAR_VELOCITY, &[omega(iface.bearing_body, &self.qd)]);
-        put(vr::BEARING_ANGULAR_ACCELERATION, &[omega(iface.bearing_body, &self.qdd)]);
+        put(vr::FRICTION_MOMENT_FORCE, &row_major(&friction_moment_force));
+        let each = |f: &dyn Fn(&ClearanceInterface) -> f64| -> Vec<f64> { joints.iter().map(f).collect() };
+        put(vr::JOURNAL_ANGULAR_VELOCITY, &each(&|j| omega(j.interface.journal_body, &self.qd)));
+        put(vr::JOURNAL_ANGULAR_ACCELERATION, &each(&|j| omega(j.interface.journal_body, &self.qdd)));
+        put(vr::BEARING_ANGULAR_VELOCITY, &each(&|j| omega(j.interface.bearing_body, &self.qd)));
+        put(vr::BEARING_ANGULAR_ACCELERATION, &each(&|j| omega(j.interface.bearing_body, &self.qdd)));
         // Constraint error of the macro's own mechanism (the cut one's rows are a subset of the
         // ideal one's; the cut solver holds the current state).
         self.ideal_solver.set_state(&self.ideal, t, &self.q, &self.qd);
-        if let (Coupling::TwoWay, Some(e)) = (self.coupling, self.last_offset) {
-            apply_offset(&mut self.ideal_solver, self.offset_row, e.at(t));
+        if let (Coupling::TwoWay, Some(p)) = (self.coupling, &self.last_prescribed) {
+            p.apply(&mut self.ideal_solver, &self.offset_rows, &self.joints, t);
         }
         let phi = self.ideal_solver.constraint_error();
         put(vr::CONSTRAINT_ERROR, &[phi]);
-        let mut next = vr::ECCENTRICITY_RATE + 1;
+        let mut next = vr::FRICTION_FORCE + 1;
         let zeros = vec![0.0; self.q.len()];
-        let lambda_of = |solver: &mut Solver, lambda: &[f64]| solver.lambda.copy_from_slice(lambda);
+        let g = n + k;
+        let mut gains = vec![0.0; 2 * g];
         for p in &self.probes {
             match *p {
                 Probe::Point { body, point, .. } => {
-                    let own = point_kinematics(&self.q, &self.qd, &self.qdd, body, point);
+                    let own_kin = point_kinematics(&self.q, &self.qd, &self.qdd, body, point);
                     let free = point_kinematics(&self.q, &self.qd, &terms.free_accelerations, body, point);
-                    let gx = point_kinematics(&self.q, &zeros, &terms.gain[0], body, point).acceleration;
-                    let gy = point_kinematics(&self.q, &zeros, &terms.gain[1], body, point).acceleration;
-                    put(next, own.position.as_slice());
-                    put(next + 1, own.velocity.as_slice());
-                    put(next + 2, own.acceleration.as_slice());
+                    for (c, column) in terms.gain.iter().enumerate() {
+                        let a = point_kinematics(&self.q, &zeros, column, body, point).acceleration;
+                        gains[c] = a.x;
+                        gains[g + c] = a.y;
+                    }
+                    put(next, own_kin.position.as_slice());
+                    put(next + 1, own_kin.velocity.as_slice());
+                    put(next + 2, own_kin.acceleration.as_slice());
                     put(next + 3, free.acceleration.as_slice());
-                    put(next + 4, &[gx.x, gy.x, gx.y, gy.y]);
+                    put(next + 4, &gains);
                     next += 5;
                 }
                 Probe::JointReaction { joint, .. } => {
                     let solver = &mut self.cut_solver;
-                    let mut r = [Vec2::zeros(); 3];
-                    for (k, l) in [&terms.free_lambda, &terms.lambda_gain[0], &terms.lambda_gain[1]].iter().enumerate()
-                    {
-                        lambda_of(solver, l);
-                        r[k] = joint_reaction(&self.cut, solver, joint);
+                    solver.lambda.copy_from_slice(&terms.free_lambda);
+                    let free = joint_reaction(&self.cut, solver, joint);
+                    let mut total = free;
+                    for (c, column) in terms.lambda_gain.iter().enumerate() {
+                        solver.lambda.copy_from_slice(column);
+                        let r = joint_reaction(&self.cut, solver, joint);
+                        gains[c] = r.x;
+                        gains[g + c] = r.y;
+                        total += r * own[c];
                     }
-                    let own_r = r[0] + r[1] * own.x + r[2] * own.y;
-                    put(next, own_r.as_slice());
-                    put(next + 1, r[0].as_slice());
-                    put(next + 2, &[r[1].x, r[2].x, r[1].y, r[2].y]);
+                    put(next, total.as_slice());
+                    put(next + 1, free.as_slice());
+                    put(next + 2, &gains);
                     next += 3;
                 }
                 Probe::DriverTorque { driver, .. } => {
                     let solver = &mut self.cut_solver;
-                    let mut tq = [0.0; 3];
-                    for (k, l) in [&terms.free_lambda, &terms.lambda_gain[0], &terms.lambda_gain[1]].iter().enumerate()
-                    {
-                        lambda_of(solver, l);
-                        tq[k] = driver_torque(&self.cut, solver, driver);
+                    solver.lambda.copy_from_slice(&terms.free_lambda);
+                    let free = driver_torque(&self.cut, solver, driver);
+                    let mut total = free;
+                    for (c, column) in terms.lambda_gain.iter().enumerate() {
+                        solver.lambda.copy_from_slice(column);
+                        gains[c] = driver_torque(&self.cut, solver, driver);
+                        total += gains[c] * own[c];
                     }
-                    put(next, &[tq[0] + tq[1] * own.x + tq[2] * own.y]);
-                    put(next + 1, &[tq[0]]);
-                    put(next + 2, &[tq[1], tq[2]]);
+                    put(next, &[total]);
+                    put(next + 1, &[free]);
+                    put(next + 2, &gains[..g]);
                     next += 3;
                 }
             }
@@ -438,7 +547,7 @@ impl Subsystem for MechanismSubsystem {
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
         self.phase.require("initialize", &[Phase::Configured])?;
-        // Consistent initial conditions of the ideal mechanism (the journal centred, ideal
+        // Consistent initial conditions of the ideal mechanism (the journals centred, ideal
         // velocities): the cut mechanism starts from the same state.
         let t = self.time.seconds();
         let (q, qd) = initial_guess(&self.ideal);
@@ -458,43 +567,53 @@ impl Subsystem for MechanismSubsystem {
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        let n = element_count(&self.variables, refs)?;
-        if n != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
+        let count = element_count(&self.variables, refs)?;
+        if count != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
         let mut at = 0;
         for &r in refs {
             let var = &self.variables[r as usize];
-            if r != vr::ECCENTRICITY && r != vr::ECCENTRICITY_RATE {
+            if !(vr::ECCENTRICITY..=vr::FRICTION_FORCE).contains(&r) {
                 return Err(SubsystemError::BadValue { name: var.name.clone(), problem: "is not an input".into() });
             }
-            let v = &values[at..at + 2];
-            at += 2;
+            let v = &values[at..at + var.len()];
             if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
                 return Err(SubsystemError::BadValue {
                     name: var.name.clone(),
                     problem: format!("{bad} is not finite"),
                 });
             }
-            self.eccentricity_target[(r - vr::ECCENTRICITY) as usize] = Vec2::new(v[0], v[1]);
+            at += var.len();
+        }
+        let n = 2 * self.joints.len();
+        let mut at = 0;
+        for &r in refs {
+            let len = self.variables[r as usize].len();
+            let v = &values[at..at + len];
+            match r {
+                vr::ECCENTRICITY => self.target[..n].copy_from_slice(v),
+                vr::ECCENTRICITY_RATE => self.target[n..].copy_from_slice(v),
+                _ => self.friction.copy_from_slice(v),
+            }
+            at += len;
         }
         Ok(())
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        let n = element_count(&self.variables, refs)?;
-        if n != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), n)));
+        let count = element_count(&self.variables, refs)?;
+        if count != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
+        let n = 2 * self.joints.len();
         let mut at = 0;
         for &r in refs {
-            let target;
-            let v = if r == vr::ECCENTRICITY || r == vr::ECCENTRICITY_RATE {
-                let e = self.eccentricity_target[(r - vr::ECCENTRICITY) as usize];
-                target = [e.x, e.y];
-                &target[..]
-            } else {
-                self.output(r)
+            let v = match r {
+                vr::ECCENTRICITY => &self.target[..n],
+                vr::ECCENTRICITY_RATE => &self.target[n..],
+                vr::FRICTION_FORCE => &self.friction[..],
+                _ => self.output(r),
             };
             values[at..at + v.len()].copy_from_slice(v);
             at += v.len();
@@ -516,15 +635,15 @@ impl Subsystem for MechanismSubsystem {
         let result = if self.kinematic {
             self.kinematic_motion(t1)
         } else {
-            let prescribed = PrescribedEccentricity {
+            self.last_prescribed = (self.coupling == Coupling::TwoWay).then(|| Prescribed {
                 start: t0,
                 span: t1 - t0,
-                from: self.eccentricity,
-                to: self.eccentricity_target,
-            };
-            let offset = (self.coupling == Coupling::TwoWay).then_some((self.offset_row, prescribed));
-            self.last_offset = offset.map(|o| o.1);
-            let mut ode = MechanismOde { mech: &self.ideal, solver: &mut self.ideal_solver, offset, error: None };
+                from: self.eccentricity.clone(),
+                to: self.target.clone(),
+                friction: self.friction.clone(),
+            });
+            let prescribed = self.last_prescribed.as_ref().map(|p| (p, &self.offset_rows[..], &self.joints[..]));
+            let mut ode = MechanismOde { mech: &self.ideal, solver: &mut self.ideal_solver, prescribed, error: None };
             let mut y: Vec<f64> = self.q.iter().chain(&self.qd).copied().collect();
             let method =
                 Method::Dopri5(Dopri5Options { max_step: self.integrator.max_step.min(t1 - t0), ..self.integrator });
@@ -551,7 +670,7 @@ impl Subsystem for MechanismSubsystem {
         };
         self.time = Ticks(t.0 + h.0);
         if self.coupling == Coupling::TwoWay {
-            self.eccentricity = self.eccentricity_target;
+            self.eccentricity.clone_from(&self.target);
         }
         if let Err(m) = result.and_then(|_| self.refresh()) {
             return Err(self.simulation_error(m));
@@ -564,34 +683,49 @@ impl Subsystem for MechanismSubsystem {
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
-        Ok(SavedState(Box::new((
-            self.q.clone(),
-            self.qd.clone(),
-            self.time,
-            self.phase,
-            [self.eccentricity, self.eccentricity_target],
-            self.last_offset,
-            self.values.clone(),
-        ))))
+        Ok(SavedState(Box::new(Snapshot {
+            q: self.q.clone(),
+            qd: self.qd.clone(),
+            time: self.time,
+            phase: self.phase,
+            eccentricity: self.eccentricity.clone(),
+            target: self.target.clone(),
+            friction: self.friction.clone(),
+            last_prescribed: self.last_prescribed.clone(),
+            values: self.values.clone(),
+        })))
     }
 
     fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
-        type Snapshot = (Vec<f64>, Vec<f64>, Ticks, Phase, [[Vec2; 2]; 2], Option<PrescribedEccentricity>, Vec<f64>);
-        let (q, qd, time, phase, [e, target], last, values) = state
+        let s = state
             .0
             .downcast_ref::<Snapshot>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not a mechanism subsystem's".into()))?;
-        self.q.clone_from(q);
-        self.qd.clone_from(qd);
-        self.time = *time;
-        self.phase = *phase;
-        self.eccentricity = *e;
-        self.eccentricity_target = *target;
-        self.last_offset = *last;
-        self.values.clone_from(values);
+        self.q.clone_from(&s.q);
+        self.qd.clone_from(&s.qd);
+        self.time = s.time;
+        self.phase = s.phase;
+        self.eccentricity.clone_from(&s.eccentricity);
+        self.target.clone_from(&s.target);
+        self.friction.clone_from(&s.friction);
+        self.last_prescribed.clone_from(&s.last_prescribed);
+        self.values.clone_from(&s.values);
         if self.phase == Phase::Stepping {
-            self.refresh().map_err(|m| SubsystemError::Simulation { t: time.seconds(), message: m })?;
+            self.refresh().map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
         }
         Ok(())
     }
+}
+
+/// A saved state of the mechanism subsystem.
+struct Snapshot {
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    time: Ticks,
+    phase: Phase,
+    eccentricity: Vec<f64>,
+    target: Vec<f64>,
+    friction: Vec<f64>,
+    last_prescribed: Option<Prescribed>,
+    values: Vec<f64>,
 }

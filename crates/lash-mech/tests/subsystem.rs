@@ -18,10 +18,14 @@ fn probes() -> Vec<Probe> {
 
 fn subsystem(clearance: &str, coupling: Coupling) -> MechanismSubsystem {
     let (cut_mech, ideal, iface) = cut(clearance);
-    let mut s = MechanismSubsystem::new("mechanism", cut_mech, ideal, iface, probes(), coupling);
+    let mut s = MechanismSubsystem::new("mechanism", cut_mech, ideal, joints(iface), probes(), coupling);
     s.setup(Ticks::ZERO, None).unwrap();
     s.initialize().unwrap();
     s
+}
+
+fn joints(interface: Interface) -> Vec<ClearanceInterface> {
+    vec![ClearanceInterface { interface, journal_radius: 0.0095, bearing_radius: 0.01 }]
 }
 
 fn value(s: &MechanismSubsystem, name: &str) -> Vec<f64> {
@@ -109,6 +113,6 @@ fn rollback_replays_bit_for_bit_and_bad_calls_are_refused() {
     assert!(e.to_string().contains("eccentricity: inf is not finite"), "{e}");
     assert!(matches!(s.do_step(Ticks::ZERO, h), Err(SubsystemError::BadArguments(_))));
     let (cut_mech, ideal, iface) = cut("crank_pivot");
-    let mut fresh = MechanismSubsystem::new("m", cut_mech, ideal, iface, vec![], Coupling::OneWay);
+    let mut fresh = MechanismSubsystem::new("m", cut_mech, ideal, joints(iface), vec![], Coupling::OneWay);
     assert!(matches!(fresh.initialize(), Err(SubsystemError::WrongState { .. })));
 }

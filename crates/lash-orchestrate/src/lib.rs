@@ -6,13 +6,15 @@
 //!
 //! | macro output | micro input |
 //! |---|---|
-//! | `effective_mass` (2×2), `effective_force` (2) | the same, plus `…_rate` |
-//! | `journal_angular_velocity`, `journal_angular_acceleration` | `journal_angular_velocity`, `journal_angular_acceleration` |
-//! | `bearing_angular_velocity`, `bearing_angular_acceleration` | the same for the bearing |
+//! | `effective_mass` (n×n), `effective_force` (n), `friction_moment_force` (n×k) | the same, plus `…_rate` |
+//! | `journal_angular_velocity`, `journal_angular_acceleration` (k) | the same |
+//! | `bearing_angular_velocity`, `bearing_angular_acceleration` (k) | the same for the bearings |
 //!
-//! and, back, the micro outputs `contact_force` (every micro step, for the propagated signals) and,
-//! in two-way coupling, `eccentricity` and `eccentricity_rate` at the end of each macro step, fed to
-//! the macro inputs of the same names.
+//! for k clearance joints with n interface coordinates in all (sizes read from the variables), and,
+//! back, the micro outputs `contact_force` (n) and `friction_force` (k) every micro step (the loads
+//! of the propagated signals) and, in two-way coupling, `eccentricity` and `eccentricity_rate` at
+//! the end of each macro step and the mean friction force over it (from `friction_impulse`), fed
+//! to the macro inputs `eccentricity`, `eccentricity_rate` and `friction_force`.
 //!
 //! * **Interpolation** of the coupling inputs across the macro step: linear (default), cubic
 //!   Hermite (slopes from neighbouring nodes, angular velocities with their exported derivatives),
@@ -106,15 +108,15 @@ pub enum Signal {
         /// (variable, element) holding its time derivative.
         derivative: Option<(String, usize)>,
     },
-    /// `free + gain_x f_x + gain_y f_y` with the maps interpolated linearly and f_c the micro
-    /// subsystem's contact force at the same instant.
+    /// `free + Σ gain_c load_c` with the maps interpolated linearly and the loads the micro
+    /// subsystem's contact forces (n) and friction forces (k) at the same instant.
     Propagated {
         /// Signal name.
         name: String,
-        /// (variable, element) of the value at f_c = 0.
+        /// (variable, element) of the value at zero load.
         free: (String, usize),
-        /// (variable, element for f_x, element for f_y) of the gain.
-        gain: (String, usize, usize),
+        /// (variable, first element) of the n + k gains, one per load, in load order.
+        gain: (String, usize),
     },
 }
 
@@ -279,18 +281,18 @@ fn lookup(
 enum Resolved {
     Micro(usize),
     Macro { value: usize, derivative: Option<usize> },
-    Propagated { free: usize, gain_x: usize, gain_y: usize },
+    Propagated { free: usize, gain: usize },
 }
 
-/// Frame-vector indices of the coupling quantities.
-#[derive(Debug, Clone, Copy)]
+/// Frame-vector indices of the coupling quantities: for each micro input value (in input order),
+/// the frame element it interpolates; angular velocities come with the element of their
+/// derivative.
+#[derive(Debug, Clone)]
 struct CouplingIndex {
-    mass: usize,
-    force: usize,
-    journal_omega: usize,
-    journal_alpha: usize,
-    bearing_omega: usize,
-    bearing_alpha: usize,
+    /// (frame element, frame element of its derivative) for each value input.
+    elements: Vec<(usize, Option<usize>)>,
+    /// Where each input variable's values start in the input vector (values then rates).
+    layout: Vec<(usize, usize)>,
 }
 
 /// The multirate master of the reduced interface model.
@@ -371,12 +373,12 @@ enum Frames<'s> {
     Channel(crossbeam_channel::Receiver<Result<Vec<f64>, MasterError>>),
 }
 
-/// Two-way coupling inputs: value references of the macro's `eccentricity`, `eccentricity_rate`
-/// and the values (e, ė) for the end of the step.
-type Targets = ([ValueReference; 2], [f64; 4]);
+/// Two-way coupling inputs: value references of the macro's `eccentricity`, `eccentricity_rate`,
+/// `friction_force` and their values (e, ė at the end of the step, mean F_T over it).
+type Targets<'t> = (&'t [ValueReference; 3], &'t [f64]);
 
 impl Frames<'_> {
-    fn next(&mut self, t: Ticks, h: Ticks, targets: Option<Targets>) -> Result<Vec<f64>, MasterError> {
+    fn next(&mut self, t: Ticks, h: Ticks, targets: Option<Targets<'_>>) -> Result<Vec<f64>, MasterError> {
         match self {
             Frames::Local { sub, all, width, seconds } => {
                 let start = Instant::now();
@@ -417,11 +419,11 @@ fn step_macro(
     width: usize,
     t: Ticks,
     h: Ticks,
-    targets: Option<Targets>,
+    targets: Option<Targets<'_>>,
 ) -> Result<Vec<f64>, MasterError> {
     let _span = tracing::debug_span!("macro_step", t = t.seconds()).entered();
     if let Some((vrs, values)) = targets {
-        sub.set_f64(&vrs, &values).map_err(macro_err)?;
+        sub.set_f64(vrs, values).map_err(macro_err)?;
     }
     advance_or_stop(sub, "macro", t, h)?;
     read_frame(sub, all, width)
@@ -493,42 +495,60 @@ impl<'a> InterfaceMaster<'a> {
         let (mac_name, mic_name) = (self.macro_sub.name().to_string(), self.micro_sub.name().to_string());
         let mac_off = offsets(&mac_vars);
         let out = Causality::Output;
+        // Sizes: n interface coordinates, k clearance joints.
+        let size = |name: &str| -> Result<usize, MasterError> {
+            Ok(mac_vars[lookup(&mac_vars, &mac_name, name, out, None)? as usize].len())
+        };
+        let (n, k) = (size("effective_force")?, size("journal_angular_velocity")?);
         let at = |name: &str, len: usize| -> Result<usize, MasterError> {
             Ok(mac_off[lookup(&mac_vars, &mac_name, name, out, Some(len))? as usize])
         };
-        let index = CouplingIndex {
-            mass: at("effective_mass", 4)?,
-            force: at("effective_force", 2)?,
-            journal_omega: at("journal_angular_velocity", 1)?,
-            journal_alpha: at("journal_angular_acceleration", 1)?,
-            bearing_omega: at("bearing_angular_velocity", 1)?,
-            bearing_alpha: at("bearing_angular_acceleration", 1)?,
-        };
+        let inp = Causality::Input;
+        // (name, elements, derivative variable of the macro)
+        let couplings: [(&str, usize, Option<&str>); 5] = [
+            ("effective_mass", n * n, None),
+            ("effective_force", n, None),
+            ("friction_moment_force", n * k, None),
+            ("journal_angular_velocity", k, Some("journal_angular_acceleration")),
+            ("bearing_angular_velocity", k, Some("bearing_angular_acceleration")),
+        ];
+        let mut micro_inputs = Vec::with_capacity(2 * couplings.len());
+        let mut index = CouplingIndex { elements: Vec::new(), layout: Vec::new() };
+        let mut width_in = 0;
+        for (name, len, derivative) in couplings {
+            let start = at(name, len)?;
+            let derivative_start = derivative.map(|d| at(d, len)).transpose()?;
+            let rate_name = derivative.map_or_else(|| format!("{name}_rate"), str::to_string);
+            micro_inputs.push(lookup(&mic_vars, &mic_name, name, inp, Some(len))?);
+            micro_inputs.push(lookup(&mic_vars, &mic_name, &rate_name, inp, Some(len))?);
+            index.layout.push((width_in, width_in + len));
+            width_in += 2 * len;
+            for e in 0..len {
+                index.elements.push((start + e, derivative_start.map(|d| d + e)));
+            }
+        }
         let target_inputs = match o.coupling {
             Coupling::TwoWay => Some([
-                lookup(&mac_vars, &mac_name, "eccentricity", Causality::Input, Some(2))?,
-                lookup(&mac_vars, &mac_name, "eccentricity_rate", Causality::Input, Some(2))?,
+                lookup(&mac_vars, &mac_name, "eccentricity", Causality::Input, Some(n))?,
+                lookup(&mac_vars, &mac_name, "eccentricity_rate", Causality::Input, Some(n))?,
+                lookup(&mac_vars, &mac_name, "friction_force", Causality::Input, Some(k))?,
             ]),
             Coupling::OneWay => None,
         };
-        let inp = Causality::Input;
-        let micro_inputs = [
-            lookup(&mic_vars, &mic_name, "effective_mass", inp, Some(4))?,
-            lookup(&mic_vars, &mic_name, "effective_mass_rate", inp, Some(4))?,
-            lookup(&mic_vars, &mic_name, "effective_force", inp, Some(2))?,
-            lookup(&mic_vars, &mic_name, "effective_force_rate", inp, Some(2))?,
-            lookup(&mic_vars, &mic_name, "journal_angular_velocity", inp, Some(1))?,
-            lookup(&mic_vars, &mic_name, "journal_angular_acceleration", inp, Some(1))?,
-            lookup(&mic_vars, &mic_name, "bearing_angular_velocity", inp, Some(1))?,
-            lookup(&mic_vars, &mic_name, "bearing_angular_acceleration", inp, Some(1))?,
-        ];
-        // Micro outputs read every micro step: contact force, eccentricity and its rate first, then
-        // the signals'.
+        // Micro outputs read every micro step: the loads (contact forces, friction forces) first,
+        // then the signals'. Two-way coupling reads the eccentricities, their rates and the friction
+        // impulses at the end of each macro step.
         let mut micro_outputs: Vec<ValueReference> = vec![
-            lookup(&mic_vars, &mic_name, "contact_force", out, Some(2))?,
-            lookup(&mic_vars, &mic_name, "eccentricity", out, Some(2))?,
-            lookup(&mic_vars, &mic_name, "eccentricity_rate", out, Some(2))?,
+            lookup(&mic_vars, &mic_name, "contact_force", out, Some(n))?,
+            lookup(&mic_vars, &mic_name, "friction_force", out, Some(k))?,
         ];
+        let coupling_outputs = [
+            lookup(&mic_vars, &mic_name, "eccentricity", out, Some(n))?,
+            lookup(&mic_vars, &mic_name, "eccentricity_rate", out, Some(n))?,
+            lookup(&mic_vars, &mic_name, "friction_impulse", out, Some(k))?,
+        ];
+        let loads = n + k;
+        let (ecc_at, rate_at, impulse_at) = (0, n, 2 * n);
         let mut resolved = Vec::with_capacity(self.signals.len());
         let element =
             |vars: &[Variable], who: &str, name: &str, e: usize| -> Result<(ValueReference, usize), MasterError> {
@@ -562,11 +582,10 @@ impl<'a> InterfaceMaster<'a> {
                     value: mac_index(variable, *e)?,
                     derivative: derivative.as_ref().map(|(v, e)| mac_index(v, *e)).transpose()?,
                 },
-                Signal::Propagated { free, gain, .. } => Resolved::Propagated {
-                    free: mac_index(&free.0, free.1)?,
-                    gain_x: mac_index(&gain.0, gain.1)?,
-                    gain_y: mac_index(&gain.0, gain.2)?,
-                },
+                Signal::Propagated { free, gain, .. } => {
+                    mac_index(&gain.0, gain.1 + loads - 1)?;
+                    Resolved::Propagated { free: mac_index(&free.0, free.1)?, gain: mac_index(&gain.0, gain.1)? }
+                }
             });
         }
         let micro_width: usize = micro_outputs.iter().map(|&v| mic_vars[v as usize].len()).sum();
@@ -586,6 +605,8 @@ impl<'a> InterfaceMaster<'a> {
         let mut signals = vec![0.0; resolved.len()];
         let mut micro_values = vec![0.0; micro_width];
         self.micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
+        let mut coupling_values = vec![0.0; 2 * n + k];
+        self.micro_sub.get_f64(&coupling_outputs, &mut coupling_values).map_err(micro_err)?;
 
         let Self { macro_sub, micro_sub, .. } = self;
         let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
@@ -598,13 +619,18 @@ impl<'a> InterfaceMaster<'a> {
             // Observers at the start.
             {
                 let w = Window { prev: None, a: &window[0], b: &window[0], next: None, h: h_m };
-                fill_signals(&resolved, &w, 0.0, &micro_values, &mut signals);
+                fill_signals(&resolved, &w, 0.0, &micro_values[..loads], &micro_values, &mut signals);
                 for (obs, _) in observers.iter_mut() {
                     obs.observe(o.start, &signals).map_err(MasterError::Observer)?;
                 }
             }
             let mut micro_count = 0u64;
-            let mut inputs = [0.0; 16];
+            let mut inputs = vec![0.0; width_in];
+            // Two-way: the targets (e, ė at the step end, mean F_T over the step), the friction
+            // impulses at the step start and the last step's mean friction forces.
+            let mut targets = vec![0.0; 2 * n + k];
+            let mut impulse_start = vec![0.0; k];
+            let mut mean_friction = vec![0.0; k];
             // Observers due after micro step `j` (count `n`) of the macro step.
             let observe = |n: u64,
                            j: usize,
@@ -617,7 +643,7 @@ impl<'a> InterfaceMaster<'a> {
                 if decimation.iter().all(|d| !n.is_multiple_of(*d)) {
                     return Ok(());
                 }
-                fill_signals(&resolved, w, (j + 1) as f64 / per_macro as f64, micro, signals);
+                fill_signals(&resolved, w, (j + 1) as f64 / per_macro as f64, &micro[..loads], micro, signals);
                 let t1 = Ticks(t.0 + o.micro_step.0);
                 for ((obs, _), d) in observers.iter_mut().zip(&decimation) {
                     if n.is_multiple_of(*d) {
@@ -626,22 +652,28 @@ impl<'a> InterfaceMaster<'a> {
                 }
                 Ok(())
             };
-            for k in 0..macro_steps {
-                let t_k = Ticks(o.start.0 + k as i64 * o.macro_step.0);
+            for step in 0..macro_steps {
+                let t_k = Ticks(o.start.0 + step as i64 * o.macro_step.0);
                 // Two-way: save the macro at t_k and predict with the eccentricity extrapolated.
-                let saved = match target_inputs {
+                // (Predictor: e + ė h_m, ė, and the last step's mean friction forces.)
+                let saved = match &target_inputs {
                     Some(vrs) => {
                         let saved = frames.save()?;
-                        let (e, v) = ([micro_values[2], micro_values[3]], [micro_values[4], micro_values[5]]);
-                        let predicted = [e[0] + v[0] * h_m, e[1] + v[1] * h_m, v[0], v[1]];
-                        Some((saved, vrs, predicted))
+                        for i in 0..n {
+                            let (e, v) = (coupling_values[ecc_at + i], coupling_values[rate_at + i]);
+                            targets[i] = e + v * h_m;
+                            targets[n + i] = v;
+                        }
+                        targets[2 * n..].copy_from_slice(&mean_friction);
+                        impulse_start.copy_from_slice(&coupling_values[impulse_at..impulse_at + k]);
+                        Some((saved, vrs))
                     }
                     None => None,
                 };
-                while produced < (k + ahead).min(macro_steps) {
+                while produced < (step + ahead).min(macro_steps) {
                     let t = Ticks(o.start.0 + produced as i64 * o.macro_step.0);
-                    let targets = saved.as_ref().map(|(_, vrs, predicted)| (*vrs, *predicted));
-                    window.push_back(frames.next(t, o.macro_step, targets)?);
+                    let predicted = saved.as_ref().map(|(_, vrs)| (*vrs, &targets[..]));
+                    window.push_back(frames.next(t, o.macro_step, predicted)?);
                     produced += 1;
                     stats.macro_steps += 1;
                 }
@@ -673,16 +705,17 @@ impl<'a> InterfaceMaster<'a> {
                         }
                         continue;
                     }
-                    for e in 0..4 {
-                        (inputs[e], inputs[4 + e]) = w.coupling(kind, index.mass + e, s);
-                    }
-                    for e in 0..2 {
-                        (inputs[8 + e], inputs[10 + e]) = w.coupling(kind, index.force + e, s);
-                    }
-                    (inputs[12], inputs[13]) = w.with_derivative(kind, index.journal_omega, index.journal_alpha, s);
-                    (inputs[14], inputs[15]) = w.with_derivative(kind, index.bearing_omega, index.bearing_alpha, s);
-                    if kind == Interpolation::ZeroOrderHold {
-                        (inputs[13], inputs[15]) = (0.0, 0.0);
+                    let mut elements = index.elements.iter();
+                    for &(values, rates) in &index.layout {
+                        for e in 0..rates - values {
+                            let &(value, derivative) = elements.next().expect("one element per input value");
+                            let (v, rate) = match derivative {
+                                Some(d) => w.with_derivative(kind, value, d, s),
+                                None => w.coupling(kind, value, s),
+                            };
+                            inputs[values + e] = v;
+                            inputs[rates + e] = if kind == Interpolation::ZeroOrderHold { 0.0 } else { rate };
+                        }
                     }
                     micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
                     let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
@@ -698,11 +731,17 @@ impl<'a> InterfaceMaster<'a> {
                 drop(_span);
                 stats.micro_steps = micro_count;
                 stats.micro_seconds += started.elapsed().as_secs_f64();
-                if let Some((state, vrs, _)) = saved {
-                    // Corrector: the macro steps again with the micro's eccentricity at t_k+1.
+                if let Some((state, vrs)) = saved {
+                    // Corrector: the macro steps again with the micro's eccentricities at t_k+1 and
+                    // its mean friction forces over the step.
                     frames.restore(&state)?;
-                    let actual = [micro_values[2], micro_values[3], micro_values[4], micro_values[5]];
-                    window[1] = frames.next(t_k, o.macro_step, Some((vrs, actual)))?;
+                    micro_sub.get_f64(&coupling_outputs, &mut coupling_values).map_err(micro_err)?;
+                    targets[..2 * n].copy_from_slice(&coupling_values[..2 * n]);
+                    for j in 0..k {
+                        mean_friction[j] = (coupling_values[impulse_at + j] - impulse_start[j]) / h_m;
+                    }
+                    targets[2 * n..].copy_from_slice(&mean_friction);
+                    window[1] = frames.next(t_k, o.macro_step, Some((vrs, &targets[..])))?;
                     stats.macro_steps += 1;
                 }
                 prev = window.pop_front();
@@ -757,18 +796,17 @@ impl<'a> InterfaceMaster<'a> {
     }
 }
 
-/// Computes every signal at fraction `s` of the macro step from the window and the micro outputs
-/// (`micro[0..2]` is the contact force).
+/// Computes every signal at fraction `s` of the macro step from the window, the loads (contact
+/// forces, then friction forces) and the micro outputs.
 #[inline]
-fn fill_signals(resolved: &[Resolved], w: &Window<'_>, s: f64, micro: &[f64], out: &mut [f64]) {
-    let (fx, fy) = (micro[0], micro[1]);
+fn fill_signals(resolved: &[Resolved], w: &Window<'_>, s: f64, loads: &[f64], micro: &[f64], out: &mut [f64]) {
     for (o, r) in out.iter_mut().zip(resolved) {
         *o = match *r {
             Resolved::Micro(i) => micro[i],
             Resolved::Macro { value, derivative: Some(d) } => hermite(w.a[value], w.a[d], w.b[value], w.b[d], s, w.h).0,
             Resolved::Macro { value, derivative: None } => w.lerp(value, s),
-            Resolved::Propagated { free, gain_x, gain_y } => {
-                w.lerp(free, s) + w.lerp(gain_x, s) * fx + w.lerp(gain_y, s) * fy
+            Resolved::Propagated { free, gain } => {
+                loads.iter().enumerate().fold(w.lerp(free, s), |v, (c, load)| v + w.lerp(gain + c, s) * load)
             }
         };
     }

@@ -9,8 +9,10 @@
 //!   micro step (no solve in the micro loop);
 //! * clearance quantities: micro outputs.
 //!
-//! As in the reduced-interface-model papers, f_c acts through the journal and bearing centres: the moment of friction about
-//! the journal centre (R_J F_T) is not propagated.
+//! Every clearance joint of the scenario is coupled at once (the micro subsystem integrates all
+//! eccentricities with the coupled effective mass). The loads propagated are the contact forces
+//! through the joint centres and the friction forces, whose moments (R_J F_T on the journal body,
+//! R_B F_T on the bearing body) act in the micro model and in every propagated channel.
 
 use crate::build::{BuildOptions, build_model};
 use crate::channels::{CLEARANCE_QUANTITIES, Channel, Source, channel_sources};
@@ -18,7 +20,7 @@ use crate::run::{RunError, Summary, driver_period};
 use crate::schema::Scenario;
 use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_core::{Coupling, Subsystem, Ticks};
-use lash_mech::{Interface, MechanismSubsystem, Probe, Vec2};
+use lash_mech::{ClearanceInterface, Interface, MechanismSubsystem, Probe, Vec2};
 use lash_ode::Dopri5Options;
 use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
 
@@ -82,9 +84,10 @@ fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
 impl ReducedRun {
     /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
-        if scenario.clearances.len() != 1 {
+        let max_joints = lash_contact::micro::MAX_COORDINATES / lash_contact::micro::PLANAR_JOINT_COORDINATES;
+        if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
             return Err(RunError::Unsupported(format!(
-                "the reduced model couples exactly one clearance joint; the scenario has {}",
+                "the reduced model couples 1 to {max_joints} clearance joints; the scenario has {}",
                 scenario.clearances.len()
             )));
         }
@@ -125,13 +128,21 @@ impl ReducedRun {
         let full = build_model(scenario, BuildOptions { ideal: false });
         let ideal = full.ideal_mechanism();
         let cut = full.mechanism.clone();
-        let joint = full.clearances[0].clone();
-        let interface = Interface {
-            journal_body: joint.journal_body,
-            journal_point: joint.journal_point,
-            bearing_body: joint.bearing_body,
-            bearing_point: joint.bearing_point,
-        };
+        let joints = full.clearances.clone();
+        let interfaces: Vec<ClearanceInterface> = joints
+            .iter()
+            .map(|j| ClearanceInterface {
+                interface: Interface {
+                    journal_body: j.journal_body,
+                    journal_point: j.journal_point,
+                    bearing_body: j.bearing_body,
+                    bearing_point: j.bearing_point,
+                },
+                journal_radius: j.journal_radius,
+                bearing_radius: j.bearing_radius,
+            })
+            .collect();
+        let loads = 3 * joints.len();
 
         let sources = channel_sources(scenario, false);
         let selected = crate::channels::selected_channels(scenario, &sources);
@@ -141,19 +152,24 @@ impl ReducedRun {
             .filter(|j| !scenario.clearances.iter().any(|c| c.joint == j.name))
             .map(|j| j.name.as_str())
             .collect();
-        // One signal per recorded channel; eccentricity and force magnitude always (summary).
+        // One signal per recorded channel; every joint's eccentricity and force magnitude always
+        // (summary).
         let mut recorded: Vec<usize> = selected.clone();
-        for name in ["eccentricity", "force"] {
-            let k = sources
-                .iter()
-                .position(|(_, s)| matches!(s, Source::Clearance(0, q) if CLEARANCE_QUANTITIES[*q as usize].0 == name))
-                .expect("clearance channels exist");
-            if !recorded.contains(&k) {
-                recorded.push(k);
+        for j in 0..joints.len() {
+            for name in ["eccentricity", "force"] {
+                let k = sources
+                    .iter()
+                    .position(|(_, s)| matches!(s, Source::Clearance(c, q) if *c == j && CLEARANCE_QUANTITIES[*q as usize].0 == name))
+                    .expect("clearance channels exist");
+                if !recorded.contains(&k) {
+                    recorded.push(k);
+                }
             }
         }
-        let signals =
-            recorded.iter().map(|&k| signal(scenario, &joint_names, &sources[k].0, sources[k].1)).collect::<Vec<_>>();
+        let signals = recorded
+            .iter()
+            .map(|&k| signal(scenario, &joint_names, loads, &sources[k].0, sources[k].1))
+            .collect::<Vec<_>>();
         let sources_recorded: Vec<(Channel, Source)> = recorded.iter().map(|&k| sources[k].clone()).collect();
         // Probes (propagation maps exported by the macro subsystem) for the recorded channels only.
         let mut probes: Vec<Probe> = Vec::new();
@@ -174,7 +190,7 @@ impl ReducedRun {
         }
         let selected_positions = (0..selected.len()).collect();
 
-        let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interface, probes, options.coupling);
+        let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
         let integrator = if options.error_controlled_micro {
             MicroIntegrator::Dopri5(Dopri5Options {
                 rtol: 1e-9,
@@ -186,10 +202,10 @@ impl ReducedRun {
         } else {
             MicroIntegrator::Rk4 { step: options.micro_step }
         };
-        // The joint's definition as written, so that its radii and law coefficients are
+        // The joints' definitions as written, so that their radii and law coefficients are
         // parameters of the micro subsystem (and of its FMU).
-        let definition = crate::build::clearance_definition(scenario, &scenario.clearances[0]);
-        let micro_sub = InterfaceSubsystem::with_definition(joint, integrator, Some(definition))
+        let definitions = scenario.clearances.iter().map(|c| crate::build::clearance_definition(scenario, c)).collect();
+        let micro_sub = InterfaceSubsystem::with_definitions(joints, integrator, definitions)
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self {
             scenario: scenario.clone(),
@@ -227,14 +243,16 @@ impl ReducedRun {
         let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); self.signals.len()];
         let mut row = vec![0.0; n_sel + 1];
         let mut samples = 0u64;
-        let quantity = |name: &str| {
+        let quantity = |j: usize, name: &str| {
             self.sources
                 .iter()
-                .position(|(_, s)| matches!(s, Source::Clearance(0, q) if CLEARANCE_QUANTITIES[*q as usize].0 == name))
+                .position(|(_, s)| matches!(s, Source::Clearance(c, q) if *c == j && CLEARANCE_QUANTITIES[*q as usize].0 == name))
                 .expect("recorded")
         };
-        let (ecc, force) = (quantity("eccentricity"), quantity("force"));
-        let (mut max_ecc, mut sum_force) = (0.0f64, 0.0);
+        let joints = self.micro_sub.joint_count();
+        let ecc: Vec<usize> = (0..joints).map(|j| quantity(j, "eccentricity")).collect();
+        let force: Vec<usize> = (0..joints).map(|j| quantity(j, "force")).collect();
+        let (mut max_ecc, mut sum_force) = (vec![0.0f64; joints], vec![0.0; joints]);
         let mut last_error = None;
         let horizon = sim.horizon;
         let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
@@ -244,8 +262,10 @@ impl ReducedRun {
                 s.2 += v;
                 s.3 += v * v;
             }
-            max_ecc = max_ecc.max(values[ecc]);
-            sum_force += values[force];
+            for j in 0..joints {
+                max_ecc[j] = max_ecc[j].max(values[ecc[j]]);
+                sum_force[j] += values[force[j]];
+            }
             samples += 1;
             row[0] = t.seconds();
             row[1..].copy_from_slice(&values[..n_sel]);
@@ -276,27 +296,30 @@ impl ReducedRun {
             Err(e) => return Err(RunError::Unsupported(e.to_string())),
         };
         let t_end = sim.start_time + sim.horizon;
-        let model = &self.micro_sub.model;
-        let mut impacts = model.impacts.clone();
-        let open = model.open_impacts(t_end);
-        let events = 2 * model.impacts.len() as u64 + open.len() as u64;
-        impacts.extend(open);
-        let c = &model.joint;
+        let micro = &self.micro_sub;
         let m = samples.max(1) as f64;
-        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
         let period = driver_period(&self.scenario);
-        let clearance = crate::run::ClearanceSummary {
-            name: c.name.clone(),
-            radial_clearance: c.radial_clearance(),
-            impacts: impacts.len(),
-            impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
-            contact_fraction: in_contact / horizon,
-            max_eccentricity: max_ecc,
-            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
-            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
-            mean_contact_force: sum_force / m,
-            first_impacts: impacts.into_iter().take(20).collect(),
-        };
+        let mut events = 0;
+        let mut clearances = Vec::with_capacity(joints);
+        for (j, c) in micro.joints().iter().enumerate() {
+            let mut impacts = micro.impacts(j).to_vec();
+            let open = micro.open_impacts(j, t_end);
+            events += 2 * impacts.len() as u64 + open.len() as u64;
+            impacts.extend(open);
+            let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
+            clearances.push(crate::run::ClearanceSummary {
+                name: c.name.clone(),
+                radial_clearance: c.radial_clearance(),
+                impacts: impacts.len(),
+                impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
+                contact_fraction: in_contact / horizon,
+                max_eccentricity: max_ecc[j],
+                max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
+                peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
+                mean_contact_force: sum_force[j] / m,
+                first_impacts: impacts.into_iter().take(20).collect(),
+            });
+        }
         let channels = crate::record::channel_stats(&self.sources, &stats, samples);
         let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
         Ok(Summary {
@@ -318,7 +341,7 @@ impl ReducedRun {
             events,
             max_constraint_error,
             channels,
-            clearances: vec![clearance],
+            clearances,
             reduced: Some(ReducedDetails {
                 options: self.options,
                 kinematic_macro: self.macro_sub.is_kinematic(),
@@ -343,8 +366,8 @@ impl ReducedRun {
     }
 }
 
-/// The master signal that computes channel `c`.
-fn signal(s: &Scenario, joint_names: &[&str], c: &Channel, src: Source) -> Signal {
+/// The master signal that computes channel `c`; `loads` = n + k gains per propagated value.
+fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: Source) -> Signal {
     let name = c.name.clone();
     match src {
         Source::Sensor(k, q) => {
@@ -366,25 +389,26 @@ fn signal(s: &Scenario, joint_names: &[&str], c: &Channel, src: Source) -> Signa
                 _ => Signal::Propagated {
                     name,
                     free: (format!("{p}.acceleration_free"), q - 4),
-                    gain: (format!("{p}.acceleration_gain"), 2 * (q - 4), 2 * (q - 4) + 1),
+                    gain: (format!("{p}.acceleration_gain"), (q - 4) * loads),
                 },
             }
         }
-        Source::Clearance(_, q) => {
+        Source::Clearance(j, q) => {
+            // Interface vectors: elements 2j, 2j + 1; per-joint quantities: element j.
             let (variable, element) = match CLEARANCE_QUANTITIES[q as usize].0 {
-                "fx" => ("contact_force", 0),
-                "fy" => ("contact_force", 1),
-                "force" => ("contact_force_magnitude", 0),
-                "ex" => ("eccentricity", 0),
-                "ey" => ("eccentricity", 1),
-                "eccentricity" => ("eccentricity_norm", 0),
-                other => (other, 0),
+                "fx" => ("contact_force", 2 * j),
+                "fy" => ("contact_force", 2 * j + 1),
+                "force" => ("contact_force_magnitude", j),
+                "ex" => ("eccentricity", 2 * j),
+                "ey" => ("eccentricity", 2 * j + 1),
+                "eccentricity" => ("eccentricity_norm", j),
+                other => (other, j),
             };
             Signal::Micro { name, variable: variable.into(), element }
         }
         Source::DriverTorque(k) => {
             let d = &s.drivers[k].name;
-            Signal::Propagated { name, free: (format!("{d}.torque_free"), 0), gain: (format!("{d}.torque_gain"), 0, 1) }
+            Signal::Propagated { name, free: (format!("{d}.torque_free"), 0), gain: (format!("{d}.torque_gain"), 0) }
         }
         Source::JointReaction(k, comp) => {
             let j = joint_names[k];
@@ -392,7 +416,7 @@ fn signal(s: &Scenario, joint_names: &[&str], c: &Channel, src: Source) -> Signa
             Signal::Propagated {
                 name,
                 free: (format!("{j}.reaction_free"), comp),
-                gain: (format!("{j}.reaction_gain"), 2 * comp, 2 * comp + 1),
+                gain: (format!("{j}.reaction_gain"), comp * loads),
             }
         }
         Source::ConstraintError => {

@@ -808,9 +808,12 @@ fn interface_plan(
             (Some(base), None, None) => {
                 let (free, gain) = (format!("{base}_free"), format!("{base}_gain"));
                 need(mechanism, &free, e + 1)?;
-                need(mechanism, &gain, 2 * e + 2)?;
+                // One row of gains (one per load: contact forces, then friction forces) per
+                // element of the free value.
+                let loads = has(mechanism, &gain).unwrap_or(0) / has(mechanism, &free).unwrap_or(1).max(1);
+                need(mechanism, &gain, (e + 1) * loads.max(1))?;
                 units.push(unit(mechanism, &free));
-                Signal::Propagated { name, free: (free, e), gain: (gain, 2 * e, 2 * e + 1) }
+                Signal::Propagated { name, free: (free, e), gain: (gain, e * loads) }
             }
             (None, Some(var), None) => {
                 need(clearance, var, e + 1)?;

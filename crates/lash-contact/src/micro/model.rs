@@ -1,0 +1,518 @@
+//! The clearance interface of k planar clearance joints as one ODE of N = 2k interface coordinates
+//! (docs/theory.md §6):
+//!
+//! ```text
+//!     M̃(t) ẅ = f̃(t) + f_c(w, ẇ) + H(t) F_T(w, ẇ)
+//! ```
+//!
+//! with w the stacked eccentricities, f_c the contact forces on the journals (through the joint
+//! centres), F_T the friction forces of the k joints and H = M̃ W_T the interface force equivalent to
+//! their moments (R_J F_T on the journal body, R_B F_T on the bearing body) per unit F_T. The
+//! off-diagonal blocks of M̃ and H couple the joints.
+//!
+//! The dimension is a const generic: the state lives in fixed-size vectors on the stack and a
+//! micro step allocates nothing. One joint (N = 2) solves M̃ by Cramer's rule; more joints by a
+//! Cholesky factorisation of the N × N effective mass (symmetric positive definite).
+
+use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use lash_mech::Vec2;
+use lash_ode::{Dopri5Options, Method, OdeSystem};
+use nalgebra::{SMatrix, SVector};
+
+/// Interface coordinates of one planar clearance joint (its eccentricity e_x, e_y).
+pub const PLANAR_JOINT_COORDINATES: usize = 2;
+
+/// The macro terms seen by the micro model at a communication point (N interface coordinates, K
+/// joints): values and rates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterfaceInputs<const N: usize, const K: usize> {
+    /// Effective mass M̃ [kg].
+    pub effective_mass: SMatrix<f64, N, N>,
+    /// dM̃/dt [kg/s].
+    pub effective_mass_rate: SMatrix<f64, N, N>,
+    /// Effective force f̃ [N].
+    pub effective_force: SVector<f64, N>,
+    /// df̃/dt [N/s].
+    pub effective_force_rate: SVector<f64, N>,
+    /// H = M̃ W_T: interface force equivalent to joint j's friction moments per unit F_T (column j).
+    pub friction_moment_force: SMatrix<f64, N, K>,
+    /// dH/dt [1/s].
+    pub friction_moment_force_rate: SMatrix<f64, N, K>,
+    /// Angular velocity of each joint's journal body [rad/s].
+    pub journal_angular_velocity: [f64; K],
+    /// Its rate [rad/s²].
+    pub journal_angular_acceleration: [f64; K],
+    /// Angular velocity of each joint's bearing body [rad/s].
+    pub bearing_angular_velocity: [f64; K],
+    /// Its rate [rad/s²].
+    pub bearing_angular_acceleration: [f64; K],
+}
+
+impl<const N: usize, const K: usize> Default for InterfaceInputs<N, K> {
+    fn default() -> Self {
+        Self {
+            effective_mass: SMatrix::identity(),
+            effective_mass_rate: SMatrix::zeros(),
+            effective_force: SVector::zeros(),
+            effective_force_rate: SVector::zeros(),
+            friction_moment_force: SMatrix::zeros(),
+            friction_moment_force_rate: SMatrix::zeros(),
+            journal_angular_velocity: [0.0; K],
+            journal_angular_acceleration: [0.0; K],
+            bearing_angular_velocity: [0.0; K],
+            bearing_angular_acceleration: [0.0; K],
+        }
+    }
+}
+
+/// Contact loads at one state: f_c on the journals (N) and the friction forces F_T (K).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Loads<const N: usize, const K: usize> {
+    /// Contact forces on the journals, stacked [N].
+    pub contact: SVector<f64, N>,
+    /// Friction force of each joint [N].
+    pub friction: SVector<f64, K>,
+}
+
+impl<const N: usize, const K: usize> Loads<N, K> {
+    /// No contact anywhere.
+    #[inline(always)]
+    pub fn zero() -> Self {
+        Self { contact: SVector::zeros(), friction: SVector::zeros() }
+    }
+}
+
+/// Eccentricity of joint `j` in the stacked vector.
+#[inline(always)]
+fn part<const N: usize>(v: &SVector<f64, N>, j: usize) -> Vec2 {
+    Vec2::new(v[2 * j], v[2 * j + 1])
+}
+
+#[inline(always)]
+fn put<const N: usize>(v: &mut SVector<f64, N>, j: usize, x: Vec2) {
+    v[2 * j] = x.x;
+    v[2 * j + 1] = x.y;
+}
+
+/// The effective mass at one instant, ready to solve M̃ x = r: one joint by Cramer's rule (M̃ and
+/// 1/det kept), two joints by nalgebra's closed-form 4 × 4 inverse, more through a Cholesky
+/// factorisation (M̃ is symmetric positive definite). A micro step needs it at three instants
+/// (t, t + h/2, t + h), and t is the previous step's t + h: two factorisations per step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassFactor<const N: usize> {
+    mass: SMatrix<f64, N, N>,
+    inverse: SMatrix<f64, N, N>,
+    reciprocal_determinant: f64,
+}
+
+impl<const N: usize> MassFactor<N> {
+    /// Factors `mass`. Not positive definite (impossible for M̃ interpolated between two positive
+    /// definite nodes): NaN, which the step's penetration check reports.
+    #[inline(always)]
+    pub fn new(mass: SMatrix<f64, N, N>) -> Self {
+        let m = &mass;
+        if N == 2 {
+            let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
+            return Self { mass, inverse: SMatrix::zeros(), reciprocal_determinant: 1.0 / det };
+        }
+        let inverse = if N == 4 {
+            let four = m.fixed_view::<4, 4>(0, 0).into_owned();
+            four.try_inverse().map(|i| SMatrix::from_fn(|r, c| i[(r, c)]))
+        } else {
+            m.cholesky().map(|c| c.inverse())
+        };
+        Self { mass, inverse: inverse.unwrap_or_else(|| SMatrix::repeat(f64::NAN)), reciprocal_determinant: 0.0 }
+    }
+
+    /// x = M̃⁻¹ r.
+    #[inline(always)]
+    pub fn solve(&self, r: &SVector<f64, N>) -> SVector<f64, N> {
+        if N == 2 {
+            let (m, inv) = (&self.mass, self.reciprocal_determinant);
+            let mut x = SVector::zeros();
+            x[0] = (m[(1, 1)] * r[0] - m[(0, 1)] * r[1]) * inv;
+            x[1] = (m[(0, 0)] * r[1] - m[(1, 0)] * r[0]) * inv;
+            return x;
+        }
+        self.inverse * r
+    }
+}
+
+/// The clearance interface of k = N/2 planar clearance joints: state (w, ẇ), the impulses
+/// ∫f_c dt and ∫F_T dt, the joints' discrete contact states and their impacts.
+#[derive(Clone)]
+pub struct InterfaceModel<const N: usize, const K: usize> {
+    /// Geometry, contact and friction laws of each joint (their discrete contact states too).
+    pub joints: Vec<ClearanceJoint>,
+    /// Eccentricities w, stacked [m].
+    pub eccentricity: SVector<f64, N>,
+    /// Their rates ẇ [m/s].
+    pub eccentricity_rate: SVector<f64, N>,
+    /// ∫ f_c dt on each journal since the start [N s].
+    pub impulse: SVector<f64, N>,
+    /// ∫ F_T dt of each joint since the start [N s].
+    pub friction_impulse: SVector<f64, K>,
+    /// Completed impacts of each joint.
+    pub impacts: Vec<Vec<Impact>>,
+    /// Each joint's contact state at the current time.
+    pub states: Vec<ContactState>,
+    /// Inputs of the current step.
+    pub inputs: InterfaceInputs<N, K>,
+    /// Time of `inputs` [s].
+    pub input_time: f64,
+    open: Vec<Option<ImpactTracker>>,
+    violation: bool,
+    /// The last integration was an adaptive one (continuous extensions reach `accept_dense`).
+    located: bool,
+    /// The end of the last RK4 step: the next step's first stage is the same instant and state.
+    end: Option<StepEnd<N, K>>,
+}
+
+/// What a step's end leaves to the next step's start.
+#[derive(Debug, Clone, Copy)]
+struct StepEnd<const N: usize, const K: usize> {
+    time: f64,
+    input_time: f64,
+    eccentricity: SVector<f64, N>,
+    eccentricity_rate: SVector<f64, N>,
+    loads: Loads<N, K>,
+    mass: MassFactor<N>,
+}
+
+impl<const N: usize, const K: usize> InterfaceModel<N, K> {
+    /// Centred, resting joints. `joints.len() * 2` must be N.
+    pub fn new(joints: Vec<ClearanceJoint>) -> Self {
+        assert!(
+            joints.len() == K && K * PLANAR_JOINT_COORDINATES == N,
+            "K planar joints have N = 2K interface coordinates"
+        );
+        let mut m = Self {
+            joints,
+            eccentricity: SVector::zeros(),
+            eccentricity_rate: SVector::zeros(),
+            impulse: SVector::zeros(),
+            friction_impulse: SVector::zeros(),
+            impacts: (0..K).map(|_| Vec::with_capacity(1024)).collect(),
+            states: vec![ContactState::default(); K],
+            inputs: InterfaceInputs::default(),
+            input_time: 0.0,
+            open: vec![None; K],
+            violation: false,
+            located: false,
+            end: None,
+        };
+        m.refresh_states(0.0);
+        m
+    }
+
+    /// Number of joints k.
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Contact state of joint `j` at (e_j, ė_j) at time `t`, using its current mode.
+    #[inline(always)]
+    pub fn contact_at(&self, t: f64, j: usize, e: Vec2, ed: Vec2) -> ContactState {
+        let dt = t - self.input_time;
+        let u = &self.inputs;
+        let wj = u.journal_angular_velocity[j] + u.journal_angular_acceleration[j] * dt;
+        let wb = u.bearing_angular_velocity[j] + u.bearing_angular_acceleration[j] * dt;
+        let joint = &self.joints[j];
+        let s = joint.evaluate_relative(e, ed, wj, wb, joint.onset_velocity);
+        if !joint.in_contact && s.penetration > 0.0 {
+            // A stage ahead of the onset: the local approach velocity stands in for δ̇⁻.
+            joint.evaluate_relative(e, ed, wj, wb, s.penetration_rate.max(0.0))
+        } else {
+            s
+        }
+    }
+
+    /// The loads at (t, w, ẇ): in free flight (|e_j| ≤ c_j, so F_N = F_T = 0) nothing but |e_j|²
+    /// is computed for joint j.
+    #[inline(always)]
+    fn loads_at(&self, t: f64, e: &SVector<f64, N>, ed: &SVector<f64, N>) -> Loads<N, K> {
+        let mut loads = Loads::zero();
+        for j in 0..self.joints.len() {
+            let c = self.joints[j].radial_clearance();
+            let ej = part(e, j);
+            if ej.norm_squared() > c * c {
+                let s = self.contact_at(t, j, ej, part(ed, j));
+                put(&mut loads.contact, j, s.force_on_journal);
+                loads.friction[j] = s.friction_force;
+            }
+        }
+        loads
+    }
+
+    /// M̃(t), factored.
+    #[inline(always)]
+    fn mass_at(&self, t: f64) -> MassFactor<N> {
+        let u = &self.inputs;
+        MassFactor::new(u.effective_mass + u.effective_mass_rate * (t - self.input_time))
+    }
+
+    /// ẅ at t for given loads: M̃(t)⁻¹ (f̃(t) + f_c + H(t) F_T).
+    #[inline(always)]
+    fn acceleration_with(&self, t: f64, mass: &MassFactor<N>, loads: &Loads<N, K>) -> SVector<f64, N> {
+        let dt = t - self.input_time;
+        let u = &self.inputs;
+        let f = u.effective_force + u.effective_force_rate * dt;
+        let h = u.friction_moment_force + u.friction_moment_force_rate * dt;
+        mass.solve(&(f + loads.contact + h * loads.friction))
+    }
+
+    /// ẅ and the loads at (t, w, ẇ).
+    #[inline(always)]
+    fn acceleration(
+        &self,
+        t: f64,
+        mass: &MassFactor<N>,
+        e: &SVector<f64, N>,
+        ed: &SVector<f64, N>,
+    ) -> (SVector<f64, N>, Loads<N, K>) {
+        let loads = self.loads_at(t, e, ed);
+        (self.acceleration_with(t, mass, &loads), loads)
+    }
+
+    /// Recomputes every joint's contact state at the current (w, ẇ) and time `t`.
+    pub fn refresh_states(&mut self, t: f64) {
+        for j in 0..self.joints.len() {
+            self.states[j] = self.contact_at(t, j, part(&self.eccentricity, j), part(&self.eccentricity_rate, j));
+        }
+    }
+
+    /// One RK4 step of size `h` from `t`; the joints' states at the step end are in `states`.
+    pub fn rk4_step(&mut self, t: f64, h: f64) {
+        self.located = false;
+        let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
+        // The last step's end (same time, same inputs) is this step's start: its factor and, for
+        // the same state, its loads are reused.
+        // (Loads for the same instant and state; the factor only if the inputs were not set since.)
+        let (mut start, mut reused) = (None, None);
+        if let Some(end) = &self.end
+            && (end.time - t).abs() < 1e-12
+        {
+            if end.eccentricity == e0 && end.eccentricity_rate == v0 {
+                reused = Some(end.loads);
+            }
+            if end.time == t && end.input_time == self.input_time {
+                start = Some(end.mass);
+            }
+        }
+        let start = start.unwrap_or_else(|| self.mass_at(t));
+        let (middle, finish) = (self.mass_at(t + 0.5 * h), self.mass_at(t + h));
+        let (k1v, l1) = match reused {
+            Some(loads) => (self.acceleration_with(t, &start, &loads), loads),
+            None => self.acceleration(t, &start, &e0, &v0),
+        };
+        let k1e = v0;
+        let k2e = v0 + k1v * (0.5 * h);
+        let (k2v, l2) = self.acceleration(t + 0.5 * h, &middle, &(e0 + k1e * (0.5 * h)), &k2e);
+        let k3e = v0 + k2v * (0.5 * h);
+        let (k3v, l3) = self.acceleration(t + 0.5 * h, &middle, &(e0 + k2e * (0.5 * h)), &k3e);
+        let k4e = v0 + k3v * h;
+        let (k4v, l4) = self.acceleration(t + h, &finish, &(e0 + k3e * h), &k4e);
+        let e1 = e0 + (k1e + (k2e + k3e) * 2.0 + k4e) * (h / 6.0);
+        let v1 = v0 + (k1v + (k2v + k3v) * 2.0 + k4v) * (h / 6.0);
+        self.impulse += (l1.contact + (l2.contact + l3.contact) * 2.0 + l4.contact) * (h / 6.0);
+        self.friction_impulse += (l1.friction + (l2.friction + l3.friction) * 2.0 + l4.friction) * (h / 6.0);
+        // Mode switches at the step end; the onset is placed by linear interpolation.
+        for j in 0..self.joints.len() {
+            let c = self.joints[j].radial_clearance();
+            let (a0, a1) = (part(&e0, j), part(&e1, j));
+            let (d0, d1) = (a0.norm() - c, a1.norm() - c);
+            if !self.joints[j].in_contact && d1 > 0.0 {
+                let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
+                let (ec, vc) = (a0 + (a1 - a0) * frac, part(&v0, j) + (part(&v1, j) - part(&v0, j)) * frac);
+                let rate = vc.dot(&(ec / ec.norm().max(f64::MIN_POSITIVE)));
+                self.open_contact(j, t + frac * h, rate);
+            } else if self.joints[j].in_contact && d1 <= 0.0 {
+                let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
+                self.close_contact(j, t + frac * h);
+            }
+        }
+        self.eccentricity = e1;
+        self.eccentricity_rate = v1;
+        let mut end = Loads::zero();
+        for j in 0..self.joints.len() {
+            let s = self.contact_at(t + h, j, part(&e1, j), part(&v1, j));
+            put(&mut end.contact, j, s.force_on_journal);
+            end.friction[j] = s.friction_force;
+            if let Some(tr) = self.open[j].as_mut() {
+                tr.sample(t + h, s.normal_force, s.penetration);
+            }
+            self.states[j] = s;
+        }
+        self.end = Some(StepEnd {
+            time: t + h,
+            input_time: self.input_time,
+            eccentricity: e1,
+            eccentricity_rate: v1,
+            loads: end,
+            mass: finish,
+        });
+    }
+
+    fn open_contact(&mut self, j: usize, t: f64, rate: f64) {
+        self.joints[j].in_contact = true;
+        self.joints[j].onset_velocity = rate.max(0.0);
+        self.open[j] = Some(ImpactTracker::open(t, rate, self.located));
+    }
+
+    fn close_contact(&mut self, j: usize, t: f64) {
+        self.joints[j].in_contact = false;
+        if let Some(tr) = self.open[j].take() {
+            self.impacts[j].push(tr.close(t));
+        }
+    }
+
+    /// Resets the discrete contact states (journals must be inside their clearances).
+    pub fn reset_contacts(&mut self, t: f64) {
+        for joint in &mut self.joints {
+            joint.in_contact = false;
+            joint.onset_velocity = 0.0;
+        }
+        self.end = None;
+        self.refresh_states(t);
+    }
+
+    /// Integrates from `t` to `t + h` with DOPRI5 and event location. Returns the number of
+    /// accepted steps.
+    pub fn dopri5_step(&mut self, options: &Dopri5Options, t: f64, h: f64) -> Result<u64, String> {
+        let k = self.joints.len();
+        let mut y = [0.0; 4 * super::MAX_COORDINATES];
+        let y = &mut y[..3 * N + k];
+        y[..N].copy_from_slice(self.eccentricity.as_slice());
+        y[N..2 * N].copy_from_slice(self.eccentricity_rate.as_slice());
+        y[2 * N..3 * N].copy_from_slice(self.impulse.as_slice());
+        y[3 * N..].copy_from_slice(self.friction_impulse.as_slice());
+        let method = Method::Dopri5(Dopri5Options { max_step: options.max_step.min(h), ..*options });
+        let stats = lash_ode::integrate(&method, self, t, y, t + h, h, &mut |_: &mut Self, _: f64, _: &[f64]| Ok(()))
+            .map_err(|e| e.to_string())?;
+        self.eccentricity.copy_from_slice(&y[..N]);
+        self.eccentricity_rate.copy_from_slice(&y[N..2 * N]);
+        self.impulse.copy_from_slice(&y[2 * N..3 * N]);
+        self.friction_impulse.copy_from_slice(&y[3 * N..]);
+        self.end = None;
+        self.refresh_states(t + h);
+        Ok(stats.steps)
+    }
+
+    /// Impacts of joint `j` still open (closed at `t` for reporting, exit time NaN).
+    pub fn open_impacts(&self, j: usize, t: f64) -> Vec<Impact> {
+        self.open[j].iter().map(|tr| tr.so_far(t)).collect()
+    }
+
+    /// Joint `j`'s penetration is within bounds (and its eccentricity finite).
+    pub fn check_penetration(&self, j: usize) -> Result<(), String> {
+        check_penetration(&self.joints[j], &self.states[j])
+    }
+}
+
+impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
+    fn dim(&self) -> usize {
+        3 * N + self.joints.len()
+    }
+
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
+        let e = SVector::<f64, N>::from_column_slice(&y[..N]);
+        let ed = SVector::<f64, N>::from_column_slice(&y[N..2 * N]);
+        for j in 0..self.joints.len() {
+            let delta = part(&e, j).norm() - self.joints[j].radial_clearance();
+            if (delta > 0.0) != self.joints[j].in_contact {
+                self.violation = true;
+            }
+        }
+        let (a, loads) = self.acceleration(t, &self.mass_at(t), &e, &ed);
+        dydt[..N].copy_from_slice(ed.as_slice());
+        dydt[N..2 * N].copy_from_slice(a.as_slice());
+        dydt[2 * N..3 * N].copy_from_slice(loads.contact.as_slice());
+        dydt[3 * N..].copy_from_slice(loads.friction.as_slice());
+    }
+
+    fn begin(&mut self, locates_events: bool) {
+        self.located = locates_events;
+    }
+
+    fn event_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
+        for (j, joint) in self.joints.iter().enumerate() {
+            let delta = (y[2 * j] * y[2 * j] + y[2 * j + 1] * y[2 * j + 1]).sqrt() - joint.radial_clearance();
+            g[j] = if joint.in_contact { -delta } else { delta };
+        }
+    }
+
+    fn on_event(&mut self, j: usize, t: f64, y: &[f64]) {
+        if self.joints[j].in_contact {
+            self.close_contact(j, t);
+        } else {
+            let e = Vec2::new(y[2 * j], y[2 * j + 1]);
+            let rate = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]).dot(&(e / e.norm().max(f64::MIN_POSITIVE)));
+            self.open_contact(j, t, rate);
+        }
+    }
+
+    fn take_mode_violation(&mut self) -> bool {
+        std::mem::take(&mut self.violation)
+    }
+
+    fn wants_dense(&self) -> bool {
+        self.open.iter().any(Option::is_some)
+    }
+
+    fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
+        let mut y = [0.0; 4 * super::MAX_COORDINATES];
+        let y = &mut y[..3 * N + self.joints.len()];
+        for j in 0..self.joints.len() {
+            if self.open[j].is_none() {
+                continue;
+            }
+            let mut deepest = 0.0f64;
+            let peak = crate::clearance::step_peak(|theta| {
+                dense.eval(theta, y);
+                let e = Vec2::new(y[2 * j], y[2 * j + 1]);
+                let ed = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]);
+                let s = self.contact_at(t + theta * h, j, e, ed);
+                deepest = deepest.max(s.penetration);
+                s.normal_force
+            });
+            if let Some(tr) = self.open[j].as_mut() {
+                tr.deepen(deepest);
+                if let Some((theta, f)) = peak {
+                    tr.peak_candidate(t + theta * h, f);
+                }
+            }
+        }
+    }
+
+    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+        for j in 0..self.joints.len() {
+            let e = Vec2::new(y[2 * j], y[2 * j + 1]);
+            let ed = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]);
+            let s = self.contact_at(t, j, e, ed);
+            if let Some(tr) = self.open[j].as_mut() {
+                tr.sample(t, s.normal_force, s.penetration);
+            }
+            check_penetration(&self.joints[j], &s)?;
+        }
+        Ok(())
+    }
+}
+
+/// Largest penetration accepted, as a fraction of the journal radius (as in the full model).
+const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
+
+fn check_penetration(joint: &ClearanceJoint, s: &ContactState) -> Result<(), String> {
+    if s.penetration <= PENETRATION_LIMIT_FRACTION * joint.journal_radius && s.eccentricity_norm.is_finite() {
+        Ok(())
+    } else {
+        Err(format!(
+            "penetration {:e} m of clearance joint {:?} in the micro model exceeds {} × the journal radius: the \
+             simulation blew up (micro step too large for the contact stiffness?)",
+            s.penetration, joint.name, PENETRATION_LIMIT_FRACTION
+        ))
+    }
+}
