@@ -194,6 +194,26 @@ pub(crate) fn step_peak(mut force: impl FnMut(f64) -> f64) -> Option<(f64, f64)>
     Some(if f >= samples[best] { (theta, f) } else { (best as f64 / N as f64, samples[best]) })
 }
 
+/// What a search of one step's continuous extension found for an open contact: the deepest
+/// penetration among the samples and the force peak (time, force) if the step holds it.
+pub(crate) struct StepSearch {
+    deepest: f64,
+    peak: Option<(f64, f64)>,
+}
+
+impl StepSearch {
+    /// Searches the step [t, t + h]; `contact(θ)` is the contact state at t + θ h.
+    pub fn run(t: f64, h: f64, mut contact: impl FnMut(f64) -> ContactState) -> Self {
+        let mut deepest = 0.0f64;
+        let peak = step_peak(|theta| {
+            let s = contact(theta);
+            deepest = deepest.max(s.penetration);
+            s.normal_force
+        });
+        Self { deepest, peak: peak.map(|(theta, f)| (t + theta * h, f)) }
+    }
+}
+
 /// Follows an open impact and refines its force peak.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct ImpactTracker {
@@ -269,6 +289,14 @@ impl ImpactTracker {
         if force > self.impact.peak_force {
             self.impact.peak_force = force;
             self.impact.peak_time = t;
+        }
+    }
+
+    /// Takes what a search of a step found: its deepest penetration and its peak.
+    pub fn accept(&mut self, search: StepSearch) {
+        self.deepen(search.deepest);
+        if let Some((t, force)) = search.peak {
+            self.peak_candidate(t, force);
         }
     }
 

@@ -283,18 +283,12 @@ impl OdeSystem for FullModel {
                 continue;
             }
             let onset = self.clearances[k].onset_velocity;
-            let mut deepest = 0.0f64;
-            let peak = crate::clearance::step_peak(|theta| {
+            let search = crate::clearance::StepSearch::run(t, h, |theta| {
                 dense.eval(theta, &mut y);
-                let s = self.contact_state(k, &y, onset);
-                deepest = deepest.max(s.penetration);
-                s.normal_force
+                self.contact_state(k, &y, onset)
             });
             if let Some(tr) = self.open[k].as_mut() {
-                tr.deepen(deepest);
-                if let Some((theta, f)) = peak {
-                    tr.peak_candidate(t + theta * h, f);
-                }
+                tr.accept(search);
             }
         }
         self.dense_buffer = y;

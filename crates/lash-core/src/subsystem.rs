@@ -511,6 +511,16 @@ pub fn check_variable_table(variables: &[Variable]) -> Result<(), String> {
     Ok(())
 }
 
+/// Shape of a quantity with one value of shape `inner` per clearance joint: `inner ++ [joints]`,
+/// or `inner` alone for a single joint (so one joint's variables keep their plain shapes).
+pub fn per_joint_shape(joints: usize, inner: &[usize]) -> Vec<usize> {
+    let mut shape = inner.to_vec();
+    if joints > 1 {
+        shape.push(joints);
+    }
+    shape
+}
+
 /// Total element count of the referenced variables, checking each reference.
 pub fn element_count(variables: &[Variable], refs: &[ValueReference]) -> Result<usize, SubsystemError> {
     refs.iter().try_fold(0, |n, &vr| {

@@ -24,7 +24,7 @@ use crate::interface::{ClearanceInterface, CoupledTerms, coupled_effective_terms
 use crate::kinematics::{assemble, driver_torque, initial_guess, joint_reaction, point_kinematics, velocity_analysis};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
-use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count};
+use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{Coupling, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::{Dopri5Options, Method, OdeSystem};
 
@@ -227,15 +227,6 @@ pub struct MechanismSubsystem {
     pub integration_stats: lash_ode::Stats,
 }
 
-/// Shape of a per-joint quantity with element shape `inner` (`inner ++ [k]`, `inner` for k = 1).
-fn per_joint(k: usize, inner: &[usize]) -> Vec<usize> {
-    let mut shape = inner.to_vec();
-    if k > 1 {
-        shape.push(k);
-    }
-    shape
-}
-
 impl MechanismSubsystem {
     /// A macro subsystem for the cut mechanism `cut` (every clearance joint removed) and the ideal
     /// mechanism `ideal` (the joints closed: its last `joints.len()` joints, in the same order),
@@ -252,7 +243,7 @@ impl MechanismSubsystem {
         use Variability::Continuous as C;
         let (k, n) = (joints.len(), 2 * joints.len());
         let g = n + k;
-        let pj = per_joint(k, &[]);
+        let pj = per_joint_shape(k, &[]);
         let mut t = VariableTable::new();
         t.add("effective_mass", Output, C, "kg", "effective mass M~ of the interface", &[n, n], &[0.0]);
         t.add("effective_force", Output, C, "N", "effective force f~ (M~ w'' = f~ + f_c + H F_T)", &[n], &[0.0]);
@@ -264,7 +255,7 @@ impl MechanismSubsystem {
             C,
             "1",
             "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)",
-            &per_joint(k, &[n]),
+            &per_joint_shape(k, &[n]),
             &[0.0],
         );
         t.add("journal_angular_velocity", Output, C, "rad/s", "angular velocity of the journal body", &pj, &[0.0]);

@@ -142,7 +142,8 @@ impl ReducedRun {
                 bearing_radius: j.bearing_radius,
             })
             .collect();
-        let loads = 3 * joints.len();
+        // Loads per propagated value: the contact forces (n = 2k), then the friction forces (k).
+        let loads = joints.len() * (lash_contact::micro::PLANAR_JOINT_COORDINATES + 1);
 
         let sources = channel_sources(scenario, false);
         let selected = crate::channels::selected_channels(scenario, &sources);

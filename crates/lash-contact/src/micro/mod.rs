@@ -22,7 +22,7 @@ pub mod model;
 
 use crate::clearance::{ClearanceJoint, ContactState, Impact};
 use crate::parameters::ClearanceDefinition;
-use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count};
+use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::Dopri5Options;
 pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES};
@@ -280,16 +280,6 @@ pub struct InterfaceSubsystem {
     micro_steps: u64,
 }
 
-/// Shape of a per-joint quantity with element shape `inner`: `inner` for one joint, `inner ++ [k]`
-/// for several.
-fn per_joint(k: usize, inner: &[usize]) -> Vec<usize> {
-    let mut shape = inner.to_vec();
-    if k > 1 {
-        shape.push(k);
-    }
-    shape
-}
-
 impl InterfaceSubsystem {
     /// A micro subsystem for `joints`, centred and at rest relative to their bearings.
     pub fn new(joints: Vec<ClearanceJoint>, integrator: MicroIntegrator) -> Result<Self, SubsystemError> {
@@ -326,8 +316,8 @@ impl InterfaceSubsystem {
         use Variability::{Continuous as C, Discrete as D, Fixed};
         let mut t = VariableTable::new();
         let eye: Vec<f64> = (0..n * n).map(|i| if i / n == i % n { 1.0 } else { 0.0 }).collect();
-        let pj = per_joint(k, &[]);
-        let map = per_joint(k, &[n]);
+        let pj = per_joint_shape(k, &[]);
+        let map = per_joint_shape(k, &[n]);
         t.add("effective_mass", Input, C, "kg", "effective mass M~ of the interface", &[n, n], &eye);
         t.add("effective_mass_rate", Input, C, "kg/s", "dM~/dt", &[n, n], &[0.0]);
         t.add("effective_force", Input, C, "N", "effective force f~ on the journals", &[n], &[0.0]);

@@ -470,20 +470,14 @@ impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
             if self.open[j].is_none() {
                 continue;
             }
-            let mut deepest = 0.0f64;
-            let peak = crate::clearance::step_peak(|theta| {
+            let search = crate::clearance::StepSearch::run(t, h, |theta| {
                 dense.eval(theta, y);
                 let e = Vec2::new(y[2 * j], y[2 * j + 1]);
                 let ed = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]);
-                let s = self.contact_at(t + theta * h, j, e, ed);
-                deepest = deepest.max(s.penetration);
-                s.normal_force
+                self.contact_at(t + theta * h, j, e, ed)
             });
             if let Some(tr) = self.open[j].as_mut() {
-                tr.deepen(deepest);
-                if let Some((theta, f)) = peak {
-                    tr.peak_candidate(t + theta * h, f);
-                }
+                tr.accept(search);
             }
         }
     }
