@@ -33,20 +33,21 @@ pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Re
     );
     let started = Instant::now();
     let mut shown = false;
+    let mut position = 0;
     let mut progress = |f: f64| {
+        // Per mille: the clock is read only when the bar would move.
+        let now = (f * 1000.0) as u64;
+        if now == position {
+            return;
+        }
+        position = now;
         if !quiet && !shown && started.elapsed() > Duration::from_secs(1) {
             bar.set_draw_target(ProgressDrawTarget::stderr());
             shown = true;
         }
-        bar.set_position((f * 1000.0) as u64);
+        bar.set_position(now);
     };
-    let mut output = Duration::ZERO;
-    let mut sink = |row: &[f64]| {
-        let t = Instant::now();
-        let r = csv.row(row);
-        output += t.elapsed();
-        r
-    };
+    let mut sink = |row: &[f64]| csv.row(row);
     let run_started = Instant::now();
     let result = runner.execute(&mut sink, &mut progress);
     let mut total = run_started.elapsed();
@@ -62,6 +63,7 @@ pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Re
         }
     };
     let flush = Instant::now();
+    let mut output = csv.busy();
     csv.finish()?;
     let flushed = flush.elapsed();
     (output, total) = (output + flushed, total + flushed);

@@ -631,22 +631,32 @@ impl<'a> InterfaceMaster<'a> {
             let mut targets = vec![0.0; 2 * n + k];
             let mut impulse_start = vec![0.0; k];
             let mut mean_friction = vec![0.0; k];
-            // Observers due after micro step `j` (count `n`) of the macro step.
-            let observe = |n: u64,
-                           j: usize,
-                           t: Ticks,
-                           w: &Window<'_>,
-                           micro: &[f64],
-                           signals: &mut [f64],
-                           observers: &mut [(&mut dyn Observer, Ticks)]|
+            // Countdown of each observer to its next sample (in micro steps): no division per step.
+            let mut left = decimation.clone();
+            // The observers due after micro step `j` of the macro step get their samples; the micro
+            // outputs are read only then (nothing else in the micro loop needs them).
+            let mut observe = |j: usize,
+                               t: Ticks,
+                               w: &Window<'_>,
+                               micro_sub: &dyn Subsystem,
+                               micro: &mut [f64],
+                               signals: &mut [f64],
+                               observers: &mut [(&mut dyn Observer, Ticks)]|
              -> Result<(), MasterError> {
-                if decimation.iter().all(|d| !n.is_multiple_of(*d)) {
+                let mut due = false;
+                for l in left.iter_mut() {
+                    *l -= 1;
+                    due |= *l == 0;
+                }
+                if !due {
                     return Ok(());
                 }
+                micro_sub.get_f64(&micro_outputs, micro).map_err(micro_err)?;
                 fill_signals(&resolved, w, (j + 1) as f64 / per_macro as f64, &micro[..loads], micro, signals);
                 let t1 = Ticks(t.0 + o.micro_step.0);
-                for ((obs, _), d) in observers.iter_mut().zip(&decimation) {
-                    if n.is_multiple_of(*d) {
+                for (((obs, _), l), d) in observers.iter_mut().zip(left.iter_mut()).zip(&decimation) {
+                    if *l == 0 {
+                        *l = *d;
                         obs.observe(t1, signals).map_err(MasterError::Observer)?;
                     }
                 }
@@ -696,9 +706,8 @@ impl<'a> InterfaceMaster<'a> {
                     if j > 0 && !every_micro_step {
                         let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
                         let stop = advance(micro_sub, "micro", t, o.micro_step)?;
-                        micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
                         micro_count += 1;
-                        observe(micro_count, j, t, &w, &micro_values, &mut signals, observers)?;
+                        observe(j, t, &w, micro_sub, &mut micro_values, &mut signals, observers)?;
                         if let Some(reason) = stop {
                             stats.micro_steps = micro_count;
                             return Err(MasterError::Stopped { subsystem: "micro", reason });
@@ -720,9 +729,8 @@ impl<'a> InterfaceMaster<'a> {
                     micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
                     let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
                     let stop = advance(micro_sub, "micro", t, o.micro_step)?;
-                    micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
                     micro_count += 1;
-                    observe(micro_count, j, t, &w, &micro_values, &mut signals, observers)?;
+                    observe(j, t, &w, micro_sub, &mut micro_values, &mut signals, observers)?;
                     if let Some(reason) = stop {
                         stats.micro_steps = micro_count;
                         return Err(MasterError::Stopped { subsystem: "micro", reason });

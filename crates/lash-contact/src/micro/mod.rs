@@ -194,10 +194,60 @@ fn set_input<const N: usize, const K: usize>(u: &mut InterfaceInputs<N, K>, r: V
     }
 }
 
-/// Row-major elements of a matrix (the FMI array layout).
-fn row_major<const R: usize, const C: usize>(out: &mut [f64], m: &nalgebra::SMatrix<f64, R, C>) {
+/// A size-independent view of a model's readable quantities: [`read`] is compiled once, not once
+/// per model size (six copies of it made the micro loop's output read several times slower).
+struct View<'a> {
+    joints: &'a [ClearanceJoint],
+    states: &'a [ContactState],
+    impacts: &'a [Vec<Impact>],
+    eccentricity: &'a [f64],
+    eccentricity_rate: &'a [f64],
+    impulse: &'a [f64],
+    friction_impulse: &'a [f64],
+    /// n×n column-major.
+    effective_mass: &'a [f64],
+    effective_mass_rate: &'a [f64],
+    effective_force: &'a [f64],
+    effective_force_rate: &'a [f64],
+    /// n×k column-major.
+    friction_moment_force: &'a [f64],
+    friction_moment_force_rate: &'a [f64],
+    journal_angular_velocity: &'a [f64],
+    journal_angular_acceleration: &'a [f64],
+    bearing_angular_velocity: &'a [f64],
+    bearing_angular_acceleration: &'a [f64],
+}
+
+impl<'a> View<'a> {
+    fn of<const N: usize, const K: usize>(m: &'a InterfaceModel<N, K>) -> Self {
+        let u = &m.inputs;
+        View {
+            joints: &m.joints,
+            states: &m.states,
+            impacts: &m.impacts,
+            eccentricity: m.eccentricity.as_slice(),
+            eccentricity_rate: m.eccentricity_rate.as_slice(),
+            impulse: m.impulse.as_slice(),
+            friction_impulse: m.friction_impulse.as_slice(),
+            effective_mass: u.effective_mass.as_slice(),
+            effective_mass_rate: u.effective_mass_rate.as_slice(),
+            effective_force: u.effective_force.as_slice(),
+            effective_force_rate: u.effective_force_rate.as_slice(),
+            friction_moment_force: u.friction_moment_force.as_slice(),
+            friction_moment_force_rate: u.friction_moment_force_rate.as_slice(),
+            journal_angular_velocity: &u.journal_angular_velocity,
+            journal_angular_acceleration: &u.journal_angular_acceleration,
+            bearing_angular_velocity: &u.bearing_angular_velocity,
+            bearing_angular_acceleration: &u.bearing_angular_acceleration,
+        }
+    }
+}
+
+/// Row-major elements (the FMI array layout) of a column-major matrix of `rows` rows.
+fn row_major(out: &mut [f64], column_major: &[f64], rows: usize) {
+    let columns = column_major.len() / rows.max(1);
     for (i, o) in out.iter_mut().enumerate() {
-        *o = m[(i / C, i % C)];
+        *o = column_major[i / columns + (i % columns) * rows];
     }
 }
 
@@ -211,16 +261,16 @@ fn each_joint(out: &mut [f64], f: impl Fn(usize) -> f64) {
 
 /// Reads every variable of `refs` (lengths checked) below the parameters into `values`;
 /// parameters from `parameters`.
-fn read<const N: usize, const K: usize>(
-    m: &InterfaceModel<N, K>,
+fn read(
+    m: &View<'_>,
     micro_steps: u64,
     parameters: &[f64],
     lens: &[usize],
     refs: &[ValueReference],
     values: &mut [f64],
 ) {
-    let u = &m.inputs;
-    let s = &m.states;
+    let s = m.states;
+    let n = m.eccentricity.len();
     let mut at = 0;
     for &r in refs {
         let len = lens[r as usize];
@@ -228,16 +278,16 @@ fn read<const N: usize, const K: usize>(
         at += len;
         match r {
             vr::CONTACT_FORCE => {
-                for (j, s) in s.iter().enumerate() {
-                    out[2 * j..2 * j + 2].copy_from_slice(s.force_on_journal.as_slice());
+                for (o, s) in out.chunks_exact_mut(2).zip(s) {
+                    o.copy_from_slice(s.force_on_journal.as_slice());
                 }
             }
             vr::FRICTION_FORCE => each_joint(out, |j| s[j].friction_force),
-            vr::CONTACT_IMPULSE => out.copy_from_slice(m.impulse.as_slice()),
+            vr::CONTACT_IMPULSE => out.copy_from_slice(m.impulse),
             vr::NORMAL_FORCE => each_joint(out, |j| s[j].normal_force),
-            vr::FRICTION_IMPULSE => out.copy_from_slice(m.friction_impulse.as_slice()),
-            vr::ECCENTRICITY => out.copy_from_slice(m.eccentricity.as_slice()),
-            vr::ECCENTRICITY_RATE => out.copy_from_slice(m.eccentricity_rate.as_slice()),
+            vr::FRICTION_IMPULSE => out.copy_from_slice(m.friction_impulse),
+            vr::ECCENTRICITY => out.copy_from_slice(m.eccentricity),
+            vr::ECCENTRICITY_RATE => out.copy_from_slice(m.eccentricity_rate),
             vr::ECCENTRICITY_NORM => each_joint(out, |j| s[j].eccentricity_norm),
             vr::PENETRATION => each_joint(out, |j| s[j].penetration),
             vr::PENETRATION_RATE => each_joint(out, |j| s[j].penetration_rate),
@@ -245,18 +295,23 @@ fn read<const N: usize, const K: usize>(
             vr::IMPACTS => each_joint(out, |j| m.impacts[j].len() as f64),
             vr::IN_CONTACT => each_joint(out, |j| if m.joints[j].in_contact { 1.0 } else { 0.0 }),
             vr::RADIAL_CLEARANCE => each_joint(out, |j| m.joints[j].radial_clearance()),
-            vr::CONTACT_FORCE_MAGNITUDE => each_joint(out, |j| s[j].force_on_journal.norm()),
+            vr::CONTACT_FORCE_MAGNITUDE => {
+                // |F_N n + F_T t| from the two orthogonal components.
+                each_joint(out, |j| {
+                    (s[j].normal_force * s[j].normal_force + s[j].friction_force * s[j].friction_force).sqrt()
+                })
+            }
             vr::MICRO_STEPS => out[0] = micro_steps as f64,
-            vr::EFFECTIVE_MASS => row_major(out, &u.effective_mass),
-            vr::EFFECTIVE_MASS_RATE => row_major(out, &u.effective_mass_rate),
-            vr::EFFECTIVE_FORCE => out.copy_from_slice(u.effective_force.as_slice()),
-            vr::EFFECTIVE_FORCE_RATE => out.copy_from_slice(u.effective_force_rate.as_slice()),
-            vr::FRICTION_MOMENT_FORCE => row_major(out, &u.friction_moment_force),
-            vr::FRICTION_MOMENT_FORCE_RATE => row_major(out, &u.friction_moment_force_rate),
-            vr::JOURNAL_ANGULAR_VELOCITY => out.copy_from_slice(&u.journal_angular_velocity),
-            vr::JOURNAL_ANGULAR_ACCELERATION => out.copy_from_slice(&u.journal_angular_acceleration),
-            vr::BEARING_ANGULAR_VELOCITY => out.copy_from_slice(&u.bearing_angular_velocity),
-            vr::BEARING_ANGULAR_ACCELERATION => out.copy_from_slice(&u.bearing_angular_acceleration),
+            vr::EFFECTIVE_MASS => row_major(out, m.effective_mass, n),
+            vr::EFFECTIVE_MASS_RATE => row_major(out, m.effective_mass_rate, n),
+            vr::EFFECTIVE_FORCE => out.copy_from_slice(m.effective_force),
+            vr::EFFECTIVE_FORCE_RATE => out.copy_from_slice(m.effective_force_rate),
+            vr::FRICTION_MOMENT_FORCE => row_major(out, m.friction_moment_force, n),
+            vr::FRICTION_MOMENT_FORCE_RATE => row_major(out, m.friction_moment_force_rate, n),
+            vr::JOURNAL_ANGULAR_VELOCITY => out.copy_from_slice(m.journal_angular_velocity),
+            vr::JOURNAL_ANGULAR_ACCELERATION => out.copy_from_slice(m.journal_angular_acceleration),
+            vr::BEARING_ANGULAR_VELOCITY => out.copy_from_slice(m.bearing_angular_velocity),
+            vr::BEARING_ANGULAR_ACCELERATION => out.copy_from_slice(m.bearing_angular_acceleration),
             _ => out[0] = parameters[(r - vr::FIRST_PARAMETER) as usize],
         }
     }
@@ -547,7 +602,8 @@ impl Subsystem for InterfaceSubsystem {
             return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
         let (lens, parameters) = (&self.lens, &self.parameter_values);
-        each_core!(&self.core, m => read(m, self.micro_steps, parameters, lens, refs, values));
+        let view = each_core!(&self.core, m => View::of(m));
+        read(&view, self.micro_steps, parameters, lens, refs, values);
         Ok(())
     }
 
@@ -567,7 +623,11 @@ impl Subsystem for InterfaceSubsystem {
             MicroIntegrator::Rk4 { .. } => {
                 // Whole micro steps; a remainder (a communication step that is not a multiple) is
                 // taken as one shorter step.
-                let (steps, rest) = (h.0 / self.micro_step.0, h.0 % self.micro_step.0);
+                let (steps, rest) = if h == self.micro_step {
+                    (1, 0) // the master's usual call: no division
+                } else {
+                    (h.0 / self.micro_step.0, h.0 % self.micro_step.0)
+                };
                 self.micro_steps += (steps + i64::from(rest > 0)) as u64;
                 let step = self.micro_step;
                 each_core!(&mut self.core, m => rk4_steps(m, t, step, steps, rest))
@@ -716,6 +776,29 @@ mod tests {
         assert!(matches!(s.do_step(Ticks(5), Ticks(10)), Err(SubsystemError::BadArguments(_))));
         assert!(InterfaceSubsystem::new(vec![joint()], MicroIntegrator::Rk4 { step: 0.0 }).is_err());
         assert!(InterfaceSubsystem::new(vec![joint()], MicroIntegrator::Rk4 { step: f64::NAN }).is_err());
+    }
+
+    #[test]
+    fn matrix_inputs_read_back_in_the_row_major_layout_they_were_set_in() {
+        // Two joints: M~ is 4×4 and H = M~ W_T is 4×2 (not square: rows and columns cannot be
+        // swapped unnoticed).
+        let mut second = joint();
+        second.name = "second".into();
+        let mut s = InterfaceSubsystem::new(vec![joint(), second], MicroIntegrator::Rk4 { step: 1e-5 }).unwrap();
+        s.setup(Ticks::ZERO, None).unwrap();
+        s.initialize().unwrap();
+        let mass: Vec<f64> = (0..16).map(|i| i as f64 + 0.5).collect();
+        let map: Vec<f64> = (0..8).map(|i| 10.0 * i as f64 - 3.0).collect();
+        s.set_f64(&[vr::EFFECTIVE_MASS, vr::FRICTION_MOMENT_FORCE_RATE], &[mass.clone(), map.clone()].concat())
+            .unwrap();
+        let mut back = vec![0.0; 24];
+        s.get_f64(&[vr::EFFECTIVE_MASS, vr::FRICTION_MOMENT_FORCE_RATE], &mut back).unwrap();
+        assert_eq!(back, [mass, map].concat());
+        each_core!(&s.core, m => {
+            assert_eq!(m.inputs.effective_mass.shape(), (4, 4));
+            assert_eq!(m.inputs.effective_mass[(1, 0)], 4.5); // row 1, column 0 = element 4
+            assert_eq!(m.inputs.friction_moment_force_rate[(3, 0)], 57.0); // row 3, column 0 = element 6
+        });
     }
 
     #[test]
