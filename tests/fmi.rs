@@ -84,6 +84,35 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
         eprintln!("{text}");
         assert!(text.contains("bit-identical"), "{text}");
     }
+    // The same Python master through the FMUs of the two-joint scenario C (4 × 4 M~, two friction
+    // forces; the scenario in the archives' resources) reproduces `lash run C --model reduced`.
+    let c_fmus = out.join("C");
+    let pack =
+        Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "pack", "C", "--out"]).arg(&c_fmus).output().unwrap();
+    assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
+    let c_reduced = out.join("C-reduced");
+    let o = Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(["run", "C", "--model", "reduced", "--quiet", "--out"])
+        .arg(&c_reduced)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for name in ["lash_mechanism.fmu", "lash_interface.fmu", "lash_full.fmu", "lash_interface-fmi2.fmu"] {
+        let validate = run(&["-m", "fmpy.cli", "validate", c_fmus.join(name).to_str().unwrap()]);
+        assert!(validate.contains("No problems found"), "C {name}: {validate}");
+    }
+    for (mech, micro) in
+        [("lash_mechanism.fmu", "lash_interface.fmu"), ("lash_mechanism-fmi2.fmu", "lash_interface-fmi2.fmu")]
+    {
+        let text = run(&[
+            script.to_str().unwrap(),
+            c_fmus.join(mech).to_str().unwrap(),
+            c_fmus.join(micro).to_str().unwrap(),
+            c_reduced.join("timeseries.csv").to_str().unwrap(),
+        ]);
+        eprintln!("C: {text}");
+        assert!(text.contains("bit-identical: True"), "C: {text}");
+    }
     // The clearance joint's coefficients are FMU parameters: set before initialization, they must
     // give what lash computes for a scenario file written with the same values.
     let shown = Command::new(env!("CARGO_BIN_EXE_lash")).args(["show", "A"]).output().unwrap();
@@ -120,12 +149,74 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// Packs the FMUs into a fresh temporary folder.
-fn packed(tag: &str) -> PathBuf {
+/// Packs the FMUs (of `scenario`, or the default ones) into a fresh temporary folder.
+fn packed_scenario(tag: &str, scenario: Option<&str>) -> PathBuf {
     let out = std::env::temp_dir().join(format!("lash-fmi-{tag}-{}", std::process::id()));
-    let pack = Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "pack", "--out"]).arg(&out).output().unwrap();
+    let pack = Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(["fmu", "pack"])
+        .args(scenario)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
     assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
     out
+}
+
+/// Packs the default FMUs (scenario A) into a fresh temporary folder.
+fn packed(tag: &str) -> PathBuf {
+    packed_scenario(tag, None)
+}
+
+/// The FMUs of the two-joint scenario C (one generic binary per kind, the scenario in the
+/// archive's resources): the interface FMU has 4 interface coordinates, and lash's master through
+/// the imported mechanism and interface FMUs reproduces the in-process reduced run bit for bit,
+/// in FMI 3.0 and 2.0.
+#[test]
+fn fmus_packed_for_the_two_joint_scenario_reproduce_its_in_process_run() {
+    use lash_core::{Subsystem, Ticks};
+    use lash_fmi::import::ImportedFmu;
+    use lash_orchestrate::Execution;
+    let out = packed_scenario("two-joint", Some("C"));
+    let cache = out.join("cache");
+    let reference = in_process_slider_acceleration(&lash_scenario::builtin::by_name("C").unwrap());
+    for (mech_file, micro_file) in
+        [("lash_mechanism.fmu", "lash_interface.fmu"), ("lash_mechanism-fmi2.fmu", "lash_interface-fmi2.fmu")]
+    {
+        let mut mechanism = ImportedFmu::open(&out.join(mech_file), &cache, "mechanism").unwrap();
+        let mut interface = ImportedFmu::open(&out.join(micro_file), &cache, "interface").unwrap();
+        let shape = |name: &str| interface.variables().iter().find(|v| v.name == name).unwrap().shape.clone();
+        assert_eq!(shape("effective_mass"), vec![4, 4], "{micro_file}: two planar joints");
+        assert_eq!(shape("friction_force"), vec![2], "{micro_file}: one friction force per joint");
+        let stop = Ticks::from_seconds(0.036).unwrap();
+        mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+        interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+        let imported = master_slider_acceleration(&mut mechanism, &mut interface, stop, Execution::Sequential);
+        assert_eq!(imported.len(), reference.len());
+        let differing = imported.iter().zip(&reference).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+        assert_eq!(differing, 0, "{mech_file}: the imported FMUs of C must reproduce the in-process run bit for bit");
+        assert!(reference.iter().any(|a| a.abs() > 1e3), "C's impacts reach the slider");
+    }
+    // An archive whose scenario was edited into something the binary cannot build is refused at
+    // instantiation with the resource named.
+    let archive = std::fs::read(out.join("lash_interface.fmu")).unwrap();
+    let mut original = zip::ZipArchive::new(std::io::Cursor::new(archive)).unwrap();
+    let bad = out.join("edited.fmu");
+    let mut edited = zip::ZipWriter::new(std::fs::File::create(&bad).unwrap());
+    for i in 0..original.len() {
+        let mut entry = original.by_index(i).unwrap();
+        let name = entry.name().to_string();
+        edited.start_file(name.as_str(), zip::write::SimpleFileOptions::default()).unwrap();
+        if name == "resources/scenario.toml" {
+            std::io::Write::write_all(&mut edited, b"name = \"edited\"\n").unwrap();
+        } else {
+            std::io::copy(&mut entry, &mut edited).unwrap();
+        }
+    }
+    edited.finish().unwrap();
+    let e = ImportedFmu::open(&bad, &cache, "edited").err().map(|e| e.to_string());
+    assert!(e.as_deref().is_some_and(|e| e.contains("scenario.toml")), "{e:?}");
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]

@@ -150,7 +150,12 @@ fn read(path: &str) -> String {
 fn model_descriptions() {
     let mut seeds =
         vec![read("tests/fmi/oscillator/modelDescription.xml"), read("tests/fmi/vanderpol/modelDescription.xml")];
-    seeds.extend(lash_catalog::descriptions().unwrap().into_iter().map(|(_, _, xml)| xml));
+    seeds.extend(
+        lash_catalog::descriptions(&lash_catalog::default_scenario().unwrap())
+            .unwrap()
+            .into_iter()
+            .map(|(_, _, xml)| xml),
+    );
     fuzz("modelDescription.xml", &seeds, 300, 0.2, checks::model_description);
 }
 

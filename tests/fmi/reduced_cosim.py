@@ -2,9 +2,10 @@
 low-level API (FMI 3.0 or FMI 2.0, taken from the archives), with the multirate scheme of lash's InterfaceMaster (one-way coupling,
 linear interpolation: at each macro step the micro inputs are the values at the step start and the
 slopes to the next node; the slider acceleration is propagated at every micro step as
-free + gain . f_c with the maps interpolated linearly).
+free + gain . [f_c; F_T] with the maps interpolated linearly), for any number of clearance joints
+(sizes read from the mechanism FMU).
 
-Compares the slider acceleration with lash's in-process run (a CSV of `lash run A --model reduced`).
+Compares the slider acceleration with lash's in-process run (a CSV of `lash run SCENARIO --model reduced`).
 Usage: python reduced_cosim.py lash_mechanism.fmu lash_interface.fmu lash_reduced_timeseries.csv [name=value,...]
 
 The optional last argument sets parameters of the interface FMU (its clearance joint's radii and
@@ -82,31 +83,34 @@ if len(sys.argv) > 4:
 micro = Fmu(sys.argv[2], "interface", parameters)
 h_m, h_r, n_micro, n_macro = 1e-3, 1e-5, 100, 36
 
-names = ["effective_mass", "effective_force", "journal_angular_velocity", "bearing_angular_velocity",
-         "slider.acceleration_free", "slider.acceleration_gain"]
+# Sizes from the mechanism: n interface coordinates, k clearance joints.
+n = len(mech.get("effective_force"))
+k = len(mech.get("journal_angular_velocity"))
+names = ["effective_mass", "effective_force", "friction_moment_force", "journal_angular_velocity",
+         "bearing_angular_velocity", "slider.acceleration_free", "slider.acceleration_gain"]
 
 
 def frame():
-    return {n: mech.get(n) for n in names}
+    return {name: mech.get(name) for name in names}
 
 
 inputs = ["effective_mass", "effective_mass_rate", "effective_force", "effective_force_rate",
+          "friction_moment_force", "friction_moment_force_rate",
           "journal_angular_velocity", "journal_angular_acceleration", "bearing_angular_velocity",
           "bearing_angular_acceleration"]
 
 a = frame()
 ax = [a["slider.acceleration_free"][0]]
-for k in range(n_macro):
-    t_k = k * h_m
+for step in range(n_macro):
+    t_k = step * h_m
     mech.step(t_k, h_m)
     b = frame()
     values = []
-    for name, count in [("effective_mass", 4), ("effective_force", 2)]:
+    for name, count in [("effective_mass", n * n), ("effective_force", n), ("friction_moment_force", n * k),
+                        ("journal_angular_velocity", k), ("bearing_angular_velocity", k)]:
         value = [a[name][e] + (b[name][e] - a[name][e]) * 0.0 for e in range(count)]
         rate = [(b[name][e] - a[name][e]) / h_m for e in range(count)]
         values += value + rate
-    for name in ["journal_angular_velocity", "bearing_angular_velocity"]:
-        values += [a[name][0] + (b[name][0] - a[name][0]) * 0.0, (b[name][0] - a[name][0]) / h_m]
     micro.set(inputs, values)
 
     def lerp(name, e, s):
@@ -114,10 +118,13 @@ for k in range(n_macro):
 
     for j in range(n_micro):
         micro.step(t_k + j * h_r, h_r)
-        fx, fy = micro.get("contact_force")
+        # The loads in lash's order: contact forces (n), then friction forces (k).
+        loads = list(micro.get("contact_force")) + list(micro.get("friction_force"))
         s = (j + 1) / n_micro
-        ax.append(lerp("slider.acceleration_free", 0, s) + lerp("slider.acceleration_gain", 0, s) * fx
-                  + lerp("slider.acceleration_gain", 1, s) * fy)
+        v = lerp("slider.acceleration_free", 0, s)
+        for c, load in enumerate(loads):
+            v = v + lerp("slider.acceleration_gain", c, s) * load
+        ax.append(v)
     a = b
 
 mech.close()

@@ -4,6 +4,10 @@
 //! `modelDescription.xml`) both take the model from here, so the description and the binary are
 //! built from the same variable table and carry the same instantiation token. This crate holds no
 //! FFI: linking it twice is harmless, unlike the FMU crates' exported symbols.
+//!
+//! One binary per kind serves every scenario: an archive carries its scenario in
+//! `resources/scenario.toml`, from which the instance builds its model (sized by the scenario's
+//! clearance joints) and its identity (name, instantiation token).
 
 use lash_contact::micro::InterfaceSubsystem;
 use lash_core::Subsystem;
@@ -11,23 +15,33 @@ use lash_fmi::{ModelInfo, instantiation_token};
 use lash_mech::MechanismSubsystem;
 use lash_scenario::parameters::{clearance_parameters, mechanism_parameters};
 use lash_scenario::{FullSubsystem, Scenario, WithParameters};
+use std::path::Path;
 
-/// Scenario A with the channels the exported mechanism probes.
-fn scenario_a() -> Result<Scenario, String> {
+/// Where an FMU carries its scenario: `resources/scenario.toml` (written by `lash fmu pack`).
+pub const SCENARIO_RESOURCE: &str = "scenario.toml";
+
+/// The scenario of FMUs packed without one: scenario A with the channels the exported mechanism
+/// probes (slider acceleration and motor torque).
+pub fn default_scenario() -> Result<Scenario, String> {
     let mut a = lash_scenario::builtin::by_name("A").ok_or("built-in scenario A is missing")?;
     a.output.channels = vec!["slider.ax".into(), "slider.ay".into(), "motor.torque".into()];
     Ok(a)
+}
+
+/// The scenario of an FMU instance: its resources' `scenario.toml` when there is one, else
+/// [`default_scenario`] (a plugin loaded straight from its library, an archive of an older lash).
+pub fn scenario(resources: Option<&Path>) -> Result<Scenario, String> {
+    let Some(file) = resources.map(|r| r.join(SCENARIO_RESOURCE)).filter(|f| f.is_file()) else {
+        return default_scenario();
+    };
+    let text = std::fs::read_to_string(&file).map_err(|e| format!("{}: {e}", file.display()))?;
+    lash_scenario::parse(&text).map_err(|p| format!("{}: {}", file.display(), p.to_string().trim_end()))
 }
 
 /// The reduced model's two subsystems of a scenario.
 fn reduced_subsystems(s: &Scenario) -> Result<(MechanismSubsystem, InterfaceSubsystem), String> {
     let run = lash_scenario::ReducedRun::new(s, lash_scenario::ReducedOptions::default()).map_err(|e| e.to_string())?;
     Ok(run.into_subsystems())
-}
-
-/// Scenario A's reduced model, with the probes the exported mechanism carries.
-fn scenario_a_subsystems() -> Result<(MechanismSubsystem, InterfaceSubsystem), String> {
-    reduced_subsystems(&scenario_a()?)
 }
 
 /// Model identifier of the clearance-interface FMU.
@@ -37,32 +51,31 @@ pub const MECHANISM: &str = "lash_mechanism";
 /// Model identifier of the full-model FMU.
 pub const FULL: &str = "lash_full";
 
-/// The exported mechanism: the macro subsystem with scenario A's link data, masses, inertias,
-/// driver and gravity as FMI parameters.
+/// The exported mechanism: the macro subsystem with the scenario's link data, masses, inertias,
+/// drivers and gravity as FMI parameters.
 pub type ExportedMechanism = WithParameters<MechanismSubsystem>;
-/// The exported full model: scenario A's mechanism with its clearance joint, all its numbers as
-/// FMI parameters.
+/// The exported full model: the scenario's mechanism with its clearance joints, all its numbers
+/// as FMI parameters.
 pub type ExportedFullModel = WithParameters<FullSubsystem>;
 
-/// The clearance interface (micro subsystem) of scenario A: RK4 at 1e-5 s.
-pub fn interface() -> Result<InterfaceSubsystem, String> {
-    scenario_a_subsystems().map(|s| s.1)
+/// The clearance interface (micro subsystem) of the scenario's clearance joints, sized by them
+/// (n = 2 per joint), RK4 at the scenario's micro step.
+pub fn interface(s: &Scenario) -> Result<InterfaceSubsystem, String> {
+    reduced_subsystems(s).map(|x| x.1)
 }
 
-/// The slider-crank of scenario A (macro subsystem, one-way) with the slider and motor probes,
-/// its scenario numbers as parameters.
-pub fn mechanism() -> Result<ExportedMechanism, String> {
-    let a = scenario_a()?;
-    WithParameters::new(&a, mechanism_parameters(&a)?, |s| reduced_subsystems(s).map(|x| x.0))
+/// The scenario's mechanism with ideal joints (macro subsystem, one-way), probing the scenario's
+/// output channels, its numbers as parameters.
+pub fn mechanism(s: &Scenario) -> Result<ExportedMechanism, String> {
+    WithParameters::new(s, mechanism_parameters(s)?, |s| reduced_subsystems(s).map(|x| x.0))
 }
 
-/// Scenario A's full model (DOP853, rtol 1e-9) with every channel as an output and the
-/// mechanism's and the clearance joint's numbers as parameters.
-pub fn full() -> Result<ExportedFullModel, String> {
-    let a = lash_scenario::builtin::by_name("A").ok_or("built-in scenario A is missing")?;
-    let mut parameters = mechanism_parameters(&a)?;
-    parameters.extend(clearance_parameters(&a)?);
-    WithParameters::new(&a, parameters, FullSubsystem::new)
+/// The scenario's full model (its integrator settings) with every channel as an output and the
+/// mechanism's and the clearance joints' numbers as parameters.
+pub fn full(s: &Scenario) -> Result<ExportedFullModel, String> {
+    let mut parameters = mechanism_parameters(s)?;
+    parameters.extend(clearance_parameters(s)?);
+    WithParameters::new(s, parameters, FullSubsystem::new)
 }
 
 fn info(
@@ -82,44 +95,63 @@ fn info(
     }
 }
 
-/// FMI identity of the interface FMU.
-pub fn interface_info() -> ModelInfo {
-    let vars = interface().map(|s| s.variables().to_vec()).unwrap_or_default();
+/// "scenario A's crank_pivot" / "scenario C's crank_pivot and rod_slider".
+fn joints_of(s: &Scenario) -> String {
+    let names: Vec<&str> = s.clearances.iter().map(|c| c.joint.as_str()).collect();
+    let list = match names.as_slice() {
+        [] => "no joint".to_string(),
+        [one] => one.to_string(),
+        [head @ .., last] => format!("{} and {last}", head.join(", ")),
+    };
+    format!("scenario {}'s {list}", s.name)
+}
+
+/// FMI identity of the interface FMU of `s` (its variables are `vars`).
+pub fn interface_info(s: &Scenario, vars: &[lash_core::Variable]) -> ModelInfo {
     info(
-        "lash clearance interface",
+        &format!("lash clearance interface ({})", s.name),
         INTERFACE,
-        "Micro subsystem of lash's reduced interface model: M~ w'' = f~ + f_c(e, e') for a revolute clearance \
-         joint (scenario A's crank pivot), RK4 at 1e-5 s",
-        &vars,
-        0.01,
+        &format!(
+            "Micro subsystem of lash's reduced interface model: M~ w'' = f~ + f_c(w, w') + H F_T for the revolute \
+             clearance joints {} ({} coordinates), RK4 at the micro step",
+            joints_of(s),
+            2 * s.clearances.len()
+        ),
+        vars,
+        s.simulation.horizon.min(0.01),
         1e-5,
     )
 }
 
-/// FMI identity of the mechanism FMU.
-pub fn mechanism_info() -> ModelInfo {
-    let vars = mechanism().map(|s| s.variables().to_vec()).unwrap_or_default();
+/// FMI identity of the mechanism FMU of `s`.
+pub fn mechanism_info(s: &Scenario, vars: &[lash_core::Variable]) -> ModelInfo {
     info(
-        "lash slider-crank mechanism",
+        &format!("lash mechanism ({})", s.name),
         MECHANISM,
-        "Macro subsystem of lash's reduced interface model: scenario A's slider-crank (ideal motion), exporting \
-         M~, f~ and the propagation maps at each communication point",
-        &vars,
-        0.036,
+        &format!(
+            "Macro subsystem of lash's reduced interface model: scenario {}'s mechanism (ideal motion), exporting \
+             M~, f~ and the propagation maps of {} at each communication point",
+            s.name,
+            joints_of(s)
+        ),
+        vars,
+        s.simulation.horizon,
         1e-3,
     )
 }
 
-/// FMI identity of the full-model FMU.
-pub fn full_info() -> ModelInfo {
-    let vars = full().map(|s| s.variables().to_vec()).unwrap_or_default();
+/// FMI identity of the full-model FMU of `s`.
+pub fn full_info(s: &Scenario, vars: &[lash_core::Variable]) -> ModelInfo {
     info(
-        "lash full model",
+        &format!("lash full model ({})", s.name),
         FULL,
-        "Scenario A's slider-crank with its clearance joint integrated as one stiff system (DOP853 with event \
-         location, rtol 1e-9): every channel of `lash run A` as an output, link data and clearance law as parameters",
-        &vars,
-        0.036,
+        &format!(
+            "Scenario {}'s mechanism with its clearance joints integrated as one stiff system: every channel of \
+             `lash run` as an output, link data and clearance laws as parameters",
+            s.name
+        ),
+        vars,
+        s.simulation.horizon,
         1e-4,
     )
 }
@@ -133,16 +165,23 @@ pub enum FmiVersion {
     V2,
 }
 
-/// `(model identifier, version, modelDescription.xml)` of every exported FMU, in both versions.
-pub fn descriptions() -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
+/// `(model identifier, version, modelDescription.xml)` of every exported FMU of `s`, in both
+/// versions.
+pub fn descriptions(s: &Scenario) -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
     use lash_fmi::description::{fmi2, fmi3};
-    let (i, m, f) = (interface()?, mechanism()?, full()?);
-    Ok(vec![
-        (INTERFACE, FmiVersion::V3, fmi3(&interface_info(), i.variables())),
-        (MECHANISM, FmiVersion::V3, fmi3(&mechanism_info(), m.variables())),
-        (FULL, FmiVersion::V3, fmi3(&full_info(), f.variables())),
-        (INTERFACE, FmiVersion::V2, fmi2(&interface_info(), i.variables())),
-        (MECHANISM, FmiVersion::V2, fmi2(&mechanism_info(), m.variables())),
-        (FULL, FmiVersion::V2, fmi2(&full_info(), f.variables())),
-    ])
+    let (i, m, f) = (interface(s)?, mechanism(s)?, full(s)?);
+    let infos = [
+        (INTERFACE, interface_info(s, i.variables()), i.variables()),
+        (MECHANISM, mechanism_info(s, m.variables()), m.variables()),
+        (FULL, full_info(s, f.variables()), f.variables()),
+    ];
+    let mut out = Vec::with_capacity(6);
+    for (version, write) in
+        [(FmiVersion::V3, fmi3 as fn(&ModelInfo, &[lash_core::Variable]) -> String), (FmiVersion::V2, fmi2)]
+    {
+        for (identifier, info, vars) in &infos {
+            out.push((*identifier, version, write(info, vars)));
+        }
+    }
+    Ok(out)
 }

@@ -326,7 +326,8 @@ fn fmi_section(quick: bool) -> Result<(), CliError> {
     use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
     let fail = |e: &dyn std::fmt::Display| CliError::Failure(e.to_string());
     let dir = std::env::temp_dir().join(format!("lash-bench-fmu-{}", std::process::id()));
-    if let Err(e) = crate::fmu::pack_quiet(&dir) {
+    let a = lash_catalog::default_scenario().map_err(|e| fail(&e))?;
+    if let Err(e) = crate::fmu::pack_quiet(&a, &dir) {
         println!("FMI: skipped ({e})");
         return Ok(());
     }
@@ -367,7 +368,7 @@ fn fmi_section(quick: bool) -> Result<(), CliError> {
     // (relocations, first page faults), which are not per-step costs.
     for round in 0..4 {
         let (mut m, mut i) =
-            (lash_catalog::mechanism().map_err(|e| fail(&e))?, lash_catalog::interface().map_err(|e| fail(&e))?);
+            (lash_catalog::mechanism(&a).map_err(|e| fail(&e))?, lash_catalog::interface(&a).map_err(|e| fail(&e))?);
         let (ms, s) = run(&mut m, &mut i)?;
         if round > 0 {
             times.0.push(ms);

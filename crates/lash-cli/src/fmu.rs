@@ -2,8 +2,9 @@
 //! 2.0 co-simulation for linux64 from the same shared library).
 //!
 //! An archive holds `modelDescription.xml` (generated from the subsystem's variables by
-//! `lash-fmi`) and `binaries/x86_64-linux/<modelIdentifier>.so`, the cdylib built from `fmus/`
-//! (`cargo build --release --workspace` builds it next to the `lash` binary).
+//! `lash-fmi`), `binaries/x86_64-linux/<modelIdentifier>.so`, the cdylib built from `fmus/`
+//! (`cargo build --release --workspace` builds it next to the `lash` binary), and
+//! `resources/scenario.toml`, the scenario the generic binary builds its model from.
 
 use crate::CliError;
 use lash_catalog::FmiVersion;
@@ -28,7 +29,13 @@ fn library(identifier: &str) -> Result<PathBuf, CliError> {
 
 /// Writes `<out>/<identifier>.fmu` (FMI 3.0) or `<out>/<identifier>-fmi2.fmu` from a description and
 /// the library.
-fn pack_one(out: &Path, identifier: &str, version: FmiVersion, description: &str) -> Result<PathBuf, CliError> {
+fn pack_one(
+    out: &Path,
+    identifier: &str,
+    version: FmiVersion,
+    description: &str,
+    scenario: &str,
+) -> Result<PathBuf, CliError> {
     let lib = library(identifier)?;
     let binary = std::fs::read(&lib).map_err(|e| CliError::Failure(format!("{}: {e}", lib.display())))?;
     std::fs::create_dir_all(out).map_err(|e| CliError::Failure(format!("{}: {e}", out.display())))?;
@@ -46,25 +53,38 @@ fn pack_one(out: &Path, identifier: &str, version: FmiVersion, description: &str
     zip.write_all(description.as_bytes()).map_err(|e| fail(&e))?;
     zip.start_file(format!("binaries/{platform}/{identifier}.so"), options).map_err(|e| fail(&e))?;
     zip.write_all(&binary).map_err(|e| fail(&e))?;
+    zip.start_file(format!("resources/{}", lash_catalog::SCENARIO_RESOURCE), options).map_err(|e| fail(&e))?;
+    zip.write_all(scenario.as_bytes()).map_err(|e| fail(&e))?;
     zip.finish().map_err(|e| fail(&e))?;
     std::fs::rename(&partial, &path).map_err(|e| fail(&e))?;
     Ok(path)
 }
 
-/// `lash fmu pack --out <dir>`.
-pub fn pack(out: &Path) -> Result<(), CliError> {
-    for path in pack_quiet(out)? {
+/// `lash fmu pack [SCENARIO] --out <dir>`.
+pub fn pack(scenario: &lash_scenario::Scenario, out: &Path) -> Result<(), CliError> {
+    for path in pack_quiet(scenario, out)? {
         println!("{}", path.display());
     }
     Ok(())
 }
 
-/// Packs every FMU into `out`; returns the archives written.
-pub fn pack_quiet(out: &Path) -> Result<Vec<PathBuf>, CliError> {
-    lash_catalog::descriptions()
-        .map_err(CliError::Failure)?
+/// Packs every FMU of `scenario` into `out`; returns the archives written.
+pub fn pack_quiet(scenario: &lash_scenario::Scenario, out: &Path) -> Result<Vec<PathBuf>, CliError> {
+    let text = toml::to_string(scenario).map_err(|e| CliError::Failure(format!("the scenario as TOML: {e}")))?;
+    // The archive's scenario must build the same models as the one given (same variables, same
+    // token): checked by reading it back as the FMU will.
+    let reread = lash_scenario::parse(&text)
+        .map_err(|p| CliError::Failure(format!("the scenario written into the FMUs does not read back: {p}")))?;
+    let descriptions = lash_catalog::descriptions(scenario)
+        .map_err(|e| CliError::Input(format!("scenario {}: {e}", scenario.name)))?;
+    if lash_catalog::descriptions(&reread).map_err(CliError::Failure)? != descriptions {
+        return Err(CliError::Failure(
+            "the scenario written into the FMUs builds other models than the one given".into(),
+        ));
+    }
+    descriptions
         .into_iter()
-        .map(|(identifier, version, description)| pack_one(out, identifier, version, &description))
+        .map(|(identifier, version, description)| pack_one(out, identifier, version, &description, &text))
         .collect()
 }
 

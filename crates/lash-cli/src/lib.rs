@@ -12,7 +12,7 @@
 //! lash bench fmu <file.fmu>      # one step of any FMU through lash's importer
 //! lash sweep <sweep-file> --out <dir> [--shard i/N] [--threads N] [--quiet]
 //! lash sweep merge <dir>... --out <dir>
-//! lash fmu pack --out <dir>      # FMI 3.0 and 2.0 FMUs of the subsystems
+//! lash fmu pack [SCENARIO] --out <dir>  # FMI 3.0 and 2.0 FMUs of a scenario's subsystems
 //! lash fmu check <file.fmu>      # structure + smoke simulation of an FMI 3.0 or 2.0 FMU
 //! ```
 //!
@@ -251,8 +251,13 @@ enum SweepCommand {
 /// `lash fmu …` subcommands.
 #[derive(Subcommand, Debug)]
 enum FmuCommand {
-    /// Write the FMI 3.0 and 2.0 co-simulation FMUs (clearance interface, mechanism) into --out.
+    /// Write the FMI 3.0 and 2.0 co-simulation FMUs of a scenario (clearance interface sized by its
+    /// clearance joints, mechanism, full model) into --out; the scenario travels in each archive's
+    /// resources/scenario.toml.
     Pack {
+        /// A scenario file (TOML) or a built-in name; without it, scenario A with the slider and motor
+        /// channels probed.
+        scenario: Option<String>,
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
@@ -433,7 +438,13 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             (Some(file), Some(out)) => sweep::run(&file, &out, shard.as_deref(), threads, quiet),
             _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
         },
-        Command::Fmu { command: FmuCommand::Pack { out } } => fmu::pack(&out),
+        Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {
+            let scenario = match scenario {
+                Some(arg) => load_scenario(&arg)?,
+                None => lash_catalog::default_scenario().map_err(CliError::Failure)?,
+            };
+            fmu::pack(&scenario, &out)
+        }
         Command::Fmu { command: FmuCommand::Check { fmu, isolate, timeout } } => fmu::check(&fmu, isolate, timeout),
         Command::Fmu { command: FmuCommand::Host { fmu, cache, name } } => {
             std::process::exit(lash_fmi::isolate::serve(&fmu, &cache, &name))

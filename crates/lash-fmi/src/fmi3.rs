@@ -75,8 +75,10 @@ impl Logger {
 pub trait Exportable: 'static {
     /// The subsystem behind the FMU.
     type Model: Subsystem;
-    /// Model name, identifier, token, description, default experiment.
-    fn info() -> ModelInfo;
+    /// Model name, identifier, token, description, default experiment of `model`, an instance
+    /// created from the same `resources` (a generic binary takes its identity from the model its
+    /// resources describe).
+    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<ModelInfo, String>;
     /// A fresh instance (the FMU's resources folder, if the importer gave one).
     fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String>;
 }
@@ -223,22 +225,28 @@ pub(crate) unsafe fn create_instance<M: Exportable>(
         let (name, token, resources) = unsafe { (string(name), string(token), string(resource_path)) };
         let name = CString::new(name.unwrap_or_else(|| "lash".into())).unwrap_or_default();
         let resources = resources.filter(|r| !r.is_empty()).map(|r| resources_path(&r));
-        let info = M::info();
         // SAFETY: forwarded from this function's contract.
         let say = |text: String| unsafe { logger.send(environment, &name, ERROR, "logStatusError", &text) };
-        if token.as_deref() != Some(info.instantiation_token.as_str()) {
-            say(format!(
-                "wrong instantiation token {:?}: this binary is {} (modelDescription.xml and binary do not match)",
-                token, info.instantiation_token
-            ));
-            return std::ptr::null_mut();
-        }
         if event_mode_used {
             say("event mode is not supported (hasEventMode=\"false\")".into());
             return std::ptr::null_mut();
         }
-        match M::create(resources.as_deref()) {
-            Ok(model) => {
+        let created = M::create(resources.as_deref())
+            .and_then(|model| M::info(resources.as_deref(), &model).map(|info| (model, info)));
+        match created {
+            Err(e) => {
+                say(format!("instantiation failed: {e}"));
+                std::ptr::null_mut()
+            }
+            Ok((_, info)) if token.as_deref() != Some(info.instantiation_token.as_str()) => {
+                say(format!(
+                    "wrong instantiation token {:?}: this binary with these resources is {} (modelDescription.xml \
+                     and binary or resources do not match)",
+                    token, info.instantiation_token
+                ));
+                std::ptr::null_mut()
+            }
+            Ok((model, _)) => {
                 let time_reference = time_value_reference(model.variables());
                 let scalars =
                     model.variables().iter().flat_map(|v| (0..v.len()).map(move |e| (v.value_reference, e))).collect();
@@ -256,10 +264,6 @@ pub(crate) unsafe fn create_instance<M: Exportable>(
                     scalars,
                     experiment: (0.0, None),
                 })) as *mut c_void
-            }
-            Err(e) => {
-                say(format!("instantiation failed: {e}"));
-                std::ptr::null_mut()
             }
         }
     }));
@@ -824,7 +828,7 @@ pub fn plugin_description<M: Exportable>() -> *const std::ffi::c_char {
     let text = DESCRIPTION.get_or_init(|| {
         std::panic::catch_unwind(|| {
             let model = M::create(None).ok()?;
-            let xml = crate::description::fmi3(&M::info(), model.variables());
+            let xml = crate::description::fmi3(&M::info(None, &model).ok()?, model.variables());
             std::ffi::CString::new(xml).ok()
         })
         .ok()

@@ -165,9 +165,9 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
             Box::new(lash_fmi::import::ImportedFmu::open_plugin(path, name).map_err(|e| e.to_string())?)
         }
         ElementSource::Builtin(id) => match id.as_str() {
-            lash_catalog::INTERFACE => Box::new(lash_catalog::interface()?),
-            lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism()?),
-            lash_catalog::FULL => Box::new(lash_catalog::full()?),
+            lash_catalog::INTERFACE => Box::new(lash_catalog::interface(&lash_catalog::default_scenario()?)?),
+            lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism(&lash_catalog::default_scenario()?)?),
+            lash_catalog::FULL => Box::new(lash_catalog::full(&lash_catalog::default_scenario()?)?),
             other => {
                 return Err(format!(
                     "no built-in subsystem {other:?} (built-ins: {}, {}, {})",

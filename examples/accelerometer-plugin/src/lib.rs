@@ -215,15 +215,15 @@ pub struct AccelerometerPlugin;
 impl lash_fmi::fmi3::Exportable for AccelerometerPlugin {
     type Model = Accelerometer;
 
-    fn info() -> lash_fmi::ModelInfo {
-        let vars = Accelerometer::new().variables().to_vec();
-        lash_fmi::ModelInfo {
+    fn info(_resources: Option<&std::path::Path>, model: &Accelerometer) -> Result<lash_fmi::ModelInfo, String> {
+        let vars = model.variables();
+        Ok(lash_fmi::ModelInfo {
             model_name: "accelerometer".into(),
             model_identifier: "accelerometer".into(),
-            instantiation_token: lash_fmi::instantiation_token("accelerometer", &vars),
+            instantiation_token: lash_fmi::instantiation_token("accelerometer", vars),
             description: "second-order accelerometer (example lash plugin)".into(),
             default_experiment: (0.0, 0.01, 1e-5),
-        }
+        })
     }
 
     fn create(_resources: Option<&std::path::Path>) -> Result<Accelerometer, String> {

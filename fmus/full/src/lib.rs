@@ -13,12 +13,13 @@ pub struct FullModelFmu;
 impl Exportable for FullModelFmu {
     type Model = lash_catalog::ExportedFullModel;
 
-    fn info() -> lash_fmi::ModelInfo {
-        lash_catalog::full_info()
+    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<lash_fmi::ModelInfo, String> {
+        use lash_core::Subsystem;
+        Ok(lash_catalog::full_info(&lash_catalog::scenario(resources)?, model.variables()))
     }
 
-    fn create(_resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
-        lash_catalog::full()
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
+        lash_catalog::full(&lash_catalog::scenario(resources)?)
     }
 }
 

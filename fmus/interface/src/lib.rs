@@ -16,12 +16,13 @@ pub struct InterfaceFmu;
 impl Exportable for InterfaceFmu {
     type Model = lash_contact::micro::InterfaceSubsystem;
 
-    fn info() -> lash_fmi::ModelInfo {
-        lash_catalog::interface_info()
+    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<lash_fmi::ModelInfo, String> {
+        use lash_core::Subsystem;
+        Ok(lash_catalog::interface_info(&lash_catalog::scenario(resources)?, model.variables()))
     }
 
-    fn create(_resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
-        lash_catalog::interface()
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
+        lash_catalog::interface(&lash_catalog::scenario(resources)?)
     }
 }
 

@@ -13,7 +13,8 @@ static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 fn token() -> std::ffi::CString {
     use lash_fmi::fmi3::Exportable;
-    std::ffi::CString::new(fmu::InterfaceFmu::info().instantiation_token).unwrap()
+    let model = fmu::InterfaceFmu::create(None).unwrap();
+    std::ffi::CString::new(fmu::InterfaceFmu::info(None, &model).unwrap().instantiation_token).unwrap()
 }
 
 fn instantiate(token: *const c_char) -> *mut c_void {

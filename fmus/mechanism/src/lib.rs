@@ -13,12 +13,13 @@ pub struct MechanismFmu;
 impl Exportable for MechanismFmu {
     type Model = lash_catalog::ExportedMechanism;
 
-    fn info() -> lash_fmi::ModelInfo {
-        lash_catalog::mechanism_info()
+    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<lash_fmi::ModelInfo, String> {
+        use lash_core::Subsystem;
+        Ok(lash_catalog::mechanism_info(&lash_catalog::scenario(resources)?, model.variables()))
     }
 
-    fn create(_resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
-        lash_catalog::mechanism()
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
+        lash_catalog::mechanism(&lash_catalog::scenario(resources)?)
     }
 }
 
