@@ -95,14 +95,19 @@ fn put<const N: usize>(v: &mut SVector<f64, N>, j: usize, x: Vec2) {
 }
 
 /// The effective mass at one instant, ready to solve M̃ x = r: one joint by Cramer's rule (M̃ and
-/// 1/det kept), two joints by nalgebra's closed-form 4 × 4 inverse, more through a Cholesky
-/// factorisation (M̃ is symmetric positive definite). A micro step needs it at three instants
-/// (t, t + h/2, t + h), and t is the previous step's t + h: two factorisations per step.
+/// 1/det kept), more through nalgebra's Cholesky factorisation (M̃ is symmetric positive definite)
+/// and two triangular solves with the reciprocal diagonal kept (measured cheaper than nalgebra's
+/// closed-form 4 × 4 inverse: 2.69× → 2.49× the one-joint micro step). A micro step needs it at
+/// three instants (t, t + h/2, t + h), and t is the previous step's t + h: two factorisations per
+/// step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MassFactor<const N: usize> {
+    /// One joint: M̃ itself; more: the Cholesky factor L (M̃ = L Lᵀ, lower triangle).
     mass: SMatrix<f64, N, N>,
-    inverse: SMatrix<f64, N, N>,
+    /// One joint: 1/det M̃; more: unused.
     reciprocal_determinant: f64,
+    /// More joints: 1/L_ii.
+    reciprocal_diagonal: SVector<f64, N>,
 }
 
 impl<const N: usize> MassFactor<N> {
@@ -113,28 +118,50 @@ impl<const N: usize> MassFactor<N> {
         let m = &mass;
         if N == 2 {
             let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
-            return Self { mass, inverse: SMatrix::zeros(), reciprocal_determinant: 1.0 / det };
+            return Self { mass, reciprocal_determinant: 1.0 / det, reciprocal_diagonal: SVector::zeros() };
         }
-        let inverse = if N == 4 {
-            let four = m.fixed_view::<4, 4>(0, 0).into_owned();
-            four.try_inverse().map(|i| SMatrix::from_fn(|r, c| i[(r, c)]))
-        } else {
-            m.cholesky().map(|c| c.inverse())
-        };
-        Self { mass, inverse: inverse.unwrap_or_else(|| SMatrix::repeat(f64::NAN)), reciprocal_determinant: 0.0 }
+        match mass.cholesky() {
+            Some(c) => {
+                let l = c.unpack();
+                let reciprocal_diagonal = SVector::from_fn(|i, _| 1.0 / l[(i, i)]);
+                Self { mass: l, reciprocal_determinant: 0.0, reciprocal_diagonal }
+            }
+            None => Self {
+                mass: SMatrix::repeat(f64::NAN),
+                reciprocal_determinant: 0.0,
+                reciprocal_diagonal: SVector::repeat(f64::NAN),
+            },
+        }
     }
 
     /// x = M̃⁻¹ r.
     #[inline(always)]
     pub fn solve(&self, r: &SVector<f64, N>) -> SVector<f64, N> {
+        let m = &self.mass;
+        let mut x = SVector::zeros();
         if N == 2 {
-            let (m, inv) = (&self.mass, self.reciprocal_determinant);
-            let mut x = SVector::zeros();
+            let inv = self.reciprocal_determinant;
             x[0] = (m[(1, 1)] * r[0] - m[(0, 1)] * r[1]) * inv;
             x[1] = (m[(0, 0)] * r[1] - m[(1, 0)] * r[0]) * inv;
             return x;
         }
-        self.inverse * r
+        // L y = r, then Lᵀ x = y.
+        let d = &self.reciprocal_diagonal;
+        for i in 0..N {
+            let mut v = r[i];
+            for j in 0..i {
+                v -= m[(i, j)] * x[j];
+            }
+            x[i] = v * d[i];
+        }
+        for i in (0..N).rev() {
+            let mut v = x[i];
+            for j in i + 1..N {
+                v -= m[(j, i)] * x[j];
+            }
+            x[i] = v * d[i];
+        }
+        x
     }
 }
 
@@ -295,7 +322,9 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
             if end.eccentricity == e0 && end.eccentricity_rate == v0 {
                 reused = Some(end.loads);
             }
-            if end.time == t && end.input_time == self.input_time {
+            // The same instant up to rounding (t from integer ticks, the end as t + h): M̃ differs
+            // by Ṁ times a few ulps of t, far below the precision of M̃ itself.
+            if end.input_time == self.input_time {
                 start = Some(end.mass);
             }
         }
