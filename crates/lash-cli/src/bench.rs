@@ -263,7 +263,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     let (two_ms, two) = reduced_of(&c1, ReducedOptions::default())?;
     let (thr_ms, _) =
         reduced(ReducedOptions { execution: lash_orchestrate::Execution::Threaded, ..Default::default() })?;
-    let master = red.reduced.as_ref().map(|r| r.master).unwrap_or_default();
+    let master = red.reduced.as_ref().map(|r| r.master.clone()).unwrap_or_default();
     let mut full_rk4 = a1.clone();
     full_rk4.simulation.integrator = lash_ode::Method::Rk4 { step: 1e-5 };
     let (rk4_ms, _) = time_runner(&mut Run::new(&full_rk4, BuildOptions::default()))?;
@@ -322,7 +322,7 @@ fn scaling(quick: bool) -> Result<(), CliError> {
         let (red_ms, red) = time_runner(
             &mut ReducedRun::new(&s, ReducedOptions::default()).map_err(|e| CliError::Failure(e.to_string()))?,
         )?;
-        let master = red.reduced.as_ref().map(|r| r.master).unwrap_or_default();
+        let master = red.reduced.as_ref().map(|r| r.master.clone()).unwrap_or_default();
         println!(
             "  {cylinders:9}  {:6}   {full_ms:18.2}   {red_ms:12.2}   {:5.1}×   {:31.0}   {:21.1}",
             s.bodies.len(),

@@ -36,6 +36,10 @@
 //! * **Tracing**: a `macro_step` span per macro step and a `micro_interval` span per macro interval
 //!   of micro steps.
 
+pub mod connected;
+
+pub use connected::{Carried, ConnectedMaster, Connection, Element, Ordering, Probe};
+
 use crossbeam_channel::bounded;
 use lash_core::{Causality, Coupling, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use std::collections::VecDeque;
@@ -141,6 +145,20 @@ impl<F: FnMut(Ticks, &[f64]) -> Result<(), String>> Observer for F {
     }
 }
 
+/// A coupling algorithm over its elements: the [`InterfaceMaster`] of the reduced model (two
+/// elements, multirate, interpolated) and the [`ConnectedMaster`] (Gauss–Seidel or Jacobi over
+/// connections). Whoever runs a coupled model — `lash run --model reduced`, system files, sweeps,
+/// `lash bench` — drives it through this trait: signals by name, observers at their intervals,
+/// one statistics record, every [`lash_core::StepOutcome`] honoured by [`advance`].
+pub trait Algorithm {
+    /// Names of the recorded signals, in the order observers receive them.
+    fn signal_names(&self) -> Vec<String>;
+    /// Initialises the elements and runs to the stop time; observers come with their intervals
+    /// and are called at the start time too. An element that ends the run early without an error
+    /// is reported in [`MasterStats::stopped`], not as an error.
+    fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError>;
+}
+
 /// Why a coupled run stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum MasterError {
@@ -166,6 +184,26 @@ pub enum MasterError {
     /// An observer refused a sample.
     #[error("observer: {0}")]
     Observer(String),
+    /// An element of a connected execution failed.
+    #[error("at t = {} s, element {name:?}: {source}", t.seconds())]
+    Element {
+        /// Its name.
+        name: String,
+        /// Communication point of the failing call.
+        t: Ticks,
+        /// What it said.
+        source: SubsystemError,
+    },
+    /// An element of a connected execution refused its initialization.
+    #[error("element {name:?}: initialization refused: {source}")]
+    Initialization {
+        /// Its index.
+        element: usize,
+        /// Its name.
+        name: String,
+        /// What it said.
+        source: SubsystemError,
+    },
     /// A subsystem ended the run without an error (it asked to stop, or returned early). The
     /// master turns this into [`MasterStats::stopped`]; it reaches callers only from
     /// [`advance`].
@@ -207,7 +245,7 @@ fn advance_or_stop(sub: &mut dyn Subsystem, who: &'static str, t: Ticks, h: Tick
 }
 
 /// Counters and time split of a coupled run.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct MasterStats {
     /// Macro steps taken.
     pub macro_steps: u64,
@@ -218,10 +256,10 @@ pub struct MasterStats {
     /// Wall time in micro steps, input interpolation and observers [s].
     pub micro_seconds: f64,
     /// Set when a subsystem ended the run before the stop time without an error: which one
-    /// ("macro" or "micro") and why. Observers have every sample up to the last micro step
-    /// both subsystems completed.
+    /// ("macro" or "micro" for the interface master, the element's name for the connected one)
+    /// and why. Observers have every sample up to the last point all elements completed.
     #[serde(skip)]
-    pub stopped: Option<(&'static str, StopReason)>,
+    pub stopped: Option<(String, StopReason)>,
 }
 
 fn macro_err(source: SubsystemError) -> MasterError {
@@ -761,7 +799,7 @@ impl<'a> InterfaceMaster<'a> {
         // A subsystem that stops the run ends it cleanly: the observers keep what they have.
         let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| match run(frames, stats) {
             Err(MasterError::Stopped { subsystem, reason }) => {
-                stats.stopped = Some((subsystem, reason));
+                stats.stopped = Some((subsystem.to_string(), reason));
                 Ok(())
             }
             other => other,
@@ -801,6 +839,16 @@ impl<'a> InterfaceMaster<'a> {
             }
         }
         Ok(stats)
+    }
+}
+
+impl Algorithm for InterfaceMaster<'_> {
+    fn signal_names(&self) -> Vec<String> {
+        InterfaceMaster::signal_names(self)
+    }
+
+    fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
+        InterfaceMaster::run(self, observers)
     }
 }
 

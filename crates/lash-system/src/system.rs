@@ -2,7 +2,10 @@
 
 use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
 use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueKind, ValueReference, Variable};
-use lash_orchestrate::{InterfaceMaster, MasterError, MasterOptions, Observer, Signal, advance};
+use lash_orchestrate::{
+    Algorithm as _, Carried, ConnectedMaster, Connection, Element, InterfaceMaster, MasterError, MasterOptions,
+    Observer, Ordering, Signal,
+};
 use std::path::Path;
 
 /// Why a system cannot be built or run.
@@ -54,27 +57,8 @@ fn hex_bytes(text: &str) -> Result<Vec<u8>, String> {
         .collect()
 }
 
-struct Element {
-    name: String,
-    model: Box<dyn Subsystem>,
-    decimation: i64,
-    parameters: Vec<(ValueReference, String, Setting)>,
-}
-
-struct Connection {
-    from: (usize, ValueReference),
-    to: (usize, ValueReference),
-    buffer: Vec<f64>,
-    /// What a String or Binary connection carries (None for numbers).
-    carried: Option<Carried>,
-}
-
-/// The value of a connection that does not carry numbers.
-#[derive(Debug, Clone)]
-enum Carried {
-    Text(String),
-    Bytes(Vec<u8>),
-}
+/// The values the system file gives an element's parameters: (value reference, name, value).
+type Parameters = Vec<(ValueReference, String, Setting)>;
 
 /// A run that a subsystem ended before the stop time, without an error.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -110,6 +94,7 @@ pub struct RunSummary {
 pub struct System {
     name: String,
     elements: Vec<Element>,
+    parameters: Vec<Parameters>,
     connections: Vec<Connection>,
     start: Ticks,
     stop: Ticks,
@@ -209,6 +194,7 @@ impl System {
             return Err(bad(format!("output.interval: must be > 0, got {} s", interval.seconds())));
         }
         let mut elements: Vec<Element> = Vec::new();
+        let mut element_parameters: Vec<Parameters> = Vec::new();
         for (k, e) in spec.elements.iter().enumerate() {
             let field = format!("elements[{k}]");
             if e.name.is_empty() || e.name.contains('.') {
@@ -324,7 +310,8 @@ impl System {
                 };
                 parameters.push((v.value_reference, pname.clone(), setting));
             }
-            elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation), parameters });
+            elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation) });
+            element_parameters.push(parameters);
         }
         let lookup = |field: &str,
                       name: &str,
@@ -356,6 +343,7 @@ impl System {
             return Ok(Self {
                 name: spec.name.clone(),
                 elements,
+                parameters: element_parameters,
                 connections: Vec::new(),
                 start,
                 stop,
@@ -389,10 +377,10 @@ impl System {
             }
             // Numbers connect across numeric kinds (the value passes as f64 and must fit the
             // input's kind when set); Strings connect to Strings; Binary and Clock not at all.
-            let carried = match (from.3, to.3) {
-                (a, b) if a.is_numeric() && b.is_numeric() => None,
-                (ValueKind::String, ValueKind::String) if from.2 == 1 => Some(Carried::Text(String::new())),
-                (ValueKind::Binary, ValueKind::Binary) if from.2 == 1 => Some(Carried::Bytes(Vec::new())),
+            let value = match (from.3, to.3) {
+                (a, b) if a.is_numeric() && b.is_numeric() => Carried::Numbers(vec![0.0; from.2]),
+                (ValueKind::String, ValueKind::String) if from.2 == 1 => Carried::Text(String::new()),
+                (ValueKind::Binary, ValueKind::Binary) if from.2 == 1 => Carried::Bytes(Vec::new()),
                 (a, b) => {
                     return Err(bad(format!(
                         "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers, String scalars to String scalars and Binary scalars to Binary scalars",
@@ -406,12 +394,7 @@ impl System {
             if connections.iter().any(|x: &Connection| x.to == (to.0, to.1)) {
                 return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
             }
-            connections.push(Connection {
-                from: (from.0, from.1),
-                to: (to.0, to.1),
-                buffer: vec![0.0; from.2],
-                carried,
-            });
+            connections.push(Connection { from: (from.0, from.1), to: (to.0, to.1), value });
         }
         let mut channels = Vec::new();
         let mut header = vec!["time [s]".to_string()];
@@ -459,6 +442,7 @@ impl System {
         Ok(Self {
             name: spec.name.clone(),
             elements,
+            parameters: element_parameters,
             connections,
             start,
             stop,
@@ -489,7 +473,7 @@ impl System {
     /// it parameter values (they are the likely cause, and the message lists them), a failure
     /// otherwise.
     fn refused_initialization(&self, k: usize, t: Ticks, e: SubsystemError) -> SystemError {
-        let given: Vec<&str> = self.elements[k].parameters.iter().map(|(_, n, _)| n.as_str()).collect();
+        let given: Vec<&str> = self.parameters[k].iter().map(|(_, n, _)| n.as_str()).collect();
         if given.is_empty() && !matches!(e, SubsystemError::BadValue { .. }) {
             return self.fail(k, t, e);
         }
@@ -506,8 +490,8 @@ impl System {
             if let Err(e) = self.elements[k].model.setup(start, Some(stop)) {
                 return Err(self.fail(k, start, e));
             }
-            for p in 0..self.elements[k].parameters.len() {
-                let (vr, name, setting) = self.elements[k].parameters[p].clone();
+            for p in 0..self.parameters[k].len() {
+                let (vr, name, setting) = self.parameters[k][p].clone();
                 let result = match &setting {
                     Setting::Numbers(values) => self.elements[k].model.set_f64(&[vr], values),
                     Setting::Text(text) => self.elements[k].model.set_string(vr, text),
@@ -530,147 +514,81 @@ impl System {
         Ok(())
     }
 
-    /// Reads every connection's source into its buffer.
-    fn gather(&mut self, only_to: Option<usize>, t: Ticks) -> Result<(), SystemError> {
-        for c in 0..self.connections.len() {
-            let (from, to) = (self.connections[c].from, self.connections[c].to);
-            if only_to.is_some_and(|k| k != to.0) {
-                continue;
-            }
-            let Connection { buffer, carried, .. } = &mut self.connections[c];
-            let source = &self.elements[from.0].model;
-            let result = match carried {
-                Some(Carried::Text(text)) => source.get_string(from.1).map(|s| *text = s),
-                Some(Carried::Bytes(bytes)) => source.get_binary(from.1).map(|b| *bytes = b),
-                None => source.get_f64(&[from.1], buffer),
-            };
-            if let Err(e) = result {
-                return Err(self.fail(from.0, t, e));
-            }
-        }
-        Ok(())
-    }
-
-    /// Writes the buffered values into the inputs of element `k`.
-    fn scatter(&mut self, k: usize, t: Ticks) -> Result<(), SystemError> {
-        for c in 0..self.connections.len() {
-            let to = self.connections[c].to;
-            if to.0 != k {
-                continue;
-            }
-            let Connection { buffer, carried, .. } = &self.connections[c];
-            let target = &mut self.elements[k].model;
-            let result = match carried {
-                Some(Carried::Text(text)) => target.set_string(to.1, text),
-                Some(Carried::Bytes(bytes)) => target.set_binary(to.1, bytes),
-                None => target.set_f64(&[to.1], buffer),
-            };
-            if let Err(e) = result {
-                return Err(self.fail(k, t, e));
-            }
-        }
-        Ok(())
-    }
-
-    fn record(
-        &self,
-        t: Ticks,
-        row: &mut Vec<f64>,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
-    ) -> Result<(), SystemError> {
-        row.clear();
-        row.push(t.seconds());
-        for &(k, vr, len) in &self.channels {
-            let at = row.len();
-            row.resize(at + len, 0.0);
-            if let Err(e) = self.elements[k].model.get_f64(&[vr], &mut row[at..]) {
-                return Err(self.fail(k, t, e));
-            }
-        }
-        sink(row).map_err(SystemError::Output)
-    }
-
-    /// Sets up, parameterises and initialises every element (in order, each after its inputs'
-    /// sources), then steps to the stop time; `sink` receives each recorded row (time first).
+    /// Sets up and parameterises every element, then hands the run to the coupling algorithm
+    /// (Gauss–Seidel, Jacobi or the interface master) of lash-orchestrate; `sink` receives each
+    /// recorded row (time first).
     pub fn run(&mut self, sink: &mut dyn FnMut(&[f64]) -> Result<(), String>) -> Result<RunSummary, SystemError> {
         let wall = std::time::Instant::now();
-        let (start, stop, step) = (self.start, self.stop, self.step);
         if self.interface.is_some() {
             return self.run_interface(sink, wall);
         }
         self.set_up()?;
-        for k in 0..self.elements.len() {
-            self.gather(Some(k), start)?;
-            self.scatter(k, start)?;
-            if let Err(e) = self.elements[k].model.initialize() {
-                return Err(self.refused_initialization(k, start, e));
+        let (start, stop, step) = (self.start, self.stop, self.step);
+        let ordering = match self.algorithm {
+            Algorithm::Jacobi => Ordering::Jacobi,
+            _ => Ordering::GaussSeidel,
+        };
+        let names = self.header[1..].to_vec();
+        let mut rows = Rows { sink, row: Vec::new(), samples: 0, last: start };
+        let result = {
+            let mut master = ConnectedMaster::new(
+                &mut self.elements,
+                &mut self.connections,
+                self.channels.clone(),
+                names,
+                start,
+                stop,
+                step,
+                ordering,
+            )
+            .map_err(|e| SystemError::Input(e.to_string()))?;
+            let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut rows, Ticks(step.0 * self.output_every))];
+            master.run(&mut observers)
+        };
+        let stats = match result {
+            Ok(stats) => stats,
+            Err(MasterError::Initialization { element, source, .. }) => {
+                return Err(self.refused_initialization(element, start, source));
             }
-        }
-        let mut row = Vec::new();
-        self.record(start, &mut row, sink)?;
-        let mut samples = 1;
-        let mut last_row = start;
-        let mut stopped: Option<(usize, StopReason)> = None;
-        let n = (stop.0 - start.0) / step.0;
-        let mut steps = 0;
-        'steps: for i in 0..n {
-            let t = Ticks(start.0 + i * step.0);
-            if self.algorithm == Algorithm::Jacobi {
-                self.gather(None, t)?;
+            Err(MasterError::Element { name, t, source }) => {
+                return Err(SystemError::Simulation {
+                    t: Some(t.seconds()),
+                    element: name,
+                    message: source.to_string(),
+                });
             }
-            for k in 0..self.elements.len() {
-                let d = self.elements[k].decimation;
-                if i % d != 0 {
-                    continue;
-                }
-                if self.algorithm == Algorithm::GaussSeidel {
-                    self.gather(Some(k), t)?;
-                }
-                self.scatter(k, t)?;
-                let h = Ticks(step.0 * d.min(n - i));
-                match advance(&mut *self.elements[k].model, "element", t, h) {
-                    Ok(None) => {}
-                    // A stop requested at the end of a whole step lets the others finish this
-                    // communication step, whose row is recorded (as fmpy does); a decimated
-                    // element's step ends beyond this point, so the run ends here.
-                    Ok(Some(reason)) => {
-                        stopped.get_or_insert((k, reason));
-                        if d > 1 {
-                            break 'steps;
-                        }
-                    }
-                    Err(MasterError::Stopped { reason, .. }) => {
-                        stopped.get_or_insert((k, reason));
-                        break 'steps;
-                    }
-                    Err(MasterError::Subsystem { source, .. }) => return Err(self.fail(k, t, source)),
-                    Err(other) => return Err(self.fail(k, t, SubsystemError::Other(other.to_string()))),
-                }
+            Err(MasterError::Observer(m)) => return Err(SystemError::Output(m)),
+            Err(other) => {
+                return Err(SystemError::Simulation { t: None, element: "master".into(), message: other.to_string() });
             }
-            steps += 1;
-            let end = Ticks(t.0 + step.0);
-            if (i + 1) % self.output_every == 0 || stopped.is_some() {
-                self.record(end, &mut row, sink)?;
-                samples += 1;
-                last_row = end;
-            }
-            if stopped.is_some() {
-                break;
-            }
-        }
-        for k in 0..self.elements.len() {
-            if let Err(e) = self.elements[k].model.terminate() {
-                return Err(self.fail(k, Ticks(start.0 + steps * step.0), e));
-            }
-        }
-        let stopped = stopped.map(|(k, reason)| stop_of(self.elements[k].name.clone(), reason, last_row));
+        };
+        let stopped = stats.stopped.map(|(element, reason)| stop_of(element, reason, rows.last));
         Ok(RunSummary {
             system: self.name.clone(),
-            steps: steps as u64,
-            samples,
+            steps: stats.macro_steps,
+            samples: rows.samples,
             wall_time_s: wall.elapsed().as_secs_f64(),
             stopped,
         })
+    }
+}
+
+/// The system's one observer: rows (time first) into the sink.
+struct Rows<'s> {
+    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+    row: Vec<f64>,
+    samples: u64,
+    last: Ticks,
+}
+
+impl Observer for Rows<'_> {
+    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
+        self.last = t;
+        self.row.clear();
+        self.row.push(t.seconds());
+        self.row.extend_from_slice(signals);
+        self.samples += 1;
+        (self.sink)(&self.row)
     }
 }
 
@@ -708,22 +626,6 @@ impl System {
             if m < c { (&mut first[m], &mut second[0]) } else { (&mut second[0], &mut first[c]) };
         let mut master = InterfaceMaster::new(&mut *macro_el.model, &mut *micro_el.model, options, signals)
             .map_err(|e| SystemError::Input(format!("interface: {e}")))?;
-        struct Rows<'s> {
-            sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
-            row: Vec<f64>,
-            samples: u64,
-            last: Ticks,
-        }
-        impl Observer for Rows<'_> {
-            fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
-                self.last = t;
-                self.row.clear();
-                self.row.push(t.seconds());
-                self.row.extend_from_slice(signals);
-                self.samples += 1;
-                (self.sink)(&self.row)
-            }
-        }
         let mut rows = Rows { sink, row: Vec::new(), samples: 0, last: start };
         let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut rows, interval)];
         let element = |who: &str| if who == "macro" { names[0].clone() } else { names[1].clone() };
@@ -743,7 +645,7 @@ impl System {
         })?;
         let (samples, last_row) = (rows.samples, rows.last);
         let steps = stats.macro_steps.min(((stop.0 - start.0) / self.step.0) as u64);
-        let stopped = stats.stopped.map(|(who, reason)| stop_of(element(who), reason, last_row));
+        let stopped = stats.stopped.map(|(who, reason)| stop_of(element(&who), reason, last_row));
         Ok(RunSummary { system: self.name.clone(), steps, samples, wall_time_s: wall.elapsed().as_secs_f64(), stopped })
     }
 }
