@@ -7,7 +7,7 @@ use common::{column, rows};
 use lash_contact::FrictionLaw;
 use lash_core::Coupling;
 use lash_orchestrate::{Execution, Interpolation};
-use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, builtin};
+use lash_scenario::{BuildOptions, FullRun, ReducedOptions, ReducedRun, builtin};
 
 #[test]
 fn threaded_pipeline_is_bit_identical_to_sequential() {
@@ -61,8 +61,8 @@ fn two_way_coupling_changes_a_torque_driven_crank_like_the_full_model() {
         if !friction {
             s.clearances[0].friction = FrictionLaw::None;
         }
-        let (_, hi, ideal) = rows(&mut Run::new(&s, BuildOptions { ideal: true }));
-        let (_, hf, full) = rows(&mut Run::new(&s, BuildOptions::default()));
+        let (_, hi, ideal) = rows(&mut FullRun::new(&s, BuildOptions { ideal: true }));
+        let (_, hf, full) = rows(&mut FullRun::new(&s, BuildOptions::default()));
         let reduced = |coupling| {
             let (summary, h, r) =
                 rows(&mut ReducedRun::new(&s, ReducedOptions { coupling, ..Default::default() }).unwrap());

@@ -2,10 +2,10 @@
 //! the ideal mechanism against closed form, and the clearance → 0 limit.
 
 use lash_contact::Impact;
-use lash_ode::{Dopri5Options, Method};
+use lash_ode::{AdaptiveOptions, Method};
 mod common;
 use common::{column, rows};
-use lash_scenario::{BuildOptions, Run, Summary, builtin};
+use lash_scenario::{BuildOptions, FullRun, Summary, builtin};
 
 const L1: f64 = builtin::CRANK_LENGTH;
 const L2: f64 = builtin::ROD_LENGTH;
@@ -13,11 +13,11 @@ const OMEGA: f64 = builtin::CRANK_SPEED;
 
 /// Runs a scenario, keeping every row.
 fn run(s: &lash_scenario::Scenario, ideal: bool) -> (Summary, Vec<String>, Vec<Vec<f64>>) {
-    rows(&mut Run::new(s, BuildOptions { ideal }))
+    rows(&mut FullRun::new(s, BuildOptions { ideal }))
 }
 
-fn tight(rtol: f64) -> Dopri5Options {
-    Dopri5Options { rtol, atol: rtol * 1e-3, initial_step: 1e-7, max_step: 1e-4, min_step: 1e-12 }
+fn tight(rtol: f64) -> AdaptiveOptions {
+    AdaptiveOptions { rtol, atol: rtol * 1e-3, initial_step: 1e-7, max_step: 1e-4, min_step: 1e-12 }
 }
 
 fn first_impacts(method: Method, horizon: f64) -> Vec<Impact> {

@@ -4,13 +4,13 @@
 use lash_orchestrate::Interpolation;
 mod common;
 use common::{column, rows};
-use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, builtin};
+use lash_scenario::{BuildOptions, FullRun, ReducedOptions, ReducedRun, builtin};
 
 #[test]
 fn small_clearance_reduced_matches_full_within_three_percent() {
     // c = 0.02 mm: continuous contact after the first turn's transient. Compared over turns 2–3.
     let s = builtin::by_name("B-0.02mm").unwrap();
-    let (_, hf, full) = rows(&mut Run::new(&s, BuildOptions::default()));
+    let (_, hf, full) = rows(&mut FullRun::new(&s, BuildOptions::default()));
     let (summary, hr, red) = rows(&mut ReducedRun::new(&s, ReducedOptions::default()).unwrap());
     assert_eq!(summary.model, "reduced");
     assert_eq!(full.len(), red.len());
@@ -67,7 +67,7 @@ fn two_clearance_joints_reduced_against_full() {
     // mechanism (4 × 4 effective mass). Chaotic impact response: compared by peaks and impact
     // counts over the whole run, not pointwise.
     let s = builtin::by_name("C").unwrap();
-    let (full_summary, hf, full) = rows(&mut Run::new(&s, BuildOptions::default()));
+    let (full_summary, hf, full) = rows(&mut FullRun::new(&s, BuildOptions::default()));
     let (summary, hr, red) = rows(&mut ReducedRun::new(&s, ReducedOptions::default()).unwrap());
     assert_eq!(summary.clearances.len(), 2);
     for name in ["slider.ax", "crank_pivot.force", "rod_slider.force"] {
@@ -83,7 +83,7 @@ fn two_clearance_joints_reduced_against_full() {
     // printed, not bounded: the reduced model puts 2–7× the full model's power there on C (half
     // of it on A), which refining h_r and h_m shrinks but does not remove (docs/validation.md §6).
     let channels: Vec<String> = ["slider.ax", "crank_pivot.force", "rod_slider.force"].map(String::from).to_vec();
-    let compared = lash_scenario::compare::compare_series(&hf, &full, &hr, &red, &channels, 0.01).unwrap();
+    let compared = lash_metrics::compare_series(&hf, &full, &hr, &red, &channels, 0.01).unwrap();
     for (name, c) in &compared {
         let total: f64 = c.band_powers_full.iter().sum();
         let ratios: Vec<String> =

@@ -10,7 +10,7 @@
 
 use crate::CliError;
 use lash_ode::OdeSystem;
-use lash_scenario::{BuildOptions, Run, bench::Rk4Stepper, builtin};
+use lash_scenario::{BuildOptions, FullRun, bench::Rk4Stepper, builtin};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -87,7 +87,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
         let mut s = s.clone();
         s.simulation.integrator = method;
         for _ in 0..reps {
-            let mut r = Run::new(&s, BuildOptions { ideal });
+            let mut r = FullRun::new(&s, BuildOptions { ideal });
             let t = Instant::now();
             let summary = r.execute(&mut |row| Ok(black_box(row).len()).map(|_| ()), &mut |_| {});
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -118,7 +118,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
                         .map_err(|e| CliError::Failure(e.to_string()))?,
                 )
             } else {
-                Box::new(Run::new(&a, BuildOptions::default()))
+                Box::new(FullRun::new(&a, BuildOptions::default()))
             };
             let t = Instant::now();
             r.execute(&mut |row| Ok(black_box(row).len()).map(|_| ()), &mut |_| {})
@@ -266,8 +266,8 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     let master = red.reduced.as_ref().map(|r| r.master.clone()).unwrap_or_default();
     let mut full_rk4 = a1.clone();
     full_rk4.simulation.integrator = lash_ode::Method::Rk4 { step: 1e-5 };
-    let (rk4_ms, _) = time_runner(&mut Run::new(&full_rk4, BuildOptions::default()))?;
-    let (conv_ms, conv) = time_runner(&mut Run::new(&a1, BuildOptions::default()))?;
+    let (rk4_ms, _) = time_runner(&mut FullRun::new(&full_rk4, BuildOptions::default()))?;
+    let (conv_ms, conv) = time_runner(&mut FullRun::new(&a1, BuildOptions::default()))?;
 
     println!("reduced interface model, scenario A, {horizon} s of mechanism time, slider.ax recorded every 1e-5 s");
     println!("  micro step alone (RK4, LN + Ambrósio, 4 law evaluations)  {micro_ns:8.1} ns   (target ≤ 100 ns)");
@@ -318,7 +318,7 @@ fn scaling(quick: bool) -> Result<(), CliError> {
         s.output.channels = vec!["slider0.ax".into()];
         let mut rk4 = s.clone();
         rk4.simulation.integrator = lash_ode::Method::Rk4 { step: 1e-5 };
-        let (full_ms, _) = time_runner(&mut Run::new(&rk4, BuildOptions::default()))?;
+        let (full_ms, _) = time_runner(&mut FullRun::new(&rk4, BuildOptions::default()))?;
         let (red_ms, red) = time_runner(
             &mut ReducedRun::new(&s, ReducedOptions::default()).map_err(|e| CliError::Failure(e.to_string()))?,
         )?;

@@ -1,7 +1,8 @@
 //! `lash compare`: the converged full model and the reduced model of one scenario, side by side.
 
 use crate::CliError;
-use lash_scenario::{BuildOptions, ReducedOptions, ReducedRun, Run, Scenario, compare};
+use lash_metrics as compare;
+use lash_scenario::{BuildOptions, FullRun, ReducedOptions, ReducedRun, Scenario};
 use std::path::Path;
 
 /// Pointwise errors are also reported over this first window, through the first impacts [s].
@@ -38,7 +39,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
         std::fs::remove_file(&comparison_path)
             .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
     }
-    let full_timing = crate::run::run(s, &mut Run::new(s, BuildOptions::default()), &full_dir, quiet)?;
+    let full_timing = crate::run::run(s, &mut FullRun::new(s, BuildOptions::default()), &full_dir, quiet)?;
     let reduced_timing = crate::run::run(s, &mut reduced, &reduced_dir, quiet)?;
     // The full model at the reduced model's micro step with RK4 (the reduced-interface-model papers' setting): the speed-up
     // at equal step. It is not converged (impacts last about five such steps), so its results
@@ -47,7 +48,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
     let mut fixed = s.clone();
     fixed.simulation.integrator = lash_ode::Method::Rk4 { step: options.micro_step };
     let fixed_timing = if lash_scenario::validate(&fixed).is_empty() {
-        crate::run::run(&fixed, &mut Run::new(&fixed, BuildOptions::default()), &fixed_dir, true)
+        crate::run::run(&fixed, &mut FullRun::new(&fixed, BuildOptions::default()), &fixed_dir, true)
             .map_err(|e| e.to_string())
     } else {
         Err(format!("{}", lash_scenario::validate(&fixed)))
@@ -55,7 +56,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
 
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
     let ideal_dir = out.join("ideal");
-    let ideal_ok = crate::run::run(s, &mut Run::new(s, BuildOptions { ideal: true }), &ideal_dir, true).is_ok();
+    let ideal_ok = crate::run::run(s, &mut FullRun::new(s, BuildOptions { ideal: true }), &ideal_dir, true).is_ok();
     let ideal_rows = if ideal_ok { Some(read_csv(&ideal_dir.join("timeseries.csv"))?) } else { None };
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;

@@ -372,7 +372,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             let s = load_with_horizon(&scenario, horizon)?;
             match model {
                 ModelKind::Full => {
-                    let mut r = lash_scenario::Run::new(&s, lash_scenario::BuildOptions { ideal });
+                    let mut r = lash_scenario::FullRun::new(&s, lash_scenario::BuildOptions { ideal });
                     run::run(&s, &mut r, &out, quiet).map(|_| ())
                 }
                 ModelKind::Reduced => {

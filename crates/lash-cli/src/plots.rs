@@ -5,7 +5,7 @@
 //! separates the models is visible. Tick labels are in engineering notation (`-100k`, `2.5m`).
 
 use crate::CliError;
-use lash_scenario::compare::amplitude_spectrum;
+use lash_metrics::amplitude_spectrum;
 use plotters::prelude::*;
 use std::path::Path;
 

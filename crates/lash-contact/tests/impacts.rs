@@ -5,7 +5,7 @@
 use lash_contact::law::HysteresisParams;
 use lash_contact::{ClearanceJoint, ContactLaw, FrictionLaw, FullModel, Material};
 use lash_mech::{Baumgarte, Body, BodyId, Mechanism, Vec2};
-use lash_ode::{Dopri5Options, Method, integrate};
+use lash_ode::{AdaptiveOptions, Method, integrate};
 
 const MASS: f64 = 0.5;
 const R_B: f64 = 0.010;
@@ -53,7 +53,7 @@ fn start(model: &mut FullModel, v: Vec2) -> Vec<f64> {
 }
 
 fn tight() -> Method {
-    Method::Dopri5(Dopri5Options { rtol: 1e-11, atol: 1e-14, initial_step: 1e-7, max_step: 1e-4, min_step: 1e-12 })
+    Method::Dopri5(AdaptiveOptions { rtol: 1e-11, atol: 1e-14, initial_step: 1e-7, max_step: 1e-4, min_step: 1e-12 })
 }
 
 /// Realised restitution −v_out/v_in of one impact through the library.

@@ -26,7 +26,7 @@ use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{Coupling, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
-use lash_ode::{Dopri5Options, Method, OdeSystem};
+use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 
 /// A quantity of the mechanism exported with its propagation map.
 #[derive(Debug, Clone, PartialEq)]
@@ -206,7 +206,7 @@ pub struct MechanismSubsystem {
     probes: Vec<Probe>,
     coupling: Coupling,
     kinematic: bool,
-    integrator: Dopri5Options,
+    integrator: AdaptiveOptions,
     q: Vec<f64>,
     qd: Vec<f64>,
     qdd: Vec<f64>,
@@ -338,7 +338,13 @@ impl MechanismSubsystem {
             probes,
             coupling,
             kinematic,
-            integrator: Dopri5Options { rtol: 1e-10, atol: 1e-12, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 },
+            integrator: AdaptiveOptions {
+                rtol: 1e-10,
+                atol: 1e-12,
+                initial_step: 1e-5,
+                max_step: 1e-3,
+                min_step: 1e-12,
+            },
             q: vec![0.0; coordinates],
             qd: vec![0.0; coordinates],
             qdd: vec![0.0; coordinates],
@@ -637,7 +643,7 @@ impl Subsystem for MechanismSubsystem {
             let mut ode = MechanismOde { mech: &self.ideal, solver: &mut self.ideal_solver, prescribed, error: None };
             let mut y: Vec<f64> = self.q.iter().chain(&self.qd).copied().collect();
             let method =
-                Method::Dopri5(Dopri5Options { max_step: self.integrator.max_step.min(t1 - t0), ..self.integrator });
+                Method::Dopri5(AdaptiveOptions { max_step: self.integrator.max_step.min(t1 - t0), ..self.integrator });
             match lash_ode::integrate(
                 &method,
                 &mut ode,

@@ -140,7 +140,7 @@ fn bead_on_spinning_rod_follows_cosh() {
     let t_end = 1.0;
     for method in [
         lash_ode::Method::Rk4 { step: 1e-3 },
-        lash_ode::Method::Dopri5(lash_ode::Dopri5Options { rtol: 1e-11, atol: 1e-13, ..Default::default() }),
+        lash_ode::Method::Dopri5(lash_ode::AdaptiveOptions { rtol: 1e-11, atol: 1e-13, ..Default::default() }),
     ] {
         let mut y: Vec<f64> = q.iter().chain(qd.iter()).copied().collect();
         let mut sys = Sys { m: &m, s: Solver::new(&m) };

@@ -4,7 +4,7 @@
 //! A pair supplies its stages, its error norm and its continuous extension through [`Pair`]; the
 //! loop is written once. Nothing is allocated inside it.
 
-use crate::{Dense, Observer, OdeError, OdeSystem, Stats, check_finite, dopri5::Dopri5Options, output_count};
+use crate::{Dense, Observer, OdeError, OdeSystem, Stats, check_finite, dopri5::AdaptiveOptions, output_count};
 
 /// Step-size control constants of a pair (Hairer's DOPRI5 / DOP853 conventions).
 pub(crate) struct Control {
@@ -72,7 +72,7 @@ impl<P: Pair> Work<P> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     system: &mut S,
-    opt: &Dopri5Options,
+    opt: &AdaptiveOptions,
     t0: f64,
     y: &mut [f64],
     t_end: f64,

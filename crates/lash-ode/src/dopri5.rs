@@ -10,7 +10,7 @@ use crate::adaptive::{Control, Pair};
 /// Options of the adaptive integrators (Dormand–Prince 5(4) and 8(5,3)).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Dopri5Options {
+pub struct AdaptiveOptions {
     /// Relative tolerance (per component, scaled by the larger of |y| at both step ends).
     pub rtol: f64,
     /// Absolute tolerance [state units: m, rad, m/s, rad/s].
@@ -37,7 +37,7 @@ fn default_min_step() -> f64 {
     1e-12
 }
 
-impl Default for Dopri5Options {
+impl Default for AdaptiveOptions {
     fn default() -> Self {
         Self {
             rtol: 1e-9,

@@ -54,9 +54,7 @@ impl Dense<'_> {
     }
 }
 
-pub use dopri5::Dopri5Options;
-/// Options of the adaptive integrators (the same fields for DOPRI5 and DOP853).
-pub type AdaptiveOptions = Dopri5Options;
+pub use dopri5::AdaptiveOptions;
 
 /// A first-order system y' = f(t, y) with optional discrete modes and events.
 pub trait OdeSystem {
@@ -118,10 +116,10 @@ pub enum Method {
         step: f64,
     },
     /// Error-controlled Dormand–Prince 5(4) with event location.
-    Dopri5(Dopri5Options),
+    Dopri5(AdaptiveOptions),
     /// Error-controlled Dormand–Prince 8(5,3) (Hairer's DOP853) with its 7th-order continuous
     /// extension and the same event location: fewer steps than DOPRI5 at tight tolerances.
-    Dop853(Dopri5Options),
+    Dop853(AdaptiveOptions),
 }
 
 /// Counters of one integration.

@@ -36,7 +36,7 @@ fn rk4_is_fourth_order() {
 #[test]
 fn dopri5_meets_tolerance_on_oscillator() {
     for rtol in [1e-6, 1e-9, 1e-11] {
-        let opts = Dopri5Options { rtol, atol: rtol * 1e-2, ..Default::default() };
+        let opts = AdaptiveOptions { rtol, atol: rtol * 1e-2, ..Default::default() };
         let e = final_error(Method::Dopri5(opts), 10.0);
         assert!(e < 100.0 * rtol, "rtol {rtol}: error {e}");
     }
@@ -45,7 +45,7 @@ fn dopri5_meets_tolerance_on_oscillator() {
 #[test]
 fn dop853_meets_tolerance_with_fewer_evaluations_than_dopri5() {
     for rtol in [1e-6, 1e-9, 1e-11] {
-        let opts = Dopri5Options { rtol, atol: rtol * 1e-2, max_step: 10.0, ..Default::default() };
+        let opts = AdaptiveOptions { rtol, atol: rtol * 1e-2, max_step: 10.0, ..Default::default() };
         let e = final_error(Method::Dop853(opts), 10.0);
         assert!(e < 100.0 * rtol, "rtol {rtol}: error {e}");
     }
@@ -64,7 +64,7 @@ fn dop853_meets_tolerance_with_fewer_evaluations_than_dopri5() {
         .unwrap()
         .rhs_evaluations
     };
-    let opts = Dopri5Options { rtol: 1e-11, atol: 1e-13, max_step: 10.0, ..Default::default() };
+    let opts = AdaptiveOptions { rtol: 1e-11, atol: 1e-13, max_step: 10.0, ..Default::default() };
     let (n5, n8) = (count(Method::Dopri5(opts)), count(Method::Dop853(opts)));
     assert!(2 * n8 < n5, "DOP853 {n8} evaluations vs DOPRI5 {n5}");
 }
@@ -74,7 +74,7 @@ fn dop853_dense_output_is_seventh_order() {
     // One step of size h over the oscillator, dense output at θ = 0.37 vs the exact solution:
     // the error must scale like h^8 (local error of a 7th-order continuous extension).
     let err = |h: f64| {
-        let opts = Dopri5Options { rtol: 1.0, atol: 1.0, initial_step: h, max_step: h, min_step: 1e-12 };
+        let opts = AdaptiveOptions { rtol: 1.0, atol: 1.0, initial_step: h, max_step: h, min_step: 1e-12 };
         let mut y = [1.0, 0.0];
         let mut sample = f64::NAN;
         integrate(
@@ -143,7 +143,7 @@ impl OdeSystem for Ball {
 #[test]
 fn adaptive_methods_locate_events_to_high_accuracy() {
     for method in [Method::Dopri5, Method::Dop853] {
-        let opts = Dopri5Options { rtol: 1e-10, atol: 1e-12, max_step: 0.1, ..Default::default() };
+        let opts = AdaptiveOptions { rtol: 1e-10, atol: 1e-12, max_step: 0.1, ..Default::default() };
         let mut ball = Ball { bounces: vec![], below: false };
         let mut y = [1.0, 0.0];
         integrate(&method(opts), &mut ball, 0.0, &mut y, 0.6, 0.1, &mut |_: &mut Ball, _: f64, _: &[f64]| Ok(()))
@@ -192,7 +192,7 @@ impl OdeSystem for Wall {
 #[test]
 fn adaptive_methods_never_step_over_a_contact() {
     for method in [Method::Dopri5, Method::Dop853] {
-        let opts = Dopri5Options { rtol: 1e-10, atol: 1e-12, max_step: 0.7, initial_step: 0.7, ..Default::default() };
+        let opts = AdaptiveOptions { rtol: 1e-10, atol: 1e-12, max_step: 0.7, initial_step: 0.7, ..Default::default() };
         let mut w = Wall { inside: false, violation: false, switches: vec![] };
         let mut y = [0.0, 1.0];
         integrate(&method(opts), &mut w, 0.0, &mut y, 2.0, 0.5, &mut |_: &mut Wall, _: f64, _: &[f64]| Ok(())).unwrap();

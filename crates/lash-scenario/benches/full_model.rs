@@ -4,7 +4,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lash_ode::OdeSystem;
-use lash_scenario::{BuildOptions, Run, builtin};
+use lash_scenario::{BuildOptions, FullRun, builtin};
 use std::hint::black_box;
 
 fn benches(c: &mut Criterion) {
@@ -26,7 +26,7 @@ fn benches(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("converged_adaptive_run_0.036s", |b| {
         b.iter(|| {
-            let mut run = Run::new(&s, BuildOptions::default());
+            let mut run = FullRun::new(&s, BuildOptions::default());
             black_box(run.execute(&mut |_row| Ok(()), &mut |_| {}).unwrap())
         })
     });

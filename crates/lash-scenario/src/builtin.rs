@@ -14,7 +14,7 @@
 use crate::schema::*;
 use lash_contact::{ContactLaw, FrictionLaw, Material, law::HysteresisParams};
 use lash_mech::{Baumgarte, Motion};
-use lash_ode::{Dopri5Options, Method};
+use lash_ode::{AdaptiveOptions, Method};
 use std::collections::BTreeMap;
 
 /// Crank length L1 [m].
@@ -54,7 +54,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
 /// DOP853 at rtol 1e-9 — at the same tolerance about 8× closer to the tight reference than
 /// DOPRI5 over B's first 10 ms, and faster (docs/performance.md).
 pub fn converged_integrator() -> Method {
-    Method::Dop853(Dopri5Options { rtol: 1e-9, atol: 1e-12, initial_step: 1e-6, max_step: 1e-4, min_step: 1e-12 })
+    Method::Dop853(AdaptiveOptions { rtol: 1e-9, atol: 1e-12, initial_step: 1e-6, max_step: 1e-4, min_step: 1e-12 })
 }
 
 fn slider_crank(name: &str, description: &str) -> Scenario {

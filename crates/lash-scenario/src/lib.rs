@@ -4,14 +4,13 @@
 //! * [`parse`]: reads a file and returns either a valid [`Scenario`] or every problem, each with
 //!   its field path (`bodies[1].mass: must be > 0, got -1`).
 //! * [`builtin`]: scenarios A and B (and variants) by name.
-//! * [`Run`]: builds the full (or ideal) model, integrates it, samples every output channel and
+//! * [`FullRun`]: builds the full (or ideal) model, integrates it, samples every output channel and
 //!   returns a [`Summary`].
 
 pub mod bench;
 pub mod build;
 pub mod builtin;
 pub mod channels;
-pub mod compare;
 pub mod full_subsystem;
 mod load;
 pub mod parameters;
@@ -27,5 +26,5 @@ pub use full_subsystem::FullSubsystem;
 pub use load::{parse, validate};
 pub use parameters::WithParameters;
 pub use reduced::{ReducedOptions, ReducedRun};
-pub use run::{ChannelStats, ClearanceSummary, Run, RunError, Runner, Summary};
+pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Summary};
 pub use schema::Scenario;

@@ -21,7 +21,7 @@ use crate::schema::Scenario;
 use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_core::{Coupling, Subsystem, Ticks};
 use lash_mech::{ClearanceInterface, Interface, MechanismSubsystem, Probe, Vec2};
-use lash_ode::Dopri5Options;
+use lash_ode::AdaptiveOptions;
 use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
 
 /// Step sizes, interpolation, coupling and execution of the reduced model.
@@ -193,7 +193,7 @@ impl ReducedRun {
 
         let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
         let integrator = if options.error_controlled_micro {
-            MicroIntegrator::Dopri5(Dopri5Options {
+            MicroIntegrator::Dopri5(AdaptiveOptions {
                 rtol: 1e-9,
                 atol: 1e-12,
                 initial_step: 1e-7,

@@ -116,7 +116,7 @@ pub struct Summary {
 }
 
 /// A prepared run.
-pub struct Run {
+pub struct FullRun {
     /// The model.
     pub model: FullModel,
     scenario: Scenario,
@@ -125,7 +125,7 @@ pub struct Run {
     selected: Vec<usize>,
 }
 
-impl Run {
+impl FullRun {
     /// Prepares a run of a validated scenario.
     pub fn new(scenario: &Scenario, options: BuildOptions) -> Self {
         let sources = channel_sources(scenario, options.ideal);
@@ -275,16 +275,16 @@ pub trait Runner {
     ) -> Result<Summary, RunError>;
 }
 
-impl Runner for Run {
+impl Runner for FullRun {
     fn header(&self) -> Vec<String> {
-        Run::header(self)
+        FullRun::header(self)
     }
     fn execute(
         &mut self,
         sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
-        Run::execute(self, sink, progress)
+        FullRun::execute(self, sink, progress)
     }
 }
 

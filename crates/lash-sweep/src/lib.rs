@@ -165,7 +165,7 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
         ModelKind::Reduced => Box::new(
             lash_scenario::ReducedRun::new(&scenario, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?,
         ),
-        ModelKind::Full => Box::new(lash_scenario::Run::new(&scenario, lash_scenario::BuildOptions::default())),
+        ModelKind::Full => Box::new(lash_scenario::FullRun::new(&scenario, lash_scenario::BuildOptions::default())),
     };
     let header = runner.header();
     let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();

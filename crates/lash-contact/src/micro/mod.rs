@@ -24,7 +24,7 @@ use crate::clearance::{ClearanceJoint, ContactState, Impact};
 use crate::parameters::ClearanceDefinition;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
-use lash_ode::Dopri5Options;
+use lash_ode::AdaptiveOptions;
 pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES};
 
 /// Largest number of interface coordinates n the micro subsystem takes (six planar clearance
@@ -40,7 +40,7 @@ pub enum MicroIntegrator {
         step: f64,
     },
     /// DOPRI5 with event location of contact onset and exit.
-    Dopri5(Dopri5Options),
+    Dopri5(AdaptiveOptions),
 }
 
 /// Value references of the interface subsystem's variables (in table order).
@@ -805,7 +805,7 @@ mod tests {
     fn restoring_a_saved_state_replays_the_same_impact_bit_for_bit() {
         for integrator in [
             MicroIntegrator::Rk4 { step: 1e-6 },
-            MicroIntegrator::Dopri5(Dopri5Options {
+            MicroIntegrator::Dopri5(AdaptiveOptions {
                 rtol: 1e-9,
                 atol: 1e-12,
                 initial_step: 1e-7,

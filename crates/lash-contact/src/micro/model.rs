@@ -16,7 +16,7 @@
 
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
 use lash_mech::Vec2;
-use lash_ode::{Dopri5Options, Method, OdeSystem};
+use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 use nalgebra::{SMatrix, SVector};
 
 /// Interface coordinates of one planar clearance joint (its eccentricity e_x, e_y).
@@ -407,7 +407,7 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
 
     /// Integrates from `t` to `t + h` with DOPRI5 and event location. Returns the number of
     /// accepted steps.
-    pub fn dopri5_step(&mut self, options: &Dopri5Options, t: f64, h: f64) -> Result<u64, String> {
+    pub fn dopri5_step(&mut self, options: &AdaptiveOptions, t: f64, h: f64) -> Result<u64, String> {
         let k = self.joints.len();
         let mut y = [0.0; 4 * super::MAX_COORDINATES];
         let y = &mut y[..3 * N + k];
@@ -415,7 +415,7 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
         y[N..2 * N].copy_from_slice(self.eccentricity_rate.as_slice());
         y[2 * N..3 * N].copy_from_slice(self.impulse.as_slice());
         y[3 * N..].copy_from_slice(self.friction_impulse.as_slice());
-        let method = Method::Dopri5(Dopri5Options { max_step: options.max_step.min(h), ..*options });
+        let method = Method::Dopri5(AdaptiveOptions { max_step: options.max_step.min(h), ..*options });
         let stats = lash_ode::integrate(&method, self, t, y, t + h, h, &mut |_: &mut Self, _: f64, _: &[f64]| Ok(()))
             .map_err(|e| e.to_string())?;
         self.eccentricity.copy_from_slice(&y[..N]);

@@ -1,4 +1,5 @@
-//! Full-versus-reduced comparison metrics chosen for chaotic impact responses (large clearances make the response chaotic: docs/validation.md):
+//! Comparison metrics of two runs sampled on one grid (the full and the reduced model, or any two),
+//! chosen for chaotic impact responses, where pointwise errors say little (docs/validation.md):
 //! peaks, RMS, pointwise errors (whole run and over the first impacts), Hann-windowed one-sided
 //! amplitude spectra, their relative distance, and band powers.
 
