@@ -49,13 +49,11 @@ pub struct ParameterInfo {
     slot: Slot,
 }
 
+/// Unit of a law coefficient (dimensionless when the shared table does not know the field).
 fn unit_of(field: &str) -> &'static str {
-    match field {
-        "stiffness" => "N/m^n",
-        "damping" | "max_damping" => "N.s/m",
-        "damping_depth" | "length" => "m",
-        "velocity_floor" | "v0" | "v1" | "stiction_velocity" | "friction_velocity" => "m/s",
-        _ => "1",
+    match lash_core::units::field_unit(field) {
+        "" => "1",
+        unit => unit,
     }
 }
 

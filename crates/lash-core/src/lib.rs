@@ -7,6 +7,7 @@
 mod problems;
 pub mod subsystem;
 mod time;
+pub mod units;
 
 pub use problems::{Problem, Problems};
 pub use subsystem::{

@@ -39,32 +39,13 @@ impl ScenarioParameter {
     }
 }
 
-/// Unit of a scenario field by its key.
-fn unit_of(key: &str) -> &'static str {
-    match key {
-        "mass" => "kg",
-        "inertia" => "kg.m2",
-        "point1" | "point2" | "point" | "position" | "journal_radius" | "bearing_radius" | "length" => "m",
-        "angle" | "angle0" | "angle_offset" | "phase" | "amplitude" => "rad",
-        "omega" | "angular_velocity" => "rad/s",
-        "frequency" => "Hz",
-        "gravity" => "m/s2",
-        "velocity" | "v0" | "v1" | "velocity_floor" | "transition_velocity" => "m/s",
-        "force" => "N",
-        "torque" => "N.m",
-        "young_modulus" => "Pa",
-        "restitution" | "exponent" | "coefficient" | "poisson_ratio" | "axis" | "static_coefficient" => "1",
-        _ => "",
-    }
-}
-
 /// Every number under `value` as parameters named `name_prefix` + key path.
 fn leaves(name_prefix: &str, path_prefix: &str, key: &str, value: &toml::Value, out: &mut Vec<ScenarioParameter>) {
     match value {
         toml::Value::Float(_) | toml::Value::Integer(_) => out.push(ScenarioParameter {
             name: name_prefix.to_string(),
             paths: vec![path_prefix.to_string()],
-            unit: unit_of(key),
+            unit: lash_core::units::field_unit(key),
             start: vec![number(value)],
             array: false,
         }),
@@ -72,7 +53,7 @@ fn leaves(name_prefix: &str, path_prefix: &str, key: &str, value: &toml::Value, 
             out.push(ScenarioParameter {
                 name: name_prefix.to_string(),
                 paths: (0..a.len()).map(|i| format!("{path_prefix}[{i}]")).collect(),
-                unit: unit_of(key),
+                unit: lash_core::units::field_unit(key),
                 start: a.iter().map(number).collect(),
                 array: true,
             })
@@ -107,7 +88,7 @@ pub fn mechanism_parameters(s: &Scenario) -> Result<Vec<ScenarioParameter>, Stri
             out.push(ScenarioParameter {
                 name: format!("{}.{key}", b.name),
                 paths: vec![path],
-                unit: unit_of(key),
+                unit: lash_core::units::field_unit(key),
                 start: vec![value],
                 array: false,
             });
