@@ -74,6 +74,7 @@ type = "revolute"
 body1 = "crank"
 point1 = [-0.025, 0.0]
 body2 = "ground"
+point2 = [0.0, 0.0]
 [[joints]]
 name = "crank_rod"
 type = "revolute"
@@ -85,13 +86,16 @@ point2 = [-0.06, 0.0]
 name = "rod_slider"
 type = "revolute"
 body1 = "slider"
+point1 = [0.0, 0.0]
 body2 = "rod"
 point2 = [0.06, 0.0]
 [[joints]]
 name = "guide"
 type = "prismatic"
 body1 = "slider"
+point1 = [0.0, 0.0]
 body2 = "ground"
+point2 = [0.0, 0.0]
 axis = [1.0, 0.0]
 [[drivers]]
 name = "motor"

@@ -89,13 +89,12 @@ pub struct JointSpec {
     pub kind: JointType,
     /// First body.
     pub body1: String,
-    /// Joint point on body1 [m].
-    #[serde(default)]
+    /// Joint point on body1 [m] (required: a joint placed at the body's origin by default would
+    /// hide a forgotten field).
     pub point1: [f64; 2],
     /// Second body.
     pub body2: String,
-    /// Joint point on body2 [m].
-    #[serde(default)]
+    /// Joint point on body2 [m] (required).
     pub point2: [f64; 2],
     /// Prismatic only: sliding axis in body2's frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
