@@ -58,6 +58,15 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
         report.threads,
         out.display()
     );
+    if report.failed > 0 {
+        // The dataset is complete (the failed runs are in it, with their errors): the exit code
+        // says that it is not all data, so that a pipeline does not train on a silent gap.
+        return Err(CliError::Failure(format!(
+            "{} of {} runs failed; the dataset holds the others, and manifest.json and params.parquet list the \
+             failed runs with status \"failed\" and their errors",
+            report.failed, report.runs
+        )));
+    }
     Ok(())
 }
 
