@@ -202,8 +202,10 @@ fn set_input<const N: usize, const K: usize>(u: &mut InterfaceInputs<N, K>, r: V
     }
 }
 
-/// A size-independent view of a model's readable quantities: [`read`] is compiled once, not once
-/// per model size (six copies of it made the micro loop's output read several times slower).
+/// A size-independent view of a model's readable quantities, so that [`read`] is written once for
+/// every size. It is still compiled per size (the view then costs nothing): a single copy of
+/// `read` taking the view built at run time measured 24 ns for the four outputs the reduced
+/// runner reads per sample, the per-size copies 18 ns.
 struct View<'a> {
     joints: &'a [ClearanceJoint],
     states: &'a [ContactState],
@@ -269,14 +271,15 @@ fn each_joint(out: &mut [f64], f: impl Fn(usize) -> f64) {
 
 /// Reads every variable of `refs` (lengths checked) below the parameters into `values`;
 /// parameters from `parameters`.
-fn read(
-    m: &View<'_>,
+fn read<const N: usize, const K: usize>(
+    model: &InterfaceModel<N, K>,
     micro_steps: u64,
     parameters: &[f64],
     lens: &[usize],
     refs: &[ValueReference],
     values: &mut [f64],
 ) {
+    let m = &View::of(model);
     let s = m.states;
     let n = m.eccentricity.len();
     let mut at = 0;
@@ -610,8 +613,7 @@ impl Subsystem for InterfaceSubsystem {
             return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
         let (lens, parameters) = (&self.lens, &self.parameter_values);
-        let view = each_core!(&self.core, m => View::of(m));
-        read(&view, self.micro_steps, parameters, lens, refs, values);
+        each_core!(&self.core, m => read(m, self.micro_steps, parameters, lens, refs, values));
         Ok(())
     }
 
