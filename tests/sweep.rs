@@ -110,7 +110,12 @@ fn a_killed_sweep_resumes_and_loses_only_the_runs_in_flight() {
     let file = sweep_file(&dir, 60, 0.05);
     let clean = dir.join("clean");
     let o = run_sweep(&file, &clean, &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // One of these 60 runs (run 39: bearing radius 9.9768 mm, 450 rad/s) blows up in the micro
+    // model: a grazing impact whose approach speed is below the law's velocity floor makes the
+    // hysteresis damping too stiff for RK4 at 1e-5 s (DOPRI5, or h_r = 2e-6 s, runs it; see
+    // docs/validation.md). The sweep records it, finishes, and exits 1 — here and resumed alike.
+    let failed_once = |o: &Output| o.status.code() == Some(1) && stderr(o).contains("1 of 60 runs failed");
+    assert!(failed_once(&o), "{}", stderr(&o));
 
     let out = dir.join("killed");
     let mut child = Command::new(env!("CARGO_BIN_EXE_lash"))
@@ -134,7 +139,7 @@ fn a_killed_sweep_resumes_and_loses_only_the_runs_in_flight() {
     };
     assert!(!out.join("data.parquet").exists(), "a killed sweep must not leave a dataset that looks complete");
     let o = run_sweep(&file, &out, &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(failed_once(&o), "{}", stderr(&o));
     let text = stderr(&o);
     let skipped: usize =
         text.split(" already complete").next().unwrap().rsplit('(').next().unwrap().trim().parse().unwrap();
@@ -144,7 +149,7 @@ fn a_killed_sweep_resumes_and_loses_only_the_runs_in_flight() {
     }
     // Running it once more does nothing.
     let o = run_sweep(&file, &out, &[]);
-    assert!(stderr(&o).contains("60 already complete, 0 run now"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("60 already complete, 0 run now") && failed_once(&o), "{}", stderr(&o));
 }
 
 #[test]

@@ -220,10 +220,45 @@ impl Variable {
     }
 }
 
+/// Declares a subsystem's fixed value references, numbered by their position from 0 (no number
+/// written by hand), and `DECLARED`, the count (where variables of run-time number start). The
+/// table is then built with [`VariableTable::add_at`], which names each variable next to its
+/// constant and checks the order.
+///
+/// ```
+/// mod vr {
+///     lash_core::value_references! {
+///         /// Input u.
+///         INPUT,
+///         /// Output y.
+///         OUTPUT,
+///     }
+/// }
+/// assert_eq!((vr::INPUT, vr::OUTPUT, vr::DECLARED), (0, 1, 2));
+/// ```
+#[macro_export]
+macro_rules! value_references {
+    ($($(#[$meta:meta])* $name:ident),* $(,)?) => {
+        $crate::value_references!(@at 0; $($(#[$meta])* $name,)*);
+    };
+    (@at $n:expr; $(#[$meta:meta])* $name:ident, $($rest:tt)*) => {
+        $(#[$meta])*
+        pub const $name: $crate::ValueReference = $n;
+        $crate::value_references!(@at $n + 1; $($rest)*);
+    };
+    (@at $n:expr;) => {
+        /// The number of value references declared above (the first one free for the variables
+        /// whose number is known at run time only).
+        pub const DECLARED: $crate::ValueReference = $n;
+    };
+}
+
 /// Builds the variable table of a subsystem, handing out value references in order.
 #[derive(Debug, Default, Clone)]
 pub struct VariableTable {
     variables: Vec<Variable>,
+    /// The first [`VariableTable::add_at`] whose value reference was not the next one.
+    misplaced: Option<String>,
 }
 
 impl VariableTable {
@@ -259,6 +294,37 @@ impl VariableTable {
             kind: ValueKind::Float64,
         });
         vr
+    }
+
+    /// [`VariableTable::add`] for a variable declared with [`value_references!`]: `vr` must be the
+    /// next value reference; a table built out of order is reported by
+    /// [`VariableTable::into_checked_variables`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_at(
+        &mut self,
+        vr: ValueReference,
+        name: &str,
+        causality: Causality,
+        variability: Variability,
+        unit: &str,
+        description: &str,
+        shape: &[usize],
+        start: &[f64],
+    ) {
+        let given = self.add(name, causality, variability, unit, description, shape, start);
+        if given != vr && self.misplaced.is_none() {
+            self.misplaced =
+                Some(format!("variable {name:?} is declared as value reference {vr} but added as {given}"));
+        }
+    }
+
+    /// The variables, or the first variable added out of its declared order (a defect of the
+    /// subsystem's code, reported instead of a panic).
+    pub fn into_checked_variables(self) -> Result<Vec<Variable>, String> {
+        match self.misplaced {
+            Some(m) => Err(m),
+            None => Ok(self.variables),
+        }
     }
 
     /// The variables, in value-reference order.
@@ -564,6 +630,27 @@ impl Phase {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_variable_added_out_of_its_declared_order_is_reported() {
+        mod declared {
+            crate::value_references! {
+                /// First.
+                FIRST,
+                /// Second.
+                SECOND,
+            }
+        }
+        let mut t = VariableTable::new();
+        t.add_at(declared::FIRST, "first", Causality::Output, Variability::Continuous, "1", "", &[], &[0.0]);
+        t.add_at(declared::SECOND, "second", Causality::Output, Variability::Continuous, "1", "", &[], &[0.0]);
+        assert_eq!(t.into_checked_variables().map(|v| v.len()), Ok(2));
+        let mut t = VariableTable::new();
+        t.add_at(declared::SECOND, "second", Causality::Output, Variability::Continuous, "1", "", &[], &[0.0]);
+        let e = t.into_checked_variables().unwrap_err();
+        assert!(e.contains("\"second\" is declared as value reference 1 but added as 0"), "{e}");
+        assert_eq!(declared::DECLARED, 2);
+    }
 
     #[test]
     fn table_hands_out_references_in_order_and_sizes_arrays() {

@@ -165,33 +165,34 @@ impl OdeSystem for MechanismOde<'_> {
 /// n = 2k interface coordinates for k clearance joints; per-joint quantities have k elements
 /// (scalars when k = 1).
 pub mod vr {
-    use lash_core::ValueReference;
-    /// Output M̃ (n × n) [kg].
-    pub const EFFECTIVE_MASS: ValueReference = 0;
-    /// Output f̃ (n) [N].
-    pub const EFFECTIVE_FORCE: ValueReference = 1;
-    /// Output W = M̃⁻¹ (n × n) [1/kg].
-    pub const MOBILITY: ValueReference = 2;
-    /// Output a_free (n) [m/s²].
-    pub const FREE_ACCELERATION: ValueReference = 3;
-    /// Output H = M̃ W_T (n × k): interface force equivalent to each joint's friction moments.
-    pub const FRICTION_MOMENT_FORCE: ValueReference = 4;
-    /// Output ω of each journal body (k).
-    pub const JOURNAL_ANGULAR_VELOCITY: ValueReference = 5;
-    /// Output α of each journal body (k).
-    pub const JOURNAL_ANGULAR_ACCELERATION: ValueReference = 6;
-    /// Output ω of each bearing body (k).
-    pub const BEARING_ANGULAR_VELOCITY: ValueReference = 7;
-    /// Output α of each bearing body (k).
-    pub const BEARING_ANGULAR_ACCELERATION: ValueReference = 8;
-    /// Output max |Φ| of the macro's own constraints.
-    pub const CONSTRAINT_ERROR: ValueReference = 9;
-    /// Input (two-way coupling): eccentricities at the end of the next step (n) [m].
-    pub const ECCENTRICITY: ValueReference = 10;
-    /// Input (two-way coupling): their rates (n) [m/s].
-    pub const ECCENTRICITY_RATE: ValueReference = 11;
-    /// Input (two-way coupling): each joint's mean friction force over the next step (k) [N].
-    pub const FRICTION_FORCE: ValueReference = 12;
+    lash_core::value_references! {
+        /// Output M̃ (n × n) [kg].
+        EFFECTIVE_MASS,
+        /// Output f̃ (n) [N].
+        EFFECTIVE_FORCE,
+        /// Output W = M̃⁻¹ (n × n) [1/kg].
+        MOBILITY,
+        /// Output a_free (n) [m/s²].
+        FREE_ACCELERATION,
+        /// Output H = M̃ W_T (n × k): interface force equivalent to each joint's friction moments.
+        FRICTION_MOMENT_FORCE,
+        /// Output ω of each journal body (k).
+        JOURNAL_ANGULAR_VELOCITY,
+        /// Output α of each journal body (k).
+        JOURNAL_ANGULAR_ACCELERATION,
+        /// Output ω of each bearing body (k).
+        BEARING_ANGULAR_VELOCITY,
+        /// Output α of each bearing body (k).
+        BEARING_ANGULAR_ACCELERATION,
+        /// Output max |Φ| of the macro's own constraints.
+        CONSTRAINT_ERROR,
+        /// Input (two-way coupling): eccentricities at the end of the next step (n) [m].
+        ECCENTRICITY,
+        /// Input (two-way coupling): their rates (n) [m/s].
+        ECCENTRICITY_RATE,
+        /// Input (two-way coupling): each joint's mean friction force over the next step (k) [N].
+        FRICTION_FORCE,
+    }
 }
 
 /// The mechanism around its clearance joints as the macro [`Subsystem`].
@@ -245,11 +246,39 @@ impl MechanismSubsystem {
         let g = n + k;
         let pj = per_joint_shape(k, &[]);
         let mut t = VariableTable::new();
-        t.add("effective_mass", Output, C, "kg", "effective mass M~ of the interface", &[n, n], &[0.0]);
-        t.add("effective_force", Output, C, "N", "effective force f~ (M~ w'' = f~ + f_c + H F_T)", &[n], &[0.0]);
-        t.add("mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
-        t.add("free_acceleration", Output, C, "m/s^2", "interface acceleration with f_c = 0", &[n], &[0.0]);
-        t.add(
+        t.add_at(
+            vr::EFFECTIVE_MASS,
+            "effective_mass",
+            Output,
+            C,
+            "kg",
+            "effective mass M~ of the interface",
+            &[n, n],
+            &[0.0],
+        );
+        t.add_at(
+            vr::EFFECTIVE_FORCE,
+            "effective_force",
+            Output,
+            C,
+            "N",
+            "effective force f~ (M~ w'' = f~ + f_c + H F_T)",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
+        t.add_at(
+            vr::FREE_ACCELERATION,
+            "free_acceleration",
+            Output,
+            C,
+            "m/s^2",
+            "interface acceleration with f_c = 0",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(
+            vr::FRICTION_MOMENT_FORCE,
             "friction_moment_force",
             Output,
             C,
@@ -258,14 +287,77 @@ impl MechanismSubsystem {
             &per_joint_shape(k, &[n]),
             &[0.0],
         );
-        t.add("journal_angular_velocity", Output, C, "rad/s", "angular velocity of the journal body", &pj, &[0.0]);
-        t.add("journal_angular_acceleration", Output, C, "rad/s^2", "its rate", &pj, &[0.0]);
-        t.add("bearing_angular_velocity", Output, C, "rad/s", "angular velocity of the bearing body", &pj, &[0.0]);
-        t.add("bearing_angular_acceleration", Output, C, "rad/s^2", "its rate", &pj, &[0.0]);
-        t.add("constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
-        t.add("eccentricity", Input, C, "m", "journal minus bearing centres at the step end (two-way)", &[n], &[0.0]);
-        t.add("eccentricity_rate", Input, C, "m/s", "their rates at the step end (two-way)", &[n], &[0.0]);
-        t.add("friction_force", Input, C, "N", "mean friction force over the next step (two-way)", &pj, &[0.0]);
+        t.add_at(
+            vr::JOURNAL_ANGULAR_VELOCITY,
+            "journal_angular_velocity",
+            Output,
+            C,
+            "rad/s",
+            "angular velocity of the journal body",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(
+            vr::JOURNAL_ANGULAR_ACCELERATION,
+            "journal_angular_acceleration",
+            Output,
+            C,
+            "rad/s^2",
+            "its rate",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(
+            vr::BEARING_ANGULAR_VELOCITY,
+            "bearing_angular_velocity",
+            Output,
+            C,
+            "rad/s",
+            "angular velocity of the bearing body",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(
+            vr::BEARING_ANGULAR_ACCELERATION,
+            "bearing_angular_acceleration",
+            Output,
+            C,
+            "rad/s^2",
+            "its rate",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
+        t.add_at(
+            vr::ECCENTRICITY,
+            "eccentricity",
+            Input,
+            C,
+            "m",
+            "journal minus bearing centres at the step end (two-way)",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(
+            vr::ECCENTRICITY_RATE,
+            "eccentricity_rate",
+            Input,
+            C,
+            "m/s",
+            "their rates at the step end (two-way)",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(
+            vr::FRICTION_FORCE,
+            "friction_force",
+            Input,
+            C,
+            "N",
+            "mean friction force over the next step (two-way)",
+            &pj,
+            &[0.0],
+        );
         // Gains per unit load: the contact forces (n), then the friction forces (k).
         for p in &probes {
             match p {
@@ -312,7 +404,9 @@ impl MechanismSubsystem {
                 }
             }
         }
-        let variables = t.into_variables();
+        // The fixed variables are added in the order of `vr` (checked; every construction in the
+        // tests would fail on a misplaced one).
+        let variables = t.into_checked_variables().expect("the mechanism subsystem's variables follow `vr`");
         let mut offsets = Vec::with_capacity(variables.len() + 1);
         let mut at = 0;
         for v in &variables {

@@ -43,65 +43,68 @@ pub enum MicroIntegrator {
     Dopri5(AdaptiveOptions),
 }
 
-/// Value references of the interface subsystem's variables (in table order).
+/// Value references of the interface subsystem's variables (in table order, numbered by the
+/// declaration).
 pub mod vr {
     use lash_core::ValueReference;
-    /// Input M̃ (n × n).
-    pub const EFFECTIVE_MASS: ValueReference = 0;
-    /// Input dM̃/dt (n × n).
-    pub const EFFECTIVE_MASS_RATE: ValueReference = 1;
-    /// Input f̃ (n).
-    pub const EFFECTIVE_FORCE: ValueReference = 2;
-    /// Input df̃/dt (n).
-    pub const EFFECTIVE_FORCE_RATE: ValueReference = 3;
-    /// Input H = M̃ W_T (n × k): interface force equivalent to each joint's friction moments per
-    /// unit friction force.
-    pub const FRICTION_MOMENT_FORCE: ValueReference = 4;
-    /// Input dH/dt (n × k).
-    pub const FRICTION_MOMENT_FORCE_RATE: ValueReference = 5;
-    /// Input ω of each journal body (k).
-    pub const JOURNAL_ANGULAR_VELOCITY: ValueReference = 6;
-    /// Input its rate (k).
-    pub const JOURNAL_ANGULAR_ACCELERATION: ValueReference = 7;
-    /// Input ω of each bearing body (k).
-    pub const BEARING_ANGULAR_VELOCITY: ValueReference = 8;
-    /// Input its rate (k). The last input.
-    pub const BEARING_ANGULAR_ACCELERATION: ValueReference = 9;
-    /// Output f_c on each journal (n).
-    pub const CONTACT_FORCE: ValueReference = 10;
-    /// Output ∫f_c dt (n).
-    pub const CONTACT_IMPULSE: ValueReference = 11;
-    /// Output F_N (k).
-    pub const NORMAL_FORCE: ValueReference = 12;
-    /// Output F_T (k).
-    pub const FRICTION_FORCE: ValueReference = 13;
-    /// Output ∫F_T dt (k).
-    pub const FRICTION_IMPULSE: ValueReference = 14;
-    /// Output e (n).
-    pub const ECCENTRICITY: ValueReference = 15;
-    /// Output ė (n).
-    pub const ECCENTRICITY_RATE: ValueReference = 16;
-    /// Output |e| (k).
-    pub const ECCENTRICITY_NORM: ValueReference = 17;
-    /// Output δ (k).
-    pub const PENETRATION: ValueReference = 18;
-    /// Output δ̇ (k).
-    pub const PENETRATION_RATE: ValueReference = 19;
-    /// Output v_t (k).
-    pub const SLIP_VELOCITY: ValueReference = 20;
-    /// Output: completed impacts (k).
-    pub const IMPACTS: ValueReference = 21;
-    /// Output: 1 in contact, 0 in free flight (k).
-    pub const IN_CONTACT: ValueReference = 22;
-    /// Local: radial clearance (k).
-    pub const RADIAL_CLEARANCE: ValueReference = 23;
-    /// Output |f_c| (k).
-    pub const CONTACT_FORCE_MAGNITUDE: ValueReference = 24;
-    /// Output: micro steps taken since initialization (DOPRI5: accepted steps).
-    pub const MICRO_STEPS: ValueReference = 25;
+    lash_core::value_references! {
+        /// Input M̃ (n × n).
+        EFFECTIVE_MASS,
+        /// Input dM̃/dt (n × n).
+        EFFECTIVE_MASS_RATE,
+        /// Input f̃ (n).
+        EFFECTIVE_FORCE,
+        /// Input df̃/dt (n).
+        EFFECTIVE_FORCE_RATE,
+        /// Input H = M̃ W_T (n × k): interface force equivalent to each joint's friction moments per
+        /// unit friction force.
+        FRICTION_MOMENT_FORCE,
+        /// Input dH/dt (n × k).
+        FRICTION_MOMENT_FORCE_RATE,
+        /// Input ω of each journal body (k).
+        JOURNAL_ANGULAR_VELOCITY,
+        /// Input its rate (k).
+        JOURNAL_ANGULAR_ACCELERATION,
+        /// Input ω of each bearing body (k).
+        BEARING_ANGULAR_VELOCITY,
+        /// Input its rate (k). The last input.
+        BEARING_ANGULAR_ACCELERATION,
+        /// Output f_c on each journal (n).
+        CONTACT_FORCE,
+        /// Output ∫f_c dt (n).
+        CONTACT_IMPULSE,
+        /// Output F_N (k).
+        NORMAL_FORCE,
+        /// Output F_T (k).
+        FRICTION_FORCE,
+        /// Output ∫F_T dt (k).
+        FRICTION_IMPULSE,
+        /// Output e (n).
+        ECCENTRICITY,
+        /// Output ė (n).
+        ECCENTRICITY_RATE,
+        /// Output |e| (k).
+        ECCENTRICITY_NORM,
+        /// Output δ (k).
+        PENETRATION,
+        /// Output δ̇ (k).
+        PENETRATION_RATE,
+        /// Output v_t (k).
+        SLIP_VELOCITY,
+        /// Output: completed impacts (k).
+        IMPACTS,
+        /// Output: 1 in contact, 0 in free flight (k).
+        IN_CONTACT,
+        /// Local: radial clearance (k).
+        RADIAL_CLEARANCE,
+        /// Output |f_c| (k).
+        CONTACT_FORCE_MAGNITUDE,
+        /// Output: micro steps taken since initialization (DOPRI5: accepted steps).
+        MICRO_STEPS,
+    }
     /// First parameter (with the joints' [`crate::ClearanceDefinition`]s): each joint's
     /// `journal_radius`, `bearing_radius`, then its laws' numeric fields.
-    pub const FIRST_PARAMETER: ValueReference = 26;
+    pub const FIRST_PARAMETER: ValueReference = DECLARED;
 }
 
 /// The model of one size.
@@ -384,11 +387,30 @@ impl InterfaceSubsystem {
         let eye: Vec<f64> = (0..n * n).map(|i| if i / n == i % n { 1.0 } else { 0.0 }).collect();
         let pj = per_joint_shape(k, &[]);
         let map = per_joint_shape(k, &[n]);
-        t.add("effective_mass", Input, C, "kg", "effective mass M~ of the interface", &[n, n], &eye);
-        t.add("effective_mass_rate", Input, C, "kg/s", "dM~/dt", &[n, n], &[0.0]);
-        t.add("effective_force", Input, C, "N", "effective force f~ on the journals", &[n], &[0.0]);
-        t.add("effective_force_rate", Input, C, "N/s", "df~/dt", &[n], &[0.0]);
-        t.add(
+        t.add_at(
+            vr::EFFECTIVE_MASS,
+            "effective_mass",
+            Input,
+            C,
+            "kg",
+            "effective mass M~ of the interface",
+            &[n, n],
+            &eye,
+        );
+        t.add_at(vr::EFFECTIVE_MASS_RATE, "effective_mass_rate", Input, C, "kg/s", "dM~/dt", &[n, n], &[0.0]);
+        t.add_at(
+            vr::EFFECTIVE_FORCE,
+            "effective_force",
+            Input,
+            C,
+            "N",
+            "effective force f~ on the journals",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(vr::EFFECTIVE_FORCE_RATE, "effective_force_rate", Input, C, "N/s", "df~/dt", &[n], &[0.0]);
+        t.add_at(
+            vr::FRICTION_MOMENT_FORCE,
             "friction_moment_force",
             Input,
             C,
@@ -397,29 +419,93 @@ impl InterfaceSubsystem {
             &map,
             &[0.0],
         );
-        t.add("friction_moment_force_rate", Input, C, "1/s", "its rate", &map, &[0.0]);
-        t.add("journal_angular_velocity", Input, C, "rad/s", "angular velocity of the journal body", &pj, &[0.0]);
-        t.add("journal_angular_acceleration", Input, C, "rad/s^2", "its rate", &pj, &[0.0]);
-        t.add("bearing_angular_velocity", Input, C, "rad/s", "angular velocity of the bearing body", &pj, &[0.0]);
-        t.add("bearing_angular_acceleration", Input, C, "rad/s^2", "its rate", &pj, &[0.0]);
-        t.add("contact_force", Output, C, "N", "contact force f_c on the journal", &[n], &[0.0]);
-        t.add("contact_impulse", Output, C, "N.s", "integral of f_c since the start", &[n], &[0.0]);
-        t.add("normal_force", Output, C, "N", "normal contact force F_N", &pj, &[0.0]);
-        t.add("friction_force", Output, C, "N", "friction force F_T", &pj, &[0.0]);
-        t.add("friction_impulse", Output, C, "N.s", "integral of F_T since the start", &pj, &[0.0]);
-        t.add("eccentricity", Output, C, "m", "journal centre minus bearing centre", &[n], &[0.0]);
-        t.add("eccentricity_rate", Output, C, "m/s", "its rate", &[n], &[0.0]);
-        t.add("eccentricity_norm", Output, C, "m", "|e|", &pj, &[0.0]);
+        t.add_at(
+            vr::FRICTION_MOMENT_FORCE_RATE,
+            "friction_moment_force_rate",
+            Input,
+            C,
+            "1/s",
+            "its rate",
+            &map,
+            &[0.0],
+        );
+        t.add_at(
+            vr::JOURNAL_ANGULAR_VELOCITY,
+            "journal_angular_velocity",
+            Input,
+            C,
+            "rad/s",
+            "angular velocity of the journal body",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(
+            vr::JOURNAL_ANGULAR_ACCELERATION,
+            "journal_angular_acceleration",
+            Input,
+            C,
+            "rad/s^2",
+            "its rate",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(
+            vr::BEARING_ANGULAR_VELOCITY,
+            "bearing_angular_velocity",
+            Input,
+            C,
+            "rad/s",
+            "angular velocity of the bearing body",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(
+            vr::BEARING_ANGULAR_ACCELERATION,
+            "bearing_angular_acceleration",
+            Input,
+            C,
+            "rad/s^2",
+            "its rate",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(vr::CONTACT_FORCE, "contact_force", Output, C, "N", "contact force f_c on the journal", &[n], &[0.0]);
+        t.add_at(
+            vr::CONTACT_IMPULSE,
+            "contact_impulse",
+            Output,
+            C,
+            "N.s",
+            "integral of f_c since the start",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(vr::NORMAL_FORCE, "normal_force", Output, C, "N", "normal contact force F_N", &pj, &[0.0]);
+        t.add_at(vr::FRICTION_FORCE, "friction_force", Output, C, "N", "friction force F_T", &pj, &[0.0]);
+        t.add_at(
+            vr::FRICTION_IMPULSE,
+            "friction_impulse",
+            Output,
+            C,
+            "N.s",
+            "integral of F_T since the start",
+            &pj,
+            &[0.0],
+        );
+        t.add_at(vr::ECCENTRICITY, "eccentricity", Output, C, "m", "journal centre minus bearing centre", &[n], &[0.0]);
+        t.add_at(vr::ECCENTRICITY_RATE, "eccentricity_rate", Output, C, "m/s", "its rate", &[n], &[0.0]);
+        t.add_at(vr::ECCENTRICITY_NORM, "eccentricity_norm", Output, C, "m", "|e|", &pj, &[0.0]);
         let clearances: Vec<f64> = joints.iter().map(ClearanceJoint::radial_clearance).collect();
         let minus: Vec<f64> = clearances.iter().map(|c| -c).collect();
-        t.add("penetration", Output, C, "m", "|e| - c", &pj, &minus);
-        t.add("penetration_rate", Output, C, "m/s", "d(penetration)/dt", &pj, &[0.0]);
-        t.add("slip_velocity", Output, C, "m/s", "relative tangential velocity", &pj, &[0.0]);
-        t.add("impacts", Output, D, "1", "completed impacts", &pj, &[0.0]);
-        t.add("in_contact", Output, D, "1", "1 in contact, 0 in free flight", &pj, &[0.0]);
-        t.add("radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &pj, &clearances);
-        t.add("contact_force_magnitude", Output, C, "N", "|f_c|", &pj, &[0.0]);
-        t.add(
+        t.add_at(vr::PENETRATION, "penetration", Output, C, "m", "|e| - c", &pj, &minus);
+        t.add_at(vr::PENETRATION_RATE, "penetration_rate", Output, C, "m/s", "d(penetration)/dt", &pj, &[0.0]);
+        t.add_at(vr::SLIP_VELOCITY, "slip_velocity", Output, C, "m/s", "relative tangential velocity", &pj, &[0.0]);
+        t.add_at(vr::IMPACTS, "impacts", Output, D, "1", "completed impacts", &pj, &[0.0]);
+        t.add_at(vr::IN_CONTACT, "in_contact", Output, D, "1", "1 in contact, 0 in free flight", &pj, &[0.0]);
+        t.add_at(vr::RADIAL_CLEARANCE, "radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &pj, &clearances);
+        t.add_at(vr::CONTACT_FORCE_MAGNITUDE, "contact_force_magnitude", Output, C, "N", "|f_c|", &pj, &[0.0]);
+        t.add_at(
+            vr::MICRO_STEPS,
             "micro_steps",
             Output,
             D,
@@ -447,7 +533,7 @@ impl InterfaceSubsystem {
             }
             ranges.push((definition, from..parameter_values.len()));
         }
-        let variables = t.into_variables();
+        let variables = t.into_checked_variables().map_err(|m| SubsystemError::Other(format!("internal: {m}")))?;
         let names: Vec<&str> = joints.iter().map(|j| j.name.as_str()).collect();
         Ok(Self {
             name: format!("interface {}", names.join(", ")),
