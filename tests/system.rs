@@ -382,6 +382,29 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
             assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{tag}: {name} differs from lash run");
         }
     }
+    // The same system over scenario C's built-ins (`scenario = "C"`: two clearance joints, 4 × 4
+    // M̃, the joints' parameters prefixed with their names) equals `lash run C --model reduced`.
+    let o = lash(&["run", "C", "--model", "reduced", "--quiet", "--out", out.join("reference-C").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = read_csv(&out.join("reference-C/timeseries.csv"));
+    let text = example
+        .replace("builtin = \"lash_mechanism\"", "builtin = \"lash_mechanism\"\nscenario = \"C\"")
+        .replace("builtin = \"lash_interface\"", "builtin = \"lash_interface\"\nscenario = \"C\"")
+        .replace("\"contact.restitution\" = 0.9", "\"rod_slider.contact.restitution\" = 0.9");
+    let file = out.join("reduced-C.toml");
+    std::fs::write(&file, &text).unwrap();
+    let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join("C").to_str().unwrap()]);
+    assert!(o.status.success(), "C: {}", String::from_utf8_lossy(&o.stderr));
+    let csv = read_csv(&out.join("C/timeseries.csv"));
+    for name in ["slider.ax", "motor.torque", "crank_pivot.fx"] {
+        let (a, b) = (column(&csv, name), column(&reference, name));
+        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "C: {name} differs from lash run C");
+    }
+    // A scenario on an FMU element is refused (the FMU carries its own).
+    std::fs::write(&file, text.replacen("builtin = \"lash_mechanism\"", "fmu = \"lash_mechanism.fmu\"", 1)).unwrap();
+    let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", out.join("C-bad").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("only a built-in element takes a scenario"));
     // lash's own full-model FMU in an SSP system structure, its clearance parameter bound from an
     // .ssv file, driving the plugin: the same as the TOML example with the built-in full model.
     let plugin = Path::new(env!("CARGO_BIN_EXE_lash")).with_file_name("libaccelerometer.so");

@@ -107,6 +107,11 @@ pub struct ElementSpec {
     /// A built-in subsystem: `lash_interface`, `lash_mechanism`, `lash_full`.
     #[serde(default)]
     pub builtin: Option<String>,
+    /// Built-ins only: the scenario whose model the built-in is, a built-in scenario name or a
+    /// scenario file relative to the system file (default: scenario A with the slider and motor
+    /// channels probed, like `lash fmu pack` without a scenario).
+    #[serde(default)]
+    pub scenario: Option<String>,
     /// Steps every `decimation`-th communication point, by `decimation` communication steps.
     #[serde(default = "one")]
     pub decimation: u32,
@@ -160,17 +165,27 @@ pub enum ElementSource {
     Fmu(std::path::PathBuf),
     /// A plugin library.
     Plugin(std::path::PathBuf),
-    /// A built-in subsystem by model identifier.
-    Builtin(String),
+    /// A built-in subsystem by model identifier, of a scenario (a built-in name or a file path
+    /// resolved against the system file's folder; none: the default scenario).
+    Builtin(String, Option<String>),
 }
 
 impl ElementSpec {
     /// The one source the element names, resolved against the system file's folder.
     pub fn source(&self, base: &std::path::Path) -> Result<ElementSource, String> {
+        if self.scenario.is_some() && self.builtin.is_none() {
+            return Err("scenario: only a built-in element takes a scenario (an FMU carries its own)".into());
+        }
         match (&self.fmu, &self.plugin, &self.builtin) {
             (Some(f), None, None) => Ok(ElementSource::Fmu(base.join(f))),
             (None, Some(p), None) => Ok(ElementSource::Plugin(base.join(p))),
-            (None, None, Some(b)) => Ok(ElementSource::Builtin(b.clone())),
+            (None, None, Some(b)) => Ok(ElementSource::Builtin(
+                b.clone(),
+                self.scenario.as_ref().map(|s| {
+                    let file = base.join(s);
+                    if file.is_file() { file.display().to_string() } else { s.clone() }
+                }),
+            )),
             _ => Err("give exactly one of fmu, plugin, builtin".into()),
         }
     }

@@ -160,6 +160,7 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
                     fmu: None,
                     plugin: None,
                     builtin: None,
+                    scenario: None,
                     decimation: 1,
                     parameters: BTreeMap::new(),
                     isolate: false,

@@ -149,19 +149,30 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
         ElementSource::Plugin(path) => {
             Box::new(lash_fmi::import::ImportedFmu::open_plugin(path, name).map_err(|e| e.to_string())?)
         }
-        ElementSource::Builtin(id) => match id.as_str() {
-            lash_catalog::INTERFACE => Box::new(lash_catalog::interface(&lash_catalog::default_scenario()?)?),
-            lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism(&lash_catalog::default_scenario()?)?),
-            lash_catalog::FULL => Box::new(lash_catalog::full(&lash_catalog::default_scenario()?)?),
-            other => {
-                return Err(format!(
-                    "no built-in subsystem {other:?} (built-ins: {}, {}, {})",
-                    lash_catalog::INTERFACE,
-                    lash_catalog::MECHANISM,
-                    lash_catalog::FULL
-                ));
-            }
-        },
+        ElementSource::Builtin(id, scenario) => {
+            let scenario = match scenario {
+                Some(s) => lash_catalog::named_scenario(s).map_err(|e| format!("scenario: {e}"))?,
+                None => lash_catalog::default_scenario()?,
+            };
+            builtin(id, &scenario)?
+        }
+    })
+}
+
+/// A built-in subsystem of `scenario` by model identifier.
+fn builtin(id: &str, scenario: &lash_catalog::Scenario) -> Result<Box<dyn Subsystem>, String> {
+    Ok(match id {
+        lash_catalog::INTERFACE => Box::new(lash_catalog::interface(scenario)?),
+        lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism(scenario)?),
+        lash_catalog::FULL => Box::new(lash_catalog::full(scenario)?),
+        other => {
+            return Err(format!(
+                "no built-in subsystem {other:?} (built-ins: {}, {}, {})",
+                lash_catalog::INTERFACE,
+                lash_catalog::MECHANISM,
+                lash_catalog::FULL
+            ));
+        }
     })
 }
 
