@@ -195,6 +195,35 @@ pub mod vr {
     }
 }
 
+/// Adds, at the value references `at` (journal ω, journal α, bearing ω, bearing α), the angular
+/// velocities and accelerations of each clearance joint's journal and bearing bodies: the macro
+/// subsystem's outputs and the micro subsystem's inputs, declared in one place.
+pub fn add_body_rates(t: &mut VariableTable, at: [ValueReference; 4], causality: Causality, shape: &[usize]) {
+    use Variability::Continuous as C;
+    t.add_at(
+        at[0],
+        "journal_angular_velocity",
+        causality,
+        C,
+        "rad/s",
+        "angular velocity of the journal body",
+        shape,
+        &[0.0],
+    );
+    t.add_at(at[1], "journal_angular_acceleration", causality, C, "rad/s^2", "its rate", shape, &[0.0]);
+    t.add_at(
+        at[2],
+        "bearing_angular_velocity",
+        causality,
+        C,
+        "rad/s",
+        "angular velocity of the bearing body",
+        shape,
+        &[0.0],
+    );
+    t.add_at(at[3], "bearing_angular_acceleration", causality, C, "rad/s^2", "its rate", shape, &[0.0]);
+}
+
 /// The mechanism around its clearance joints as the macro [`Subsystem`].
 pub struct MechanismSubsystem {
     name: String,
@@ -287,45 +316,16 @@ impl MechanismSubsystem {
             &per_joint_shape(k, &[n]),
             &[0.0],
         );
-        t.add_at(
-            vr::JOURNAL_ANGULAR_VELOCITY,
-            "journal_angular_velocity",
+        add_body_rates(
+            &mut t,
+            [
+                vr::JOURNAL_ANGULAR_VELOCITY,
+                vr::JOURNAL_ANGULAR_ACCELERATION,
+                vr::BEARING_ANGULAR_VELOCITY,
+                vr::BEARING_ANGULAR_ACCELERATION,
+            ],
             Output,
-            C,
-            "rad/s",
-            "angular velocity of the journal body",
             &pj,
-            &[0.0],
-        );
-        t.add_at(
-            vr::JOURNAL_ANGULAR_ACCELERATION,
-            "journal_angular_acceleration",
-            Output,
-            C,
-            "rad/s^2",
-            "its rate",
-            &pj,
-            &[0.0],
-        );
-        t.add_at(
-            vr::BEARING_ANGULAR_VELOCITY,
-            "bearing_angular_velocity",
-            Output,
-            C,
-            "rad/s",
-            "angular velocity of the bearing body",
-            &pj,
-            &[0.0],
-        );
-        t.add_at(
-            vr::BEARING_ANGULAR_ACCELERATION,
-            "bearing_angular_acceleration",
-            Output,
-            C,
-            "rad/s^2",
-            "its rate",
-            &pj,
-            &[0.0],
         );
         t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
         t.add_at(

@@ -429,45 +429,16 @@ impl InterfaceSubsystem {
             &map,
             &[0.0],
         );
-        t.add_at(
-            vr::JOURNAL_ANGULAR_VELOCITY,
-            "journal_angular_velocity",
+        lash_mech::subsystem::add_body_rates(
+            &mut t,
+            [
+                vr::JOURNAL_ANGULAR_VELOCITY,
+                vr::JOURNAL_ANGULAR_ACCELERATION,
+                vr::BEARING_ANGULAR_VELOCITY,
+                vr::BEARING_ANGULAR_ACCELERATION,
+            ],
             Input,
-            C,
-            "rad/s",
-            "angular velocity of the journal body",
             &pj,
-            &[0.0],
-        );
-        t.add_at(
-            vr::JOURNAL_ANGULAR_ACCELERATION,
-            "journal_angular_acceleration",
-            Input,
-            C,
-            "rad/s^2",
-            "its rate",
-            &pj,
-            &[0.0],
-        );
-        t.add_at(
-            vr::BEARING_ANGULAR_VELOCITY,
-            "bearing_angular_velocity",
-            Input,
-            C,
-            "rad/s",
-            "angular velocity of the bearing body",
-            &pj,
-            &[0.0],
-        );
-        t.add_at(
-            vr::BEARING_ANGULAR_ACCELERATION,
-            "bearing_angular_acceleration",
-            Input,
-            C,
-            "rad/s^2",
-            "its rate",
-            &pj,
-            &[0.0],
         );
         t.add_at(vr::CONTACT_FORCE, "contact_force", Output, C, "N", "contact force f_c on the journal", &[n], &[0.0]);
         t.add_at(
