@@ -14,9 +14,7 @@ use lash_core::Subsystem;
 use lash_fmi::{ModelInfo, instantiation_token};
 use lash_mech::MechanismSubsystem;
 use lash_scenario::parameters::{clearance_parameters, mechanism_parameters};
-use lash_scenario::{FullSubsystem, WithParameters};
-
-pub use lash_scenario::Scenario;
+use lash_scenario::{FullSubsystem, Scenario, WithParameters};
 use std::path::Path;
 
 /// Where an FMU carries its scenario: `resources/scenario.toml` (written by `lash fmu pack`).
@@ -36,18 +34,7 @@ pub fn scenario(resources: Option<&Path>) -> Result<Scenario, String> {
     let Some(file) = resources.map(|r| r.join(SCENARIO_RESOURCE)).filter(|f| f.is_file()) else {
         return default_scenario();
     };
-    let text = std::fs::read_to_string(&file).map_err(|e| format!("{}: {e}", file.display()))?;
-    lash_scenario::parse(&text).map_err(|p| format!("{}: {}", file.display(), p.to_string().trim_end()))
-}
-
-/// A scenario by built-in name (`A`, `C`, …) or from a scenario file, every problem listed.
-pub fn named_scenario(name_or_file: &str) -> Result<Scenario, String> {
-    if let Some(s) = lash_scenario::builtin::by_name(name_or_file) {
-        return Ok(s);
-    }
-    let text = std::fs::read_to_string(name_or_file)
-        .map_err(|e| format!("{name_or_file:?} is neither a built-in scenario nor a readable file: {e}"))?;
-    lash_scenario::parse(&text).map_err(|p| format!("{name_or_file}: {}", p.to_string().trim_end()))
+    lash_scenario::read_file(&file).map_err(|e| e.trim_end().to_string())
 }
 
 /// The reduced model's two subsystems of a scenario.

@@ -310,18 +310,7 @@ impl std::fmt::Display for CliError {
 
 /// Loads a scenario from a built-in name or a file path.
 pub fn load_scenario(arg: &str) -> Result<lash_scenario::Scenario, CliError> {
-    if let Some(s) = lash_scenario::builtin::by_name(arg) {
-        return Ok(s);
-    }
-    let path = std::path::Path::new(arg);
-    if !path.exists() {
-        return Err(CliError::Input(format!(
-            "scenario {arg:?} is neither a file nor a built-in scenario (built-ins: {})",
-            lash_scenario::builtin::NAMES.join(", ")
-        )));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::Input(format!("cannot read {arg}: {e}")))?;
-    lash_scenario::parse(&text).map_err(|p| CliError::Input(format!("invalid scenario {arg}: {p}")))
+    lash_scenario::by_name_or_file(arg).map_err(CliError::Input)
 }
 
 /// Runs the command line with the process arguments.

@@ -1,4 +1,7 @@
-//! Master algorithms of lash: the multirate coupling of the reduced interface model.
+//! The execution engine of lash: its coupling algorithms behind one [`Algorithm`] trait — the
+//! multirate coupling of the reduced interface model ([`InterfaceMaster`], below) and the
+//! Gauss–Seidel/Jacobi master over elements and connections ([`ConnectedMaster`], in
+//! [`connected`]); every subsystem step goes through [`advance`].
 //!
 //! The [`InterfaceMaster`] couples a macro subsystem (the mechanism; communication step h_m) and a
 //! micro subsystem (the clearance interface; step h_r = h_m / N, N an integer in exact

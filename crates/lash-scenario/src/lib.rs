@@ -23,7 +23,7 @@ pub mod schema;
 pub use build::{BuildOptions, build_model};
 pub use channels::{Channel, channel_names, channels};
 pub use full_subsystem::FullSubsystem;
-pub use load::{parse, validate};
+pub use load::{by_name_or_file, parse, read_file, validate};
 pub use parameters::WithParameters;
 pub use reduced::{ReducedOptions, ReducedRun};
 pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Summary};

@@ -21,6 +21,28 @@ const TOP_KEYS: [&str; 12] = [
     "output",
 ];
 
+/// Reads and parses a scenario file; the message names the file and lists every problem.
+pub fn read_file(path: &std::path::Path) -> Result<Scenario, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    parse(&text).map_err(|p| format!("invalid scenario {}: {p}", path.display()))
+}
+
+/// A built-in scenario by name (`A`, `C`, …), or else a scenario file: the one way every command,
+/// system file and FMU resolves a scenario argument.
+pub fn by_name_or_file(arg: &str) -> Result<Scenario, String> {
+    if let Some(s) = crate::builtin::by_name(arg) {
+        return Ok(s);
+    }
+    let path = std::path::Path::new(arg);
+    if !path.exists() {
+        return Err(format!(
+            "scenario {arg:?} is neither a file nor a built-in scenario (built-ins: {})",
+            crate::builtin::NAMES.join(", ")
+        ));
+    }
+    read_file(path)
+}
+
 /// Parses and validates a scenario from TOML text. On failure, returns every problem found.
 pub fn parse(text: &str) -> Result<Scenario, Problems> {
     let table: toml::Table = toml::from_str(text).map_err(|e| {
