@@ -516,6 +516,8 @@ impl<'a> InterfaceMaster<'a> {
     pub fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
         let o = self.options;
         let per_macro = o.macro_step.exact_ratio(o.micro_step).expect("checked") as usize;
+        // The fractions j / per_macro of the macro step at the micro steps' ends, divided once.
+        let fractions: Vec<f64> = (0..=per_macro).map(|j| j as f64 / per_macro as f64).collect();
         let macro_steps = Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).expect("checked") as usize;
         let mut decimation = Vec::with_capacity(observers.len());
         for (_, interval) in observers.iter() {
@@ -693,7 +695,7 @@ impl<'a> InterfaceMaster<'a> {
                     return Ok(());
                 }
                 micro_sub.get_f64(&micro_outputs, micro).map_err(micro_err)?;
-                fill_signals(&resolved, w, (j + 1) as f64 / per_macro as f64, &micro[..loads], micro, signals);
+                fill_signals(&resolved, w, fractions[j + 1], &micro[..loads], micro, signals);
                 let t1 = Ticks(t.0 + o.micro_step.0);
                 for (((obs, _), l), d) in observers.iter_mut().zip(left.iter_mut()).zip(&decimation) {
                     if *l == 0 {
@@ -743,7 +745,7 @@ impl<'a> InterfaceMaster<'a> {
                 // macro step (as FMI input derivatives). Cubic Hermite is set at every micro step.
                 let every_micro_step = kind == Interpolation::CubicHermite;
                 for j in 0..per_macro {
-                    let s = j as f64 / per_macro as f64;
+                    let s = fractions[j];
                     if j > 0 && !every_micro_step {
                         let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
                         let stop = advance(micro_sub, "micro", t, o.micro_step)?;

@@ -256,6 +256,7 @@ impl ReducedRun {
         let (mut max_ecc, mut sum_force) = (vec![0.0f64; joints], vec![0.0; joints]);
         let mut last_error = None;
         let horizon = sim.horizon;
+        let per_horizon = 1.0 / horizon;
         let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
             for (s, &v) in stats.iter_mut().zip(values) {
                 s.0 = s.0.min(v);
@@ -270,7 +271,7 @@ impl ReducedRun {
             samples += 1;
             row[0] = t.seconds();
             row[1..].copy_from_slice(&values[..n_sel]);
-            progress(((t.seconds() - sim.start_time) / horizon).clamp(0.0, 1.0));
+            progress(((t.seconds() - sim.start_time) * per_horizon).clamp(0.0, 1.0));
             sink(&row).inspect_err(|e| last_error = Some(e.clone()))
         };
         let interval = ticks(sim.output_interval, "simulation.output_interval")?;
