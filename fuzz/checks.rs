@@ -47,9 +47,9 @@ pub fn scenario(text: &str) -> bool {
     let Ok(mut s) = lash_scenario::parse(text) else { return false };
     s.simulation.horizon = s.simulation.horizon.min(20.0 * s.simulation.output_interval);
     if lash_scenario::validate(&s).is_empty() {
-        let mut run = lash_scenario::FullRun::new(&s, lash_scenario::BuildOptions::default());
+        let mut run = lash_run::FullRun::new(&s, lash_run::BuildOptions::default());
         let mut rows = 0usize;
-        let _ = lash_scenario::Runner::execute(
+        let _ = lash_run::Runner::execute(
             &mut run,
             &mut |_| {
                 rows += 1;

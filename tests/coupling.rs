@@ -7,7 +7,8 @@ use common::{column, rows};
 use lash_contact::FrictionLaw;
 use lash_core::Coupling;
 use lash_orchestrate::{Execution, Interpolation};
-use lash_scenario::{BuildOptions, FullRun, ReducedOptions, ReducedRun, builtin};
+use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun};
+use lash_scenario::builtin;
 
 #[test]
 fn threaded_pipeline_is_bit_identical_to_sequential() {

@@ -319,7 +319,7 @@ fn in_process_slider_acceleration(a: &lash_scenario::Scenario) -> Vec<f64> {
     let mut a = a.clone();
     a.output.channels = vec!["slider.ax".into()];
     let mut values = Vec::new();
-    lash_scenario::ReducedRun::new(&a, lash_scenario::ReducedOptions::default())
+    lash_run::ReducedRun::new(&a, lash_run::ReducedOptions::default())
         .unwrap()
         .execute(
             &mut |row| {

@@ -5,7 +5,8 @@ use lash_contact::Impact;
 use lash_ode::{AdaptiveOptions, Method};
 mod common;
 use common::{column, rows};
-use lash_scenario::{BuildOptions, FullRun, Summary, builtin};
+use lash_run::{BuildOptions, FullRun, Summary};
+use lash_scenario::builtin;
 
 const L1: f64 = builtin::CRANK_LENGTH;
 const L2: f64 = builtin::ROD_LENGTH;

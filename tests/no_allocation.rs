@@ -2,7 +2,8 @@
 //! allocator watches them after warm-up).
 
 use lash_ode::OdeSystem;
-use lash_scenario::{BuildOptions, bench::Rk4Stepper, builtin};
+use lash_run::{BuildOptions, bench::Rk4Stepper};
+use lash_scenario::builtin;
 use stats_alloc::{INSTRUMENTED_SYSTEM, Region, StatsAlloc};
 use std::alloc::System;
 
@@ -12,7 +13,7 @@ static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 #[test]
 fn rhs_and_rk4_step_allocate_nothing() {
     let s = builtin::by_name("B").unwrap();
-    let mut model = lash_scenario::build_model(&s, BuildOptions::default());
+    let mut model = lash_run::build_model(&s, BuildOptions::default());
     let y0 = model.initial_state(0.0).unwrap();
     let mut dydt = vec![0.0; y0.len()];
     model.rhs(0.0, &y0, &mut dydt);

@@ -4,7 +4,8 @@
 use lash_orchestrate::Interpolation;
 mod common;
 use common::{column, rows};
-use lash_scenario::{BuildOptions, FullRun, ReducedOptions, ReducedRun, builtin};
+use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun};
+use lash_scenario::builtin;
 
 #[test]
 fn small_clearance_reduced_matches_full_within_three_percent() {

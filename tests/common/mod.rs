@@ -1,7 +1,7 @@
 //! Helpers shared by the end-to-end tests.
 #![allow(dead_code)]
 
-use lash_scenario::{Runner, Summary};
+use lash_run::{Runner, Summary};
 
 /// Runs to the end, keeping every row.
 pub fn rows(runner: &mut dyn Runner) -> (Summary, Vec<String>, Vec<Vec<f64>>) {

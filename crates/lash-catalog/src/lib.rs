@@ -13,8 +13,9 @@ use lash_contact::micro::InterfaceSubsystem;
 use lash_core::Subsystem;
 use lash_fmi::{ModelInfo, instantiation_token};
 use lash_mech::MechanismSubsystem;
+use lash_run::FullSubsystem;
 use lash_scenario::parameters::{clearance_parameters, mechanism_parameters};
-use lash_scenario::{FullSubsystem, Scenario, WithParameters};
+use lash_scenario::{Scenario, WithParameters};
 use std::path::Path;
 
 /// Where an FMU carries its scenario: `resources/scenario.toml` (written by `lash fmu pack`).
@@ -39,7 +40,7 @@ pub fn scenario(resources: Option<&Path>) -> Result<Scenario, String> {
 
 /// The reduced model's two subsystems of a scenario.
 fn reduced_subsystems(s: &Scenario) -> Result<(MechanismSubsystem, InterfaceSubsystem), String> {
-    let run = lash_scenario::ReducedRun::new(s, lash_scenario::ReducedOptions::default()).map_err(|e| e.to_string())?;
+    let run = lash_run::ReducedRun::new(s, lash_run::ReducedOptions::default()).map_err(|e| e.to_string())?;
     Ok(run.into_subsystems())
 }
 

@@ -10,7 +10,8 @@
 
 use crate::CliError;
 use lash_ode::OdeSystem;
-use lash_scenario::{BuildOptions, FullRun, bench::Rk4Stepper, builtin};
+use lash_run::{BuildOptions, FullRun, bench::Rk4Stepper};
+use lash_scenario::builtin;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -23,7 +24,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
     let reps = if quick { 3 } else { 7 };
     let s = builtin::by_name("B").expect("built-in");
 
-    let mut model = lash_scenario::build_model(&s, BuildOptions::default());
+    let mut model = lash_run::build_model(&s, BuildOptions::default());
     let y0 = model.initial_state(0.0).map_err(|e| CliError::Failure(e.to_string()))?;
     let mut dydt = vec![0.0; y0.len()];
     // Warm-up (~0.5 s of the measured work): lets the CPU leave its idle clock before timing.
@@ -81,7 +82,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
             .collect(),
     );
 
-    let time_run = |ideal: bool, method: lash_ode::Method| -> Result<(f64, lash_scenario::Summary), CliError> {
+    let time_run = |ideal: bool, method: lash_ode::Method| -> Result<(f64, lash_run::Summary), CliError> {
         let mut times = Vec::new();
         let mut last = None;
         let mut s = s.clone();
@@ -112,9 +113,9 @@ pub fn run(quick: bool) -> Result<(), CliError> {
     let time_a = |reduced: bool| -> Result<f64, CliError> {
         let mut times = Vec::new();
         for _ in 0..reps {
-            let mut r: Box<dyn lash_scenario::Runner> = if reduced {
+            let mut r: Box<dyn lash_run::Runner> = if reduced {
                 Box::new(
-                    lash_scenario::ReducedRun::new(&a, lash_scenario::ReducedOptions::default())
+                    lash_run::ReducedRun::new(&a, lash_run::ReducedOptions::default())
                         .map_err(|e| CliError::Failure(e.to_string()))?,
                 )
             } else {
@@ -163,7 +164,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
 }
 
 /// Runs `scenario` with `runner` and returns the wall time [ms] (rows discarded).
-fn time_runner(r: &mut dyn lash_scenario::Runner) -> Result<(f64, lash_scenario::Summary), CliError> {
+fn time_runner(r: &mut dyn lash_run::Runner) -> Result<(f64, lash_run::Summary), CliError> {
     let t = Instant::now();
     let summary = r
         .execute(&mut |row| Ok(black_box(row).len()).map(|_| ()), &mut |_| {})
@@ -199,13 +200,13 @@ fn time_micro_steps<const N: usize, const K: usize>(
 /// The reduced model's figures: micro step cost, 1 s of scenario A, equal-step and converged
 /// ratios against the full model, and scaling with body count.
 fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
-    use lash_scenario::{ReducedOptions, ReducedRun};
+    use lash_run::{ReducedOptions, ReducedRun};
     let fail = |e: &dyn std::fmt::Display| CliError::Failure(e.to_string());
 
     // Micro step alone: scenario A's interface with the terms of its first macro node, journal
     // released from the centre: impacts, then a settled contact (both branches of the law).
     let a = builtin::by_name("A").expect("built-in");
-    let joint = lash_scenario::build_model(&a, BuildOptions::default()).clearances[0].clone();
+    let joint = lash_run::build_model(&a, BuildOptions::default()).clearances[0].clone();
     let n = if quick { 100_000 } else { 400_000 };
     let micro_ns = {
         let mut inputs = lash_contact::micro::InterfaceInputs::<2, 1> {
@@ -247,8 +248,8 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     c1.simulation.horizon = horizon;
     c1.output.channels = vec!["slider.ax".into()];
     let reduced_of =
-        |s: &lash_scenario::Scenario, options: ReducedOptions| -> Result<(f64, lash_scenario::Summary), CliError> {
-            let mut best: Option<(f64, lash_scenario::Summary)> = None;
+        |s: &lash_scenario::Scenario, options: ReducedOptions| -> Result<(f64, lash_run::Summary), CliError> {
+            let mut best: Option<(f64, lash_run::Summary)> = None;
             let mut times = Vec::new();
             for _ in 0..reps {
                 let (ms, s) = time_runner(&mut ReducedRun::new(s, options).map_err(|e| fail(&e))?)?;
@@ -282,7 +283,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
         master.macro_seconds * 1e3,
         master.micro_seconds * 1e3
     );
-    let per_micro = |ms: f64, s: &lash_scenario::Summary| {
+    let per_micro = |ms: f64, s: &lash_run::Summary| {
         ms * 1e6 / s.reduced.as_ref().map_or(1, |r| r.master.micro_steps.max(1)) as f64
     };
     println!(
@@ -306,7 +307,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
 /// Full-model RK4 step and reduced-model cost per micro step against body count (radial engines
 /// of 1…9 cylinders with the clearance at the crank–ground joint).
 fn scaling(quick: bool) -> Result<(), CliError> {
-    use lash_scenario::{ReducedOptions, ReducedRun};
+    use lash_run::{ReducedOptions, ReducedRun};
     println!("scaling: radial engines, clearance at the crank–ground joint, 0.02 s, slider0.ax every 1e-5 s");
     println!(
         "  cylinders  bodies   full RK4 1e-5 [ms]   reduced [ms]   ratio   micro+observers [ns/micro step]   macro [µs/macro step]"

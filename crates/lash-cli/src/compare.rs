@@ -2,7 +2,8 @@
 
 use crate::CliError;
 use lash_metrics as compare;
-use lash_scenario::{BuildOptions, FullRun, ReducedOptions, ReducedRun, Scenario};
+use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun};
+use lash_scenario::Scenario;
 use std::path::Path;
 
 /// Pointwise errors are also reported over this first window, through the first impacts [s].

@@ -100,8 +100,8 @@ pub struct ReducedArgs {
 }
 
 impl ReducedArgs {
-    fn options(&self) -> lash_scenario::ReducedOptions {
-        lash_scenario::ReducedOptions {
+    fn options(&self) -> lash_run::ReducedOptions {
+        lash_run::ReducedOptions {
             macro_step: self.macro_step,
             micro_step: self.micro_step,
             interpolation: match self.interpolation {
@@ -361,14 +361,14 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             let s = load_with_horizon(&scenario, horizon)?;
             match model {
                 ModelKind::Full => {
-                    let mut r = lash_scenario::FullRun::new(&s, lash_scenario::BuildOptions { ideal });
+                    let mut r = lash_run::FullRun::new(&s, lash_run::BuildOptions { ideal });
                     run::run(&s, &mut r, &out, quiet).map(|_| ())
                 }
                 ModelKind::Reduced => {
                     if ideal {
                         return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
                     }
-                    let mut r = lash_scenario::ReducedRun::new(&s, reduced.options())
+                    let mut r = lash_run::ReducedRun::new(&s, reduced.options())
                         .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
                     run::run(&s, &mut r, &out, quiet).map(|_| ())
                 }

@@ -5,7 +5,8 @@
 use crate::CliError;
 use crate::output::CsvOutput;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lash_scenario::{Runner, Scenario};
+use lash_run::Runner;
+use lash_scenario::Scenario;
 use std::path::Path;
 use std::time::{Duration, Instant};
 

@@ -13,7 +13,7 @@ pub struct Channel {
 
 /// What a channel measures (how the runner computes it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Source {
+pub enum Source {
     /// Sensor k, quantity (0..6: x, y, vx, vy, ax, ay).
     Sensor(usize, u8),
     /// Clearance k, quantity (see CLEARANCE_QUANTITIES).
@@ -29,7 +29,9 @@ pub(crate) enum Source {
 const SENSOR_QUANTITIES: [(&str, &str); 6] =
     [("x", "m"), ("y", "m"), ("vx", "m/s"), ("vy", "m/s"), ("ax", "m/s^2"), ("ay", "m/s^2")];
 
-pub(crate) const CLEARANCE_QUANTITIES: [(&str, &str); 11] = [
+/// The quantities of a clearance joint's channels: (suffix, unit), indexed by [`Source::Clearance`]'s
+/// second field.
+pub const CLEARANCE_QUANTITIES: [(&str, &str); 11] = [
     ("fx", "N"),
     ("fy", "N"),
     ("force", "N"),
@@ -44,7 +46,7 @@ pub(crate) const CLEARANCE_QUANTITIES: [(&str, &str); 11] = [
 ];
 
 /// Channels of a scenario (time excluded), with what computes them.
-pub(crate) fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
+pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
     let mut out = Vec::new();
     for (k, sen) in s.sensors.iter().enumerate() {
         for (q, (name, unit)) in SENSOR_QUANTITIES.iter().enumerate() {
@@ -80,14 +82,14 @@ pub(crate) fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source
 }
 
 /// Indices into `sources` of the channels the scenario writes (`[output] channels`, or all).
-pub(crate) fn selected_channels(s: &Scenario, sources: &[(Channel, Source)]) -> Vec<usize> {
+pub fn selected_channels(s: &Scenario, sources: &[(Channel, Source)]) -> Vec<usize> {
     (0..sources.len())
         .filter(|&k| s.output.channels.is_empty() || s.output.channels.contains(&sources[k].0.name))
         .collect()
 }
 
 /// CSV header: `time [s]` then `name [unit]` of each selected channel.
-pub(crate) fn header(sources: &[(Channel, Source)], selected: &[usize]) -> Vec<String> {
+pub fn header(sources: &[(Channel, Source)], selected: &[usize]) -> Vec<String> {
     std::iter::once("time [s]".to_string())
         .chain(selected.iter().map(|&k| format!("{} [{}]", sources[k].0.name, sources[k].0.unit)))
         .collect()

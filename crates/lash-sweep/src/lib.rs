@@ -161,11 +161,11 @@ fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
 /// Simulates one run and returns its samples (noise added) and the simulated time.
 fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(RunData, f64), String> {
     let scenario = plan.scenario(run)?;
-    let mut runner: Box<dyn lash_scenario::Runner> = match plan.spec.model {
+    let mut runner: Box<dyn lash_run::Runner> = match plan.spec.model {
         ModelKind::Reduced => Box::new(
-            lash_scenario::ReducedRun::new(&scenario, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?,
+            lash_run::ReducedRun::new(&scenario, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?,
         ),
-        ModelKind::Full => Box::new(lash_scenario::FullRun::new(&scenario, lash_scenario::BuildOptions::default())),
+        ModelKind::Full => Box::new(lash_run::FullRun::new(&scenario, lash_run::BuildOptions::default())),
     };
     let header = runner.header();
     let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();

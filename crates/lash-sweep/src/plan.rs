@@ -95,7 +95,7 @@ impl Plan {
         if p.is_empty() && spec.model == ModelKind::Reduced {
             // Step sizes, sampling and horizon must fit the reduced model's integer time grid:
             // building its runner for the base checks them once, before any run.
-            if let Err(e) = lash_scenario::ReducedRun::new(&base, reduced_options(&spec)) {
+            if let Err(e) = lash_run::ReducedRun::new(&base, reduced_options(&spec)) {
                 let field = if e.to_string().contains("output_interval") { "output.sample_rate" } else { "model" };
                 p.push(field, format!("the reduced model refuses the base scenario: {e}"));
             }
@@ -132,8 +132,8 @@ impl Plan {
 }
 
 /// Options of the reduced model for this sweep.
-pub fn reduced_options(spec: &SweepSpec) -> lash_scenario::ReducedOptions {
-    let mut options = lash_scenario::ReducedOptions::default();
+pub fn reduced_options(spec: &SweepSpec) -> lash_run::ReducedOptions {
+    let mut options = lash_run::ReducedOptions::default();
     if let Some(r) = spec.reduced {
         options.macro_step = r.macro_step;
         options.micro_step = r.micro_step;

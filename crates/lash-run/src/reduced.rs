@@ -15,14 +15,14 @@
 //! R_B F_T on the bearing body) act in the micro model and in every propagated channel.
 
 use crate::build::{BuildOptions, build_model};
-use crate::channels::{CLEARANCE_QUANTITIES, Channel, Source, channel_sources};
 use crate::run::{RunError, Summary, driver_period};
-use crate::schema::Scenario;
 use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_core::{Coupling, Subsystem, Ticks};
 use lash_mech::{ClearanceInterface, Interface, MechanismSubsystem, Probe, Vec2};
 use lash_ode::AdaptiveOptions;
 use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
+use lash_scenario::channels::{CLEARANCE_QUANTITIES, Channel, Source, channel_sources};
+use lash_scenario::schema::Scenario;
 
 /// Step sizes, interpolation, coupling and execution of the reduced model.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -146,7 +146,7 @@ impl ReducedRun {
         let loads = joints.len() * (lash_contact::micro::PLANAR_JOINT_COORDINATES + 1);
 
         let sources = channel_sources(scenario, false);
-        let selected = crate::channels::selected_channels(scenario, &sources);
+        let selected = lash_scenario::channels::selected_channels(scenario, &sources);
         let joint_names: Vec<&str> = scenario
             .joints
             .iter()
@@ -222,7 +222,7 @@ impl ReducedRun {
 
     /// Header of the written columns (the same channels as the full model).
     pub fn header(&self) -> Vec<String> {
-        crate::channels::header(&self.sources, &self.selected)
+        lash_scenario::channels::header(&self.sources, &self.selected)
     }
 
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.

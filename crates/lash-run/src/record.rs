@@ -2,10 +2,10 @@
 //! all channel values from (q, q̇, q̈, λ, contact states), updates the statistics and hands the
 //! selected columns to the sink.
 
-use crate::channels::{Channel, Source};
 use crate::run::{ChannelStats, ClearanceSummary};
 use lash_contact::{ContactState, Impact};
 use lash_mech::{BodyId, Mechanism, Solver, Vec2, driver_torque, kinematics, point_kinematics};
+use lash_scenario::channels::{Channel, Source};
 use std::collections::BTreeMap;
 
 /// Channel sampler with running statistics.

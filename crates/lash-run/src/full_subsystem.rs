@@ -5,12 +5,10 @@
 //! location) from `t` to `t + h`, continuing with the step size the previous communication step
 //! proposed, and samples every output channel of the scenario at `t + h` — the same channels, the
 //! same computation as `lash run`. The model is closed (no inputs); its numbers are FMI
-//! parameters through [`crate::parameters::WithParameters`].
+//! parameters through [`lash_scenario::parameters::WithParameters`].
 
-use crate::channels::{Channel, Source, channel_sources};
 use crate::record::Recorder;
 use crate::run::sensor_points;
-use crate::schema::Scenario;
 use crate::{BuildOptions, build_model};
 use lash_contact::full_model::{FullModel, FullModelState};
 use lash_core::subsystem::{Phase, element_count};
@@ -19,6 +17,8 @@ use lash_core::{
     VariableTable,
 };
 use lash_mech::{BodyId, Vec2};
+use lash_scenario::channels::{Channel, Source, channel_sources};
+use lash_scenario::schema::Scenario;
 
 /// The full model of one scenario as a co-simulation subsystem; one output per channel.
 pub struct FullSubsystem {

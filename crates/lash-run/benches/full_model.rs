@@ -4,12 +4,13 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lash_ode::OdeSystem;
-use lash_scenario::{BuildOptions, FullRun, builtin};
+use lash_run::{BuildOptions, FullRun};
+use lash_scenario::builtin;
 use std::hint::black_box;
 
 fn benches(c: &mut Criterion) {
     let s = builtin::by_name("B").unwrap();
-    let mut model = lash_scenario::build_model(&s, BuildOptions::default());
+    let mut model = lash_run::build_model(&s, BuildOptions::default());
     let y0 = model.initial_state(0.0).unwrap();
     let mut dydt = vec![0.0; y0.len()];
     c.bench_function("full_model_B/rhs_evaluation", |b| {
@@ -19,7 +20,7 @@ fn benches(c: &mut Criterion) {
         })
     });
     c.bench_function("full_model_B/rk4_step_1e-5", |b| {
-        let mut stepper = lash_scenario::bench::Rk4Stepper::new(&mut model, 1e-5);
+        let mut stepper = lash_run::bench::Rk4Stepper::new(&mut model, 1e-5);
         b.iter(|| black_box(stepper.step()))
     });
     let mut group = c.benchmark_group("full_model_B");

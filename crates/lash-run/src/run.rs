@@ -2,12 +2,12 @@
 //! rows to a sink and returns a summary.
 
 use crate::build::{BuildOptions, build_model};
-use crate::channels::{Channel, Source, channel_sources};
 use crate::record::Recorder;
-use crate::schema::Scenario;
 use lash_contact::{FullModel, Impact};
 use lash_mech::{BodyId, Motion, Vec2};
 use lash_ode::{OdeError, OdeSystem};
+use lash_scenario::channels::{Channel, Source, channel_sources};
+use lash_scenario::schema::Scenario;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -129,7 +129,7 @@ impl FullRun {
     /// Prepares a run of a validated scenario.
     pub fn new(scenario: &Scenario, options: BuildOptions) -> Self {
         let sources = channel_sources(scenario, options.ideal);
-        let selected = crate::channels::selected_channels(scenario, &sources);
+        let selected = lash_scenario::channels::selected_channels(scenario, &sources);
         Self {
             model: build_model(scenario, options),
             scenario: scenario.clone(),
@@ -141,7 +141,7 @@ impl FullRun {
 
     /// Header of the written columns (time first), with units: `time [s]`, `slider.ax [m/s^2]`, …
     pub fn header(&self) -> Vec<String> {
-        crate::channels::header(&self.sources, &self.selected)
+        lash_scenario::channels::header(&self.sources, &self.selected)
     }
 
     /// Integrates over the scenario's horizon. `sink` receives each row (time first);

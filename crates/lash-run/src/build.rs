@@ -1,8 +1,8 @@
 //! From a validated scenario to a runnable full model.
 
-use crate::schema::*;
 use lash_contact::{ClearanceJoint, FullModel, Material};
 use lash_mech::{Body, BodyId, Driver, Joint, JointKind, Load, Mechanism, Vec2};
+use lash_scenario::schema::*;
 
 fn v2(a: [f64; 2]) -> Vec2 {
     Vec2::new(a[0], a[1])
