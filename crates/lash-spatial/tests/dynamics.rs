@@ -1,0 +1,314 @@
+//! Independent checks of the spatial engine: conservation laws of a free body, a closed-form
+//! mechanism, the KKT solve against a dense LU of the full system, energy of a conservative chain.
+
+use lash_ode::{AdaptiveOptions, Method, integrate};
+use lash_spatial::{
+    Baumgarte, BodyId, Marker, Motion, Orientation, SpatialBody, SpatialDriver, SpatialJoint, SpatialJointKind,
+    SpatialMechanism, SpatialSystem, Vec3, angular_momentum, assemble, kinetic_energy, potential_energy,
+    velocity_analysis,
+};
+
+fn tight() -> Method {
+    Method::Dop853(AdaptiveOptions { rtol: 1e-12, atol: 1e-14, initial_step: 1e-6, max_step: 1e-2, min_step: 1e-14 })
+}
+
+/// Runs `system` from `y` to `t_end`, handing every output to `check`.
+fn run(
+    system: &mut SpatialSystem,
+    y: &mut [f64],
+    t_end: f64,
+    interval: f64,
+    check: &mut dyn FnMut(&mut SpatialSystem, f64, &[f64]),
+) {
+    integrate(&tight(), system, 0.0, y, t_end, interval, &mut |s: &mut SpatialSystem, t: f64, y: &[f64]| {
+        check(s, t, y);
+        Ok(())
+    })
+    .expect("integration");
+}
+
+#[test]
+fn a_torque_free_asymmetric_top_conserves_energy_and_angular_momentum() {
+    // Spun close to its intermediate axis: it flips over and over (the tennis-racket effect), so
+    // every component of ω' changes by its full size.
+    let mut body = SpatialBody::at_rest(
+        "top",
+        0.5,
+        Vec3::new(2.0e-3, 3.0e-3, 4.0e-3),
+        Vec3::new(0.1, -0.2, 0.3),
+        Orientation::from_euler_angles(0.3, -0.2, 1.1),
+    );
+    body.angular_velocity = Vec3::new(0.05, 10.0, 0.1);
+    body.velocity = Vec3::new(0.2, 0.0, -0.1);
+    let mech = SpatialMechanism {
+        bodies: vec![body],
+        joints: vec![],
+        drivers: vec![],
+        loads: vec![],
+        gravity: Vec3::zeros(),
+        baumgarte: Baumgarte::default(),
+    };
+    assert!(mech.validate().0.is_empty());
+    let mut y = mech.initial_state();
+    let (q0, v0) = y.split_at(7);
+    let (e0, l0) = (kinetic_energy(&mech, v0), angular_momentum(&mech, q0, v0));
+    let mut system = SpatialSystem::new(mech);
+    let (mut worst_energy, mut worst_momentum, mut flips, mut last_sign) = (0.0f64, 0.0f64, 0, 1.0f64);
+    run(&mut system, &mut y, 20.0, 0.01, &mut |s, _, y| {
+        let (q, v) = y.split_at(7);
+        worst_energy = worst_energy.max((kinetic_energy(&s.mechanism, v) - e0).abs() / e0);
+        worst_momentum = worst_momentum.max((angular_momentum(&s.mechanism, q, v) - l0).norm() / l0.norm());
+        if v[4].signum() != last_sign {
+            flips += 1;
+            last_sign = v[4].signum();
+        }
+    });
+    eprintln!(
+        "top: {flips} flips, energy {worst_energy:e}, momentum {worst_momentum:e}, |p| drift {:e}",
+        system.quaternion_drift(&y)
+    );
+    assert!(flips >= 4, "the top should flip about its intermediate axis, flipped {flips} times");
+    assert!(worst_energy < 1e-9, "relative energy error {worst_energy:e}");
+    assert!(worst_momentum < 1e-9, "relative angular momentum error {worst_momentum:e}");
+    assert!(system.quaternion_drift(&y) < 1e-9, "quaternion drift {:e}", system.quaternion_drift(&y));
+}
+
+/// The spatial slider-crank: crank about Y, S–S rod, slider translating along X on the line
+/// (0, h, −e). Bodies placed by the closed form at θ0 = asin(e/r); velocities by velocity analysis.
+fn slider_crank(omega: f64) -> (SpatialMechanism, Vec<f64>) {
+    let (r, l, h, e): (f64, f64, f64, f64) = (0.05, 0.25, 0.06, 0.02);
+    let theta0 = (e / r).asin();
+    let pin = r * Vec3::new(theta0.cos(), 0.0, -theta0.sin());
+    let x_s = r * theta0.cos() + (l * l - h * h - (r * theta0.sin() - e).powi(2)).sqrt();
+    let ball = Vec3::new(x_s, h, -e);
+    let crank_orientation = Orientation::from_axis_angle(&Vec3::y_axis(), theta0);
+    let rod_axis = (ball - pin).normalize();
+    let rod_orientation = Orientation::rotation_between(&Vec3::x(), &rod_axis).expect("not antiparallel");
+    let mut crank =
+        SpatialBody::at_rest("crank", 0.30, Vec3::new(1.25e-5, 1.33e-4, 1.33e-4), pin / 2.0, crank_orientation);
+    crank.angular_velocity = Vec3::new(0.0, omega, 0.0);
+    let rod =
+        SpatialBody::at_rest("rod", 0.25, Vec3::new(1.0e-5, 1.30e-3, 1.30e-3), (pin + ball) / 2.0, rod_orientation);
+    let slider = SpatialBody::at_rest("slider", 0.60, Vec3::new(1.7e-4, 1.7e-4, 1.7e-4), ball, Orientation::identity());
+    let (ground, c, rd, s) = (BodyId::Ground, BodyId::Body(0), BodyId::Body(1), BodyId::Body(2));
+    let joints = vec![
+        SpatialJoint {
+            name: "crank_pivot".into(),
+            kind: SpatialJointKind::Revolute,
+            i: Marker::oriented(ground, Vec3::zeros(), Vec3::y(), Vec3::x()),
+            j: Marker::oriented(c, Vec3::new(-r / 2.0, 0.0, 0.0), Vec3::y(), Vec3::x()),
+        },
+        SpatialJoint {
+            name: "crank_rod".into(),
+            kind: SpatialJointKind::Spherical,
+            i: Marker::at(c, Vec3::new(r / 2.0, 0.0, 0.0)),
+            j: Marker::at(rd, Vec3::new(-l / 2.0, 0.0, 0.0)),
+        },
+        SpatialJoint {
+            name: "rod_slider".into(),
+            kind: SpatialJointKind::Spherical,
+            i: Marker::at(rd, Vec3::new(l / 2.0, 0.0, 0.0)),
+            j: Marker::at(s, Vec3::zeros()),
+        },
+        SpatialJoint {
+            name: "slider_guide".into(),
+            kind: SpatialJointKind::Translational,
+            i: Marker::oriented(ground, Vec3::new(0.0, h, -e), Vec3::x(), Vec3::y()),
+            j: Marker::oriented(s, Vec3::zeros(), Vec3::x(), Vec3::y()),
+        },
+    ];
+    let mech = SpatialMechanism {
+        bodies: vec![crank, rod, slider],
+        joints,
+        drivers: vec![SpatialDriver {
+            name: "motor".into(),
+            joint: 0,
+            motion: Motion::ConstantSpeed { angle0: theta0, omega },
+        }],
+        loads: vec![],
+        gravity: Vec3::new(0.0, -9.81, 0.0),
+        baumgarte: Baumgarte::default(),
+    };
+    let problems = mech.validate();
+    assert!(problems.0.is_empty(), "{problems:?}");
+    let mut y = mech.initial_state();
+    let n = mech.coordinate_count();
+    let (q, v) = y.split_at_mut(n);
+    assert_eq!(assemble(&mech, 0.0, q, 1e-13).expect("assembles"), 0, "the closed-form pose is assembled");
+    velocity_analysis(&mech, 0.0, q, v).expect("velocities");
+    (mech, y)
+}
+
+#[test]
+fn the_ideal_spatial_slider_crank_follows_its_closed_form() {
+    let omega = 250.0 * std::f64::consts::PI / 30.0;
+    let (mech, mut y) = slider_crank(omega);
+    let (r, l, h, e): (f64, f64, f64, f64) = (0.05, 0.25, 0.06, 0.02);
+    let theta0 = (e / r).asin();
+    let mut system = SpatialSystem::new(mech);
+    let (mut worst, mut worst_spin, mut samples) = (0.0f64, 0.0f64, 0);
+    run(&mut system, &mut y, 0.3, 1e-3, &mut |s, t, y| {
+        let theta = theta0 + omega * t;
+        let closed = r * theta.cos() + (l * l - h * h - (r * theta.sin() - e).powi(2)).sqrt();
+        worst = worst.max((y[14] - closed).abs());
+        // The rod's idle spin (about its own axis, body x) stays at rest: no axial moment acts.
+        worst_spin = worst_spin.max(y[21 + 6 + 3].abs());
+        samples += 1;
+        let _ = s;
+    });
+    eprintln!(
+        "slider-crank: position error {worst:e} m, rod spin {worst_spin:e} rad/s, {} evaluations",
+        system.evaluations
+    );
+    assert_eq!(samples, 301);
+    assert!(worst < 1e-9, "slider position error {worst:e} m");
+    assert!(worst_spin < 1e-6, "rod spin {worst_spin:e} rad/s");
+}
+
+#[test]
+fn the_schur_solve_equals_a_dense_lu_of_the_full_kkt_system() {
+    let (mut mech, y) = slider_crank(26.0);
+    mech.baumgarte = Baumgarte { alpha: 0.0, beta: 0.0 };
+    let mut system = SpatialSystem::new(mech);
+    // A state off the velocity manifold, so that every term of γ matters.
+    let mut y = y;
+    for (k, x) in y[21..].iter_mut().enumerate() {
+        *x += 0.3 * ((k as f64) * 1.7).sin();
+    }
+    system.evaluate(0.01, &y).expect("solves");
+    let s = &system.solver;
+    let (n, m) = (18, s.rows.len());
+    let mut kkt = nalgebra::DMatrix::<f64>::zeros(n + m, n + m);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(n + m);
+    for (k, b) in system.mechanism.bodies.iter().enumerate() {
+        for c in 0..3 {
+            kkt[(6 * k + c, 6 * k + c)] = b.mass;
+        }
+        kkt.view_mut((6 * k + 3, 6 * k + 3), (3, 3)).copy_from(&b.inertia);
+    }
+    for (a, r) in s.rows.iter().enumerate() {
+        for blk in 0..2 {
+            if let Some(k) = r.bodies[blk] {
+                for c in 0..6 {
+                    kkt[(n + a, 6 * k + c)] = r.blocks[blk][c];
+                    kkt[(6 * k + c, n + a)] = r.blocks[blk][c];
+                }
+            }
+        }
+        rhs[n + a] = r.gamma;
+    }
+    for i in 0..n {
+        rhs[i] = s.forces[i];
+    }
+    let x = kkt.lu().solve(&rhs).expect("regular");
+    for i in 0..n {
+        assert!(
+            (x[i] - s.accelerations[i]).abs() < 1e-9 * (1.0 + x[i].abs()),
+            "v̇[{i}] {} vs {}",
+            x[i],
+            s.accelerations[i]
+        );
+    }
+    for a in 0..m {
+        assert!(
+            (x[n + a] - s.lambda[a]).abs() < 1e-9 * (1.0 + x[n + a].abs()),
+            "λ[{a}] {} vs {}",
+            x[n + a],
+            s.lambda[a]
+        );
+    }
+}
+
+#[test]
+fn a_spherical_double_pendulum_under_gravity_conserves_energy() {
+    // Two rods hanging from spherical joints, started with a swing and a twist: chaotic, and
+    // every gyroscopic and constraint term works.
+    let (l1, l2) = (0.3, 0.2);
+    let down = Orientation::rotation_between(&Vec3::x(), &-Vec3::y()).expect("rotation");
+    let tilt = Orientation::from_axis_angle(&Vec3::z_axis(), 0.7) * down;
+    let p1 = tilt * Vec3::new(l1, 0.0, 0.0);
+    let mut a = SpatialBody::at_rest("upper", 1.0, Vec3::new(1e-4, 7.5e-3, 7.5e-3), p1 / 2.0, tilt);
+    a.angular_velocity = Vec3::new(3.0, 0.0, 4.0);
+    let tilt2 = Orientation::from_axis_angle(&Vec3::x_axis(), 0.5) * down;
+    let mut b = SpatialBody::at_rest(
+        "lower",
+        0.6,
+        Vec3::new(5e-5, 2e-3, 2e-3),
+        p1 + tilt2 * Vec3::new(l2 / 2.0, 0.0, 0.0),
+        tilt2,
+    );
+    b.angular_velocity = Vec3::new(-2.0, 5.0, 1.0);
+    let mech = SpatialMechanism {
+        bodies: vec![a, b],
+        joints: vec![
+            SpatialJoint {
+                name: "top".into(),
+                kind: SpatialJointKind::Spherical,
+                i: Marker::at(BodyId::Ground, Vec3::zeros()),
+                j: Marker::at(BodyId::Body(0), Vec3::new(-l1 / 2.0, 0.0, 0.0)),
+            },
+            SpatialJoint {
+                name: "elbow".into(),
+                kind: SpatialJointKind::Spherical,
+                i: Marker::at(BodyId::Body(0), Vec3::new(l1 / 2.0, 0.0, 0.0)),
+                j: Marker::at(BodyId::Body(1), Vec3::new(-l2 / 2.0, 0.0, 0.0)),
+            },
+        ],
+        drivers: vec![],
+        loads: vec![],
+        gravity: Vec3::new(0.0, -9.81, 0.0),
+        baumgarte: Baumgarte::default(),
+    };
+    let mut y = mech.initial_state();
+    let n = mech.coordinate_count();
+    {
+        let (q, v) = y.split_at_mut(n);
+        velocity_analysis(&mech, 0.0, q, v).expect("velocities");
+    }
+    let energy = |m: &SpatialMechanism, y: &[f64]| kinetic_energy(m, &y[n..]) + potential_energy(m, &y[..n]);
+    let e0 = energy(&mech, &y);
+    let scale = kinetic_energy(&mech, &y[n..]) + 9.81 * 1.6 * (l1 + l2);
+    let mut system = SpatialSystem::new(mech);
+    let mut worst = 0.0f64;
+    run(&mut system, &mut y, 5.0, 0.01, &mut |s, _, y| {
+        worst = worst.max((energy(&s.mechanism, y) - e0).abs() / scale);
+    });
+    eprintln!("double pendulum: energy error {worst:e} of the scale, {} evaluations", system.evaluations);
+    assert!(worst < 1e-8, "energy error {worst:e} of the energy scale");
+}
+
+#[test]
+fn assembly_and_velocity_analysis_recover_a_perturbed_state() {
+    let (mech, exact) = slider_crank(26.0);
+    let n = mech.coordinate_count();
+    let mut y = exact.clone();
+    y[0] += 1e-3; // the crank's centroid off its circle
+    y[8] -= 2e-3; // the rod's centroid
+    y[17] += 0.01; // the slider's quaternion tilted
+    for x in &mut y[n..] {
+        *x = 0.0;
+    }
+    let (q, v) = y.split_at_mut(n);
+    let iterations = assemble(&mech, 0.0, q, 1e-12).expect("assembles");
+    assert!(iterations > 0);
+    velocity_analysis(&mech, 0.0, q, v).expect("velocities");
+    let mut system = SpatialSystem::new(mech);
+    system.evaluate(0.0, &y).expect("solves");
+    assert!(system.solver.constraint_error() < 1e-12, "{:e}", system.solver.constraint_error());
+    assert!(system.solver.velocity_error() < 1e-10, "{:e}", system.solver.velocity_error());
+    // The driven crank is back where the closed form puts it.
+    assert!((y[0] - exact[0]).abs() < 1e-9 && (y[2] - exact[2]).abs() < 1e-9, "crank at {:?}", &y[..3]);
+}
+
+#[test]
+fn a_bad_mechanism_is_reported_field_by_field() {
+    let (mut mech, _) = slider_crank(26.0);
+    mech.bodies[1].mass = -1.0;
+    mech.bodies[2].inertia[(0, 1)] = 1.0;
+    mech.joints[3].i.x = Vec3::new(1.0, 0.0, 0.0); // parallel to its z
+    mech.drivers[0].joint = 1; // a spherical joint
+    let fields: Vec<String> = mech.validate().0.into_iter().map(|p| p.field).collect();
+    for f in ["bodies[1].mass", "bodies[2].inertia", "joints[3].i.x", "drivers[0].joint"] {
+        assert!(fields.iter().any(|x| x == f), "{f} missing from {fields:?}");
+    }
+}
