@@ -171,5 +171,35 @@ mod tests {
                 prop_assert!(mu.abs() <= 0.15 + 1e-15);
             }
         }
+
+        /// ADAMS's stick–slip coefficient written as its friction reference does: −STEP(v, −v_s,
+        /// μ_s, v_s, −μ_s) in the stiction band, sign(v)·STEP(|v|, v_s, μ_s, v_d, μ_d) in the
+        /// transition, sign(v)·μ_d beyond (STEP written out independently).
+        #[test]
+        fn adams_stick_slip_equals_the_adams_definition(
+            v in -5e-3f64..5e-3, ms in 0.05f64..0.5, md_fraction in 0.1f64..1.0, vs in 1e-5f64..1e-3, vd_factor in 1.5f64..20.0
+        ) {
+            fn adams_step(x: f64, x0: f64, h0: f64, x1: f64, h1: f64) -> f64 {
+                if x <= x0 { return h0; }
+                if x >= x1 { return h1; }
+                let u = (x - x0) / (x1 - x0);
+                h0 + (h1 - h0) * u * u * (3.0 - 2.0 * u)
+            }
+            let (md, vd) = (ms * md_fraction, vs * vd_factor);
+            let adams = if v.abs() <= vs {
+                -adams_step(v, -vs, ms, vs, -ms)
+            } else if v.abs() <= vd {
+                v.signum() * adams_step(v.abs(), vs, ms, vd, md)
+            } else {
+                v.signum() * md
+            };
+            let law = FrictionLaw::AdamsStickSlip {
+                static_coefficient: ms,
+                dynamic_coefficient: md,
+                stiction_velocity: vs,
+                friction_velocity: vd,
+            };
+            prop_assert!((law.coefficient(v) - adams).abs() < 1e-14, "lash {} vs ADAMS {}", law.coefficient(v), adams);
+        }
     }
 }

@@ -423,5 +423,37 @@ mod tests {
                 prop_assert!(law.force(delta, rate, rate) >= law.force(delta, -rate, rate));
             }
         }
+
+        /// ADAMS IMPACT as the ADAMS function reference writes it, in the distance x between
+        /// the surfaces (contact below x1) and its rate ẋ: max(0, k (x1 − x)^e −
+        /// STEP(x, x1 − d, c_max, x1, 0) ẋ), with STEP's cubic written out independently.
+        #[test]
+        fn adams_impact_equals_the_adams_function(
+            x1 in 0.1f64..1.0, depth in -2e-4f64..1e-4, x_dot in -5.0f64..5.0,
+            k in 1e8f64..1e11, e in 1.0f64..2.2, c_max in 0.0f64..1e5, d in 1e-7f64..1e-4
+        ) {
+            fn adams_step(x: f64, x0: f64, h0: f64, x1: f64, h1: f64) -> f64 {
+                if x <= x0 { return h0; }
+                if x >= x1 { return h1; }
+                let a = h1 - h0;
+                let u = (x - x0) / (x1 - x0);
+                h0 + a * u * u * (3.0 - 2.0 * u)
+            }
+            let x = x1 - depth; // penetration δ = x1 − x = depth
+            let adams = if x >= x1 { 0.0 } else { (k * (x1 - x).powf(e) - adams_step(x, x1 - d, c_max, x1, 0.0) * x_dot).max(0.0) };
+            let law = NormalForce::AdamsImpact { stiffness: k, exponent: e, max_damping: c_max, damping_depth: d };
+            let lash = law.force(x1 - x, -x_dot, 0.0);
+            prop_assert!((lash - adams).abs() <= 1e-9 * adams.abs().max(1e-6), "lash {} vs ADAMS {}", lash, adams);
+        }
+    }
+
+    #[test]
+    fn hertz_stiffness_of_a_ball_in_a_spherical_socket() {
+        // Sphere in a spherical cavity, steel on steel: K = (4/3) E* √(R_J R_B / (R_B − R_J)).
+        // Socket Ø12 mm with balls Ø11.5 and Ø11 mm: 5.63e10 and 3.90e10 N/m^1.5.
+        for (ball, expected) in [(0.00575, 5.63e10), (0.0055, 3.90e10)] {
+            let k = hertz_stiffness(&Material::STEEL, &Material::STEEL, ball, 0.006);
+            assert!((k / expected - 1.0).abs() < 2e-3, "{k:e} vs {expected:e}");
+        }
     }
 }

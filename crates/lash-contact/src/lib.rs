@@ -1,5 +1,6 @@
 //! Contact mechanics of lash: normal contact laws, friction laws, the planar revolute clearance
-//! joint, and the full (monolithic) model of a mechanism with clearance joints.
+//! joint and the spatial spherical clearance joint, and the full (monolithic) models of planar and
+//! spatial mechanisms with clearance joints.
 //!
 //! Sign conventions (docs/theory.md): eccentricity e = r_J − r_B (journal centre minus bearing
 //! centre), penetration δ = |e| − c, normal n = e/|e|, tangent t = ⊥n, penetration rate δ̇ = ė·n,
@@ -12,9 +13,13 @@ pub mod full_model;
 pub mod law;
 pub mod micro;
 pub mod parameters;
+pub mod spatial_model;
+pub mod spherical;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact};
 pub use friction::FrictionLaw;
 pub use full_model::{FullModel, ModelError};
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};
 pub use parameters::ClearanceDefinition;
+pub use spatial_model::SpatialFullModel;
+pub use spherical::{SphericalClearance, SphericalContactState};

@@ -1,0 +1,281 @@
+//! The full model of a spatial mechanism with spherical clearance joints: the equations of motion
+//! with the joints' contact forces and moments, as an [`OdeSystem`] with one event function per
+//! joint (δ in free flight, −δ in contact), like the planar [`crate::FullModel`].
+
+use crate::clearance::{Impact, ImpactTracker, StepSearch};
+use crate::full_model::PENETRATION_LIMIT_FRACTION;
+use crate::spherical::{SphericalClearance, SphericalContactState};
+use lash_mech::BodyId;
+use lash_ode::OdeSystem;
+use lash_spatial::constraints::BodyFrame;
+use lash_spatial::{
+    Marker, SpatialError, SpatialJoint, SpatialJointKind, SpatialMechanism, SpatialSolver, Vec3, assemble,
+    velocity_analysis,
+};
+
+/// Spatial mechanism + spherical clearance joints, ready to integrate. State y = [q; v].
+pub struct SpatialFullModel {
+    /// The mechanism with the clearance joints removed (cut system).
+    pub mechanism: SpatialMechanism,
+    /// The clearance joints.
+    pub clearances: Vec<SphericalClearance>,
+    /// KKT workspace; after an evaluation it holds v̇ and λ.
+    pub solver: SpatialSolver,
+    /// Contact states at the last evaluation, one per clearance joint.
+    pub contacts: Vec<SphericalContactState>,
+    /// Completed impacts, per clearance joint.
+    pub impacts: Vec<Vec<Impact>>,
+    open: Vec<Option<ImpactTracker>>,
+    violation: bool,
+    strict_modes: bool,
+    error: Option<String>,
+    dense_buffer: Vec<f64>,
+    frames: Vec<BodyFrame>,
+}
+
+fn frame(frames: &[BodyFrame], id: BodyId) -> BodyFrame {
+    match id {
+        BodyId::Body(k) => frames[k],
+        BodyId::Ground => BodyFrame::ground(),
+    }
+}
+
+/// The bodies' frames of a state `y = [q; v]` (without a solve).
+fn frames_of(mech: &SpatialMechanism, y: &[f64], out: &mut [BodyFrame]) {
+    let n = mech.coordinate_count();
+    let (q, v) = y.split_at(n);
+    for (k, f) in out.iter_mut().enumerate() {
+        let rotation = *lash_spatial::orientation(&q[7 * k + 3..7 * k + 7]).to_rotation_matrix().matrix();
+        *f = BodyFrame {
+            position: Vec3::new(q[7 * k], q[7 * k + 1], q[7 * k + 2]),
+            rotation,
+            velocity: Vec3::new(v[6 * k], v[6 * k + 1], v[6 * k + 2]),
+            angular_velocity: rotation * Vec3::new(v[6 * k + 3], v[6 * k + 4], v[6 * k + 5]),
+        };
+    }
+}
+
+impl SpatialFullModel {
+    /// Builds the model. The mechanism must already be valid.
+    pub fn new(mechanism: SpatialMechanism, clearances: Vec<SphericalClearance>) -> Self {
+        let solver = SpatialSolver::new(&mechanism);
+        let k = clearances.len();
+        let dim = mechanism.coordinate_count() + mechanism.velocity_count();
+        let bodies = mechanism.bodies.len();
+        Self {
+            mechanism,
+            clearances,
+            solver,
+            contacts: vec![SphericalContactState::default(); k],
+            impacts: (0..k).map(|_| Vec::with_capacity(1024)).collect(),
+            open: vec![None; k],
+            violation: false,
+            strict_modes: false,
+            error: None,
+            dense_buffer: vec![0.0; dim],
+            frames: vec![BodyFrame::ground(); bodies],
+        }
+    }
+
+    /// The mechanism with every clearance joint replaced by an ideal spherical joint (ball centred).
+    pub fn ideal_mechanism(&self) -> SpatialMechanism {
+        let mut m = self.mechanism.clone();
+        for c in &self.clearances {
+            m.joints.push(SpatialJoint {
+                name: c.name.clone(),
+                kind: SpatialJointKind::Spherical,
+                i: Marker::at(c.journal_body, c.journal_point),
+                j: Marker::at(c.bearing_body, c.bearing_point),
+            });
+        }
+        m
+    }
+
+    /// Consistent initial state at `t0`: the ideal mechanism (balls centred) assembled from the
+    /// bodies' initial poses and driven to its velocities. Resets contact modes and impacts.
+    pub fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, SpatialError> {
+        let ideal = self.ideal_mechanism();
+        let mut y = ideal.initial_state();
+        let n = ideal.coordinate_count();
+        let (q, v) = y.split_at_mut(n);
+        assemble(&ideal, t0, q, 1e-13)?;
+        velocity_analysis(&ideal, t0, q, v)?;
+        self.reset(t0, &y);
+        Ok(y)
+    }
+
+    /// Prepares a run from a state chosen by the caller (contact modes from the state).
+    pub fn reset(&mut self, t0: f64, y: &[f64]) {
+        for c in &mut self.clearances {
+            c.in_contact = false;
+            c.onset_velocity = 0.0;
+        }
+        self.impacts.iter_mut().for_each(Vec::clear);
+        self.open.iter_mut().for_each(|o| *o = None);
+        self.error = None;
+        self.violation = false;
+        for k in 0..self.clearances.len() {
+            if self.contact_state(k, y, 0.0).penetration > 0.0 {
+                self.on_event(k, t0, y);
+            }
+        }
+    }
+
+    /// Evaluates contact forces, v̇ and λ at `(t, y)`; results in `solver` and `contacts`.
+    pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), SpatialError> {
+        let n = self.mechanism.coordinate_count();
+        let (q, v) = y.split_at(n);
+        let Self { mechanism, clearances, solver, contacts, violation, strict_modes, .. } = self;
+        solver.set_state(mechanism, t, q, v);
+        for (c, state) in clearances.iter().zip(contacts.iter_mut()) {
+            let (fj, fb) = (frame(&solver.frames, c.journal_body), frame(&solver.frames, c.bearing_body));
+            let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
+            let mut s = c.evaluate(&fj, &fb, onset);
+            if (s.penetration > 0.0) != c.in_contact {
+                *violation = true;
+                if !c.in_contact && s.penetration > 0.0 {
+                    if *strict_modes {
+                        s.normal_force = 0.0;
+                        s.friction_force = 0.0;
+                        s.force_on_journal = Vec3::zeros();
+                    } else {
+                        s = c.evaluate(&fj, &fb, s.penetration_rate.max(0.0));
+                    }
+                }
+            }
+            if s.normal_force != 0.0 || s.friction_force != 0.0 {
+                let (arm_j, arm_b) = c.arms(&fj, &fb, &s);
+                let f = s.force_on_journal;
+                if let BodyId::Body(k) = c.journal_body {
+                    solver.add_force(k, f, arm_j.cross(&f));
+                }
+                if let BodyId::Body(k) = c.bearing_body {
+                    solver.add_force(k, -f, arm_b.cross(&-f));
+                }
+            }
+            *state = s;
+        }
+        solver.solve(mechanism)
+    }
+
+    /// Impacts still open at the end of a run (closed at `t` for reporting).
+    pub fn open_impacts(&self, t: f64) -> Vec<Impact> {
+        self.open.iter().flatten().map(|tr| tr.so_far(t)).collect()
+    }
+
+    /// Joint `k`'s contact state at `y` with onset velocity `onset` (no solve).
+    pub fn contact_state(&mut self, k: usize, y: &[f64], onset: f64) -> SphericalContactState {
+        frames_of(&self.mechanism, y, &mut self.frames);
+        let c = &self.clearances[k];
+        c.evaluate(&frame(&self.frames, c.journal_body), &frame(&self.frames, c.bearing_body), onset)
+    }
+}
+
+impl OdeSystem for SpatialFullModel {
+    fn dim(&self) -> usize {
+        self.mechanism.coordinate_count() + self.mechanism.velocity_count()
+    }
+
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
+        let n = self.mechanism.coordinate_count();
+        if let Err(e) = self.evaluate(t, y) {
+            self.error.get_or_insert(e.to_string());
+            dydt.fill(f64::NAN);
+            return;
+        }
+        let v = &y[n..];
+        for k in 0..self.mechanism.bodies.len() {
+            let (q, dq) = (&y[7 * k..7 * k + 7], &mut dydt[7 * k..7 * k + 7]);
+            dq[..3].copy_from_slice(&v[6 * k..6 * k + 3]);
+            let (w, u) = (q[3], [q[4], q[5], q[6]]);
+            let o = [v[6 * k + 3], v[6 * k + 4], v[6 * k + 5]];
+            dq[3] = -0.5 * (u[0] * o[0] + u[1] * o[1] + u[2] * o[2]);
+            dq[4] = 0.5 * (w * o[0] + u[1] * o[2] - u[2] * o[1]);
+            dq[5] = 0.5 * (w * o[1] + u[2] * o[0] - u[0] * o[2]);
+            dq[6] = 0.5 * (w * o[2] + u[0] * o[1] - u[1] * o[0]);
+        }
+        dydt[n..].copy_from_slice(&self.solver.accelerations);
+    }
+
+    fn begin(&mut self, locates_events: bool) {
+        self.strict_modes = locates_events;
+    }
+
+    fn event_count(&self) -> usize {
+        self.clearances.len()
+    }
+
+    fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
+        for k in 0..self.clearances.len() {
+            let delta = self.contact_state(k, y, 0.0).penetration;
+            g[k] = if self.clearances[k].in_contact { -delta } else { delta };
+        }
+    }
+
+    fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
+        let s = self.contact_state(k, y, 0.0);
+        let c = &mut self.clearances[k];
+        if c.in_contact {
+            c.in_contact = false;
+            if let Some(tr) = self.open[k].take() {
+                self.impacts[k].push(tr.close(t));
+            }
+        } else {
+            c.in_contact = true;
+            c.onset_velocity = s.penetration_rate.max(0.0);
+            self.open[k] = Some(ImpactTracker::open(t, s.penetration_rate, self.strict_modes));
+        }
+    }
+
+    fn take_mode_violation(&mut self) -> bool {
+        std::mem::take(&mut self.violation)
+    }
+
+    fn wants_dense(&self) -> bool {
+        self.open.iter().any(Option::is_some)
+    }
+
+    fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
+        if !self.wants_dense() {
+            return;
+        }
+        let mut y = std::mem::take(&mut self.dense_buffer);
+        for k in 0..self.clearances.len() {
+            if self.open[k].is_none() {
+                continue;
+            }
+            let onset = self.clearances[k].onset_velocity;
+            let search = StepSearch::run_with(t, h, |theta| {
+                dense.eval(theta, &mut y);
+                let s = self.contact_state(k, &y, onset);
+                (s.normal_force, s.penetration)
+            });
+            if let Some(tr) = self.open[k].as_mut() {
+                tr.accept(search);
+            }
+        }
+        self.dense_buffer = y;
+    }
+
+    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        for k in 0..self.clearances.len() {
+            let onset = self.clearances[k].onset_velocity;
+            let s = self.contact_state(k, y, onset);
+            let c = &self.clearances[k];
+            if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
+                return Err(format!(
+                    "penetration {:.6e} m of spherical clearance joint {:?} exceeds {} × the ball radius: the simulation \
+                     blew up (step too large for the contact stiffness?)",
+                    s.penetration, c.name, PENETRATION_LIMIT_FRACTION
+                ));
+            }
+            if let Some(tr) = self.open[k].as_mut() {
+                tr.sample(t, s.normal_force, s.penetration);
+            }
+        }
+        Ok(())
+    }
+}
