@@ -358,6 +358,25 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             if step.is_some() {
                 return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
             }
+            if let lash_scenario::AnyScenario::Spatial(mut s) =
+                lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?
+            {
+                if let Some(h) = horizon {
+                    s.simulation.horizon = h;
+                    let p = lash_scenario::validate_spatial(&s);
+                    if !p.is_empty() {
+                        return Err(CliError::Input(format!("--horizon {h}: {p}")));
+                    }
+                }
+                return match model {
+                    ModelKind::Full => run::run(&s, &mut lash_run::SpatialRun::new(&s, ideal), &out, quiet).map(|_| ()),
+                    ModelKind::Reduced => Err(CliError::Input(format!(
+                        "--model reduced: scenario {:?} is spatial, and the reduced model of spherical clearance joints is \
+                         not there yet (run the full model)",
+                        s.name
+                    ))),
+                };
+            }
             let s = load_with_horizon(&scenario, horizon)?;
             match model {
                 ModelKind::Full => {
@@ -379,38 +398,58 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             compare::run(&s, &out, reduced.options(), quiet)
         }
         Command::Validate { scenario } => {
-            let s = load_scenario(&scenario)?;
-            println!(
-                "{scenario}: valid ({} bodies, {} joints, {} clearance joints)",
-                s.bodies.len(),
-                s.joints.len(),
-                s.clearances.len()
-            );
+            let (kind, bodies, joints, clearances) = match lash_scenario::any_by_name_or_file(&scenario)
+                .map_err(CliError::Input)?
+            {
+                lash_scenario::AnyScenario::Planar(s) => ("planar", s.bodies.len(), s.joints.len(), s.clearances.len()),
+                lash_scenario::AnyScenario::Spatial(s) => {
+                    ("spatial", s.bodies.len(), s.joints.len(), s.clearances.len())
+                }
+            };
+            println!("{scenario}: valid ({kind}; {bodies} bodies, {joints} joints, {clearances} clearance joints)");
             Ok(())
         }
         Command::Scenarios => {
             for name in lash_scenario::builtin::NAMES {
                 let s = lash_scenario::builtin::by_name(name).expect("listed");
                 let first = s.description.split(':').next().unwrap_or("");
-                println!("{name:16} {first}");
+                println!("{name:30} {first}");
+            }
+            for name in lash_scenario::builtin_spatial::SPATIAL_NAMES {
+                let s = lash_scenario::builtin_spatial::spatial_by_name(name).expect("listed");
+                let first = s.description.split(". ").next().unwrap_or("");
+                println!("{name:30} {first}");
             }
             Ok(())
         }
         Command::Show { name } => {
-            let s = lash_scenario::builtin::by_name(&name).ok_or_else(|| {
-                CliError::Input(format!(
-                    "no built-in scenario {name:?} (built-ins: {})",
-                    lash_scenario::builtin::NAMES.join(", ")
-                ))
-            })?;
-            println!("# lash scenario {name}: {}", s.description.split(':').next().unwrap_or(""));
+            let (description, text) = match (
+                lash_scenario::builtin::by_name(&name),
+                lash_scenario::builtin_spatial::spatial_by_name(&name),
+            ) {
+                (Some(s), _) => (s.description.split(':').next().unwrap_or("").to_string(), toml::to_string(&s)),
+                (None, Some(s)) => (s.description.split(". ").next().unwrap_or("").to_string(), toml::to_string(&s)),
+                (None, None) => {
+                    return Err(CliError::Input(format!(
+                        "no built-in scenario {name:?} (built-ins: {}, {})",
+                        lash_scenario::builtin::NAMES.join(", "),
+                        lash_scenario::builtin_spatial::SPATIAL_NAMES.join(", ")
+                    )));
+                }
+            };
+            println!("# lash scenario {name}: {description}");
             println!("# SI units throughout (m, kg, kg m^2, s, rad, N, Pa). Written by `lash show {name}`.");
-            print!("{}", toml::to_string(&s).map_err(|e| CliError::Failure(e.to_string()))?);
+            print!("{}", text.map_err(|e| CliError::Failure(e.to_string()))?);
             Ok(())
         }
         Command::Channels { scenario, ideal } => {
-            let s = load_scenario(&scenario)?;
-            for c in lash_scenario::channels(&s, ideal) {
+            let channels = match lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)? {
+                lash_scenario::AnyScenario::Planar(s) => lash_scenario::channels(&s, ideal),
+                lash_scenario::AnyScenario::Spatial(s) => {
+                    lash_scenario::spatial::spatial_channels(&s, ideal).into_iter().map(|(c, _)| c).collect()
+                }
+            };
+            for c in channels {
                 println!("{} [{}]", c.name, c.unit);
             }
             Ok(())

@@ -6,7 +6,6 @@ use crate::CliError;
 use crate::output::CsvOutput;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lash_run::Runner;
-use lash_scenario::Scenario;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -22,7 +21,7 @@ pub struct Timing {
     pub total_s: f64,
 }
 
-pub fn run(s: &Scenario, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<Timing, CliError> {
+pub fn run<S: serde::Serialize>(s: &S, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<Timing, CliError> {
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     let summary_path = out.join("summary.json");
     let mut csv = CsvOutput::create(out, &runner.header(), &["summary.json"])?;

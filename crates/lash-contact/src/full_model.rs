@@ -192,9 +192,9 @@ impl FullModel {
         &self.solver.accelerations
     }
 
-    /// Impacts still open at the end of a run (closed at `t` for reporting).
-    pub fn open_impacts(&self, t: f64) -> Vec<Impact> {
-        self.open.iter().flatten().map(|tr| tr.so_far(t)).collect()
+    /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).
+    pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
+        self.open[k].as_ref().map(|tr| tr.so_far(t))
     }
 
     /// The first error met inside a right-hand-side evaluation, if any.

@@ -158,9 +158,9 @@ impl SpatialFullModel {
         solver.solve(mechanism)
     }
 
-    /// Impacts still open at the end of a run (closed at `t` for reporting).
-    pub fn open_impacts(&self, t: f64) -> Vec<Impact> {
-        self.open.iter().flatten().map(|tr| tr.so_far(t)).collect()
+    /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).
+    pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
+        self.open[k].as_ref().map(|tr| tr.so_far(t))
     }
 
     /// Joint `k`'s contact state at `y` with onset velocity `onset` (no solve).

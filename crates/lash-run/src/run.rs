@@ -189,7 +189,7 @@ impl FullRun {
             .map(|k| {
                 let c = &self.model.clearances[k];
                 let mut impacts = self.model.impacts[k].clone();
-                impacts.extend(self.model.open_impacts(t_end));
+                impacts.extend(self.model.open_impact(k, t_end));
                 recorder.clearance_summary(k, &c.name, c.radial_clearance(), impacts, horizon, period)
             })
             .collect();

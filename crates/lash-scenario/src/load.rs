@@ -23,8 +23,12 @@ const TOP_KEYS: [&str; 12] = [
 
 /// Reads and parses a scenario file; the message names the file and lists every problem.
 pub fn read_file(path: &std::path::Path) -> Result<Scenario, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    parse(&text).map_err(|p| format!("invalid scenario {}: {p}", path.display()))
+    match read_any(path)? {
+        AnyScenario::Planar(s) => Ok(s),
+        AnyScenario::Spatial(_) => {
+            Err(format!("scenario {} is spatial: this command takes planar scenarios only so far", path.display()))
+        }
+    }
 }
 
 /// A built-in scenario by name (`A`, `C`, …), or else a scenario file: the one way every command,
@@ -32,6 +36,9 @@ pub fn read_file(path: &std::path::Path) -> Result<Scenario, String> {
 pub fn by_name_or_file(arg: &str) -> Result<Scenario, String> {
     if let Some(s) = crate::builtin::by_name(arg) {
         return Ok(s);
+    }
+    if crate::builtin_spatial::spatial_by_name(arg).is_some() {
+        return Err(format!("scenario {arg:?} is spatial: this command takes planar scenarios only so far"));
     }
     let path = std::path::Path::new(arg);
     if !path.exists() {
@@ -41,6 +48,64 @@ pub fn by_name_or_file(arg: &str) -> Result<Scenario, String> {
         ));
     }
     read_file(path)
+}
+
+/// A planar or a spatial scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnyScenario {
+    /// A planar mechanism (the default of a file).
+    Planar(Scenario),
+    /// A spatial mechanism (`space = "spatial"`).
+    Spatial(crate::spatial::SpatialScenario),
+}
+
+impl AnyScenario {
+    /// The scenario's name.
+    pub fn name(&self) -> &str {
+        match self {
+            AnyScenario::Planar(s) => &s.name,
+            AnyScenario::Spatial(s) => &s.name,
+        }
+    }
+}
+
+/// Parses a planar or spatial scenario (by its `space` key) from TOML text.
+pub fn parse_any(text: &str) -> Result<AnyScenario, Problems> {
+    let space = toml::from_str::<toml::Table>(text).ok().and_then(|t| t.get("space").cloned());
+    match space {
+        None => parse(text).map(AnyScenario::Planar),
+        Some(toml::Value::String(s)) if s == "spatial" => crate::spatial::parse_spatial(text).map(AnyScenario::Spatial),
+        Some(other) => {
+            let mut p = Problems::new();
+            p.push("space", format!("must be \"spatial\" (or left out for a planar mechanism), got {other}"));
+            Err(p)
+        }
+    }
+}
+
+/// Reads a planar or spatial scenario file; the message names the file and lists every problem.
+pub fn read_any(path: &std::path::Path) -> Result<AnyScenario, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    parse_any(&text).map_err(|p| format!("invalid scenario {}: {p}", path.display()))
+}
+
+/// A built-in scenario (planar or spatial) by name, or else a scenario file of either kind.
+pub fn any_by_name_or_file(arg: &str) -> Result<AnyScenario, String> {
+    if let Some(s) = crate::builtin::by_name(arg) {
+        return Ok(AnyScenario::Planar(s));
+    }
+    if let Some(s) = crate::builtin_spatial::spatial_by_name(arg) {
+        return Ok(AnyScenario::Spatial(s));
+    }
+    let path = std::path::Path::new(arg);
+    if !path.exists() {
+        return Err(format!(
+            "scenario {arg:?} is neither a file nor a built-in scenario (built-ins: {}, {})",
+            crate::builtin::NAMES.join(", "),
+            crate::builtin_spatial::SPATIAL_NAMES.join(", ")
+        ));
+    }
+    read_any(path)
 }
 
 /// Parses and validates a scenario from TOML text. On failure, returns every problem found.
@@ -82,7 +147,7 @@ pub fn parse(text: &str) -> Result<Scenario, Problems> {
     for_each_ok::<JointSpec>(&table, "joints", &mut problems, validate_joint);
     for_each_ok::<DriverSpec>(&table, "drivers", &mut problems, |d| d.motion.validate().prefixed("motion"));
     for_each_ok::<LoadSpec>(&table, "loads", &mut problems, validate_load);
-    for_each_ok::<ClearanceSpec>(&table, "clearances", &mut problems, validate_clearance);
+    for_each_ok::<ClearanceSpec>(&table, "clearances", &mut problems, validate_clearance_numbers);
     for_each_ok::<SensorSpec>(&table, "sensors", &mut problems, |s| finite2("point", s.point));
     if let Some(Ok(sim)) = table.get("simulation").map(|v| v.clone().try_into::<SimulationSpec>()) {
         problems.extend_prefixed("simulation", validate_simulation(&sim));
@@ -129,7 +194,7 @@ pub fn validate(s: &Scenario) -> Problems {
         p.extend_prefixed(&format!("loads[{k}]"), validate_load(l));
     }
     for (k, c) in s.clearances.iter().enumerate() {
-        p.extend_prefixed(&format!("clearances[{k}]"), validate_clearance(c));
+        p.extend_prefixed(&format!("clearances[{k}]"), validate_clearance_numbers(c));
     }
     for (name, m) in &s.materials {
         p.extend_prefixed(&format!("materials.{name}"), m.validate());
@@ -140,7 +205,7 @@ pub fn validate(s: &Scenario) -> Problems {
     p
 }
 
-trait Prefixed {
+pub(crate) trait Prefixed {
     fn prefixed(self, prefix: &str) -> Problems;
 }
 impl Prefixed for Problems {
@@ -181,7 +246,7 @@ fn push_serde(problems: &mut Problems, path: &str, err: impl std::fmt::Display) 
     }
 }
 
-fn element<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Problems) {
+pub(crate) fn element<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Problems) {
     if let Some(v) = table.get(key)
         && let Err(e) = v.clone().try_into::<T>()
     {
@@ -189,7 +254,7 @@ fn element<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut P
     }
 }
 
-fn array<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Problems) {
+pub(crate) fn array<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Problems) {
     match table.get(key) {
         None => {}
         Some(toml::Value::Array(items)) => {
@@ -203,7 +268,7 @@ fn array<T: DeserializeOwned>(table: &toml::Table, key: &str, problems: &mut Pro
     }
 }
 
-fn for_each_ok<T: DeserializeOwned>(
+pub(crate) fn for_each_ok<T: DeserializeOwned>(
     table: &toml::Table,
     key: &str,
     problems: &mut Problems,
@@ -287,7 +352,7 @@ fn validate_load(l: &LoadSpec) -> Problems {
     p
 }
 
-fn validate_clearance(c: &ClearanceSpec) -> Problems {
+pub(crate) fn validate_clearance_numbers(c: &ClearanceSpec) -> Problems {
     let mut p = Problems::new();
     p.positive("journal_radius", c.journal_radius);
     p.positive("bearing_radius", c.bearing_radius);
@@ -305,7 +370,7 @@ fn validate_clearance(c: &ClearanceSpec) -> Problems {
     p
 }
 
-fn validate_simulation(s: &SimulationSpec) -> Problems {
+pub(crate) fn validate_simulation(s: &SimulationSpec) -> Problems {
     let mut p = Problems::new();
     p.finite("start_time", s.start_time);
     p.positive("horizon", s.horizon);

@@ -192,8 +192,9 @@ impl SpatialSolver {
         [im * x[0], im * x[1], im * x[2], w.x, w.y, w.z]
     }
 
-    /// Factors S = C M⁻¹ Cᵀ of the current rows.
-    fn factor(&mut self) -> Result<(), SpatialError> {
+    /// Factors S = C M⁻¹ Cᵀ (+ `regularization` × its largest diagonal entry on the diagonal) of
+    /// the current rows.
+    fn factor(&mut self, regularization: f64) -> Result<(), SpatialError> {
         for (r, w) in self.rows.iter().zip(self.weighted.iter_mut()) {
             for b in 0..2 {
                 w[b] = match r.bodies[b] {
@@ -213,6 +214,12 @@ impl SpatialSolver {
         for &(a, ba, b, bb) in &self.pairs {
             s[a * m + b] += dot6(&self.rows[a].blocks[ba], &self.weighted[b][bb]);
         }
+        if regularization > 0.0 {
+            let largest = (0..m).map(|a| s[a * m + a]).fold(0.0, f64::max);
+            for a in 0..m {
+                s[a * m + a] += regularization * largest;
+            }
+        }
         if self.schur.factor() { Ok(()) } else { Err(SpatialError::SingularConstraints { t: self.time }) }
     }
 
@@ -230,7 +237,7 @@ impl SpatialSolver {
 
     /// Solves for v̇ and λ with Baumgarte's γ̂ = γ − 2α(C v − ν) − β²Φ.
     pub fn solve(&mut self, mech: &SpatialMechanism) -> Result<(), SpatialError> {
-        self.factor()?;
+        self.factor(0.0)?;
         let (alpha, beta) = (mech.baumgarte.alpha, mech.baumgarte.beta);
         for k in 0..self.frames.len() {
             let a = self.inverse_mass_times(k, &self.forces[6 * k..6 * k + 6]);
@@ -257,9 +264,14 @@ impl SpatialSolver {
     }
 
     /// The minimum-kinetic-energy correction δ = M⁻¹Cᵀ S⁻¹ e of a residual e per row (velocity
-    /// analysis: e = ν − C v; assembly: e = −Φ), written into `delta` (6 per body).
+    /// analysis: e = ν − C v; assembly: e = −Φ), written into `delta` (6 per body). Redundant but
+    /// consistent equations (a planar loop of revolutes in space) make S singular: then S + εI
+    /// with ε = 1e-10 of its largest diagonal entry gives the least-squares correction to that
+    /// accuracy, and the callers iterate it.
     pub fn correction(&mut self, residual: &[f64], delta: &mut [f64]) -> Result<(), SpatialError> {
-        self.factor()?;
+        if self.factor(0.0).is_err() {
+            self.factor(1e-10)?;
+        }
         self.lambda.copy_from_slice(residual);
         self.schur.solve_mut(&mut self.lambda);
         delta.fill(0.0);

@@ -1,0 +1,387 @@
+//! The spatial full-model runner: a spatial scenario built into a [`SpatialFullModel`] (or its
+//! ideal mechanism), integrated, every channel sampled at the output interval, and the same
+//! [`Summary`] as the planar runners.
+
+use crate::run::{ChannelStats, ClearanceSummary, RunError, Runner, Summary};
+use lash_contact::{Material, SpatialFullModel, SphericalClearance};
+use lash_mech::{BodyId, Motion};
+use lash_ode::OdeError;
+use lash_scenario::Channel;
+use lash_scenario::spatial::{
+    SPATIAL_CLEARANCE_QUANTITIES, SpatialLoadSpec, SpatialScenario, SpatialSource, inertia_tensor, spatial_channels,
+};
+use lash_spatial::{
+    Baumgarte, Marker, Orientation, SpatialBody, SpatialDriver, SpatialJoint, SpatialLoad, SpatialMechanism, Vec3,
+    point_kinematics,
+};
+use std::collections::BTreeMap;
+
+fn v3(a: [f64; 3]) -> Vec3 {
+    Vec3::from(a)
+}
+
+/// A unit vector perpendicular to `a`: the axis least aligned with `a`, its part across `a`.
+fn perpendicular(a: Vec3) -> Vec3 {
+    let k = (0..3).min_by(|&i, &j| a[i].abs().total_cmp(&a[j].abs())).expect("three axes");
+    let e = Vec3::ith(k, 1.0);
+    (e - a * a.dot(&e)).normalize()
+}
+
+/// The spatial mechanism of a validated scenario: every joint as written when `ideal`, else the
+/// joints with a clearance left out (they become [`SphericalClearance`]s).
+pub fn build_spatial(s: &SpatialScenario, ideal: bool) -> SpatialFullModel {
+    let id = |name: &str| -> BodyId {
+        if name == "ground" {
+            BodyId::Ground
+        } else {
+            BodyId::Body(s.bodies.iter().position(|b| b.name == name).expect("validated"))
+        }
+    };
+    let bodies: Vec<SpatialBody> = s
+        .bodies
+        .iter()
+        .map(|b| SpatialBody {
+            name: b.name.clone(),
+            mass: b.mass,
+            inertia: inertia_tensor(b),
+            position: v3(b.position),
+            orientation: Orientation::from_quaternion(nalgebra::Quaternion::new(
+                b.orientation[0],
+                b.orientation[1],
+                b.orientation[2],
+                b.orientation[3],
+            )),
+            velocity: v3(b.velocity),
+            angular_velocity: v3(b.angular_velocity),
+        })
+        .collect();
+    let rotation = |body: BodyId| match body {
+        BodyId::Ground => Orientation::identity(),
+        BodyId::Body(k) => bodies[k].orientation,
+    };
+    let has_clearance = |name: &str| !ideal && s.clearances.iter().any(|c| c.joint == name);
+    let mut joints = Vec::new();
+    for j in s.joints.iter().filter(|j| !has_clearance(&j.name)) {
+        let (b1, b2) = (id(&j.body1), id(&j.body2));
+        let z1 = j.axis1.map_or(Vec3::z(), |a| v3(a).normalize());
+        let z2 = j.axis2.map_or(Vec3::z(), |a| v3(a).normalize());
+        let x1 = j.reference1.map_or_else(|| perpendicular(z1), |r| v3(r).normalize());
+        let x2 = match j.reference2 {
+            Some(r) => v3(r).normalize(),
+            None => {
+                // reference1 carried into body2's frame through the initial poses.
+                let carried = rotation(b2).inverse() * (rotation(b1) * x1);
+                let across = carried - z2 * z2.dot(&carried);
+                if across.norm() > 1e-9 { across.normalize() } else { perpendicular(z2) }
+            }
+        };
+        joints.push(SpatialJoint {
+            name: j.name.clone(),
+            kind: j.kind,
+            i: Marker { body: b1, point: v3(j.point1), z: z1, x: x1 },
+            j: Marker { body: b2, point: v3(j.point2), z: z2, x: x2 },
+        });
+    }
+    let joint_index = |name: &str| joints.iter().position(|j| j.name == name).expect("validated");
+    let drivers = s
+        .drivers
+        .iter()
+        .map(|d| SpatialDriver { name: d.name.clone(), joint: joint_index(&d.joint), motion: d.motion.clone() })
+        .collect();
+    let body_index = |name: &str| match id(name) {
+        BodyId::Body(k) => k,
+        BodyId::Ground => unreachable!("validated: loads act on moving bodies"),
+    };
+    let loads = s
+        .loads
+        .iter()
+        .map(|l| match l {
+            SpatialLoadSpec::Force { body, point, force } => {
+                SpatialLoad::Force { body: body_index(body), point: v3(*point), force: v3(*force) }
+            }
+            SpatialLoadSpec::Torque { body, torque } => {
+                SpatialLoad::Torque { body: body_index(body), torque: v3(*torque) }
+            }
+            SpatialLoadSpec::Motor { joint, stall_torque, no_load_speed } => SpatialLoad::Motor {
+                joint: joint_index(joint),
+                stall_torque: *stall_torque,
+                no_load_speed: *no_load_speed,
+            },
+        })
+        .collect();
+    let mechanism = SpatialMechanism {
+        bodies,
+        joints,
+        drivers,
+        loads,
+        gravity: v3(s.gravity),
+        baumgarte: Baumgarte { ..s.simulation.baumgarte },
+    };
+    let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| s.materials[n]);
+    let clearances = if ideal {
+        Vec::new()
+    } else {
+        s.clearances
+            .iter()
+            .map(|c| {
+                let j = s.joints.iter().find(|j| j.name == c.joint).expect("validated");
+                let (journal, bearing) = if c.journal == j.body1 {
+                    ((&j.body1, j.point1), (&j.body2, j.point2))
+                } else {
+                    ((&j.body2, j.point2), (&j.body1, j.point1))
+                };
+                SphericalClearance {
+                    name: c.joint.clone(),
+                    journal_body: id(journal.0),
+                    journal_point: v3(journal.1),
+                    bearing_body: id(bearing.0),
+                    bearing_point: v3(bearing.1),
+                    journal_radius: c.journal_radius,
+                    bearing_radius: c.bearing_radius,
+                    law: c.contact.resolve(
+                        &material(&c.journal_material),
+                        &material(&c.bearing_material),
+                        c.journal_radius,
+                        c.bearing_radius,
+                    ),
+                    friction: c.friction,
+                    in_contact: false,
+                    onset_velocity: 0.0,
+                }
+            })
+            .collect()
+    };
+    SpatialFullModel::new(mechanism, clearances)
+}
+
+/// A prepared spatial run (full model, or the ideal mechanism).
+pub struct SpatialRun {
+    /// The model.
+    pub model: SpatialFullModel,
+    scenario: SpatialScenario,
+    ideal: bool,
+    sources: Vec<(Channel, SpatialSource)>,
+    selected: Vec<usize>,
+}
+
+impl SpatialRun {
+    /// Prepares a run of a validated spatial scenario.
+    pub fn new(scenario: &SpatialScenario, ideal: bool) -> Self {
+        let sources = spatial_channels(scenario, ideal);
+        let selected = (0..sources.len())
+            .filter(|&k| scenario.output.channels.is_empty() || scenario.output.channels.contains(&sources[k].0.name))
+            .collect();
+        Self { model: build_spatial(scenario, ideal), scenario: scenario.clone(), ideal, sources, selected }
+    }
+
+    /// Header of the written columns (time first), with units.
+    pub fn header(&self) -> Vec<String> {
+        std::iter::once("time [s]".to_string())
+            .chain(self.selected.iter().map(|&k| format!("{} [{}]", self.sources[k].0.name, self.sources[k].0.unit)))
+            .collect()
+    }
+
+    /// Integrates over the horizon; rows go to `sink`, the fraction done to `progress`.
+    pub fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        let sim = self.scenario.simulation.clone();
+        let (t0, t_end) = (sim.start_time, sim.start_time + sim.horizon);
+        let mut y = self
+            .model
+            .initial_state(t0)
+            .map_err(|e| RunError::Simulation { t: t0, message: format!("initial conditions: {e}") })?;
+        let mech = &self.model.mechanism;
+        // Row ranges of each joint and driver (joints first, in order, then drivers).
+        let mut ranges = Vec::new();
+        let mut at = 0;
+        for j in &mech.joints {
+            ranges.push(at..at + j.kind.equations());
+            at += j.kind.equations();
+        }
+        let driver_rows: Vec<usize> = (0..mech.drivers.len()).map(|k| at + k).collect();
+        let sensors: Vec<(usize, Vec3)> = self
+            .scenario
+            .sensors
+            .iter()
+            .map(|x| (self.scenario.bodies.iter().position(|b| b.name == x.body).expect("validated"), v3(x.point)))
+            .collect();
+        let nc = self.model.clearances.len();
+        let (sources, selected) = (&self.sources, &self.selected);
+        let mut values = vec![0.0; sources.len()];
+        let mut row = vec![0.0; selected.len() + 1];
+        let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64); sources.len()];
+        let (mut samples, mut max_constraint_error) = (0u64, 0.0f64);
+        let (mut max_eccentricity, mut sum_force) = (vec![0.0f64; nc], vec![0.0f64; nc]);
+        let horizon = sim.horizon;
+        let mut observer = |model: &mut SpatialFullModel, t: f64, y: &[f64]| -> Result<(), String> {
+            model.evaluate(t, y).map_err(|e| e.to_string())?;
+            let (mech, solver) = (&model.mechanism, &model.solver);
+            let reaction_on_body1 = |k: usize| -> Vec3 {
+                let j = &mech.joints[k];
+                match (j.i.body, j.j.body) {
+                    (BodyId::Body(b), _) => solver.reaction(ranges[k].clone(), b).0,
+                    (BodyId::Ground, BodyId::Body(b)) => -solver.reaction(ranges[k].clone(), b).0,
+                    (BodyId::Ground, BodyId::Ground) => Vec3::zeros(),
+                }
+            };
+            for (v, (_, src)) in values.iter_mut().zip(sources.iter()) {
+                *v = match *src {
+                    SpatialSource::Sensor(k, q) => {
+                        let (body, point) = sensors[k];
+                        let p = point_kinematics(solver, body, point);
+                        let q = q as usize;
+                        [p.position, p.velocity, p.acceleration][q / 3][q % 3]
+                    }
+                    SpatialSource::Clearance(k, q) => {
+                        let c = &model.contacts[k];
+                        match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
+                            "fx" => c.force_on_journal.x,
+                            "fy" => c.force_on_journal.y,
+                            "fz" => c.force_on_journal.z,
+                            "force" => c.force_on_journal.norm(),
+                            "normal_force" => c.normal_force,
+                            "friction_force" => c.friction_force,
+                            "ex" => c.eccentricity.x,
+                            "ey" => c.eccentricity.y,
+                            "ez" => c.eccentricity.z,
+                            "eccentricity" => c.eccentricity_norm,
+                            "penetration" => c.penetration,
+                            "penetration_rate" => c.penetration_rate,
+                            _ => c.slip_velocity.norm(),
+                        }
+                    }
+                    SpatialSource::DriverTorque(k) => {
+                        let d = &mech.drivers[k];
+                        let jt = &mech.joints[d.joint];
+                        let axis = lash_spatial::constraints::marker_world(&jt.i, &solver.frames).2;
+                        match jt.j.body {
+                            BodyId::Body(b) => solver.reaction(driver_rows[k]..driver_rows[k] + 1, b).1.dot(&axis),
+                            BodyId::Ground => 0.0,
+                        }
+                    }
+                    SpatialSource::JointReaction(k, q) => reaction_on_body1(k)[q as usize],
+                    SpatialSource::ConstraintError => solver.constraint_error(),
+                };
+            }
+            for (k, c) in model.contacts.iter().enumerate() {
+                max_eccentricity[k] = max_eccentricity[k].max(c.eccentricity_norm);
+                sum_force[k] += c.force_on_journal.norm();
+            }
+            max_constraint_error = max_constraint_error.max(solver.constraint_error());
+            for (s, &v) in stats.iter_mut().zip(values.iter()) {
+                s.0 = s.0.min(v);
+                s.1 = s.1.max(v);
+                s.2 += v;
+                s.3 += v * v;
+            }
+            samples += 1;
+            row[0] = t;
+            for (r, &k) in row[1..].iter_mut().zip(selected.iter()) {
+                *r = values[k];
+            }
+            progress(((t - t0) / horizon).clamp(0.0, 1.0));
+            sink(&row)
+        };
+        let cpu0 = cpu_time::ThreadTime::now();
+        let wall0 = std::time::Instant::now();
+        let result = lash_ode::integrate(
+            &sim.integrator,
+            &mut self.model,
+            t0,
+            &mut y,
+            t_end,
+            sim.output_interval,
+            &mut observer,
+        );
+        let (cpu, wall) = (cpu0.elapsed().as_secs_f64(), wall0.elapsed().as_secs_f64());
+        let ode = result.map_err(|e| match e {
+            OdeError::System { t, message } | OdeError::Observer { t, message } => RunError::Simulation { t, message },
+            OdeError::NonFinite { t, index, value } => RunError::Simulation {
+                t,
+                message: format!("state component {index} became {value}: the simulation blew up"),
+            },
+            OdeError::StepSizeUnderflow { t, step } => RunError::Simulation {
+                t,
+                message: format!("step size fell to {step:e} s: the tolerances cannot be met (a blow-up?)"),
+            },
+            OdeError::Settings(m) => RunError::Simulation { t: t0, message: m },
+        })?;
+        let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
+            Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
+            _ => None,
+        });
+        let m = samples.max(1) as f64;
+        let clearances = (0..nc)
+            .map(|k| {
+                let c = &self.model.clearances[k];
+                let mut impacts = self.model.impacts[k].clone();
+                impacts.extend(self.model.open_impact(k, t_end));
+                let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
+                ClearanceSummary {
+                    name: c.name.clone(),
+                    radial_clearance: c.radial_clearance(),
+                    impacts: impacts.len(),
+                    impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
+                    contact_fraction: in_contact / horizon,
+                    max_eccentricity: max_eccentricity[k],
+                    max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
+                    peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
+                    mean_contact_force: sum_force[k] / m,
+                    first_impacts: impacts.into_iter().take(20).collect(),
+                }
+            })
+            .collect();
+        let channels: BTreeMap<String, ChannelStats> = sources
+            .iter()
+            .zip(&stats)
+            .map(|((c, _), s)| {
+                (
+                    c.name.clone(),
+                    ChannelStats {
+                        unit: c.unit,
+                        min: s.0,
+                        max: s.1,
+                        max_abs: s.0.abs().max(s.1.abs()),
+                        mean: s.2 / m,
+                        rms: (s.3 / m).sqrt(),
+                    },
+                )
+            })
+            .collect();
+        Ok(Summary {
+            scenario: self.scenario.name.clone(),
+            model: if self.ideal { "ideal" } else { "full" },
+            integrator: sim.integrator,
+            start_time: t0,
+            horizon,
+            output_interval: sim.output_interval,
+            samples,
+            cpu_time_s: cpu,
+            wall_time_s: wall,
+            steps: ode.steps,
+            rejected_steps: ode.rejected,
+            rhs_evaluations: ode.rhs_evaluations,
+            events: ode.events,
+            max_constraint_error,
+            channels,
+            clearances,
+            reduced: None,
+        })
+    }
+}
+
+impl Runner for SpatialRun {
+    fn header(&self) -> Vec<String> {
+        SpatialRun::header(self)
+    }
+    fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        SpatialRun::execute(self, sink, progress)
+    }
+}

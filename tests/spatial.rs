@@ -1,0 +1,199 @@
+//! The spatial engine against the planar one: scenario B built as a spatial mechanism (revolutes
+//! about z, the slider's guide a translational joint, the clearance a spherical clearance joint —
+//! for planar motion a ball in a socket is the planar journal in its bearing), run by the spatial
+//! runner, equals the planar engine's converged run. And scenario E's ideal slider follows its
+//! closed form through the whole runner.
+
+mod common;
+use common::{column, rows};
+use lash_run::{BuildOptions, FullRun, SpatialRun};
+use lash_scenario::builtin;
+use lash_scenario::builtin_spatial::{e_slider_position, spatial_by_name};
+use lash_scenario::schema::Scenario;
+use lash_scenario::spatial::{
+    Space, SpatialBodySpec, SpatialDriverSpec, SpatialJointSpec, SpatialScenario, SpatialSensorSpec,
+};
+use lash_spatial::SpatialJointKind;
+
+/// Scenario `planar` (a B variant) as a spatial mechanism. `ideal`: the rod–slider joint is an
+/// ideal spherical joint and the crank–rod joint a universal joint (a closed loop of revolutes
+/// about parallel axes is redundant in space: 5 + 5 + 5 + 5 + 1 equations for 18 coordinates;
+/// spherical + universal remove exactly the two redundant ones and allow the same planar motion).
+fn b_as_spatial(planar: &Scenario, ideal: bool) -> SpatialScenario {
+    let body = |name: &str| planar.bodies.iter().find(|b| b.name == name).expect("B body");
+    let spatial_body = |name: &str| {
+        let b = body(name);
+        SpatialBodySpec {
+            name: name.into(),
+            mass: b.mass,
+            inertia: [b.inertia, b.inertia, b.inertia],
+            products: [0.0; 3],
+            position: [b.position[0], b.position[1], 0.0],
+            orientation: [(0.5 * b.angle).cos(), 0.0, 0.0, (0.5 * b.angle).sin()],
+            velocity: [b.velocity[0], b.velocity[1], 0.0],
+            angular_velocity: [0.0, 0.0, b.angular_velocity],
+        }
+    };
+    let joint = |name: &str, kind, body1: &str, body2: &str, axes: Option<([f64; 3], [f64; 3])>| {
+        let planar_joint = planar.joints.iter().find(|j| j.name == name).expect("B joint");
+        let point = |b: &str| {
+            let p = if planar_joint.body1 == b { planar_joint.point1 } else { planar_joint.point2 };
+            [p[0], p[1], 0.0]
+        };
+        SpatialJointSpec {
+            name: name.into(),
+            kind,
+            body1: body1.into(),
+            point1: point(body1),
+            body2: body2.into(),
+            point2: point(body2),
+            axis1: axes.map(|a| a.0),
+            axis2: axes.map(|a| a.0),
+            reference1: axes.map(|a| a.1),
+            reference2: None,
+        }
+    };
+    let z = Some(([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]));
+    let crank_rod = if ideal {
+        // Cross axes: z on the crank, the rod's own y (across the rod, in the plane) on the rod.
+        let mut j = joint("crank_rod", SpatialJointKind::Universal, "crank", "rod", None);
+        (j.axis1, j.axis2, j.reference1) = (Some([0.0, 0.0, 1.0]), Some([0.0, 1.0, 0.0]), Some([1.0, 0.0, 0.0]));
+        j
+    } else {
+        joint("crank_rod", SpatialJointKind::Revolute, "crank", "rod", z)
+    };
+    let omega = match planar.drivers[0].motion {
+        lash_mech::Motion::ConstantSpeed { omega, .. } => omega,
+        _ => unreachable!("B has a constant-speed driver"),
+    };
+    SpatialScenario {
+        name: format!("{} in space", planar.name),
+        space: Space::Spatial,
+        description: String::new(),
+        gravity: [0.0; 3],
+        materials: planar.materials.clone(),
+        bodies: vec![spatial_body("crank"), spatial_body("rod"), spatial_body("slider")],
+        joints: vec![
+            joint("crank_pivot", SpatialJointKind::Revolute, "ground", "crank", z),
+            crank_rod,
+            joint("rod_slider", SpatialJointKind::Spherical, "rod", "slider", None),
+            joint(
+                "slider_guide",
+                SpatialJointKind::Translational,
+                "ground",
+                "slider",
+                Some(([1.0, 0.0, 0.0], [0.0, 0.0, 1.0])),
+            ),
+        ],
+        drivers: vec![SpatialDriverSpec {
+            name: "motor".into(),
+            joint: "crank_pivot".into(),
+            motion: lash_mech::Motion::ConstantSpeed { angle0: 0.0, omega },
+        }],
+        loads: vec![],
+        clearances: if ideal { vec![] } else { planar.clearances.clone() },
+        sensors: vec![SpatialSensorSpec { name: "slider".into(), body: "slider".into(), point: [0.0; 3] }],
+        simulation: planar.simulation.clone(),
+        output: Default::default(),
+    }
+}
+
+/// (t, slider x, slider a_x) of the planar and the spatial run.
+fn both(planar: &Scenario, ideal: bool) -> (Vec<[f64; 3]>, Vec<[f64; 3]>, lash_run::Summary, lash_run::Summary) {
+    let spatial = b_as_spatial(planar, ideal);
+    let problems = lash_scenario::validate_spatial(&spatial);
+    assert!(problems.is_empty(), "{problems}");
+    let (ps, ph, pr) = rows(&mut FullRun::new(planar, BuildOptions { ideal }));
+    let (ss, sh, sr) = rows(&mut SpatialRun::new(&spatial, ideal));
+    let pick = |h: &[String], r: &[Vec<f64>]| -> Vec<[f64; 3]> {
+        let (x, a) = (column(h, "slider.x"), column(h, "slider.ax"));
+        r.iter().map(|row| [row[0], row[x], row[a]]).collect()
+    };
+    (pick(&ph, &pr), pick(&sh, &sr), ps, ss)
+}
+
+fn worst(a: &[[f64; 3]], b: &[[f64; 3]], until: f64, column: usize) -> (f64, f64) {
+    let mut error = 0.0f64;
+    let mut peak = 0.0f64;
+    for (p, s) in a.iter().zip(b) {
+        assert_eq!(p[0], s[0], "same output times");
+        if p[0] <= until {
+            error = error.max((p[column] - s[column]).abs());
+            peak = peak.max(p[column].abs());
+        }
+    }
+    (error, peak)
+}
+
+#[test]
+fn the_ideal_slider_crank_of_b_in_space_equals_the_planar_engine() {
+    let b = builtin::by_name("B").expect("built-in");
+    let (p, s, _, summary) = both(&b, true);
+    let (ex, _) = worst(&p, &s, f64::INFINITY, 1);
+    let (ea, peak) = worst(&p, &s, f64::INFINITY, 2);
+    eprintln!("ideal B: slider x {ex:e} m, a_x {ea:e} of peak {peak:e} m/s², {} steps", summary.steps);
+    assert!(ex < 1e-9, "slider position differs by {ex:e} m");
+    assert!(ea < 1e-6 * peak, "slider acceleration differs by {ea:e} of {peak:e} m/s²");
+}
+
+#[test]
+fn b_with_a_small_clearance_in_space_equals_the_planar_engine_pointwise() {
+    // c = 0.02 mm: continuous contact, no chaos (the comparison is pointwise over all 3 turns).
+    let b = builtin::by_name("B-0.02mm").expect("built-in");
+    let (p, s, ps, ss) = both(&b, false);
+    let (ex, _) = worst(&p, &s, f64::INFINITY, 1);
+    let (ea, peak) = worst(&p, &s, f64::INFINITY, 2);
+    eprintln!(
+        "B-0.02mm: slider x {ex:e} m, a_x {ea:e} of peak {peak:e} m/s²; impacts {} (planar) vs {} (spatial)",
+        ps.clearances[0].impacts, ss.clearances[0].impacts
+    );
+    assert!(ex < 1e-8, "slider position differs by {ex:e} m");
+    assert!(ea < 1e-3 * peak, "slider acceleration differs by {ea:e} of {peak:e} m/s²");
+    assert_eq!(ps.clearances[0].impacts, ss.clearances[0].impacts);
+}
+
+#[test]
+fn b_with_its_large_clearance_in_space_equals_the_planar_engine_through_the_first_impacts() {
+    // c = 0.5 mm is chaotic (docs/validation.md): pointwise over the first free flight and
+    // impacts (5 ms), statistics over the run.
+    let b = builtin::by_name("B").expect("built-in");
+    let (p, s, ps, ss) = both(&b, false);
+    let (ea, peak) = worst(&p, &s, 5e-3, 2);
+    let (pc, sc) = (&ps.clearances[0], &ss.clearances[0]);
+    eprintln!(
+        "B: a_x over 5 ms {ea:e} of peak {peak:e}; impacts {} vs {}, peak force {:.1} vs {:.1} N, mean force {:.2} vs {:.2} N",
+        pc.impacts,
+        sc.impacts,
+        pc.peak_normal_force,
+        sc.peak_normal_force,
+        pc.mean_contact_force,
+        sc.mean_contact_force
+    );
+    // Measured 1.0e-3: within an impact a_x changes by its peak in microseconds, and the two
+    // integrations place their steps differently (both at rtol 1e-9).
+    assert!(ea < 3e-3 * peak, "slider acceleration over the first 5 ms differs by {ea:e} of {peak:e} m/s²");
+    let first =
+        |s: &lash_run::Summary| s.clearances[0].first_impacts.iter().take(3).map(|i| i.onset_time).collect::<Vec<_>>();
+    for (a, b) in first(&ps).iter().zip(first(&ss)) {
+        assert!((a - b).abs() < 1e-8, "impact onsets {a} vs {b} s");
+    }
+    assert!((pc.mean_contact_force / sc.mean_contact_force - 1.0).abs() < 0.05, "mean contact force");
+}
+
+#[test]
+fn the_ideal_spatial_slider_crank_of_e_follows_its_closed_form_through_the_runner() {
+    let mut e = spatial_by_name("E-0.5mm-250rpm").expect("built-in");
+    e.simulation.horizon = 0.24; // one revolution
+    let (summary, header, rows) = rows(&mut SpatialRun::new(&e, true));
+    let (x, theta0, omega) = (
+        column(&header, "slider.x"),
+        lash_scenario::builtin_spatial::e_initial_angle(),
+        250.0 * std::f64::consts::PI / 30.0,
+    );
+    let worst = rows.iter().map(|r| (r[x] - e_slider_position(theta0 + omega * r[0])).abs()).fold(0.0, f64::max);
+    eprintln!("E ideal: slider x error {worst:e} m over {} samples", summary.samples);
+    assert!(worst < 1e-9, "slider position error {worst:e} m");
+    // The guide carries the weight of the slider and half the rod's, on average, along Y.
+    let fy = summary.channels["slider_guide.fy"].mean;
+    assert!(fy < -0.6 * 9.81 && fy > -(0.6 + 0.25) * 9.81, "guide reaction on the ground {fy} N");
+}
