@@ -345,6 +345,13 @@ fn example_files_are_the_builtin_scenarios() {
             "examples/{name}.toml differs from the built-in"
         );
     }
+    let text = std::fs::read_to_string(dir.join("E.toml")).unwrap();
+    let parsed = lash_scenario::parse_spatial(&text).unwrap_or_else(|p| panic!("E: {p}"));
+    assert_eq!(
+        parsed,
+        lash_scenario::builtin_spatial::spatial_by_name("E").unwrap(),
+        "examples/E.toml differs from the built-in"
+    );
 }
 
 /// SIGINT and SIGTERM end `lash run` with a message saying where the rows so far are (exit 130),
@@ -374,5 +381,63 @@ fn an_interrupted_run_says_what_it_kept() {
         assert!(err.contains("interrupted") && err.contains("timeseries.csv.partial"), "{signal}: {err}");
         assert!(partial.exists() && !out.join("timeseries.csv").exists() && !out.join("summary.json").exists());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+#[test]
+fn a_spatial_scenario_runs_and_writes_its_emulated_measurement() {
+    let dir = scratch("spatial");
+    let out = dir.join("E");
+    let o =
+        lash(&["run", "E-0.25mm-250rpm-frictionless", "--out", out.to_str().unwrap(), "--horizon", "0.3", "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    for col in [
+        "slider.az [m/s^2]",
+        "crank_rod.fz [N]",
+        "rod_slider.eccentricity [m]",
+        "slider_guide.fy [N]",
+        "crank_drive.torque [N m]",
+    ] {
+        assert!(header.contains(col), "header lacks {col}: {header}");
+    }
+    // The logger keeps 500 Hz samples from the end of the first revolution (0.24 s) on.
+    let logged = std::fs::read_to_string(out.join("measurement_housing.csv")).unwrap();
+    assert_eq!(logged.lines().next().unwrap(), "time [s],housing.ax [m/s^2],housing.ay [m/s^2],housing.az [m/s^2]");
+    assert_eq!(logged.lines().count(), 1 + 31, "0.24 … 0.30 s at 2 ms");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["measurements"][0]["axes"][2]["channel"], "housing.az");
+    // The spatial scenario is written back as run, and reads again.
+    let o = lash(&["validate", out.join("scenario.toml").to_str().unwrap()]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("spatial"), "{}", stderr(&o));
+}
+
+#[test]
+fn spatial_scenarios_get_clear_errors_where_a_command_does_not_take_them_yet() {
+    let dir = scratch("spatial-errors");
+    let o = lash(&["run", "E", "--model", "reduced", "--out", dir.join("r").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("spatial"), "{}", stderr(&o));
+    let o = lash(&["compare", "E", "--out", dir.join("c").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("is spatial"), "{}", stderr(&o));
+    // A spatial file with mistakes: every one with its field path.
+    let text = std::process::Command::new(env!("CARGO_BIN_EXE_lash")).args(["show", "E"]).output().unwrap().stdout;
+    let text = String::from_utf8(text)
+        .unwrap()
+        .replacen("mass = 0.25", "mass = -0.25", 1)
+        .replacen("orientation = [1.0, 0.0, 0.0, 0.0]", "orientation = [2.0, 0.0, 0.0, 0.0]", 1)
+        .replacen("joint = \"crank_rod\"", "joint = \"crank_pivot\"", 1)
+        .replacen("\"slider_guide.fz\"", "\"slider.az\"", 1);
+    let file = dir.join("bad.toml");
+    std::fs::write(&file, text).unwrap();
+    let o = lash(&["validate", file.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    for field in ["bodies[1].mass", "bodies[2].orientation", "clearances[0].joint", "output.measurements[0].forces[2]"]
+    {
+        assert!(e.contains(field), "{field} missing from: {e}");
     }
 }

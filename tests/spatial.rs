@@ -197,3 +197,41 @@ fn the_ideal_spatial_slider_crank_of_e_follows_its_closed_form_through_the_runne
     let fy = summary.channels["slider_guide.fy"].mean;
     assert!(fy < -0.6 * 9.81 && fy > -(0.6 + 0.25) * 9.81, "guide reaction on the ground {fy} N");
 }
+
+#[test]
+fn the_housing_response_of_e_equals_an_independent_integration_of_its_mount() {
+    // The runner's housing (exact discretisation of the mount, force linear between samples)
+    // against RK4 at a tenth of the output step on the same piecewise-linear force.
+    let mut e = spatial_by_name("E-0.5mm-250rpm").expect("built-in");
+    e.simulation.horizon = 0.3;
+    let (summary, header, rows) = rows(&mut SpatialRun::new(&e, false));
+    let fz = column(&header, "slider_guide.fz");
+    let force: Vec<f64> = rows.iter().map(|r| r[fz]).collect();
+    let mount = e.output.measurements[0].mount;
+    let (m, k, c) = (mount.mass, mount.stiffness(), mount.damping());
+    let dt = e.simulation.output_interval;
+    let (mut x, mut v) = (force[0] / k, 0.0);
+    let mut acceleration = vec![(force[0] - c * v - k * x) / m];
+    for w in force.windows(2) {
+        let h = dt / 10.0;
+        for s in 0..10 {
+            let f = |tau: f64| w[0] + (w[1] - w[0]) * (s as f64 * h + tau) / dt;
+            let rhs = |tau: f64, x: f64, v: f64| (v, (f(tau) - c * v - k * x) / m);
+            let k1 = rhs(0.0, x, v);
+            let k2 = rhs(0.5 * h, x + 0.5 * h * k1.0, v + 0.5 * h * k1.1);
+            let k3 = rhs(0.5 * h, x + 0.5 * h * k2.0, v + 0.5 * h * k2.1);
+            let k4 = rhs(h, x + h * k3.0, v + h * k3.1);
+            x += h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
+            v += h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
+        }
+        acceleration.push((w[1] - c * v - k * x) / m);
+    }
+    let first = (0.24 / dt).ceil() as usize;
+    let window = &acceleration[first..];
+    let mean = window.iter().sum::<f64>() / window.len() as f64;
+    let rms = (window.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / window.len() as f64).sqrt();
+    let axis = &summary.measurements[0].axes[2];
+    eprintln!("E housing z: clean RMS {} (runner) vs {rms} (RK4), logged {:?}", axis.clean_rms, axis.logged);
+    assert!((axis.clean_rms / rms - 1.0).abs() < 1e-6, "{} vs {rms}", axis.clean_rms);
+    assert_eq!(summary.measured[0].rows.len(), 31);
+}

@@ -60,9 +60,14 @@ impl CsvOutput {
     /// Creates `out` if needed, removes an earlier run's `timeseries.csv` and `stale` files (they
     /// must not survive as if they belonged to this run), and writes the header.
     pub fn create(out: &Path, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
+        Self::create_named(out, "timeseries.csv", header, stale)
+    }
+
+    /// [`CsvOutput::create`] for a table called `name` (streamed into `name.partial`).
+    pub fn create_named(out: &Path, name: &str, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
         std::fs::create_dir_all(out).map_err(|e| io(&format!("cannot create {}", out.display()), e))?;
-        let done = out.join("timeseries.csv");
-        let partial = out.join("timeseries.csv.partial");
+        let done = out.join(name);
+        let partial = out.join(format!("{name}.partial"));
         for p in std::iter::once(done.clone()).chain(stale.iter().map(|s| out.join(s))) {
             if p.exists() {
                 std::fs::remove_file(&p).map_err(|e| io(&format!("cannot remove old {}", p.display()), e))?;

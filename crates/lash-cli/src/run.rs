@@ -25,6 +25,13 @@ pub fn run<S: serde::Serialize>(s: &S, runner: &mut dyn Runner, out: &Path, quie
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     let summary_path = out.join("summary.json");
     let mut csv = CsvOutput::create(out, &runner.header(), &["summary.json"])?;
+    // An earlier run's measurement tables must not pass for this run's.
+    for entry in std::fs::read_dir(out).map_err(|e| fail("reading the output folder", e))?.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        if name.starts_with("measurement_") && (name.ends_with(".csv") || name.ends_with(".csv.partial")) {
+            std::fs::remove_file(entry.path()).map_err(|e| fail(&format!("removing the old {name}"), e))?;
+        }
+    }
 
     let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -65,6 +72,13 @@ pub fn run<S: serde::Serialize>(s: &S, runner: &mut dyn Runner, out: &Path, quie
     let flush = Instant::now();
     let mut output = csv.busy();
     csv.finish()?;
+    for table in &summary.measured {
+        let mut logged = CsvOutput::create_named(out, &format!("measurement_{}.csv", table.name), &table.header, &[])?;
+        for row in &table.rows {
+            logged.row(row).map_err(CliError::Failure)?;
+        }
+        logged.finish()?; // inside the flush time below, which counts as output
+    }
     let flushed = flush.elapsed();
     (output, total) = (output + flushed, total + flushed);
     let timing = Timing {

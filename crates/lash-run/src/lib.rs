@@ -11,6 +11,7 @@
 pub mod bench;
 pub mod build;
 pub mod full_subsystem;
+pub mod measure;
 mod record;
 pub mod reduced;
 pub mod run;

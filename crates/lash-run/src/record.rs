@@ -109,6 +109,11 @@ impl<'a> Recorder<'a> {
         sink(&self.row)
     }
 
+    /// Every channel's value of the last sample.
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
     /// Per-channel statistics.
     pub fn channel_stats(&self) -> BTreeMap<String, ChannelStats> {
         channel_stats(self.sources, &self.stats, self.samples)

@@ -91,6 +91,13 @@ impl ReducedRun {
                 scenario.clearances.len()
             )));
         }
+        if !scenario.output.measurements.is_empty() {
+            return Err(RunError::Unsupported(
+                "output.measurements: the emulated measurements are computed by the full-model runner so far (run the \
+                 full model, or leave them out)"
+                    .into(),
+            ));
+        }
         let sim = &scenario.simulation;
         let master_options = MasterOptions {
             start: ticks(sim.start_time, "simulation.start_time")?,
@@ -349,6 +356,8 @@ impl ReducedRun {
                 kinematic_macro: self.macro_sub.is_kinematic(),
                 master: master_stats,
             }),
+            measurements: Vec::new(),
+            measured: Vec::new(),
         })
     }
 

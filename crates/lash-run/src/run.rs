@@ -113,6 +113,12 @@ pub struct Summary {
     /// Reduced model only: options, coupling counters and time split.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reduced: Option<crate::reduced::ReducedDetails>,
+    /// Emulated vibration measurements (`[[output.measurements]]`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub measurements: Vec<crate::measure::MeasurementSummary>,
+    /// The loggers' samples of those measurements (written to their own CSV files, not to JSON).
+    #[serde(skip)]
+    pub measured: Vec<crate::measure::MeasuredTable>,
 }
 
 /// A prepared run.
@@ -159,10 +165,13 @@ impl FullRun {
         let nc = self.model.clearances.len();
         let horizon = sim.horizon;
         let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, nc);
+        let names: Vec<&str> = self.sources.iter().map(|(c, _)| c.name.as_str()).collect();
+        let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), String> {
             model.evaluate(t, y).map_err(|e| e.to_string())?;
             let (q, qd) = y.split_at(n);
             recorder.record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, sink)?;
+            measurements.record(recorder.values());
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
             Ok(())
         };
@@ -184,6 +193,9 @@ impl FullRun {
             Ok(s) => s,
             Err(e) => return Err(self.explain(e)),
         };
+        let (measurements, measured) = measurements
+            .finish(t0, sim.output_interval)
+            .map_err(|message| RunError::Simulation { t: t_end, message })?;
         let period = driver_period(&self.scenario);
         let clearances = (0..nc)
             .map(|k| {
@@ -211,6 +223,8 @@ impl FullRun {
             channels: recorder.channel_stats(),
             clearances,
             reduced: None,
+            measurements,
+            measured,
         })
     }
 

@@ -215,6 +215,8 @@ impl SpatialRun {
         let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64); sources.len()];
         let (mut samples, mut max_constraint_error) = (0u64, 0.0f64);
         let (mut max_eccentricity, mut sum_force) = (vec![0.0f64; nc], vec![0.0f64; nc]);
+        let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
+        let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let horizon = sim.horizon;
         let mut observer = |model: &mut SpatialFullModel, t: f64, y: &[f64]| -> Result<(), String> {
             model.evaluate(t, y).map_err(|e| e.to_string())?;
@@ -277,6 +279,7 @@ impl SpatialRun {
                 s.2 += v;
                 s.3 += v * v;
             }
+            measurements.record(&values);
             samples += 1;
             row[0] = t;
             for (r, &k) in row[1..].iter_mut().zip(selected.iter()) {
@@ -309,6 +312,9 @@ impl SpatialRun {
             },
             OdeError::Settings(m) => RunError::Simulation { t: t0, message: m },
         })?;
+        let (measurements, measured) = measurements
+            .finish(t0, sim.output_interval)
+            .map_err(|message| RunError::Simulation { t: t_end, message })?;
         let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
             Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
             _ => None,
@@ -369,6 +375,8 @@ impl SpatialRun {
             channels,
             clearances,
             reduced: None,
+            measurements,
+            measured,
         })
     }
 }

@@ -511,6 +511,9 @@ fn cross_check(s: &Scenario) -> Problems {
     if equations > coords {
         p.push("joints", format!("{equations} constraint equations for {coords} coordinates: over-constrained"));
     }
+    let channels: Vec<(String, &str)> =
+        crate::channels::channels(s, false).into_iter().map(|c| (c.name, c.unit)).collect();
+    p.0.extend(validate_measurements(&s.output, &channels, s.simulation.output_interval).0);
     if !s.output.channels.is_empty() {
         let names = crate::channels::channel_names(s, false);
         for (k, c) in s.output.channels.iter().enumerate() {
@@ -521,6 +524,53 @@ fn cross_check(s: &Scenario) -> Problems {
                 );
             }
         }
+    }
+    p
+}
+
+/// The measurements of `output` against the scenario's channels (name, unit) and output interval.
+pub(crate) fn validate_measurements(
+    output: &OutputSpec,
+    channels: &[(String, &str)],
+    output_interval: f64,
+) -> Problems {
+    let mut p = Problems::new();
+    let mut names = HashSet::new();
+    for (k, m) in output.measurements.iter().enumerate() {
+        let f = |x: &str| format!("output.measurements[{k}].{x}");
+        if m.name.is_empty() || !names.insert(m.name.as_str()) {
+            p.push(f("name"), format!("{:?} must be non-empty and unique", m.name));
+        }
+        if m.forces.is_empty() || m.forces.len() > 3 {
+            p.push(f("forces"), format!("needs one to three force channels (one per axis), got {}", m.forces.len()));
+        }
+        for (a, force) in m.forces.iter().enumerate() {
+            match channels.iter().find(|(n, _)| n == force) {
+                None => p.push(
+                    format!("{}[{a}]", f("forces")),
+                    format!("no channel called {force:?}; see `lash channels <scenario>`"),
+                ),
+                Some((_, unit)) if *unit != "N" => {
+                    p.push(format!("{}[{a}]", f("forces")), format!("channel {force:?} is in {unit}, not a force in N"))
+                }
+                Some(_) => {}
+            }
+        }
+        p.extend_prefixed(&f("mount"), m.mount.validate());
+        let acquisition = m.acquisition.validate();
+        if acquisition.is_empty() && output_interval > 0.0 {
+            let ratio = 1.0 / (m.acquisition.sample_rate * output_interval);
+            if (ratio - ratio.round()).abs() > 1e-9 * ratio || ratio.round() < 1.0 {
+                p.push(
+                    f("acquisition.sample_rate"),
+                    format!(
+                        "the logger's period {} s must be a whole multiple of simulation.output_interval {output_interval} s",
+                        1.0 / m.acquisition.sample_rate
+                    ),
+                );
+            }
+        }
+        p.extend_prefixed(&f("acquisition"), acquisition);
     }
     p
 }

@@ -219,4 +219,29 @@ pub struct OutputSpec {
     /// Channels to write (by name, e.g. "slider.ax"); empty writes all.
     #[serde(default)]
     pub channels: Vec<String>,
+    /// Emulated vibration measurements computed from the run.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub measurements: Vec<MeasurementSpec>,
+}
+
+/// An emulated vibration measurement: a housing on a compliant mount driven by force channels
+/// (one per axis, e.g. a guide's reaction on the ground), logged by a data logger.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementSpec {
+    /// Name: the logged channels are `<name>.ax`, `<name>.ay` (and `<name>.az`).
+    pub name: String,
+    /// The force channel driving each axis [N] (one to three).
+    pub forces: Vec<String>,
+    /// The housing and its mount.
+    pub mount: lash_measure::Mount,
+    /// The logger.
+    pub acquisition: lash_measure::Acquisition,
+}
+
+impl MeasurementSpec {
+    /// The logged channel names, one per force.
+    pub fn channel_names(&self) -> Vec<String> {
+        ["ax", "ay", "az"].iter().take(self.forces.len()).map(|a| format!("{}.{a}", self.name)).collect()
+    }
 }

@@ -518,6 +518,12 @@ fn cross_check(s: &SpatialScenario) -> Problems {
         if !clearance_joints.insert(c.joint.as_str()) {
             p.push(f("joint"), format!("joint {:?} already has a clearance", c.joint));
         }
+        if matches!(c.contact, lash_contact::ContactLaw::Liu { .. }) {
+            p.push(
+                f("contact.law"),
+                "liu is a law of cylinders in line contact; a ball in a socket needs a point-contact law",
+            );
+        }
         let needs_materials = c.contact.needs_materials();
         for (field, m) in [("journal_material", &c.journal_material), ("bearing_material", &c.bearing_material)] {
             match m {
@@ -547,6 +553,8 @@ fn cross_check(s: &SpatialScenario) -> Problems {
             format!("{equations} constraint equations for {velocities} velocity coordinates: over-constrained"),
         );
     }
+    let channels: Vec<(String, &str)> = spatial_channels(s, false).into_iter().map(|(c, _)| (c.name, c.unit)).collect();
+    p.0.extend(crate::load::validate_measurements(&s.output, &channels, s.simulation.output_interval).0);
     if !s.output.channels.is_empty() {
         let names: Vec<String> = spatial_channels(s, false).into_iter().map(|(c, _)| c.name).collect();
         for (k, c) in s.output.channels.iter().enumerate() {
