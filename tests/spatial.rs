@@ -235,3 +235,58 @@ fn the_housing_response_of_e_equals_an_independent_integration_of_its_mount() {
     assert!((axis.clean_rms / rms - 1.0).abs() < 1e-6, "{} vs {rms}", axis.clean_rms);
     assert_eq!(summary.measured[0].rows.len(), 31);
 }
+
+/// The converged setting of E (DOP853, rtol 1e-9) against rtol 1e-11 over the start-up of the
+/// clearance runs: the first free flight and impacts, pointwise; over the first revolution, the
+/// robust statistics (the runs are chaotic after the first impacts).
+#[test]
+fn scenario_e_converges_through_its_first_impacts() {
+    for name in ["E-0.5mm-250rpm", "E-0.25mm-125rpm"] {
+        let mut e = spatial_by_name(name).expect("built-in");
+        e.output.measurements.clear();
+        let turn = 60.0 / if name.ends_with("250rpm") { 250.0 } else { 125.0 };
+        e.simulation.horizon = turn;
+        let mut tight = e.clone();
+        if let lash_ode::Method::Dop853(o) = &mut tight.simulation.integrator {
+            (o.rtol, o.atol) = (1e-11, 1e-14);
+        }
+        let (a, ah, ar) = rows(&mut SpatialRun::new(&e, false));
+        let (b, bh, br) = rows(&mut SpatialRun::new(&tight, false));
+        let first: Vec<f64> = a.clearances.iter().map(|c| c.first_impacts[0].onset_time).collect();
+        let window = first.iter().fold(0.0f64, |m, &t| m.max(t)) + 5e-3;
+        let (fa, fb) = (column(&ah, "crank_rod.force"), column(&bh, "crank_rod.force"));
+        let (mut error, mut peak) = (0.0f64, 0.0f64);
+        for (x, y) in ar.iter().zip(&br) {
+            if x[0] <= window {
+                error = error.max((x[fa] - y[fb]).abs());
+                peak = peak.max(y[fb].abs());
+            }
+        }
+        eprintln!("{name}: first impacts at {first:?} s; crank_rod force to {window:.4} s: {error:.3e} of {peak:.1} N");
+        for (ca, cb) in a.clearances.iter().zip(&b.clearances) {
+            let (ia, ib) = (&ca.first_impacts[0], &cb.first_impacts[0]);
+            eprintln!(
+                "  {}: first onset {:.9} vs {:.9} s, peak {:.3} vs {:.3} N; turn 1: {} vs {} impacts, mean force {:.3} vs {:.3} N, max penetration {:.3e} vs {:.3e} m",
+                ca.name,
+                ia.onset_time,
+                ib.onset_time,
+                ia.peak_force,
+                ib.peak_force,
+                ca.impacts,
+                cb.impacts,
+                ca.mean_contact_force,
+                cb.mean_contact_force,
+                ca.max_penetration,
+                cb.max_penetration
+            );
+            assert!((ia.onset_time - ib.onset_time).abs() < 1e-8, "{name} {}: first onset", ca.name);
+            assert!((ia.peak_force / ib.peak_force - 1.0).abs() < 1e-4, "{name} {}: first peak", ca.name);
+            assert!(
+                (ca.mean_contact_force / cb.mean_contact_force - 1.0).abs() < 0.05,
+                "{name} {}: mean force",
+                ca.name
+            );
+        }
+        assert!(error < 1e-3 * peak, "{name}: force over the first impacts {error:e} of {peak} N");
+    }
+}

@@ -265,6 +265,7 @@ impl SpatialRun {
                         }
                     }
                     SpatialSource::JointReaction(k, q) => reaction_on_body1(k)[q as usize],
+                    SpatialSource::AngularVelocity(k, q) => solver.angular_velocities[k][q as usize],
                     SpatialSource::ConstraintError => solver.constraint_error(),
                 };
             }

@@ -580,6 +580,8 @@ pub enum SpatialSource {
     DriverTorque(usize),
     /// Ideal joint k (ideal or cut mechanism, in file order): reaction force on body1, component.
     JointReaction(usize, u8),
+    /// Body k's angular velocity in its own frame, component.
+    AngularVelocity(usize, u8),
     /// max |Φ|.
     ConstraintError,
 }
@@ -628,6 +630,11 @@ pub fn spatial_channels(s: &SpatialScenario, ideal: bool) -> Vec<(crate::Channel
             for (q, (name, unit)) in SPATIAL_CLEARANCE_QUANTITIES.iter().enumerate() {
                 out.push((channel(format!("{}.{name}", c.joint), unit), SpatialSource::Clearance(k, q as u8)));
             }
+        }
+    }
+    for (k, b) in s.bodies.iter().enumerate() {
+        for (q, axis) in ["wx", "wy", "wz"].iter().enumerate() {
+            out.push((channel(format!("{}.{axis}", b.name), "rad/s"), SpatialSource::AngularVelocity(k, q as u8)));
         }
     }
     for (k, d) in s.drivers.iter().enumerate() {
