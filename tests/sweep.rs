@@ -301,3 +301,88 @@ fn the_example_sweeps_run() {
         assert_eq!(m["status"], "complete");
     }
 }
+
+#[test]
+fn a_spatial_scenario_sweeps_like_a_planar_one() {
+    let dir = scratch("spatial");
+    let file = dir.join("sweep.toml");
+    std::fs::write(
+        &file,
+        r#"base = "E-0.5mm-250rpm-frictionless"
+model = "full"
+horizon = 0.02
+[output]
+channels = ["slider_guide.fy", "rod_slider.eccentricity"]
+sample_rate = 10000.0
+[[parameters]]
+path = "clearances[1].journal_radius"
+values = [0.0055, 0.00575, 0.0061]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_sweep(&file, &out, &[]);
+    // The third ball is larger than its socket: that run fails with the field named.
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&bytes(out.join("manifest.json"))).unwrap();
+    let runs = m["runs"].as_array().unwrap();
+    assert_eq!((runs[0]["status"].as_str(), runs[1]["status"].as_str()), (Some("ok"), Some("ok")));
+    assert!(runs[2]["error"].as_str().unwrap().contains("journal_radius"), "{}", runs[2]["error"]);
+    assert_eq!(m["channels"][1]["unit"], "m");
+    assert!(out.join("data.parquet").exists());
+    // The reduced model is refused before any work, naming the field.
+    std::fs::write(&file, std::fs::read_to_string(&file).unwrap().replace("model = \"full\"", "model = \"reduced\""))
+        .unwrap();
+    let o = run_sweep(&file, &dir.join("reduced"), &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("model") && stderr(&o).contains("spatial"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_dataset_can_hold_anti_aliased_clean_and_measured_channels() {
+    let dir = scratch("anti-alias");
+    let file = dir.join("sweep.toml");
+    std::fs::write(
+        &file,
+        r#"base = "A"
+sampling = "grid"
+horizon = 0.05
+[output]
+channels = ["slider.ax"]
+sample_rate = 2000.0
+noise = { "slider.ax" = 25.0 }
+anti_alias = { cutoff = 800.0 }
+clean = true
+csv = true
+[[parameters]]
+path = "drivers[0].motion.omega"
+values = [450.0, 523.6]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_sweep(&file, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("data.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let (measured, clean) = (
+        header.iter().position(|h| *h == "slider.ax").expect("measured column"),
+        header.iter().position(|h| *h == "slider.ax.clean").expect("clean column"),
+    );
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|x| x.parse().unwrap_or(f64::NAN)).collect()).collect();
+    assert_eq!(rows.len(), 2 * 101, "0 … 0.05 s at 2 kHz for each run");
+    // The noise is what separates the measured channel from the clean one.
+    let d: Vec<f64> = rows.iter().map(|r| r[measured] - r[clean]).collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (d.len() - 1) as f64).sqrt();
+    assert!((sd / 25.0 - 1.0).abs() < 0.2, "noise standard deviation {sd}");
+    // The filter ran: the clean channel is not the point-sampled one.
+    std::fs::write(&file, std::fs::read_to_string(&file).unwrap().replace("anti_alias = { cutoff = 800.0 }\n", "")).unwrap();
+    let o = run_sweep(&file, &dir.join("point"), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let point = std::fs::read_to_string(dir.join("point").join("data.csv")).unwrap();
+    let point: Vec<f64> = point.lines().skip(1).map(|l| l.split(',').nth(clean).unwrap().parse().unwrap()).collect();
+    let differs = rows.iter().zip(&point).filter(|(r, p)| (r[clean] - **p).abs() > 1e-6).count();
+    assert!(differs > 100, "{differs} of {} samples changed by the anti-alias filter", point.len());
+}

@@ -67,6 +67,55 @@ impl AnyScenario {
             AnyScenario::Spatial(s) => &s.name,
         }
     }
+
+    /// Its time span, integrator and sampling.
+    pub fn simulation_mut(&mut self) -> &mut SimulationSpec {
+        match self {
+            AnyScenario::Planar(s) => &mut s.simulation,
+            AnyScenario::Spatial(s) => &mut s.simulation,
+        }
+    }
+
+    /// Its output selection.
+    pub fn output_mut(&mut self) -> &mut OutputSpec {
+        match self {
+            AnyScenario::Planar(s) => &mut s.output,
+            AnyScenario::Spatial(s) => &mut s.output,
+        }
+    }
+
+    /// Number of clearance joints.
+    pub fn clearance_count(&self) -> usize {
+        match self {
+            AnyScenario::Planar(s) => s.clearances.len(),
+            AnyScenario::Spatial(s) => s.clearances.len(),
+        }
+    }
+
+    /// Every problem, with its field path.
+    pub fn validate(&self) -> Problems {
+        match self {
+            AnyScenario::Planar(s) => validate(s),
+            AnyScenario::Spatial(s) => crate::spatial::validate_spatial(s),
+        }
+    }
+
+    /// The channels of its runs (`ideal`: clearance joints as ideal joints).
+    pub fn channels(&self, ideal: bool) -> Vec<crate::Channel> {
+        match self {
+            AnyScenario::Planar(s) => crate::channels::channels(s, ideal),
+            AnyScenario::Spatial(s) => crate::spatial::spatial_channels(s, ideal).into_iter().map(|(c, _)| c).collect(),
+        }
+    }
+
+    /// The scenario as a TOML table.
+    pub fn to_table(&self) -> Result<toml::Table, String> {
+        match self {
+            AnyScenario::Planar(s) => toml::Table::try_from(s),
+            AnyScenario::Spatial(s) => toml::Table::try_from(s),
+        }
+        .map_err(|e| e.to_string())
+    }
 }
 
 /// Parses a planar or spatial scenario (by its `space` key) from TOML text.

@@ -25,6 +25,19 @@ pub fn edited<'a>(
     crate::parse(&text).map_err(EditError::Invalid)
 }
 
+/// [`edited`] for a planar or spatial base (its `space` key decides).
+pub fn edited_any<'a>(
+    base: &toml::Table,
+    edits: impl IntoIterator<Item = (&'a str, f64)>,
+) -> Result<crate::AnyScenario, EditError> {
+    let mut table = base.clone();
+    for (path, value) in edits {
+        set_path(&mut table, path, value).map_err(EditError::Path)?;
+    }
+    let text = toml::to_string(&table).map_err(|e| EditError::Path(e.to_string()))?;
+    crate::parse_any(&text).map_err(EditError::Invalid)
+}
+
 /// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
 /// table. The field must exist and be a number.
 pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {

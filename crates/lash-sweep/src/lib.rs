@@ -97,7 +97,10 @@ pub fn load(path: &Path) -> Result<Plan, SweepError> {
         .map_err(|e| SweepError::Input(format!("cannot read sweep file {}: {e}", path.display())))?;
     let spec = SweepSpec::parse(&text)
         .map_err(|p| SweepError::Input(format!("invalid sweep file {}: {p}", path.display())))?;
-    let base = match lash_scenario::builtin::by_name(&spec.base) {
+    let builtin = lash_scenario::builtin::by_name(&spec.base).map(lash_scenario::AnyScenario::Planar).or_else(|| {
+        lash_scenario::builtin_spatial::spatial_by_name(&spec.base).map(lash_scenario::AnyScenario::Spatial)
+    });
+    let base = match builtin {
         Some(s) => s,
         None => {
             let file = path.parent().unwrap_or(Path::new(".")).join(&spec.base);
@@ -110,7 +113,7 @@ pub fn load(path: &Path) -> Result<Plan, SweepError> {
                     file.display()
                 ))
             })?;
-            lash_scenario::parse(&t)
+            lash_scenario::parse_any(&t)
                 .map_err(|p| SweepError::Input(format!("invalid base scenario {}: {p}", file.display())))?
         }
     };
@@ -128,18 +131,20 @@ pub fn parse_shard(text: &str) -> Result<Shard, String> {
     Ok(Shard { index, count })
 }
 
-/// The channels (name, unit) a run of the plan writes, in dataset order.
+/// The channels (name, unit) a run of the plan writes, in dataset order: the channels (with their
+/// noise), then, with `clean = true`, each again without noise as `<name>.clean`.
 fn channel_infos(plan: &Plan) -> Vec<ChannelInfo> {
-    let all = lash_scenario::channels(&plan.base, false);
-    plan.spec
+    let all = plan.base.channels(false);
+    let unit = |name: &String| all.iter().find(|c| &c.name == name).map(|c| c.unit.to_string()).unwrap_or_default();
+    let measured = plan.spec.output.channels.iter().map(|name| ChannelInfo { name: name.clone(), unit: unit(name) });
+    let clean = plan
+        .spec
         .output
         .channels
         .iter()
-        .map(|name| ChannelInfo {
-            name: name.clone(),
-            unit: all.iter().find(|c| &c.name == name).map(|c| c.unit.to_string()).unwrap_or_default(),
-        })
-        .collect()
+        .filter(|_| plan.spec.output.clean)
+        .map(|name| ChannelInfo { name: format!("{name}.clean"), unit: unit(name) });
+    measured.chain(clean).collect()
 }
 
 fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
@@ -161,21 +166,33 @@ fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
 /// Simulates one run and returns its samples (noise added) and the simulated time.
 fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(RunData, f64), String> {
     let scenario = plan.scenario(run)?;
-    let mut runner: Box<dyn lash_run::Runner> = match plan.spec.model {
-        ModelKind::Reduced => Box::new(
-            lash_run::ReducedRun::new(&scenario, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?,
-        ),
-        ModelKind::Full => Box::new(lash_run::FullRun::new(&scenario, lash_run::BuildOptions::default())),
+    let horizon = match &scenario {
+        lash_scenario::AnyScenario::Planar(s) => s.simulation.horizon,
+        lash_scenario::AnyScenario::Spatial(s) => s.simulation.horizon,
+    };
+    let mut runner: Box<dyn lash_run::Runner> = match (&scenario, plan.spec.model) {
+        (lash_scenario::AnyScenario::Planar(s), ModelKind::Reduced) => {
+            Box::new(lash_run::ReducedRun::new(s, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?)
+        }
+        (lash_scenario::AnyScenario::Planar(s), ModelKind::Full) => {
+            Box::new(lash_run::FullRun::new(s, lash_run::BuildOptions::default()))
+        }
+        (lash_scenario::AnyScenario::Spatial(s), ModelKind::Full) => Box::new(lash_run::SpatialRun::new(s, false)),
+        (lash_scenario::AnyScenario::Spatial(_), ModelKind::Reduced) => {
+            return Err("the reduced model of spherical clearance joints is not there yet".into());
+        }
     };
     let header = runner.header();
     let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();
-    let index: Vec<usize> = channels
+    // The simulated channels (the clean copies, if any, follow them in `channels`).
+    let simulated = &channels[..plan.spec.output.channels.len()];
+    let index: Vec<usize> = simulated
         .iter()
         .map(|c| {
             header.iter().position(|h| name_of(h) == c.name).ok_or_else(|| format!("channel {} not produced", c.name))
         })
         .collect::<Result<_, _>>()?;
-    let mut data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); channels.len()] };
+    let mut data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); simulated.len()] };
     runner
         .execute(
             &mut |row| {
@@ -188,6 +205,29 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
             &mut |_| {},
         )
         .map_err(|e| e.to_string())?;
+    // The logger's anti-alias filter and decimation to the sample rate.
+    if let Some(a) = plan.spec.output.anti_alias {
+        let logger = lash_measure::Acquisition {
+            sample_rate: plan.spec.output.sample_rate,
+            cutoff: a.cutoff,
+            order: a.order,
+            settle: 0.0,
+        };
+        let dt = match &scenario {
+            lash_scenario::AnyScenario::Planar(s) => s.simulation.output_interval,
+            lash_scenario::AnyScenario::Spatial(s) => s.simulation.output_interval,
+        };
+        let every = (1.0 / (logger.sample_rate * dt)).round() as usize;
+        for col in data.columns.iter_mut() {
+            *col = logger.acquire(col, dt, Some(0.0))?;
+        }
+        data.time = data.time.iter().step_by(every.max(1)).copied().collect();
+    }
+    // Clean copies (before the noise), after their channels.
+    if plan.spec.output.clean {
+        let clean: Vec<Vec<f64>> = data.columns.clone();
+        data.columns.extend(clean);
+    }
     // Measurement noise: one ChaCha8 stream per run, drawn row by row, channel by channel.
     let sigmas: Vec<f64> =
         channels.iter().map(|c| plan.spec.output.noise.get(&c.name).copied().unwrap_or(0.0)).collect();
@@ -203,7 +243,7 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
             }
         }
     }
-    Ok((data, scenario.simulation.horizon))
+    Ok((data, horizon))
 }
 
 fn part_path(out: &Path, id: u64) -> PathBuf {

@@ -4,7 +4,7 @@
 
 use crate::spec::{ModelKind, Parameter, Sampling, SweepSpec};
 use lash_core::Problems;
-use lash_scenario::Scenario;
+use lash_scenario::AnyScenario;
 use lash_scenario::paths::{EditError, set_path};
 use rand::seq::SliceRandom;
 use rand::{Rng, RngCore, SeedableRng};
@@ -29,8 +29,8 @@ pub struct Plan {
     pub spec: SweepSpec,
     /// The sweep file's text (recorded in the manifest).
     pub text: String,
-    /// The base scenario, with the sweep's horizon and sampling applied.
-    pub base: Scenario,
+    /// The base scenario (planar or spatial), with the sweep's horizon and sampling applied.
+    pub base: AnyScenario,
     base_table: toml::Table,
     /// Every run.
     pub runs: Vec<RunSpec>,
@@ -55,21 +55,40 @@ fn hex(bytes: &[u8]) -> String {
 impl Plan {
     /// Checks the sweep against its base scenario and lists the runs. Every problem found is
     /// reported with its field path; nothing is run.
-    pub fn new(spec: SweepSpec, text: String, base: Scenario) -> Result<Self, Problems> {
+    pub fn new(spec: SweepSpec, text: String, base: AnyScenario) -> Result<Self, Problems> {
         let mut base = base;
         let mut p = Problems::new();
         if let Some(h) = spec.horizon {
-            base.simulation.horizon = h;
+            base.simulation_mut().horizon = h;
         }
-        base.simulation.output_interval = 1.0 / spec.output.sample_rate;
+        if spec.output.anti_alias.is_none() {
+            base.simulation_mut().output_interval = 1.0 / spec.output.sample_rate;
+        } else {
+            // Sampled at the base's own interval, low-passed and decimated after each run.
+            let dt = base.simulation_mut().output_interval;
+            let ratio = 1.0 / (spec.output.sample_rate * dt);
+            if (ratio - ratio.round()).abs() > 1e-9 * ratio || ratio.round() < 1.0 {
+                p.push(
+                    "output.sample_rate",
+                    format!(
+                        "with anti_alias, 1/sample_rate must be a whole multiple of the base's output_interval {dt} s"
+                    ),
+                );
+            }
+        }
         // The base itself (with the sweep's horizon and sampling) must be valid; the sweep's
-        // channels are checked below under their own field names.
-        p.extend_prefixed("base", lash_scenario::validate(&base));
-        base.output.channels = spec.output.channels.clone();
-        if spec.model == ModelKind::Reduced && base.clearances.is_empty() {
+        // channels are checked below under their own field names. Its own emulated measurements
+        // are the scenario's business, not the dataset's: a sweep samples channels.
+        base.output_mut().measurements.clear();
+        p.extend_prefixed("base", base.validate());
+        base.output_mut().channels = spec.output.channels.clone();
+        if spec.model == ModelKind::Reduced && base.clearance_count() == 0 {
             p.push("model", "the reduced model needs at least one clearance joint; the base has none".to_string());
         }
-        let base_table: toml::Table = match toml::Table::try_from(&base) {
+        if spec.model == ModelKind::Reduced && matches!(base, AnyScenario::Spatial(_)) {
+            p.push("model", "the base is spatial: the reduced model of spherical clearance joints is not there yet (use model = \"full\")");
+        }
+        let base_table: toml::Table = match base.to_table() {
             Ok(t) => t,
             Err(e) => {
                 p.push("base", format!("cannot be written as TOML: {e}"));
@@ -83,7 +102,7 @@ impl Plan {
                 p.push(format!("parameters[{k}].path"), m);
             }
         }
-        let known = lash_scenario::channel_names(&base, false);
+        let known: Vec<String> = base.channels(false).into_iter().map(|c| c.name).collect();
         for (i, c) in spec.output.channels.iter().enumerate() {
             if !known.iter().any(|k| k == c) {
                 p.push(
@@ -92,10 +111,10 @@ impl Plan {
                 );
             }
         }
-        if p.is_empty() && spec.model == ModelKind::Reduced {
+        if let (true, ModelKind::Reduced, AnyScenario::Planar(base)) = (p.is_empty(), spec.model, &base) {
             // Step sizes, sampling and horizon must fit the reduced model's integer time grid:
             // building its runner for the base checks them once, before any run.
-            if let Err(e) = lash_run::ReducedRun::new(&base, reduced_options(&spec)) {
+            if let Err(e) = lash_run::ReducedRun::new(base, reduced_options(&spec)) {
                 let field = if e.to_string().contains("output_interval") { "output.sample_rate" } else { "model" };
                 p.push(field, format!("the reduced model refuses the base scenario: {e}"));
             }
@@ -122,9 +141,9 @@ impl Plan {
     }
 
     /// The scenario of one run: the base with the run's values at their paths, validated.
-    pub fn scenario(&self, run: &RunSpec) -> Result<Scenario, String> {
+    pub fn scenario(&self, run: &RunSpec) -> Result<AnyScenario, String> {
         let edits = self.spec.parameters.iter().map(|p| p.path.as_str()).zip(run.values.iter().copied());
-        lash_scenario::paths::edited(&self.base_table, edits).map_err(|e| match e {
+        lash_scenario::paths::edited_any(&self.base_table, edits).map_err(|e| match e {
             EditError::Path(m) => m,
             EditError::Invalid(p) => format!("invalid parameter combination: {p}"),
         })
@@ -227,7 +246,7 @@ mod tests {
 
     fn plan(text: &str) -> Result<Plan, Problems> {
         let spec = SweepSpec::parse(text)?;
-        Plan::new(spec, text.to_string(), lash_scenario::builtin::by_name("A").unwrap())
+        Plan::new(spec, text.to_string(), AnyScenario::Planar(lash_scenario::builtin::by_name("A").unwrap()))
     }
 
     const GRID: &str = r#"
@@ -252,6 +271,7 @@ linspace = { start = 400.0, stop = 600.0, count = 3 }
         assert_eq!(v[1], vec![0.01005, 500.0]);
         assert_eq!(v[3], vec![0.0101, 400.0]);
         let s = p.scenario(&p.runs[4]).unwrap();
+        let AnyScenario::Planar(s) = s else { panic!("planar base") };
         assert_eq!(s.clearances[0].bearing_radius, 0.0101);
     }
 

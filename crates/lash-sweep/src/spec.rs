@@ -13,6 +13,8 @@
 //! channels = ["slider.ax"]
 //! sample_rate = 10000.0         # Hz; 1/sample_rate must be a multiple of the model's step
 //! noise = { "slider.ax" = 50.0 }  # standard deviation of additive Gaussian noise, channel units
+//! anti_alias = { cutoff = 4000.0, order = 4 }  # optional: sample finer, low-pass, decimate
+//! clean = true                  # optional: also store each channel without noise (<name>.clean)
 //!
 //! [[parameters]]
 //! path = "clearances[0].bearing_radius"
@@ -103,6 +105,29 @@ pub struct Output {
     /// Also write `data.csv` (the Parquet table is always written).
     #[serde(default)]
     pub csv: bool,
+    /// A logger's anti-alias low-pass before the sampling: the runs are sampled at the base
+    /// scenario's own output interval, filtered and decimated to `sample_rate` (without it, the
+    /// runs are sampled at `sample_rate` directly, and content above half of it aliases).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anti_alias: Option<AntiAlias>,
+    /// Also store every channel without noise, as `<channel>.clean`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub clean: bool,
+}
+
+/// The anti-alias filter of the dataset's sampling.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AntiAlias {
+    /// Cut-off (−3 dB) [Hz], below half the sample rate.
+    pub cutoff: f64,
+    /// Butterworth order (even).
+    #[serde(default = "default_order")]
+    pub order: usize,
+}
+
+fn default_order() -> usize {
+    4
 }
 
 /// Reduced-model step sizes.
@@ -177,6 +202,15 @@ impl SweepSpec {
         p.positive("output.sample_rate", self.output.sample_rate);
         if self.output.channels.is_empty() {
             p.push("output.channels", "name at least one channel");
+        }
+        if let Some(a) = self.output.anti_alias {
+            let logger = lash_measure::Acquisition {
+                sample_rate: self.output.sample_rate,
+                cutoff: a.cutoff,
+                order: a.order,
+                settle: 0.0,
+            };
+            p.extend_prefixed("output.anti_alias", logger.validate());
         }
         for (name, sigma) in &self.output.noise {
             p.non_negative(format!("output.noise.{name}"), *sigma);
