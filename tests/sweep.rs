@@ -378,7 +378,8 @@ values = [450.0, 523.6]
     let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (d.len() - 1) as f64).sqrt();
     assert!((sd / 25.0 - 1.0).abs() < 0.2, "noise standard deviation {sd}");
     // The filter ran: the clean channel is not the point-sampled one.
-    std::fs::write(&file, std::fs::read_to_string(&file).unwrap().replace("anti_alias = { cutoff = 800.0 }\n", "")).unwrap();
+    std::fs::write(&file, std::fs::read_to_string(&file).unwrap().replace("anti_alias = { cutoff = 800.0 }\n", ""))
+        .unwrap();
     let o = run_sweep(&file, &dir.join("point"), &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let point = std::fs::read_to_string(dir.join("point").join("data.csv")).unwrap();

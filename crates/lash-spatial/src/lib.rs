@@ -10,6 +10,8 @@
 //! * [`solver`]: the index-1 KKT system `[M Cᵀ; C 0][v̇; λ] = [Q; γ̂]` by the Schur complement
 //!   `S = C M⁻¹ Cᵀ` with Baumgarte stabilisation `γ̂ = γ − 2α(C v − ν) − β²Φ`.
 //! * [`system`]: the equations of motion as a `lash_ode::OdeSystem` on `y = [q; v]`.
+//! * [`interface`]: effective interface terms (M̃, f̃, moment columns, propagation gains) of
+//!   spherical clearance joints in a cut mechanism: the macro side of the reduced model.
 //! * [`kinematics`]: assembly, velocity analysis, point kinematics, energy, angular momentum,
 //!   joint reactions.
 //!
@@ -21,11 +23,13 @@
 //! the exact flow; the integrator's drift of |p| is reported, never felt by the physics.
 
 pub mod constraints;
+pub mod interface;
 pub mod kinematics;
 pub mod model;
 pub mod solver;
 pub mod system;
 
+pub use interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms};
 pub use kinematics::{
     SpatialPoint, angular_momentum, assemble, kinetic_energy, point_kinematics, potential_energy, velocity_analysis,
 };

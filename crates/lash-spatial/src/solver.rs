@@ -263,6 +263,29 @@ impl SpatialSolver {
         Ok(())
     }
 
+    /// The response to a generalized load alone (no γ, no stabilisation: the part of v̇ and λ
+    /// linear in the load), with the factor of the last [`SpatialSolver::solve`]: `Sλ = C M⁻¹ load`,
+    /// `v̇ = M⁻¹(load − Cᵀλ)`.
+    pub fn response(&mut self, load: &[f64], accelerations: &mut [f64], lambda: &mut [f64]) {
+        for k in 0..self.frames.len() {
+            let a = self.inverse_mass_times(k, &load[6 * k..6 * k + 6]);
+            accelerations[6 * k..6 * k + 6].copy_from_slice(&a);
+        }
+        for (a, r) in self.rows.iter().enumerate() {
+            lambda[a] = Self::row_times(r, accelerations);
+        }
+        self.schur.solve_mut(lambda);
+        for (a, r) in self.rows.iter().enumerate() {
+            for b in 0..2 {
+                if let Some(k) = r.bodies[b] {
+                    for c in 0..6 {
+                        accelerations[6 * k + c] -= self.weighted[a][b][c] * lambda[a];
+                    }
+                }
+            }
+        }
+    }
+
     /// The minimum-kinetic-energy correction δ = M⁻¹Cᵀ S⁻¹ e of a residual e per row (velocity
     /// analysis: e = ν − C v; assembly: e = −Φ), written into `delta` (6 per body). Redundant but
     /// consistent equations (a planar loop of revolutes in space) make S singular: then S + εI

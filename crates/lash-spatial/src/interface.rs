@@ -1,0 +1,174 @@
+//! Effective interface terms of spherical clearance joints in a cut spatial mechanism (the
+//! spatial counterpart of `lash_mech::interface`, docs/theory.md §8).
+//!
+//! The cut system is the mechanism with the k spherical clearance joints removed. Joint j's
+//! interface coordinates are w_j = P_J − P_B (ball centre minus socket centre, world frame), so
+//! n = 3k; `ẇ = J v`. With a force f_c on each ball (through its centre, −f_c on the socket) and
+//! torques τ (world) on the ball's and the socket's bodies, the KKT solution is linear in them:
+//!
+//! ```text
+//!     v̇ = v̇_free + G [f_c; τ],   ẅ = W f_c + W_τ τ + a_free,   M̃ = W⁻¹,   f̃ = M̃ a_free,
+//! ```
+//!
+//! with a_free = J v̇_free + ω_J × (ω_J × s_J) − ω_B × (ω_B × s_B). The torques carry the friction
+//! force's moments (R_J n × f on the ball's body, R_B n × (−f) on the socket's), which depend on the
+//! contact normal: the micro model forms them, the macro side gives their columns.
+
+use crate::Vec3;
+use crate::constraints::BodyFrame;
+use crate::model::SpatialMechanism;
+use crate::solver::{SpatialError, SpatialSolver};
+use lash_mech::BodyId;
+use nalgebra::{DMatrix, DVector};
+
+/// Where a spherical clearance joint is: the ball centre on one body, the socket centre on another.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphericalInterface {
+    /// Body carrying the ball.
+    pub journal_body: BodyId,
+    /// Ball centre (body frame, from the centroid) [m].
+    pub journal_point: Vec3,
+    /// Body carrying the socket.
+    pub bearing_body: BodyId,
+    /// Socket centre [m].
+    pub bearing_point: Vec3,
+}
+
+/// Effective terms of k spherical interfaces at one state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpatialCoupledTerms {
+    /// Mobility W = J G_f (n × n) [1/kg].
+    pub mobility: DMatrix<f64>,
+    /// Effective mass M̃ = W⁻¹ [kg]; `None` when W is singular.
+    pub effective_mass: Option<DMatrix<f64>>,
+    /// Free interface accelerations a_free (n) [m/s²].
+    pub free_acceleration: DVector<f64>,
+    /// Effective forces f̃ = M̃ a_free (n) [N] (zero when W is singular).
+    pub effective_force: DVector<f64>,
+    /// W_τ (n × 6k): interface accelerations per unit torque (world x, y, z) on joint j's ball body
+    /// (columns 6j…6j+2) and on its socket body (6j+3…6j+5) [1/(kg m)].
+    pub moment_mobility: DMatrix<f64>,
+    /// Generalized accelerations v̇ with no interface loads.
+    pub free_accelerations: Vec<f64>,
+    /// Columns of G (n + 6k): v̇ per unit force on each ball (3j + axis), then per unit torque in
+    /// the order of `moment_mobility`.
+    pub gain: Vec<Vec<f64>>,
+    /// Multipliers with no interface loads.
+    pub free_lambda: Vec<f64>,
+    /// Columns of Λ, in the order of `gain`.
+    pub lambda_gain: Vec<Vec<f64>>,
+}
+
+fn frame(frames: &[BodyFrame], id: BodyId) -> BodyFrame {
+    match id {
+        BodyId::Body(k) => frames[k],
+        BodyId::Ground => BodyFrame::ground(),
+    }
+}
+
+/// J x for a velocity-space vector x (6 per body: ṙ, ω'): ball point minus socket point.
+fn interface_rate(iface: &SphericalInterface, frames: &[BodyFrame], x: &[f64]) -> Vec3 {
+    let part = |body: BodyId, point: Vec3| -> Vec3 {
+        match body {
+            BodyId::Ground => Vec3::zeros(),
+            BodyId::Body(k) => {
+                let a = &frames[k].rotation;
+                let w = a * Vec3::new(x[6 * k + 3], x[6 * k + 4], x[6 * k + 5]);
+                Vec3::new(x[6 * k], x[6 * k + 1], x[6 * k + 2]) + w.cross(&(a * point))
+            }
+        }
+    };
+    part(iface.journal_body, iface.journal_point) - part(iface.bearing_body, iface.bearing_point)
+}
+
+/// Effective terms of the interfaces `joints` of the cut mechanism `cut` (every one of them
+/// removed) at `(t, q, v)`. One factorisation serves the 1 + 3k + 6k solves.
+pub fn spatial_effective_terms(
+    cut: &SpatialMechanism,
+    solver: &mut SpatialSolver,
+    joints: &[SphericalInterface],
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+) -> Result<SpatialCoupledTerms, SpatialError> {
+    let nv = v.len();
+    let m = cut.constraint_count();
+    let k = joints.len();
+    let n = 3 * k;
+    solver.set_state(cut, t, q, v);
+    solver.solve(cut)?;
+    let free_accelerations = solver.accelerations.clone();
+    let free_lambda = solver.lambda.clone();
+    let frames = solver.frames.clone();
+    let mut gain = vec![vec![0.0; nv]; n + 6 * k];
+    let mut lambda_gain = vec![vec![0.0; m]; n + 6 * k];
+    let mut load = vec![0.0; nv];
+    let put = |load: &mut [f64], body: BodyId, force: Vec3, torque: Vec3| {
+        if let BodyId::Body(b) = body {
+            let n_body = frames[b].rotation.transpose() * torque;
+            for c in 0..3 {
+                load[6 * b + c] += force[c];
+                load[6 * b + 3 + c] += n_body[c];
+            }
+        }
+    };
+    for (j, iface) in joints.iter().enumerate() {
+        let (fj, fb) = (frame(&frames, iface.journal_body), frame(&frames, iface.bearing_body));
+        let (sj, sb) = (fj.rotation * iface.journal_point, fb.rotation * iface.bearing_point);
+        for axis in 0..3 {
+            let e = Vec3::ith(axis, 1.0);
+            load.fill(0.0);
+            put(&mut load, iface.journal_body, e, sj.cross(&e));
+            put(&mut load, iface.bearing_body, -e, sb.cross(&-e));
+            let column = 3 * j + axis;
+            solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
+            // Torques on the ball's body, then on the socket's.
+            for (side, body) in [(0, iface.journal_body), (1, iface.bearing_body)] {
+                load.fill(0.0);
+                put(&mut load, body, Vec3::zeros(), e);
+                let column = n + 6 * j + 3 * side + axis;
+                solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
+            }
+        }
+    }
+    let mut mobility = DMatrix::zeros(n, n);
+    let mut moment_mobility = DMatrix::zeros(n, 6 * k);
+    let mut free_acceleration = DVector::zeros(n);
+    let centripetal = |f: &BodyFrame, s: Vec3| f.angular_velocity.cross(&f.angular_velocity.cross(&s));
+    for (row, iface) in joints.iter().enumerate() {
+        for c in 0..n {
+            let w = interface_rate(iface, &frames, &gain[c]);
+            mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
+        }
+        for c in 0..6 * k {
+            let w = interface_rate(iface, &frames, &gain[n + c]);
+            moment_mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
+        }
+        let (fj, fb) = (frame(&frames, iface.journal_body), frame(&frames, iface.bearing_body));
+        let a = interface_rate(iface, &frames, &free_accelerations)
+            + centripetal(&fj, fj.rotation * iface.journal_point)
+            - centripetal(&fb, fb.rotation * iface.bearing_point);
+        free_acceleration.fixed_view_mut::<3, 1>(3 * row, 0).copy_from(&a);
+    }
+    let effective_mass = invert(&mobility);
+    let effective_force = effective_mass.as_ref().map_or(DVector::zeros(n), |mt| mt * &free_acceleration);
+    Ok(SpatialCoupledTerms {
+        mobility,
+        effective_mass,
+        free_acceleration,
+        effective_force,
+        moment_mobility,
+        free_accelerations,
+        gain,
+        free_lambda,
+        lambda_gain,
+    })
+}
+
+/// W⁻¹, or `None` when W is singular to working precision.
+fn invert(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let scale = w.abs().max();
+    let inverse = w.clone().lu().try_inverse()?;
+    let condition = inverse.abs().max() * scale * w.nrows() as f64;
+    (condition.is_finite() && condition < 1e12).then_some(inverse)
+}
