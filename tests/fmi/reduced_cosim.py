@@ -118,8 +118,8 @@ for step in range(n_macro):
 
     for j in range(n_micro):
         micro.step(t_k + j * h_r, h_r)
-        # The loads in lash's order: contact forces (n), then friction forces (k).
-        loads = list(micro.get("contact_force")) + list(micro.get("friction_force"))
+        # The loads in lash's order: contact forces (n), then friction loads (k, planar: F_T).
+        loads = list(micro.get("contact_force")) + list(micro.get("friction_load"))
         s = (j + 1) / n_micro
         v = lerp("slider.acceleration_free", 0, s)
         for c, load in enumerate(loads):

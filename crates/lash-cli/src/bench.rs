@@ -234,14 +234,14 @@ fn time_runner(r: &mut dyn lash_run::Runner) -> Result<(f64, lash_run::Summary),
 /// law).
 fn time_micro_steps<const N: usize, const K: usize>(
     joints: Vec<lash_contact::ClearanceJoint>,
-    inputs: lash_contact::micro::InterfaceInputs<N, K>,
+    inputs: lash_contact::micro::PlanarInputs<N, K>,
     reps: usize,
     steps: usize,
 ) -> f64 {
     median(
         (0..reps)
             .map(|_| {
-                let mut m = lash_contact::micro::InterfaceModel::<N, K>::new(joints.clone());
+                let mut m = lash_contact::micro::PlanarInterfaceModel::<N, K>::new(joints.clone());
                 m.inputs = inputs;
                 let t0 = Instant::now();
                 for k in 0..steps {
@@ -266,7 +266,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     let joint = lash_run::build_model(&a, BuildOptions::default()).clearances[0].clone();
     let n = if quick { 100_000 } else { 400_000 };
     let micro_ns = {
-        let mut inputs = lash_contact::micro::InterfaceInputs::<2, 1> {
+        let mut inputs = lash_contact::micro::PlanarInputs::<2, 1> {
             effective_mass: nalgebra::Matrix2::new(0.33, 0.01, 0.01, 0.21),
             effective_force: nalgebra::Vector2::new(-900.0, 300.0),
             friction_moment_force: nalgebra::Vector2::new(-20.0, 8.0),
@@ -277,7 +277,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     };
     // Two such joints coupled by off-diagonal blocks of M̃ (the 4 × 4 Cholesky path).
     let two_joint_ns = {
-        let mut inputs = lash_contact::micro::InterfaceInputs::<4, 2> {
+        let mut inputs = lash_contact::micro::PlanarInputs::<4, 2> {
             effective_mass: nalgebra::Matrix4::new(
                 0.33, 0.01, 0.05, 0.0, 0.01, 0.21, 0.0, 0.04, 0.05, 0.0, 0.40, 0.02, 0.0, 0.04, 0.02, 0.25,
             ),

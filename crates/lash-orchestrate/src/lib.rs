@@ -9,15 +9,17 @@
 //!
 //! | macro output | micro input |
 //! |---|---|
-//! | `effective_mass` (n×n), `effective_force` (n), `friction_moment_force` (n×k) | the same, plus `…_rate` |
-//! | `journal_angular_velocity`, `journal_angular_acceleration` (k) | the same |
-//! | `bearing_angular_velocity`, `bearing_angular_acceleration` (k) | the same for the bearings |
+//! | `effective_mass` (n×n), `effective_force` (n), `friction_moment_force` (n×m) | the same, plus `…_rate` |
+//! | `journal_angular_velocity`, `journal_angular_acceleration` (r) | the same |
+//! | `bearing_angular_velocity`, `bearing_angular_acceleration` (r) | the same for the bearings |
 //!
-//! for k clearance joints with n interface coordinates in all (sizes read from the variables), and,
-//! back, the micro outputs `contact_force` (n) and `friction_force` (k) every micro step (the loads
-//! of the propagated signals) and, in two-way coupling, `eccentricity` and `eccentricity_rate` at
-//! the end of each macro step and the mean friction force over it (from `friction_impulse`), fed
-//! to the macro inputs `eccentricity`, `eccentricity_rate` and `friction_force`.
+//! for clearance joints with n interface coordinates, m friction loads and r angular velocity
+//! components in all (planar revolute joints: n = 2k, m = r = k; spherical ones: n = 3k, m = 6k,
+//! r = 3k; sizes read from the variables), and, back, the micro outputs `contact_force` (n) and
+//! `friction_load` (m) every micro step (the loads of the propagated signals) and, in two-way
+//! coupling, `eccentricity` and `eccentricity_rate` at the end of each macro step and the mean
+//! friction loads over it (from `friction_impulse`), fed to the macro inputs `eccentricity`,
+//! `eccentricity_rate` and `friction_force`.
 //!
 //! * **Interpolation** of the coupling inputs across the macro step: linear (default), cubic
 //!   Hermite (slopes from neighbouring nodes, angular velocities with their exported derivatives),
@@ -116,13 +118,13 @@ pub enum Signal {
         derivative: Option<(String, usize)>,
     },
     /// `free + Σ gain_c load_c` with the maps interpolated linearly and the loads the micro
-    /// subsystem's contact forces (n) and friction forces (k) at the same instant.
+    /// subsystem's contact forces (n) and friction loads (m) at the same instant.
     Propagated {
         /// Signal name.
         name: String,
         /// (variable, element) of the value at zero load.
         free: (String, usize),
-        /// (variable, first element) of the n + k gains, one per load, in load order.
+        /// (variable, first element) of the n + m gains, one per load, in load order.
         gain: (String, usize),
     },
 }
@@ -538,11 +540,21 @@ impl<'a> InterfaceMaster<'a> {
         let (mac_name, mic_name) = (self.macro_sub.name().to_string(), self.micro_sub.name().to_string());
         let mac_off = offsets(&mac_vars);
         let out = Causality::Output;
-        // Sizes: n interface coordinates, k clearance joints.
+        // Sizes: n interface coordinates, r angular velocity components per side (planar: one
+        // per joint; spherical: three), m friction loads (planar: one per joint, F_T; spherical:
+        // six, the friction force's torques on both bodies).
         let size = |name: &str| -> Result<usize, MasterError> {
             Ok(mac_vars[lookup(&mac_vars, &mac_name, name, out, None)? as usize].len())
         };
-        let (n, k) = (size("effective_force")?, size("journal_angular_velocity")?);
+        let (n, r) = (size("effective_force")?, size("journal_angular_velocity")?);
+        let moment_map = size("friction_moment_force")?;
+        if n == 0 || moment_map % n != 0 {
+            return Err(MasterError::Variables {
+                subsystem: mac_name.clone(),
+                problem: format!("friction_moment_force has {moment_map} elements, not a multiple of n = {n}"),
+            });
+        }
+        let k = moment_map / n;
         let at = |name: &str, len: usize| -> Result<usize, MasterError> {
             Ok(mac_off[lookup(&mac_vars, &mac_name, name, out, Some(len))? as usize])
         };
@@ -552,8 +564,8 @@ impl<'a> InterfaceMaster<'a> {
             ("effective_mass", n * n, None),
             ("effective_force", n, None),
             ("friction_moment_force", n * k, None),
-            ("journal_angular_velocity", k, Some("journal_angular_acceleration")),
-            ("bearing_angular_velocity", k, Some("bearing_angular_acceleration")),
+            ("journal_angular_velocity", r, Some("journal_angular_acceleration")),
+            ("bearing_angular_velocity", r, Some("bearing_angular_acceleration")),
         ];
         let mut micro_inputs = Vec::with_capacity(2 * couplings.len());
         let mut index = CouplingIndex { elements: Vec::new(), layout: Vec::new() };
@@ -578,12 +590,12 @@ impl<'a> InterfaceMaster<'a> {
             ]),
             Coupling::OneWay => None,
         };
-        // Micro outputs read every micro step: the loads (contact forces, friction forces) first,
+        // Micro outputs read every micro step: the loads (contact forces, friction loads) first,
         // then the signals'. Two-way coupling reads the eccentricities, their rates and the friction
         // impulses at the end of each macro step.
         let mut micro_outputs: Vec<ValueReference> = vec![
             lookup(&mic_vars, &mic_name, "contact_force", out, Some(n))?,
-            lookup(&mic_vars, &mic_name, "friction_force", out, Some(k))?,
+            lookup(&mic_vars, &mic_name, "friction_load", out, Some(k))?,
         ];
         let coupling_outputs = [
             lookup(&mic_vars, &mic_name, "eccentricity", out, Some(n))?,

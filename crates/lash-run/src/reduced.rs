@@ -310,15 +310,15 @@ impl ReducedRun {
         let period = driver_period(&self.scenario);
         let mut events = 0;
         let mut clearances = Vec::with_capacity(joints);
-        for (j, c) in micro.joints().iter().enumerate() {
+        for (j, name) in micro.joint_names().into_iter().enumerate() {
             let mut impacts = micro.impacts(j).to_vec();
             let open = micro.open_impacts(j, t_end);
             events += 2 * impacts.len() as u64 + open.len() as u64;
             impacts.extend(open);
             let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
             clearances.push(crate::run::ClearanceSummary {
-                name: c.name.clone(),
-                radial_clearance: c.radial_clearance(),
+                name,
+                radial_clearance: micro.radial_clearance(j),
                 impacts: impacts.len(),
                 impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
                 contact_fraction: in_contact / horizon,

@@ -1,8 +1,9 @@
 //! The micro subsystem of the reduced interface model: the clearance interface of every clearance
 //! joint of a mechanism, `M̃(t) ẅ = f̃(t) + f_c(w, ẇ) + H(t) F_T(w, ẇ)` with state (w, ẇ), driven
 //! by the macro subsystem's coupled effective mass M̃, effective force f̃ and friction-moment map
-//! H (docs/theory.md §6). Its size comes from the scenario: k planar clearance joints give
-//! n = 2k interface coordinates ([`model::InterfaceModel`], dispatched on n once at construction).
+//! H (docs/theory.md §6, §8). Its size and kind come from the scenario: k planar revolute clearance
+//! joints give n = 2k interface coordinates and k friction loads, k spherical ones n = 3k and 6k
+//! ([`model::InterfaceModel`] over [`MicroJoint`], dispatched once at construction).
 //!
 //! Inputs arrive at each communication point as a value and a rate (FMI input derivatives, as
 //! separate variables so FMI 3.0 carries them too): inside a step the model sees
@@ -18,18 +19,24 @@
 //! vectors have n elements, matrices are row-major; joint parameters are named as in the scenario
 //! file, prefixed with the joint's name when there are several joints.
 
+pub mod joint;
 pub mod model;
 
-use crate::clearance::{ClearanceJoint, ContactState, Impact};
+use crate::clearance::{ClearanceJoint, Impact};
 use crate::parameters::ClearanceDefinition;
+use crate::spherical::SphericalClearance;
+pub use joint::MicroJoint;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::AdaptiveOptions;
-pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES};
+pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES, PlanarInputs, PlanarInterfaceModel};
 
-/// Largest number of interface coordinates n the micro subsystem takes (six planar clearance
-/// joints).
+/// Largest number of interface coordinates n the micro subsystem takes (six planar or four
+/// spherical clearance joints).
 pub const MAX_COORDINATES: usize = 12;
+
+/// Largest number of friction loads (four spherical joints, six each).
+pub const MAX_FRICTION_LOADS: usize = 24;
 
 /// Which integrator the micro model uses.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -56,18 +63,17 @@ pub mod vr {
         EFFECTIVE_FORCE,
         /// Input df̃/dt (n).
         EFFECTIVE_FORCE_RATE,
-        /// Input H = M̃ W_T (n × k): interface force equivalent to each joint's friction moments per
-        /// unit friction force.
+        /// Input H (n × m): interface force equivalent to each friction load, per unit load.
         FRICTION_MOMENT_FORCE,
-        /// Input dH/dt (n × k).
+        /// Input dH/dt (n × m).
         FRICTION_MOMENT_FORCE_RATE,
-        /// Input ω of each journal body (k).
+        /// Input ω of each journal body (planar k; spherical 3k, world frame).
         JOURNAL_ANGULAR_VELOCITY,
-        /// Input its rate (k).
+        /// Input its rate.
         JOURNAL_ANGULAR_ACCELERATION,
-        /// Input ω of each bearing body (k).
+        /// Input ω of each bearing body.
         BEARING_ANGULAR_VELOCITY,
-        /// Input its rate (k). The last input.
+        /// Input its rate. The last input.
         BEARING_ANGULAR_ACCELERATION,
         /// Output f_c on each journal (n).
         CONTACT_FORCE,
@@ -77,7 +83,9 @@ pub mod vr {
         NORMAL_FORCE,
         /// Output F_T (k).
         FRICTION_FORCE,
-        /// Output ∫F_T dt (k).
+        /// Output: the friction loads L (m; planar F_T, spherical the two torques of each joint).
+        FRICTION_LOAD,
+        /// Output ∫L dt (m).
         FRICTION_IMPULSE,
         /// Output e (n).
         ECCENTRICITY,
@@ -107,18 +115,22 @@ pub mod vr {
     pub const FIRST_PARAMETER: ValueReference = DECLARED;
 }
 
-/// The model of one size.
+/// The model of one kind and size.
 #[derive(Clone)]
 enum Core {
-    C2(Box<InterfaceModel<2, 1>>),
-    C4(Box<InterfaceModel<4, 2>>),
-    C6(Box<InterfaceModel<6, 3>>),
-    C8(Box<InterfaceModel<8, 4>>),
-    C10(Box<InterfaceModel<10, 5>>),
-    C12(Box<InterfaceModel<12, 6>>),
+    C2(Box<PlanarInterfaceModel<2, 1>>),
+    C4(Box<PlanarInterfaceModel<4, 2>>),
+    C6(Box<PlanarInterfaceModel<6, 3>>),
+    C8(Box<PlanarInterfaceModel<8, 4>>),
+    C10(Box<PlanarInterfaceModel<10, 5>>),
+    C12(Box<PlanarInterfaceModel<12, 6>>),
+    S3(Box<InterfaceModel<SphericalClearance, 3, 1, 6, 3>>),
+    S6(Box<InterfaceModel<SphericalClearance, 6, 2, 12, 6>>),
+    S9(Box<InterfaceModel<SphericalClearance, 9, 3, 18, 9>>),
+    S12(Box<InterfaceModel<SphericalClearance, 12, 4, 24, 12>>),
 }
 
-/// Runs `$body` with `$m` bound to the model of whichever size `$core` holds.
+/// Runs `$body` with `$m` bound to the model of whichever kind and size `$core` holds.
 macro_rules! each_core {
     ($core:expr, $m:ident => $body:expr) => {
         match $core {
@@ -128,45 +140,95 @@ macro_rules! each_core {
             Core::C8($m) => $body,
             Core::C10($m) => $body,
             Core::C12($m) => $body,
+            Core::S3($m) => $body,
+            Core::S6($m) => $body,
+            Core::S9($m) => $body,
+            Core::S12($m) => $body,
         }
     };
 }
 
-impl Core {
-    fn new(joints: Vec<ClearanceJoint>) -> Result<Self, SubsystemError> {
-        Ok(match joints.len() * PLANAR_JOINT_COORDINATES {
-            2 => Core::C2(Box::new(InterfaceModel::new(joints))),
-            4 => Core::C4(Box::new(InterfaceModel::new(joints))),
-            6 => Core::C6(Box::new(InterfaceModel::new(joints))),
-            8 => Core::C8(Box::new(InterfaceModel::new(joints))),
-            10 => Core::C10(Box::new(InterfaceModel::new(joints))),
-            12 => Core::C12(Box::new(InterfaceModel::new(joints))),
-            n => {
-                return Err(SubsystemError::BadValue {
-                    name: "clearance joints".into(),
-                    problem: format!(
-                        "{} clearance joints give {n} interface coordinates; the micro subsystem takes 1 to {} joints",
-                        joints.len(),
-                        MAX_COORDINATES / PLANAR_JOINT_COORDINATES
-                    ),
-                });
-            }
-        })
+/// Joints that a micro subsystem can be built of.
+pub trait CoreJoint: MicroJoint + Sized {
+    /// The model of `joints` (1 to the largest count of the kind).
+    #[doc(hidden)]
+    fn core(joints: Vec<Self>) -> Option<CoreBox>;
+    /// Writes the definition's radii and laws into the joint (at initialization).
+    fn apply(&mut self, d: &ClearanceDefinition);
+}
+
+/// The model behind a micro subsystem (opaque).
+#[doc(hidden)]
+pub struct CoreBox(Core);
+
+impl CoreJoint for ClearanceJoint {
+    fn core(joints: Vec<Self>) -> Option<CoreBox> {
+        Some(CoreBox(match joints.len() {
+            1 => Core::C2(Box::new(InterfaceModel::new(joints))),
+            2 => Core::C4(Box::new(InterfaceModel::new(joints))),
+            3 => Core::C6(Box::new(InterfaceModel::new(joints))),
+            4 => Core::C8(Box::new(InterfaceModel::new(joints))),
+            5 => Core::C10(Box::new(InterfaceModel::new(joints))),
+            6 => Core::C12(Box::new(InterfaceModel::new(joints))),
+            _ => return None,
+        }))
     }
+    fn apply(&mut self, d: &ClearanceDefinition) {
+        self.journal_radius = d.journal_radius;
+        self.bearing_radius = d.bearing_radius;
+        self.law = d.normal_force();
+        self.friction = d.friction;
+    }
+}
+
+impl CoreJoint for SphericalClearance {
+    fn core(joints: Vec<Self>) -> Option<CoreBox> {
+        Some(CoreBox(match joints.len() {
+            1 => Core::S3(Box::new(InterfaceModel::new(joints))),
+            2 => Core::S6(Box::new(InterfaceModel::new(joints))),
+            3 => Core::S9(Box::new(InterfaceModel::new(joints))),
+            4 => Core::S12(Box::new(InterfaceModel::new(joints))),
+            _ => return None,
+        }))
+    }
+    fn apply(&mut self, d: &ClearanceDefinition) {
+        self.journal_radius = d.journal_radius;
+        self.bearing_radius = d.bearing_radius;
+        self.law = d.normal_force();
+        self.friction = d.friction;
+    }
+}
+
+/// Applies resolved definitions to a model's joints, resets the contacts, and returns the first
+/// joint whose journal starts outside its clearance.
+fn apply_definitions<J: CoreJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    m: &mut InterfaceModel<J, N, K, M, R>,
+    resolved: &[ClearanceDefinition],
+    t: f64,
+) -> Option<usize> {
+    for (joint, d) in m.joints.iter_mut().zip(resolved) {
+        joint.apply(d);
+    }
+    m.reset_contacts(t);
+    m.states.iter().position(|s| J::penetration(s) > 0.0)
 }
 
 /// One RK4 step compiled as a function of its own: inlined into the loop below, the step ran ~10 %
 /// slower in the coupled run (measured with `lash run A --model reduced`: 0.175 s against 0.158 s
 /// for 10⁶ micro steps), while the isolated step in `lash bench` is fastest inlined into its loop.
 #[inline(never)]
-fn rk4_step_outlined<const N: usize, const K: usize>(m: &mut InterfaceModel<N, K>, t: f64, h: f64) {
+fn rk4_step_outlined<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    m: &mut InterfaceModel<J, N, K, M, R>,
+    t: f64,
+    h: f64,
+) {
     m.rk4_step(t, h);
 }
 
 /// Whole RK4 micro steps (and a shorter remainder) from `t`; checks every joint's penetration
 /// after each step. On failure: the time reached and the message.
-fn rk4_steps<const N: usize, const K: usize>(
-    m: &mut InterfaceModel<N, K>,
+fn rk4_steps<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    m: &mut InterfaceModel<J, N, K, M, R>,
     t: Ticks,
     step: Ticks,
     steps: i64,
@@ -185,7 +247,11 @@ fn rk4_steps<const N: usize, const K: usize>(
 }
 
 /// Writes input `r` (already checked: an input, finite, of the right length) into `u`.
-fn set_input<const N: usize, const K: usize>(u: &mut InterfaceInputs<N, K>, r: ValueReference, v: &[f64]) {
+fn set_input<const N: usize, const M: usize, const R: usize>(
+    u: &mut InterfaceInputs<N, M, R>,
+    r: ValueReference,
+    v: &[f64],
+) {
     fn matrix<const R: usize, const C: usize>(m: &mut nalgebra::SMatrix<f64, R, C>, v: &[f64]) {
         for (i, &x) in v.iter().enumerate() {
             m[(i / C, i % C)] = x;
@@ -224,8 +290,8 @@ fn each_joint(out: &mut [f64], f: impl Fn(usize) -> f64) {
 /// Reads every variable of `refs` (lengths checked) below the parameters into `values`;
 /// parameters from `parameters`. Compiled per model size: one size-independent copy measured
 /// 24 ns for the four outputs the reduced runner reads per sample, the per-size copies 18 ns.
-fn read<const N: usize, const K: usize>(
-    model: &InterfaceModel<N, K>,
+fn read<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    model: &InterfaceModel<J, N, K, M, R>,
     micro_steps: u64,
     parameters: &[f64],
     lens: &[usize],
@@ -240,27 +306,38 @@ fn read<const N: usize, const K: usize>(
         at += len;
         match r {
             vr::CONTACT_FORCE => {
-                for (o, s) in out.chunks_exact_mut(2).zip(s) {
-                    o.copy_from_slice(s.force_on_journal.as_slice());
+                let d = J::COORDINATES;
+                for (j, s) in s.iter().enumerate() {
+                    for i in 0..d {
+                        out[d * j + i] = J::force_component(s, i);
+                    }
                 }
             }
-            vr::FRICTION_FORCE => each_joint(out, |j| s[j].friction_force),
+            vr::FRICTION_FORCE => each_joint(out, |j| J::friction_force(&s[j])),
+            vr::FRICTION_LOAD => {
+                let (d, l) = (J::COORDINATES, J::FRICTION_LOADS);
+                let mut force = [0.0; 3];
+                for (j, s) in s.iter().enumerate() {
+                    m.joints[j].loads(s, &mut force[..d], &mut out[l * j..l * (j + 1)]);
+                }
+            }
             vr::CONTACT_IMPULSE => out.copy_from_slice(m.impulse.as_slice()),
-            vr::NORMAL_FORCE => each_joint(out, |j| s[j].normal_force),
+            vr::NORMAL_FORCE => each_joint(out, |j| J::normal_force(&s[j])),
             vr::FRICTION_IMPULSE => out.copy_from_slice(m.friction_impulse.as_slice()),
             vr::ECCENTRICITY => out.copy_from_slice(m.eccentricity.as_slice()),
             vr::ECCENTRICITY_RATE => out.copy_from_slice(m.eccentricity_rate.as_slice()),
-            vr::ECCENTRICITY_NORM => each_joint(out, |j| s[j].eccentricity_norm),
-            vr::PENETRATION => each_joint(out, |j| s[j].penetration),
-            vr::PENETRATION_RATE => each_joint(out, |j| s[j].penetration_rate),
-            vr::SLIP_VELOCITY => each_joint(out, |j| s[j].slip_velocity),
+            vr::ECCENTRICITY_NORM => each_joint(out, |j| J::eccentricity_norm(&s[j])),
+            vr::PENETRATION => each_joint(out, |j| J::penetration(&s[j])),
+            vr::PENETRATION_RATE => each_joint(out, |j| J::penetration_rate(&s[j])),
+            vr::SLIP_VELOCITY => each_joint(out, |j| J::slip(&s[j])),
             vr::IMPACTS => each_joint(out, |j| m.impacts[j].len() as f64),
-            vr::IN_CONTACT => each_joint(out, |j| if m.joints[j].in_contact { 1.0 } else { 0.0 }),
+            vr::IN_CONTACT => each_joint(out, |j| if m.joints[j].in_contact() { 1.0 } else { 0.0 }),
             vr::RADIAL_CLEARANCE => each_joint(out, |j| m.joints[j].radial_clearance()),
             vr::CONTACT_FORCE_MAGNITUDE => {
                 // |F_N n + F_T t| from the two orthogonal components.
                 each_joint(out, |j| {
-                    (s[j].normal_force * s[j].normal_force + s[j].friction_force * s[j].friction_force).sqrt()
+                    let (n, t) = (J::normal_force(&s[j]), J::friction_force(&s[j]));
+                    (n * n + t * t).sqrt()
                 })
             }
             vr::MICRO_STEPS => out[0] = micro_steps as f64,
@@ -299,7 +376,7 @@ pub struct InterfaceSubsystem {
 
 impl InterfaceSubsystem {
     /// A micro subsystem for `joints`, centred and at rest relative to their bearings.
-    pub fn new(joints: Vec<ClearanceJoint>, integrator: MicroIntegrator) -> Result<Self, SubsystemError> {
+    pub fn new<J: CoreJoint>(joints: Vec<J>, integrator: MicroIntegrator) -> Result<Self, SubsystemError> {
         Self::with_definitions(joints, integrator, Vec::new())
     }
 
@@ -307,8 +384,8 @@ impl InterfaceSubsystem {
     /// radii and law coefficients become parameters (value references from
     /// [`vr::FIRST_PARAMETER`] on), which may be set before `initialize`, where they are checked
     /// and resolved into the joints.
-    pub fn with_definitions(
-        joints: Vec<ClearanceJoint>,
+    pub fn with_definitions<J: CoreJoint>(
+        joints: Vec<J>,
         integrator: MicroIntegrator,
         definitions: Vec<ClearanceDefinition>,
     ) -> Result<Self, SubsystemError> {
@@ -327,14 +404,26 @@ impl InterfaceSubsystem {
                 joints.len()
             )));
         }
-        let (k, n) = (joints.len(), joints.len() * PLANAR_JOINT_COORDINATES);
-        let core = Core::new(joints.clone())?;
+        let k = joints.len();
+        let (n, loads, rotations) = (k * J::COORDINATES, k * J::FRICTION_LOADS, k * J::ROTATIONS);
+        let core = J::core(joints.clone())
+            .ok_or_else(|| SubsystemError::BadValue {
+                name: "clearance joints".into(),
+                problem: format!(
+                    "{k} clearance joints of {} coordinates each: the micro subsystem takes 1 to {}",
+                    J::COORDINATES,
+                    MAX_COORDINATES / J::COORDINATES
+                ),
+            })?
+            .0;
         use Causality::{Input, Local, Output};
         use Variability::{Continuous as C, Discrete as D, Fixed};
         let mut t = VariableTable::new();
         let eye: Vec<f64> = (0..n * n).map(|i| if i / n == i % n { 1.0 } else { 0.0 }).collect();
         let pj = per_joint_shape(k, &[]);
-        let map = per_joint_shape(k, &[n]);
+        let map = per_joint_shape(loads, &[n]);
+        let per_load = per_joint_shape(loads, &[]);
+        let per_rotation = per_joint_shape(rotations, &[]);
         t.add_at(
             vr::EFFECTIVE_MASS,
             "effective_mass",
@@ -363,7 +452,7 @@ impl InterfaceSubsystem {
             Input,
             C,
             "1",
-            "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)",
+            "force on the journals equivalent to each friction load's moments, per unit load (M~ W_T)",
             &map,
             &[0.0],
         );
@@ -386,7 +475,7 @@ impl InterfaceSubsystem {
                 vr::BEARING_ANGULAR_ACCELERATION,
             ],
             Input,
-            &pj,
+            &per_rotation,
         );
         t.add_at(vr::CONTACT_FORCE, "contact_force", Output, C, "N", "contact force f_c on the journal", &[n], &[0.0]);
         t.add_at(
@@ -401,20 +490,26 @@ impl InterfaceSubsystem {
         );
         t.add_at(vr::NORMAL_FORCE, "normal_force", Output, C, "N", "normal contact force F_N", &pj, &[0.0]);
         t.add_at(vr::FRICTION_FORCE, "friction_force", Output, C, "N", "friction force F_T", &pj, &[0.0]);
+        let (load_unit, load_description) = if J::FRICTION_LOADS == 1 {
+            ("N", "friction loads: each joint's friction force F_T")
+        } else {
+            ("N.m", "friction loads: each joint's friction torques on the journal's and the bearing's body (world)")
+        };
+        t.add_at(vr::FRICTION_LOAD, "friction_load", Output, C, load_unit, load_description, &per_load, &[0.0]);
         t.add_at(
             vr::FRICTION_IMPULSE,
             "friction_impulse",
             Output,
             C,
-            "N.s",
-            "integral of F_T since the start",
-            &pj,
+            if J::FRICTION_LOADS == 1 { "N.s" } else { "N.m.s" },
+            "integral of the friction loads since the start",
+            &per_load,
             &[0.0],
         );
         t.add_at(vr::ECCENTRICITY, "eccentricity", Output, C, "m", "journal centre minus bearing centre", &[n], &[0.0]);
         t.add_at(vr::ECCENTRICITY_RATE, "eccentricity_rate", Output, C, "m/s", "its rate", &[n], &[0.0]);
         t.add_at(vr::ECCENTRICITY_NORM, "eccentricity_norm", Output, C, "m", "|e|", &pj, &[0.0]);
-        let clearances: Vec<f64> = joints.iter().map(ClearanceJoint::radial_clearance).collect();
+        let clearances: Vec<f64> = joints.iter().map(|j| j.radial_clearance()).collect();
         let minus: Vec<f64> = clearances.iter().map(|c| -c).collect();
         t.add_at(vr::PENETRATION, "penetration", Output, C, "m", "|e| - c", &pj, &minus);
         t.add_at(vr::PENETRATION_RATE, "penetration_rate", Output, C, "m/s", "d(penetration)/dt", &pj, &[0.0]);
@@ -438,7 +533,7 @@ impl InterfaceSubsystem {
         for (joint, definition) in joints.iter().zip(definitions) {
             let from = parameter_values.len();
             for p in definition.parameters() {
-                let name = if k > 1 { format!("{}.{}", joint.name, p.name) } else { p.name.clone() };
+                let name = if k > 1 { format!("{}.{}", joint.name(), p.name) } else { p.name.clone() };
                 t.add(
                     &name,
                     Causality::Parameter,
@@ -453,7 +548,7 @@ impl InterfaceSubsystem {
             ranges.push((definition, from..parameter_values.len()));
         }
         let variables = t.into_checked_variables().map_err(|m| SubsystemError::Other(format!("internal: {m}")))?;
-        let names: Vec<&str> = joints.iter().map(|j| j.name.as_str()).collect();
+        let names: Vec<&str> = joints.iter().map(|j| j.name()).collect();
         Ok(Self {
             name: format!("interface {}", names.join(", ")),
             lens: variables.iter().map(Variable::len).collect(),
@@ -479,14 +574,28 @@ impl InterfaceSubsystem {
         each_core!(&self.core, m => m.joint_count())
     }
 
-    /// The clearance joints (with their parameters resolved after `initialize`).
-    pub fn joints(&self) -> &[ClearanceJoint] {
-        each_core!(&self.core, m => &m.joints)
+    /// The joints' names.
+    pub fn joint_names(&self) -> Vec<String> {
+        each_core!(&self.core, m => m.joints.iter().map(|j| j.name().to_string()).collect())
     }
 
-    /// Joint `j`'s contact state at the current time.
-    pub fn contact(&self, j: usize) -> &ContactState {
-        each_core!(&self.core, m => &m.states[j])
+    /// Joint `j`'s radial clearance [m] (resolved after `initialize`).
+    pub fn radial_clearance(&self, j: usize) -> f64 {
+        each_core!(&self.core, m => m.joints[j].radial_clearance())
+    }
+
+    /// The planar clearance joints (with their parameters resolved after `initialize`); `None`
+    /// for spherical ones.
+    pub fn planar_joints(&self) -> Option<&[ClearanceJoint]> {
+        match &self.core {
+            Core::C2(m) => Some(&m.joints),
+            Core::C4(m) => Some(&m.joints),
+            Core::C6(m) => Some(&m.joints),
+            Core::C8(m) => Some(&m.joints),
+            Core::C10(m) => Some(&m.joints),
+            Core::C12(m) => Some(&m.joints),
+            _ => None,
+        }
     }
 
     /// Joint `j`'s completed impacts.
@@ -532,22 +641,13 @@ impl Subsystem for InterfaceSubsystem {
             resolved.push(d);
         }
         let t = self.time.seconds();
-        let inside = each_core!(&mut self.core, m => {
-            for (joint, d) in m.joints.iter_mut().zip(&resolved) {
-                joint.journal_radius = d.journal_radius;
-                joint.bearing_radius = d.bearing_radius;
-                joint.law = d.normal_force();
-                joint.friction = d.friction;
-            }
-            m.reset_contacts(t);
-            m.states.iter().position(|s| s.penetration > 0.0)
-        });
+        let inside = each_core!(&mut self.core, m => apply_definitions(m, &resolved, t));
         if let Some(j) = inside {
             return Err(SubsystemError::BadValue {
                 name: "eccentricity".into(),
                 problem: format!(
                     "the initial eccentricity of clearance joint {:?} exceeds its radial clearance",
-                    self.joints()[j].name
+                    self.joint_names()[j]
                 ),
             });
         }
@@ -739,8 +839,8 @@ mod tests {
         let mut c = [0.0];
         s.get_f64(&[vr::RADIAL_CLEARANCE], &mut c).unwrap();
         assert!((c[0] - 3e-4).abs() < 1e-15, "clearance {}", c[0]);
-        assert_eq!(s.joints()[0].friction, FrictionLaw::Coulomb { coefficient: 0.3 });
-        assert_eq!(s.joints()[0].law, NormalForce::Power { stiffness: 1e10, exponent: 1.5 });
+        assert_eq!(s.planar_joints().unwrap()[0].friction, FrictionLaw::Coulomb { coefficient: 0.3 });
+        assert_eq!(s.planar_joints().unwrap()[0].law, NormalForce::Power { stiffness: 1e10, exponent: 1.5 });
         // Fixed after initialization.
         let e = s.set_f64(&[mu], &[0.2]).unwrap_err().to_string();
         assert!(e.contains("friction.coefficient") && e.contains("before initialization"), "{e}");

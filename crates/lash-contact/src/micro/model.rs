@@ -1,31 +1,35 @@
-//! The clearance interface of k planar clearance joints as one ODE of N = 2k interface coordinates
-//! (docs/theory.md §6):
+//! The clearance interface of k clearance joints as one ODE of N interface coordinates
+//! (docs/theory.md §6, §8):
 //!
 //! ```text
-//!     M̃(t) ẅ = f̃(t) + f_c(w, ẇ) + H(t) F_T(w, ẇ)
+//!     M̃(t) ẅ = f̃(t) + f_c(w, ẇ) + H(t) L(w, ẇ)
 //! ```
 //!
 //! with w the stacked eccentricities, f_c the contact forces on the journals (through the joint
-//! centres), F_T the friction forces of the k joints and H = M̃ W_T the interface force equivalent to
-//! their moments (R_J F_T on the journal body, R_B F_T on the bearing body) per unit F_T. The
-//! off-diagonal blocks of M̃ and H couple the joints.
+//! centres), L the joints' friction loads and H the interface force equivalent to them per unit
+//! load (built by the macro side). For planar revolute clearance joints (N = 2k) L holds each
+//! joint's friction force F_T, whose moments are R_J F_T on the journal body and R_B F_T on the
+//! bearing body; for spherical ones (N = 3k) L holds the friction force's torques on the ball's
+//! body and on the socket's (6 per joint), which depend on the contact normal. The off-diagonal
+//! blocks of M̃ and H couple the joints.
 //!
-//! The dimension is a const generic: the state lives in fixed-size vectors on the stack and a
-//! micro step allocates nothing. One joint (N = 2) solves M̃ by Cramer's rule; more joints by a
-//! Cholesky factorisation of the N × N effective mass (symmetric positive definite).
+//! One model serves every joint kind ([`MicroJoint`]); the dimensions are const generics: the
+//! state lives in fixed-size vectors on the stack and a micro step allocates nothing. One planar
+//! joint (N = 2) solves M̃ by Cramer's rule; more coordinates by an L D Lᵀ factorisation of the
+//! N × N effective mass (symmetric positive definite).
 
-use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
-use lash_mech::Vec2;
+use super::joint::MicroJoint;
+use crate::clearance::{ClearanceJoint, Impact, ImpactTracker};
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 use nalgebra::{SMatrix, SVector};
 
 /// Interface coordinates of one planar clearance joint (its eccentricity e_x, e_y).
 pub const PLANAR_JOINT_COORDINATES: usize = 2;
 
-/// The macro terms seen by the micro model at a communication point (N interface coordinates, K
-/// joints): values and rates.
+/// The macro terms seen by the micro model at a communication point (N interface coordinates, M
+/// friction loads, R angular velocity components per side): values and rates.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InterfaceInputs<const N: usize, const K: usize> {
+pub struct InterfaceInputs<const N: usize, const M: usize, const R: usize> {
     /// Effective mass M̃ [kg].
     pub effective_mass: SMatrix<f64, N, N>,
     /// dM̃/dt [kg/s].
@@ -34,21 +38,22 @@ pub struct InterfaceInputs<const N: usize, const K: usize> {
     pub effective_force: SVector<f64, N>,
     /// df̃/dt [N/s].
     pub effective_force_rate: SVector<f64, N>,
-    /// H = M̃ W_T: interface force equivalent to joint j's friction moments per unit F_T (column j).
-    pub friction_moment_force: SMatrix<f64, N, K>,
-    /// dH/dt [1/s].
-    pub friction_moment_force_rate: SMatrix<f64, N, K>,
-    /// Angular velocity of each joint's journal body [rad/s].
-    pub journal_angular_velocity: [f64; K],
+    /// H: interface force equivalent to each friction load, per unit load (column per load).
+    pub friction_moment_force: SMatrix<f64, N, M>,
+    /// dH/dt.
+    pub friction_moment_force_rate: SMatrix<f64, N, M>,
+    /// Angular velocity of each joint's journal body [rad/s] (planar: one per joint; spherical:
+    /// three per joint, world frame).
+    pub journal_angular_velocity: [f64; R],
     /// Its rate [rad/s²].
-    pub journal_angular_acceleration: [f64; K],
+    pub journal_angular_acceleration: [f64; R],
     /// Angular velocity of each joint's bearing body [rad/s].
-    pub bearing_angular_velocity: [f64; K],
+    pub bearing_angular_velocity: [f64; R],
     /// Its rate [rad/s²].
-    pub bearing_angular_acceleration: [f64; K],
+    pub bearing_angular_acceleration: [f64; R],
 }
 
-impl<const N: usize, const K: usize> Default for InterfaceInputs<N, K> {
+impl<const N: usize, const M: usize, const R: usize> Default for InterfaceInputs<N, M, R> {
     fn default() -> Self {
         Self {
             effective_mass: SMatrix::identity(),
@@ -57,24 +62,27 @@ impl<const N: usize, const K: usize> Default for InterfaceInputs<N, K> {
             effective_force_rate: SVector::zeros(),
             friction_moment_force: SMatrix::zeros(),
             friction_moment_force_rate: SMatrix::zeros(),
-            journal_angular_velocity: [0.0; K],
-            journal_angular_acceleration: [0.0; K],
-            bearing_angular_velocity: [0.0; K],
-            bearing_angular_acceleration: [0.0; K],
+            journal_angular_velocity: [0.0; R],
+            journal_angular_acceleration: [0.0; R],
+            bearing_angular_velocity: [0.0; R],
+            bearing_angular_acceleration: [0.0; R],
         }
     }
 }
 
-/// Contact loads at one state: f_c on the journals (N) and the friction forces F_T (K).
+/// The inputs of k planar joints (N = 2k): one friction load and one rotation per joint.
+pub type PlanarInputs<const N: usize, const K: usize> = InterfaceInputs<N, K, K>;
+
+/// Contact loads at one state: f_c on the journals (N) and the friction loads (M).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Loads<const N: usize, const K: usize> {
+pub struct Loads<const N: usize, const M: usize> {
     /// Contact forces on the journals, stacked [N].
     pub contact: SVector<f64, N>,
-    /// Friction force of each joint [N].
-    pub friction: SVector<f64, K>,
+    /// Friction loads (planar: F_T [N]; spherical: torques [N m]).
+    pub friction: SVector<f64, M>,
 }
 
-impl<const N: usize, const K: usize> Loads<N, K> {
+impl<const N: usize, const M: usize> Loads<N, M> {
     /// No contact anywhere.
     #[inline(always)]
     pub fn zero() -> Self {
@@ -82,16 +90,10 @@ impl<const N: usize, const K: usize> Loads<N, K> {
     }
 }
 
-/// Eccentricity of joint `j` in the stacked vector.
+/// Euclidean norm of a short slice.
 #[inline(always)]
-fn part<const N: usize>(v: &SVector<f64, N>, j: usize) -> Vec2 {
-    Vec2::new(v[2 * j], v[2 * j + 1])
-}
-
-#[inline(always)]
-fn put<const N: usize>(v: &mut SVector<f64, N>, j: usize, x: Vec2) {
-    v[2 * j] = x.x;
-    v[2 * j + 1] = x.y;
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 /// The effective mass at one instant, ready to solve M̃ x = r: one joint by Cramer's rule (M̃ and
@@ -185,26 +187,27 @@ impl<const N: usize> MassFactor<N> {
     }
 }
 
-/// The clearance interface of k = N/2 planar clearance joints: state (w, ẇ), the impulses
-/// ∫f_c dt and ∫F_T dt, the joints' discrete contact states and their impacts.
+/// The clearance interface of k joints of kind `J` (N = d k coordinates, M = l k friction loads,
+/// R = r k rotation components): state (w, ẇ), the impulses ∫f_c dt and ∫L dt, the joints'
+/// discrete contact states and their impacts.
 #[derive(Clone)]
-pub struct InterfaceModel<const N: usize, const K: usize> {
+pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> {
     /// Geometry, contact and friction laws of each joint (their discrete contact states too).
-    pub joints: Vec<ClearanceJoint>,
+    pub joints: Vec<J>,
     /// Eccentricities w, stacked [m].
     pub eccentricity: SVector<f64, N>,
     /// Their rates ẇ [m/s].
     pub eccentricity_rate: SVector<f64, N>,
     /// ∫ f_c dt on each journal since the start [N s].
     pub impulse: SVector<f64, N>,
-    /// ∫ F_T dt of each joint since the start [N s].
-    pub friction_impulse: SVector<f64, K>,
+    /// ∫ L dt of the friction loads since the start.
+    pub friction_impulse: SVector<f64, M>,
     /// Completed impacts of each joint.
     pub impacts: Vec<Vec<Impact>>,
     /// Each joint's contact state at the current time.
-    pub states: Vec<ContactState>,
+    pub states: Vec<J::State>,
     /// Inputs of the current step.
-    pub inputs: InterfaceInputs<N, K>,
+    pub inputs: InterfaceInputs<N, M, R>,
     /// Time of `inputs` [s].
     pub input_time: f64,
     open: Vec<Option<ImpactTracker>>,
@@ -212,26 +215,30 @@ pub struct InterfaceModel<const N: usize, const K: usize> {
     /// The last integration was an adaptive one (continuous extensions reach `accept_dense`).
     located: bool,
     /// The end of the last RK4 step: the next step's first stage is the same instant and state.
-    end: Option<StepEnd<N, K>>,
+    end: Option<StepEnd<N, M>>,
 }
+
+/// The micro model of k planar revolute clearance joints (N = 2k).
+pub type PlanarInterfaceModel<const N: usize, const K: usize> = InterfaceModel<ClearanceJoint, N, K, K, K>;
 
 /// What a step's end leaves to the next step's start.
 #[derive(Debug, Clone, Copy)]
-struct StepEnd<const N: usize, const K: usize> {
+struct StepEnd<const N: usize, const M: usize> {
     time: f64,
     input_time: f64,
     eccentricity: SVector<f64, N>,
     eccentricity_rate: SVector<f64, N>,
-    loads: Loads<N, K>,
+    loads: Loads<N, M>,
     mass: MassFactor<N>,
 }
 
-impl<const N: usize, const K: usize> InterfaceModel<N, K> {
-    /// Centred, resting joints. `joints.len() * 2` must be N.
-    pub fn new(joints: Vec<ClearanceJoint>) -> Self {
+impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> InterfaceModel<J, N, K, M, R> {
+    /// Centred, resting joints: `joints.len()` must be K, with N, M and R its coordinates,
+    /// friction loads and rotations.
+    pub fn new(joints: Vec<J>) -> Self {
         assert!(
-            joints.len() == K && K * PLANAR_JOINT_COORDINATES == N,
-            "K planar joints have N = 2K interface coordinates"
+            joints.len() == K && K * J::COORDINATES == N && K * J::FRICTION_LOADS == M && K * J::ROTATIONS == R,
+            "K joints have N = d K coordinates, M = l K friction loads and R = r K rotations"
         );
         let mut m = Self {
             joints,
@@ -240,7 +247,7 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
             impulse: SVector::zeros(),
             friction_impulse: SVector::zeros(),
             impacts: (0..K).map(|_| Vec::with_capacity(1024)).collect(),
-            states: vec![ContactState::default(); K],
+            states: vec![J::State::default(); K],
             inputs: InterfaceInputs::default(),
             input_time: 0.0,
             open: vec![None; K],
@@ -259,33 +266,53 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
 
     /// Contact state of joint `j` at (e_j, ė_j) at time `t`, using its current mode.
     #[inline(always)]
-    pub fn contact_at(&self, t: f64, j: usize, e: Vec2, ed: Vec2) -> ContactState {
+    pub fn contact_at(&self, t: f64, j: usize, e: &[f64], ed: &[f64]) -> J::State {
         let dt = t - self.input_time;
         let u = &self.inputs;
-        let wj = u.journal_angular_velocity[j] + u.journal_angular_acceleration[j] * dt;
-        let wb = u.bearing_angular_velocity[j] + u.bearing_angular_acceleration[j] * dt;
+        let r = J::ROTATIONS;
+        let (mut wj, mut wb) = ([0.0; 3], [0.0; 3]);
+        for i in 0..r {
+            wj[i] = u.journal_angular_velocity[r * j + i] + u.journal_angular_acceleration[r * j + i] * dt;
+            wb[i] = u.bearing_angular_velocity[r * j + i] + u.bearing_angular_acceleration[r * j + i] * dt;
+        }
         let joint = &self.joints[j];
-        let s = joint.evaluate_relative(e, ed, wj, wb, joint.onset_velocity);
-        if !joint.in_contact && s.penetration > 0.0 {
+        let s = joint.evaluate(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
+        if !joint.in_contact() && J::penetration(&s) > 0.0 {
             // A stage ahead of the onset: the local approach velocity stands in for δ̇⁻.
-            joint.evaluate_relative(e, ed, wj, wb, s.penetration_rate.max(0.0))
+            joint.evaluate(e, ed, &wj[..r], &wb[..r], J::penetration_rate(&s).max(0.0))
         } else {
             s
         }
     }
 
+    /// Joint `j`'s coordinates of a stacked vector.
+    #[inline(always)]
+    fn part(v: &SVector<f64, N>, j: usize) -> &[f64] {
+        &v.as_slice()[J::COORDINATES * j..J::COORDINATES * (j + 1)]
+    }
+
+    /// Writes joint `j`'s loads of state `s`.
+    #[inline(always)]
+    fn put(&self, loads: &mut Loads<N, M>, j: usize, s: &J::State) {
+        let (d, l) = (J::COORDINATES, J::FRICTION_LOADS);
+        self.joints[j].loads(
+            s,
+            &mut loads.contact.as_mut_slice()[d * j..d * (j + 1)],
+            &mut loads.friction.as_mut_slice()[l * j..l * (j + 1)],
+        );
+    }
+
     /// The loads at (t, w, ẇ): in free flight (|e_j| ≤ c_j, so F_N = F_T = 0) nothing but |e_j|²
     /// is computed for joint j.
     #[inline(always)]
-    fn loads_at(&self, t: f64, e: &SVector<f64, N>, ed: &SVector<f64, N>) -> Loads<N, K> {
+    fn loads_at(&self, t: f64, e: &SVector<f64, N>, ed: &SVector<f64, N>) -> Loads<N, M> {
         let mut loads = Loads::zero();
         for j in 0..self.joints.len() {
             let c = self.joints[j].radial_clearance();
-            let ej = part(e, j);
-            if ej.norm_squared() > c * c {
-                let s = self.contact_at(t, j, ej, part(ed, j));
-                put(&mut loads.contact, j, s.force_on_journal);
-                loads.friction[j] = s.friction_force;
+            let ej = Self::part(e, j);
+            if ej.iter().map(|x| x * x).sum::<f64>() > c * c {
+                let s = self.contact_at(t, j, ej, Self::part(ed, j));
+                self.put(&mut loads, j, &s);
             }
         }
         loads
@@ -298,9 +325,9 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
         MassFactor::new(u.effective_mass + u.effective_mass_rate * (t - self.input_time))
     }
 
-    /// ẅ at t for given loads: M̃(t)⁻¹ (f̃(t) + f_c + H(t) F_T).
+    /// ẅ at t for given loads: M̃(t)⁻¹ (f̃(t) + f_c + H(t) L).
     #[inline(always)]
-    fn acceleration_with(&self, t: f64, mass: &MassFactor<N>, loads: &Loads<N, K>) -> SVector<f64, N> {
+    fn acceleration_with(&self, t: f64, mass: &MassFactor<N>, loads: &Loads<N, M>) -> SVector<f64, N> {
         let dt = t - self.input_time;
         let u = &self.inputs;
         let f = u.effective_force + u.effective_force_rate * dt;
@@ -316,7 +343,7 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
         mass: &MassFactor<N>,
         e: &SVector<f64, N>,
         ed: &SVector<f64, N>,
-    ) -> (SVector<f64, N>, Loads<N, K>) {
+    ) -> (SVector<f64, N>, Loads<N, M>) {
         let loads = self.loads_at(t, e, ed);
         (self.acceleration_with(t, mass, &loads), loads)
     }
@@ -324,7 +351,8 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
     /// Recomputes every joint's contact state at the current (w, ẇ) and time `t`.
     pub fn refresh_states(&mut self, t: f64) {
         for j in 0..self.joints.len() {
-            self.states[j] = self.contact_at(t, j, part(&self.eccentricity, j), part(&self.eccentricity_rate, j));
+            self.states[j] =
+                self.contact_at(t, j, Self::part(&self.eccentricity, j), Self::part(&self.eccentricity_rate, j));
         }
     }
 
@@ -366,16 +394,23 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
         self.impulse += (l1.contact + (l2.contact + l3.contact) * 2.0 + l4.contact) * (h / 6.0);
         self.friction_impulse += (l1.friction + (l2.friction + l3.friction) * 2.0 + l4.friction) * (h / 6.0);
         // Mode switches at the step end; the onset is placed by linear interpolation.
+        let d = J::COORDINATES;
         for j in 0..self.joints.len() {
             let c = self.joints[j].radial_clearance();
-            let (a0, a1) = (part(&e0, j), part(&e1, j));
-            let (d0, d1) = (a0.norm() - c, a1.norm() - c);
-            if !self.joints[j].in_contact && d1 > 0.0 {
+            let (a0, a1) = (Self::part(&e0, j), Self::part(&e1, j));
+            let (d0, d1) = (norm(a0) - c, norm(a1) - c);
+            if !self.joints[j].in_contact() && d1 > 0.0 {
                 let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
-                let (ec, vc) = (a0 + (a1 - a0) * frac, part(&v0, j) + (part(&v1, j) - part(&v0, j)) * frac);
-                let rate = vc.dot(&(ec / ec.norm().max(f64::MIN_POSITIVE)));
+                let (b0, b1) = (Self::part(&v0, j), Self::part(&v1, j));
+                let (mut ec, mut vc) = ([0.0; 3], [0.0; 3]);
+                for i in 0..d {
+                    ec[i] = a0[i] + (a1[i] - a0[i]) * frac;
+                    vc[i] = b0[i] + (b1[i] - b0[i]) * frac;
+                }
+                let length = norm(&ec[..d]).max(f64::MIN_POSITIVE);
+                let rate = (0..d).map(|i| vc[i] * ec[i]).sum::<f64>() / length;
                 self.open_contact(j, t + frac * h, rate);
-            } else if self.joints[j].in_contact && d1 <= 0.0 {
+            } else if self.joints[j].in_contact() && d1 <= 0.0 {
                 let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
                 self.close_contact(j, t + frac * h);
             }
@@ -384,11 +419,10 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
         self.eccentricity_rate = v1;
         let mut end = Loads::zero();
         for j in 0..self.joints.len() {
-            let s = self.contact_at(t + h, j, part(&e1, j), part(&v1, j));
-            put(&mut end.contact, j, s.force_on_journal);
-            end.friction[j] = s.friction_force;
+            let s = self.contact_at(t + h, j, Self::part(&e1, j), Self::part(&v1, j));
+            self.put(&mut end, j, &s);
             if let Some(tr) = self.open[j].as_mut() {
-                tr.sample(t + h, s.normal_force, s.penetration);
+                tr.sample(t + h, J::normal_force(&s), J::penetration(&s));
             }
             self.states[j] = s;
         }
@@ -403,13 +437,13 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
     }
 
     fn open_contact(&mut self, j: usize, t: f64, rate: f64) {
-        self.joints[j].in_contact = true;
-        self.joints[j].onset_velocity = rate.max(0.0);
+        self.joints[j].set_mode(true, rate.max(0.0));
         self.open[j] = Some(ImpactTracker::open(t, rate, self.located));
     }
 
     fn close_contact(&mut self, j: usize, t: f64) {
-        self.joints[j].in_contact = false;
+        let onset = self.joints[j].onset_velocity();
+        self.joints[j].set_mode(false, onset);
         if let Some(tr) = self.open[j].take() {
             self.impacts[j].push(tr.close(t));
         }
@@ -418,8 +452,7 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
     /// Resets the discrete contact states (journals must be inside their clearances).
     pub fn reset_contacts(&mut self, t: f64) {
         for joint in &mut self.joints {
-            joint.in_contact = false;
-            joint.onset_velocity = 0.0;
+            joint.set_mode(false, 0.0);
         }
         self.end = None;
         self.refresh_states(t);
@@ -428,9 +461,8 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
     /// Integrates from `t` to `t + h` with DOPRI5 and event location. Returns the number of
     /// accepted steps.
     pub fn dopri5_step(&mut self, options: &AdaptiveOptions, t: f64, h: f64) -> Result<u64, String> {
-        let k = self.joints.len();
-        let mut y = [0.0; 4 * super::MAX_COORDINATES];
-        let y = &mut y[..3 * N + k];
+        let mut y = [0.0; 3 * super::MAX_COORDINATES + super::MAX_FRICTION_LOADS];
+        let y = &mut y[..3 * N + M];
         y[..N].copy_from_slice(self.eccentricity.as_slice());
         y[N..2 * N].copy_from_slice(self.eccentricity_rate.as_slice());
         y[2 * N..3 * N].copy_from_slice(self.impulse.as_slice());
@@ -458,17 +490,19 @@ impl<const N: usize, const K: usize> InterfaceModel<N, K> {
     }
 }
 
-impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
+impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> OdeSystem
+    for InterfaceModel<J, N, K, M, R>
+{
     fn dim(&self) -> usize {
-        3 * N + self.joints.len()
+        3 * N + M
     }
 
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
         let e = SVector::<f64, N>::from_column_slice(&y[..N]);
         let ed = SVector::<f64, N>::from_column_slice(&y[N..2 * N]);
         for j in 0..self.joints.len() {
-            let delta = part(&e, j).norm() - self.joints[j].radial_clearance();
-            if (delta > 0.0) != self.joints[j].in_contact {
+            let delta = norm(Self::part(&e, j)) - self.joints[j].radial_clearance();
+            if (delta > 0.0) != self.joints[j].in_contact() {
                 self.violation = true;
             }
         }
@@ -488,18 +522,20 @@ impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
     }
 
     fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
+        let d = J::COORDINATES;
         for (j, joint) in self.joints.iter().enumerate() {
-            let delta = (y[2 * j] * y[2 * j] + y[2 * j + 1] * y[2 * j + 1]).sqrt() - joint.radial_clearance();
-            g[j] = if joint.in_contact { -delta } else { delta };
+            let delta = norm(&y[d * j..d * (j + 1)]) - joint.radial_clearance();
+            g[j] = if joint.in_contact() { -delta } else { delta };
         }
     }
 
     fn on_event(&mut self, j: usize, t: f64, y: &[f64]) {
-        if self.joints[j].in_contact {
+        if self.joints[j].in_contact() {
             self.close_contact(j, t);
         } else {
-            let e = Vec2::new(y[2 * j], y[2 * j + 1]);
-            let rate = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]).dot(&(e / e.norm().max(f64::MIN_POSITIVE)));
+            let d = J::COORDINATES;
+            let (e, v) = (&y[d * j..d * (j + 1)], &y[N + d * j..N + d * (j + 1)]);
+            let rate = (0..d).map(|i| e[i] * v[i]).sum::<f64>() / norm(e).max(f64::MIN_POSITIVE);
             self.open_contact(j, t, rate);
         }
     }
@@ -513,17 +549,17 @@ impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
     }
 
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
-        let mut y = [0.0; 4 * super::MAX_COORDINATES];
-        let y = &mut y[..3 * N + self.joints.len()];
+        let mut y = [0.0; 3 * super::MAX_COORDINATES + super::MAX_FRICTION_LOADS];
+        let y = &mut y[..3 * N + M];
+        let d = J::COORDINATES;
         for j in 0..self.joints.len() {
             if self.open[j].is_none() {
                 continue;
             }
-            let search = crate::clearance::StepSearch::run(t, h, |theta| {
+            let search = crate::clearance::StepSearch::run_with(t, h, |theta| {
                 dense.eval(theta, y);
-                let e = Vec2::new(y[2 * j], y[2 * j + 1]);
-                let ed = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]);
-                self.contact_at(t + theta * h, j, e, ed)
+                let s = self.contact_at(t + theta * h, j, &y[d * j..d * (j + 1)], &y[N + d * j..N + d * (j + 1)]);
+                (J::normal_force(&s), J::penetration(&s))
             });
             if let Some(tr) = self.open[j].as_mut() {
                 tr.accept(search);
@@ -532,12 +568,11 @@ impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
     }
 
     fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+        let d = J::COORDINATES;
         for j in 0..self.joints.len() {
-            let e = Vec2::new(y[2 * j], y[2 * j + 1]);
-            let ed = Vec2::new(y[N + 2 * j], y[N + 2 * j + 1]);
-            let s = self.contact_at(t, j, e, ed);
+            let s = self.contact_at(t, j, &y[d * j..d * (j + 1)], &y[N + d * j..N + d * (j + 1)]);
             if let Some(tr) = self.open[j].as_mut() {
-                tr.sample(t, s.normal_force, s.penetration);
+                tr.sample(t, J::normal_force(&s), J::penetration(&s));
             }
             check_penetration(&self.joints[j], &s)?;
         }
@@ -548,14 +583,16 @@ impl<const N: usize, const K: usize> OdeSystem for InterfaceModel<N, K> {
 /// Largest penetration accepted, as a fraction of the journal radius (as in the full model).
 const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
 
-fn check_penetration(joint: &ClearanceJoint, s: &ContactState) -> Result<(), String> {
-    if s.penetration <= PENETRATION_LIMIT_FRACTION * joint.journal_radius && s.eccentricity_norm.is_finite() {
+fn check_penetration<J: MicroJoint>(joint: &J, s: &J::State) -> Result<(), String> {
+    if J::penetration(s) <= PENETRATION_LIMIT_FRACTION * joint.journal_radius() && J::eccentricity_norm(s).is_finite() {
         Ok(())
     } else {
         Err(format!(
             "penetration {:e} m of clearance joint {:?} in the micro model exceeds {} × the journal radius: the \
              simulation blew up (micro step too large for the contact stiffness?)",
-            s.penetration, joint.name, PENETRATION_LIMIT_FRACTION
+            J::penetration(s),
+            joint.name(),
+            PENETRATION_LIMIT_FRACTION
         ))
     }
 }

@@ -1,0 +1,193 @@
+//! The clearance joint as the micro model sees it: its interface coordinates, the rotations it
+//! needs for the slip, its contact state and the loads that state puts on the interface. One
+//! micro model ([`super::InterfaceModel`]) integrates any of them: the planar revolute clearance
+//! joint (2 coordinates, the bodies' scalar angular velocities, the friction force F_T as the one
+//! friction load whose moments the macro side's map H carries) and the spherical one
+//! (3 coordinates, world angular velocity vectors, the friction force's two torques — on the
+//! ball's body and on the socket's — as six friction loads).
+
+use crate::clearance::{ClearanceJoint, ContactState};
+use crate::spherical::{SphericalClearance, SphericalContactState};
+use lash_mech::Vec2;
+use lash_spatial::Vec3;
+
+/// A clearance joint of the micro model.
+pub trait MicroJoint: Clone + std::fmt::Debug {
+    /// Interface coordinates of one joint (its eccentricity): 2 planar, 3 spherical.
+    const COORDINATES: usize;
+    /// Friction loads of one joint: planar 1 (F_T), spherical 6 (the friction force's torques on
+    /// the ball's body and on the socket's, world frame).
+    const FRICTION_LOADS: usize;
+    /// Angular velocity components of one body: planar 1, spherical 3 (world frame).
+    const ROTATIONS: usize;
+    /// Geometry, kinematics and forces at one state.
+    type State: Copy + Default + std::fmt::Debug + PartialEq;
+
+    /// Name used in outputs and errors.
+    fn name(&self) -> &str;
+    /// Journal (ball) radius R_J [m].
+    fn journal_radius(&self) -> f64;
+    /// Radial clearance c [m].
+    fn radial_clearance(&self) -> f64;
+    /// Discrete state: contact closed.
+    fn in_contact(&self) -> bool;
+    /// Approach velocity δ̇⁻ of the current contact [m/s].
+    fn onset_velocity(&self) -> f64;
+    /// Sets the discrete state.
+    fn set_mode(&mut self, in_contact: bool, onset_velocity: f64);
+    /// The state from the eccentricity `e`, its rate `e_dot` (COORDINATES each) and the journal's
+    /// and bearing's angular velocities (ROTATIONS each).
+    fn evaluate(
+        &self,
+        e: &[f64],
+        e_dot: &[f64],
+        omega_journal: &[f64],
+        omega_bearing: &[f64],
+        onset: f64,
+    ) -> Self::State;
+    /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
+    fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
+    /// δ [m].
+    fn penetration(s: &Self::State) -> f64;
+    /// δ̇ [m/s].
+    fn penetration_rate(s: &Self::State) -> f64;
+    /// F_N [N].
+    fn normal_force(s: &Self::State) -> f64;
+    /// F_T [N] (planar: signed like the slip; spherical: its magnitude).
+    fn friction_force(s: &Self::State) -> f64;
+    /// |e| [m].
+    fn eccentricity_norm(s: &Self::State) -> f64;
+    /// The slip (planar: v_t, signed; spherical: |v_t|) [m/s].
+    fn slip(s: &Self::State) -> f64;
+    /// The force on the journal, component `i` [N].
+    fn force_component(s: &Self::State, i: usize) -> f64;
+}
+
+impl MicroJoint for ClearanceJoint {
+    const COORDINATES: usize = 2;
+    const FRICTION_LOADS: usize = 1;
+    const ROTATIONS: usize = 1;
+    type State = ContactState;
+
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn journal_radius(&self) -> f64 {
+        self.journal_radius
+    }
+    #[inline(always)]
+    fn radial_clearance(&self) -> f64 {
+        ClearanceJoint::radial_clearance(self)
+    }
+    #[inline(always)]
+    fn in_contact(&self) -> bool {
+        self.in_contact
+    }
+    #[inline(always)]
+    fn onset_velocity(&self) -> f64 {
+        self.onset_velocity
+    }
+    fn set_mode(&mut self, in_contact: bool, onset_velocity: f64) {
+        self.in_contact = in_contact;
+        self.onset_velocity = onset_velocity;
+    }
+    #[inline(always)]
+    fn evaluate(&self, e: &[f64], e_dot: &[f64], wj: &[f64], wb: &[f64], onset: f64) -> ContactState {
+        self.evaluate_relative(Vec2::new(e[0], e[1]), Vec2::new(e_dot[0], e_dot[1]), wj[0], wb[0], onset)
+    }
+    #[inline(always)]
+    fn loads(&self, s: &ContactState, force: &mut [f64], friction: &mut [f64]) {
+        force[0] = s.force_on_journal.x;
+        force[1] = s.force_on_journal.y;
+        friction[0] = s.friction_force;
+    }
+    fn penetration(s: &ContactState) -> f64 {
+        s.penetration
+    }
+    fn penetration_rate(s: &ContactState) -> f64 {
+        s.penetration_rate
+    }
+    fn normal_force(s: &ContactState) -> f64 {
+        s.normal_force
+    }
+    fn friction_force(s: &ContactState) -> f64 {
+        s.friction_force
+    }
+    fn eccentricity_norm(s: &ContactState) -> f64 {
+        s.eccentricity_norm
+    }
+    fn slip(s: &ContactState) -> f64 {
+        s.slip_velocity
+    }
+    fn force_component(s: &ContactState, i: usize) -> f64 {
+        s.force_on_journal[i]
+    }
+}
+
+impl MicroJoint for SphericalClearance {
+    const COORDINATES: usize = 3;
+    const FRICTION_LOADS: usize = 6;
+    const ROTATIONS: usize = 3;
+    type State = SphericalContactState;
+
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn journal_radius(&self) -> f64 {
+        self.journal_radius
+    }
+    #[inline(always)]
+    fn radial_clearance(&self) -> f64 {
+        SphericalClearance::radial_clearance(self)
+    }
+    #[inline(always)]
+    fn in_contact(&self) -> bool {
+        self.in_contact
+    }
+    #[inline(always)]
+    fn onset_velocity(&self) -> f64 {
+        self.onset_velocity
+    }
+    fn set_mode(&mut self, in_contact: bool, onset_velocity: f64) {
+        self.in_contact = in_contact;
+        self.onset_velocity = onset_velocity;
+    }
+    #[inline(always)]
+    fn evaluate(&self, e: &[f64], e_dot: &[f64], wj: &[f64], wb: &[f64], onset: f64) -> SphericalContactState {
+        let v = |x: &[f64]| Vec3::new(x[0], x[1], x[2]);
+        self.evaluate_relative(v(e), v(e_dot), v(wj), v(wb), onset)
+    }
+    /// The force through the ball's centre, and the friction force's torques about the two
+    /// centres: R_J n × f on the ball's body, R_B n × (−f) on the socket's (the normal part of f
+    /// has no moment about either centre).
+    #[inline(always)]
+    fn loads(&self, s: &SphericalContactState, force: &mut [f64], friction: &mut [f64]) {
+        let f = s.force_on_journal;
+        force.copy_from_slice(f.as_slice());
+        let ball = (s.normal * self.journal_radius).cross(&f);
+        let socket = (s.normal * self.bearing_radius).cross(&-f);
+        friction[..3].copy_from_slice(ball.as_slice());
+        friction[3..].copy_from_slice(socket.as_slice());
+    }
+    fn penetration(s: &SphericalContactState) -> f64 {
+        s.penetration
+    }
+    fn penetration_rate(s: &SphericalContactState) -> f64 {
+        s.penetration_rate
+    }
+    fn normal_force(s: &SphericalContactState) -> f64 {
+        s.normal_force
+    }
+    fn friction_force(s: &SphericalContactState) -> f64 {
+        s.friction_force
+    }
+    fn eccentricity_norm(s: &SphericalContactState) -> f64 {
+        s.eccentricity_norm
+    }
+    fn slip(s: &SphericalContactState) -> f64 {
+        s.slip_velocity.norm()
+    }
+    fn force_component(s: &SphericalContactState, i: usize) -> f64 {
+        s.force_on_journal[i]
+    }
+}
