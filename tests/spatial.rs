@@ -290,3 +290,37 @@ fn scenario_e_converges_through_its_first_impacts() {
         assert!(error < 1e-3 * peak, "{name}: force over the first impacts {error:e} of {peak} N");
     }
 }
+
+/// The reduced interface model of E (two spherical clearance joints coupled through the rod's
+/// effective mass; h_m = 1e-3 s, h_r = 1e-5 s, one-way) against the converged full model over two
+/// revolutions: robust statistics, the emulated measurement, impacts (the runs are chaotic, so
+/// not pointwise).
+#[test]
+fn the_reduced_model_of_e_meets_its_bounds_against_the_full_model() {
+    let e = spatial_by_name("E-0.5mm-250rpm").expect("built-in");
+    let (full, _, _) = rows(&mut SpatialRun::new(&e, false));
+    let (reduced, _, _) =
+        rows(&mut lash_run::SpatialReducedRun::new(&e, lash_run::ReducedOptions::default()).expect("reduced"));
+    let relative = |a: f64, b: f64| (b - a) / a;
+    for (f, r) in full.clearances.iter().zip(&reduced.clearances) {
+        let (mean, peak) =
+            (relative(f.mean_contact_force, r.mean_contact_force), relative(f.peak_normal_force, r.peak_normal_force));
+        let impacts = r.impacts as f64 / f.impacts as f64;
+        eprintln!("{}: mean force {mean:+.4}, peak {peak:+.4}, impacts {} vs {}", f.name, f.impacts, r.impacts);
+        assert!(mean.abs() < 0.05, "{}: mean contact force {mean:+.3}", f.name);
+        assert!(peak.abs() < 0.15, "{}: peak normal force {peak:+.3}", f.name);
+        assert!((0.5..2.0).contains(&impacts), "{}: impacts {} vs {}", f.name, f.impacts, r.impacts);
+    }
+    for channel in
+        ["slider.ax", "slider_guide.fy", "slider_guide.fz", "crank_drive.torque", "crank_rod.force", "rod_slider.force"]
+    {
+        let d = relative(full.channels[channel].rms, reduced.channels[channel].rms);
+        eprintln!("{channel}: RMS {d:+.4}");
+        assert!(d.abs() < 0.05, "{channel}: RMS {d:+.3}");
+    }
+    for (f, r) in full.measurements[0].axes.iter().zip(&reduced.measurements[0].axes).skip(1) {
+        let (logged, clean) = (relative(f.logged.rms, r.logged.rms), relative(f.clean_rms, r.clean_rms));
+        eprintln!("{}: logged RMS {logged:+.4}, clean RMS {clean:+.4}", f.channel);
+        assert!(logged.abs() < 0.2 && clean.abs() < 0.2, "{}: logged {logged:+.3}, clean {clean:+.3}", f.channel);
+    }
+}

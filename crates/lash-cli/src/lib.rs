@@ -370,11 +370,14 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 }
                 return match model {
                     ModelKind::Full => run::run(&s, &mut lash_run::SpatialRun::new(&s, ideal), &out, quiet).map(|_| ()),
-                    ModelKind::Reduced => Err(CliError::Input(format!(
-                        "--model reduced: scenario {:?} is spatial, and the reduced model of spherical clearance joints is \
-                         not there yet (run the full model)",
-                        s.name
-                    ))),
+                    ModelKind::Reduced => {
+                        if ideal {
+                            return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
+                        }
+                        let mut r = lash_run::SpatialReducedRun::new(&s, reduced.options())
+                            .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
+                        run::run(&s, &mut r, &out, quiet).map(|_| ())
+                    }
                 };
             }
             let s = load_with_horizon(&scenario, horizon)?;

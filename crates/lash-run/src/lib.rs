@@ -21,4 +21,4 @@ pub use build::{BuildOptions, build_model};
 pub use full_subsystem::FullSubsystem;
 pub use reduced::{ReducedOptions, ReducedRun};
 pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Summary};
-pub use spatial::{SpatialRun, build_spatial};
+pub use spatial::{SpatialReducedRun, SpatialRun, build_spatial};

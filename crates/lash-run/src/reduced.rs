@@ -77,7 +77,7 @@ pub struct ReducedRun {
     master_options: MasterOptions,
 }
 
-fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
+pub(crate) fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
     Ticks::from_seconds(v).map_err(|e| RunError::Unsupported(format!("{what}: {e}")))
 }
 
@@ -90,13 +90,6 @@ impl ReducedRun {
                 "the reduced model couples 1 to {max_joints} clearance joints; the scenario has {}",
                 scenario.clearances.len()
             )));
-        }
-        if !scenario.output.measurements.is_empty() {
-            return Err(RunError::Unsupported(
-                "output.measurements: the emulated measurements are computed by the full-model runner so far (run the \
-                 full model, or leave them out)"
-                    .into(),
-            ));
         }
         let sim = &scenario.simulation;
         let master_options = MasterOptions {
@@ -174,6 +167,15 @@ impl ReducedRun {
                 }
             }
         }
+        // The force channels of the emulated measurements.
+        for m in &scenario.output.measurements {
+            for f in &m.forces {
+                let k = sources.iter().position(|(c, _)| &c.name == f).expect("validated measurement channel");
+                if !recorded.contains(&k) {
+                    recorded.push(k);
+                }
+            }
+        }
         let signals = recorded
             .iter()
             .map(|&k| signal(scenario, &joint_names, loads, &sources[k].0, sources[k].1))
@@ -238,19 +240,6 @@ impl ReducedRun {
         sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
-        let sim = self.scenario.simulation.clone();
-        let o = self.master_options;
-        let start = o.start;
-        self.macro_sub
-            .setup(start, Some(o.stop))
-            .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
-        self.micro_sub
-            .setup(start, Some(o.stop))
-            .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
-        let n_sel = self.selected.len();
-        let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); self.signals.len()];
-        let mut row = vec![0.0; n_sel + 1];
-        let mut samples = 0u64;
         let quantity = |j: usize, name: &str| {
             self.sources
                 .iter()
@@ -258,107 +247,29 @@ impl ReducedRun {
                 .expect("recorded")
         };
         let joints = self.micro_sub.joint_count();
-        let ecc: Vec<usize> = (0..joints).map(|j| quantity(j, "eccentricity")).collect();
-        let force: Vec<usize> = (0..joints).map(|j| quantity(j, "force")).collect();
-        let (mut max_ecc, mut sum_force) = (vec![0.0f64; joints], vec![0.0; joints]);
-        let mut last_error = None;
-        let horizon = sim.horizon;
-        let per_horizon = 1.0 / horizon;
-        let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
-            for (s, &v) in stats.iter_mut().zip(values) {
-                s.0 = s.0.min(v);
-                s.1 = s.1.max(v);
-                s.2 += v;
-                s.3 += v * v;
-            }
-            for j in 0..joints {
-                max_ecc[j] = max_ecc[j].max(values[ecc[j]]);
-                sum_force[j] += values[force[j]];
-            }
-            samples += 1;
-            row[0] = t.seconds();
-            row[1..].copy_from_slice(&values[..n_sel]);
-            progress(((t.seconds() - sim.start_time) * per_horizon).clamp(0.0, 1.0));
-            sink(&row).inspect_err(|e| last_error = Some(e.clone()))
+        let recording = Recording {
+            channels: self.sources.iter().map(|(c, _)| c.clone()).collect(),
+            written: self.selected.len(),
+            summary: (0..joints).map(|j| (quantity(j, "eccentricity"), quantity(j, "force"))).collect(),
+            measurements: self.scenario.output.measurements.clone(),
         };
-        let interval = ticks(sim.output_interval, "simulation.output_interval")?;
-        let cpu0 = cpu_time::ProcessTime::now();
-        let wall0 = std::time::Instant::now();
-        let master_stats = {
-            let mut master = InterfaceMaster::new(&mut self.macro_sub, &mut self.micro_sub, o, self.signals.clone())
-                .map_err(|e| RunError::Unsupported(e.to_string()))?;
-            let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, interval)];
-            master.run(&mut observers)
-        };
-        let cpu = cpu0.elapsed().as_secs_f64();
-        let wall = wall0.elapsed().as_secs_f64();
-        let master_stats = match master_stats {
-            Ok(s) => s,
-            Err(lash_orchestrate::MasterError::Observer(m)) => return Err(RunError::Output(last_error.unwrap_or(m))),
-            Err(lash_orchestrate::MasterError::Subsystem { subsystem, source }) => {
-                let (t, message) = match source {
-                    lash_core::SubsystemError::Simulation { t, message } => (t, message),
-                    other => (sim.start_time, other.to_string()),
-                };
-                return Err(RunError::Simulation { t, message: format!("{subsystem} subsystem: {message}") });
-            }
-            Err(e) => return Err(RunError::Unsupported(e.to_string())),
-        };
-        let t_end = sim.start_time + sim.horizon;
-        let micro = &self.micro_sub;
-        let m = samples.max(1) as f64;
-        let period = driver_period(&self.scenario);
-        let mut events = 0;
-        let mut clearances = Vec::with_capacity(joints);
-        for (j, name) in micro.joint_names().into_iter().enumerate() {
-            let mut impacts = micro.impacts(j).to_vec();
-            let open = micro.open_impacts(j, t_end);
-            events += 2 * impacts.len() as u64 + open.len() as u64;
-            impacts.extend(open);
-            let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
-            clearances.push(crate::run::ClearanceSummary {
-                name,
-                radial_clearance: micro.radial_clearance(j),
-                impacts: impacts.len(),
-                impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
-                contact_fraction: in_contact / horizon,
-                max_eccentricity: max_ecc[j],
-                max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
-                peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
-                mean_contact_force: sum_force[j] / m,
-                first_impacts: impacts.into_iter().take(20).collect(),
-            });
-        }
-        let channels = crate::record::channel_stats(&self.sources, &stats, samples);
-        let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
-        Ok(Summary {
-            scenario: self.scenario.name.clone(),
-            model: "reduced",
-            integrator: match self.micro_sub.integrator() {
-                MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
-                MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
+        let kinematic_macro = self.macro_sub.is_kinematic();
+        let options = self.options;
+        run_reduced(
+            Coupled {
+                macro_sub: &mut self.macro_sub,
+                micro_sub: &mut self.micro_sub,
+                master: self.master_options,
+                signals: &self.signals,
+                recording: &recording,
+                simulation: &self.scenario.simulation,
+                scenario: &self.scenario.name,
+                period: driver_period(&self.scenario),
             },
-            start_time: sim.start_time,
-            horizon,
-            output_interval: sim.output_interval,
-            samples,
-            cpu_time_s: cpu,
-            wall_time_s: wall,
-            steps: master_stats.micro_steps,
-            rejected_steps: 0,
-            rhs_evaluations: 4 * master_stats.micro_steps,
-            events,
-            max_constraint_error,
-            channels,
-            clearances,
-            reduced: Some(ReducedDetails {
-                options: self.options,
-                kinematic_macro: self.macro_sub.is_kinematic(),
-                master: master_stats,
-            }),
-            measurements: Vec::new(),
-            measured: Vec::new(),
-        })
+            |master| ReducedDetails { options, kinematic_macro, master },
+            sink,
+            progress,
+        )
     }
 
     /// The micro subsystem (impacts, final state) after a run.
@@ -375,6 +286,171 @@ impl ReducedRun {
     pub fn macro_subsystem(&self) -> &MechanismSubsystem {
         &self.macro_sub
     }
+}
+
+/// The channels a reduced run records: all of them (name, unit), the first `written` of which
+/// go to the rows, and for each joint the positions of its eccentricity and force magnitude (the
+/// clearance summary).
+pub(crate) struct Recording {
+    pub channels: Vec<Channel>,
+    pub written: usize,
+    pub summary: Vec<(usize, usize)>,
+    pub measurements: Vec<lash_scenario::schema::MeasurementSpec>,
+}
+
+/// A macro and a micro subsystem with what the master and the summary need.
+pub(crate) struct Coupled<'a> {
+    pub macro_sub: &'a mut dyn Subsystem,
+    pub micro_sub: &'a mut InterfaceSubsystem,
+    pub master: MasterOptions,
+    pub signals: &'a [Signal],
+    pub recording: &'a Recording,
+    pub simulation: &'a lash_scenario::schema::SimulationSpec,
+    pub scenario: &'a str,
+    pub period: Option<f64>,
+}
+
+/// Runs a reduced model (planar or spatial) on the interface master over the horizon: rows to
+/// `sink`, statistics and the clearance summary from the micro subsystem's impacts.
+pub(crate) fn run_reduced(
+    c: Coupled<'_>,
+    details: impl FnOnce(MasterStats) -> ReducedDetails,
+    sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Summary, RunError> {
+    let sim = c.simulation.clone();
+    let o = c.master;
+    let start = o.start;
+    c.macro_sub
+        .setup(start, Some(o.stop))
+        .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
+    c.micro_sub
+        .setup(start, Some(o.stop))
+        .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
+    let n_sel = c.recording.written;
+    let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); c.signals.len()];
+    let mut row = vec![0.0; n_sel + 1];
+    let mut samples = 0u64;
+    let summary_of = &c.recording.summary;
+    let joints = summary_of.len();
+    let (mut max_ecc, mut sum_force) = (vec![0.0f64; joints], vec![0.0; joints]);
+    let mut last_error = None;
+    let horizon = sim.horizon;
+    let per_horizon = 1.0 / horizon;
+    let names: Vec<&str> = c.recording.channels.iter().map(|ch| ch.name.as_str()).collect();
+    let mut measurements = crate::measure::MeasurementRecorder::new(&c.recording.measurements, &names);
+    let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
+        measurements.record(values);
+        for (s, &v) in stats.iter_mut().zip(values) {
+            s.0 = s.0.min(v);
+            s.1 = s.1.max(v);
+            s.2 += v;
+            s.3 += v * v;
+        }
+        for (j, &(ecc, force)) in summary_of.iter().enumerate() {
+            max_ecc[j] = max_ecc[j].max(values[ecc]);
+            sum_force[j] += values[force];
+        }
+        samples += 1;
+        row[0] = t.seconds();
+        row[1..].copy_from_slice(&values[..n_sel]);
+        progress(((t.seconds() - sim.start_time) * per_horizon).clamp(0.0, 1.0));
+        sink(&row).inspect_err(|e| last_error = Some(e.clone()))
+    };
+    let interval = ticks(sim.output_interval, "simulation.output_interval")?;
+    let cpu0 = cpu_time::ProcessTime::now();
+    let wall0 = std::time::Instant::now();
+    let master_stats = {
+        let mut master = InterfaceMaster::new(c.macro_sub, &mut *c.micro_sub, o, c.signals.to_vec())
+            .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, interval)];
+        master.run(&mut observers)
+    };
+    let cpu = cpu0.elapsed().as_secs_f64();
+    let wall = wall0.elapsed().as_secs_f64();
+    let master_stats = match master_stats {
+        Ok(s) => s,
+        Err(lash_orchestrate::MasterError::Observer(m)) => return Err(RunError::Output(last_error.unwrap_or(m))),
+        Err(lash_orchestrate::MasterError::Subsystem { subsystem, source }) => {
+            let (t, message) = match source {
+                lash_core::SubsystemError::Simulation { t, message } => (t, message),
+                other => (sim.start_time, other.to_string()),
+            };
+            return Err(RunError::Simulation { t, message: format!("{subsystem} subsystem: {message}") });
+        }
+        Err(e) => return Err(RunError::Unsupported(e.to_string())),
+    };
+    let t_end = sim.start_time + sim.horizon;
+    let (measurements, measured) = measurements
+        .finish(sim.start_time, sim.output_interval)
+        .map_err(|message| RunError::Simulation { t: t_end, message })?;
+    let micro = &*c.micro_sub;
+    let m = samples.max(1) as f64;
+    let mut events = 0;
+    let mut clearances = Vec::with_capacity(joints);
+    for (j, name) in micro.joint_names().into_iter().enumerate() {
+        let mut impacts = micro.impacts(j).to_vec();
+        let open = micro.open_impacts(j, t_end);
+        events += 2 * impacts.len() as u64 + open.len() as u64;
+        impacts.extend(open);
+        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
+        clearances.push(crate::run::ClearanceSummary {
+            name,
+            radial_clearance: micro.radial_clearance(j),
+            impacts: impacts.len(),
+            impacts_per_cycle: c.period.map(|p| impacts.len() as f64 / (horizon / p)),
+            contact_fraction: in_contact / horizon,
+            max_eccentricity: max_ecc[j],
+            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
+            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
+            mean_contact_force: sum_force[j] / m,
+            first_impacts: impacts.into_iter().take(20).collect(),
+        });
+    }
+    let channels: std::collections::BTreeMap<String, crate::run::ChannelStats> = c
+        .recording
+        .channels
+        .iter()
+        .zip(&stats)
+        .map(|(ch, s)| {
+            (
+                ch.name.clone(),
+                crate::run::ChannelStats {
+                    unit: ch.unit,
+                    min: s.0,
+                    max: s.1,
+                    max_abs: s.0.abs().max(s.1.abs()),
+                    mean: s.2 / m,
+                    rms: (s.3 / m).sqrt(),
+                },
+            )
+        })
+        .collect();
+    let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
+    Ok(Summary {
+        scenario: c.scenario.to_string(),
+        model: "reduced",
+        integrator: match micro.integrator() {
+            MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
+            MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
+        },
+        start_time: sim.start_time,
+        horizon,
+        output_interval: sim.output_interval,
+        samples,
+        cpu_time_s: cpu,
+        wall_time_s: wall,
+        steps: master_stats.micro_steps,
+        rejected_steps: 0,
+        rhs_evaluations: 4 * master_stats.micro_steps,
+        events,
+        max_constraint_error,
+        channels,
+        clearances,
+        reduced: Some(details(master_stats)),
+        measurements,
+        measured,
+    })
 }
 
 /// The master signal that computes channel `c`; `loads` = n + k gains per propagated value.

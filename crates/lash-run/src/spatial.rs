@@ -394,3 +394,303 @@ impl Runner for SpatialRun {
         SpatialRun::execute(self, sink, progress)
     }
 }
+
+/// A prepared reduced-model run of a spatial scenario: the ideal mechanism (macro, with the cut
+/// mechanism's effective terms of every spherical clearance joint) and the joints' interface
+/// (micro) on the interface master, one-way coupled.
+pub struct SpatialReducedRun {
+    scenario: SpatialScenario,
+    options: crate::ReducedOptions,
+    macro_sub: lash_spatial::SpatialMechanismSubsystem,
+    micro_sub: lash_contact::micro::InterfaceSubsystem,
+    recording: crate::reduced::Recording,
+    signals: Vec<lash_orchestrate::Signal>,
+    master_options: lash_orchestrate::MasterOptions,
+}
+
+impl SpatialReducedRun {
+    /// Prepares a run; refuses what the spatial reduced model does not cover (two-way coupling,
+    /// the threaded pipeline, more than four joints).
+    pub fn new(scenario: &SpatialScenario, options: crate::ReducedOptions) -> Result<Self, RunError> {
+        use crate::reduced::ticks;
+        use lash_orchestrate::{Execution, MasterOptions, Signal};
+        let unsupported = |m: &str| Err(RunError::Unsupported(m.to_string()));
+        let max_joints = lash_contact::micro::MAX_COORDINATES / 3;
+        if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
+            return Err(RunError::Unsupported(format!(
+                "the reduced model couples 1 to {max_joints} spherical clearance joints; the scenario has {}",
+                scenario.clearances.len()
+            )));
+        }
+        if options.coupling == lash_core::Coupling::TwoWay {
+            return unsupported("two-way coupling of spherical clearance joints is not there yet (use one-way)");
+        }
+        if options.execution == Execution::Threaded {
+            return unsupported("the spatial reduced model runs sequentially");
+        }
+        let sim = &scenario.simulation;
+        let master_options = MasterOptions {
+            start: ticks(sim.start_time, "simulation.start_time")?,
+            stop: ticks(sim.start_time + sim.horizon, "simulation.horizon")?,
+            macro_step: ticks(options.macro_step, "macro step")?,
+            micro_step: ticks(options.micro_step, "micro step")?,
+            interpolation: options.interpolation,
+            coupling: options.coupling,
+            execution: options.execution,
+        };
+        let (hm, hr) = (master_options.macro_step, master_options.micro_step);
+        if hr.0 <= 0 || hm.exact_ratio(hr).is_none() {
+            return Err(RunError::Unsupported(format!(
+                "macro step {} s is not a whole multiple of the micro step {} s",
+                options.macro_step, options.micro_step
+            )));
+        }
+        if ticks(sim.horizon, "simulation.horizon")?.exact_ratio(hm).is_none() {
+            return Err(RunError::Unsupported(format!(
+                "simulation.horizon {} s is not a whole multiple of the macro step {} s",
+                sim.horizon, options.macro_step
+            )));
+        }
+        match ticks(sim.output_interval, "simulation.output_interval")?.exact_ratio(hr) {
+            Some(d) if d >= 1 => {}
+            _ => {
+                return Err(RunError::Unsupported(format!(
+                    "simulation.output_interval {} s is not a whole multiple of the micro step {} s",
+                    sim.output_interval, options.micro_step
+                )));
+            }
+        }
+        let full = build_spatial(scenario, false);
+        let cut = full.mechanism.clone();
+        let ideal = full.ideal_mechanism();
+        let joints = full.clearances.clone();
+        let interfaces: Vec<lash_spatial::SphericalInterface> = joints
+            .iter()
+            .map(|c| lash_spatial::SphericalInterface {
+                journal_body: c.journal_body,
+                journal_point: c.journal_point,
+                bearing_body: c.bearing_body,
+                bearing_point: c.bearing_point,
+            })
+            .collect();
+        let k = joints.len();
+        let loads = 3 * k + 6 * k;
+        // Every channel, in file order, as in the full model.
+        let sources = spatial_channels(scenario, false);
+        let written: Vec<usize> = (0..sources.len())
+            .filter(|&i| scenario.output.channels.is_empty() || scenario.output.channels.contains(&sources[i].0.name))
+            .collect();
+        let mut recorded = written.clone();
+        for j in 0..k {
+            for name in ["eccentricity", "force"] {
+                let i = sources
+                    .iter()
+                    .position(|(_, s)| matches!(s, SpatialSource::Clearance(c, q) if *c == j && SPATIAL_CLEARANCE_QUANTITIES[*q as usize].0 == name))
+                    .expect("clearance channels exist");
+                if !recorded.contains(&i) {
+                    recorded.push(i);
+                }
+            }
+        }
+        for m in &scenario.output.measurements {
+            for f in &m.forces {
+                let i = sources.iter().position(|(c, _)| &c.name == f).expect("validated measurement channel");
+                if !recorded.contains(&i) {
+                    recorded.push(i);
+                }
+            }
+        }
+        let cut_joint_names: Vec<&str> = cut.joints.iter().map(|j| j.name.as_str()).collect();
+        let mut probes: Vec<lash_spatial::SpatialProbe> = Vec::new();
+        let mut signals = Vec::with_capacity(recorded.len());
+        for &i in &recorded {
+            let (channel, src) = &sources[i];
+            let name = channel.name.clone();
+            let (probe, signal) = match *src {
+                SpatialSource::Sensor(s, q) => {
+                    let sen = &scenario.sensors[s];
+                    let body = scenario.bodies.iter().position(|b| b.name == sen.body);
+                    let Some(body) = body else {
+                        return unsupported("a sensor on the ground in the reduced model (its channels are constant)");
+                    };
+                    let p = &sen.name;
+                    let q = q as usize;
+                    let signal = match q / 3 {
+                        0 => Signal::Macro {
+                            name,
+                            variable: format!("{p}.position"),
+                            element: q,
+                            derivative: Some((format!("{p}.velocity"), q)),
+                        },
+                        1 => Signal::Macro {
+                            name,
+                            variable: format!("{p}.velocity"),
+                            element: q - 3,
+                            derivative: Some((format!("{p}.acceleration"), q - 3)),
+                        },
+                        _ => Signal::Propagated {
+                            name,
+                            free: (format!("{p}.acceleration_free"), q - 6),
+                            gain: (format!("{p}.acceleration_gain"), (q - 6) * loads),
+                        },
+                    };
+                    (
+                        Some(lash_spatial::SpatialProbe::Point { name: p.clone(), body, point: Vec3::from(sen.point) }),
+                        signal,
+                    )
+                }
+                SpatialSource::Clearance(j, q) => {
+                    let (variable, element) = match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
+                        "fx" => ("contact_force", 3 * j),
+                        "fy" => ("contact_force", 3 * j + 1),
+                        "fz" => ("contact_force", 3 * j + 2),
+                        "force" => ("contact_force_magnitude", j),
+                        "ex" => ("eccentricity", 3 * j),
+                        "ey" => ("eccentricity", 3 * j + 1),
+                        "ez" => ("eccentricity", 3 * j + 2),
+                        "eccentricity" => ("eccentricity_norm", j),
+                        other => (other, j),
+                    };
+                    (None, Signal::Micro { name, variable: variable.into(), element })
+                }
+                SpatialSource::DriverTorque(d) => {
+                    let p = &scenario.drivers[d].name;
+                    (
+                        Some(lash_spatial::SpatialProbe::DriverTorque { name: p.clone(), driver: d }),
+                        Signal::Propagated {
+                            name,
+                            free: (format!("{p}.torque_free"), 0),
+                            gain: (format!("{p}.torque_gain"), 0),
+                        },
+                    )
+                }
+                SpatialSource::JointReaction(j, comp) => {
+                    let p = cut_joint_names[j];
+                    let comp = comp as usize;
+                    (
+                        Some(lash_spatial::SpatialProbe::JointReaction { name: p.to_string(), joint: j }),
+                        Signal::Propagated {
+                            name,
+                            free: (format!("{p}.reaction_free"), comp),
+                            gain: (format!("{p}.reaction_gain"), comp * loads),
+                        },
+                    )
+                }
+                SpatialSource::AngularVelocity(b, q) => {
+                    let p = &scenario.bodies[b].name;
+                    let q = q as usize;
+                    (
+                        Some(lash_spatial::SpatialProbe::BodyRates { name: p.clone(), body: b }),
+                        Signal::Macro {
+                            name,
+                            variable: format!("{p}.angular_velocity"),
+                            element: q,
+                            derivative: Some((format!("{p}.angular_acceleration"), q)),
+                        },
+                    )
+                }
+                SpatialSource::ConstraintError => {
+                    (None, Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None })
+                }
+            };
+            if let Some(p) = probe
+                && !probes.contains(&p)
+            {
+                probes.push(p);
+            }
+            signals.push(signal);
+        }
+        let recording = crate::reduced::Recording {
+            channels: recorded.iter().map(|&i| sources[i].0.clone()).collect(),
+            written: written.len(),
+            summary: (0..k)
+                .map(|j| {
+                    let at = |name: &str| {
+                        recorded
+                            .iter()
+                            .position(|&i| matches!(sources[i].1, SpatialSource::Clearance(c, q) if c == j && SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 == name))
+                            .expect("recorded")
+                    };
+                    (at("eccentricity"), at("force"))
+                })
+                .collect(),
+            measurements: scenario.output.measurements.clone(),
+        };
+        let macro_sub = lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes);
+        let integrator = if options.error_controlled_micro {
+            lash_contact::micro::MicroIntegrator::Dopri5(lash_ode::AdaptiveOptions {
+                rtol: 1e-9,
+                atol: 1e-12,
+                initial_step: 1e-7,
+                max_step: options.micro_step,
+                min_step: 1e-14,
+            })
+        } else {
+            lash_contact::micro::MicroIntegrator::Rk4 { step: options.micro_step }
+        };
+        let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| scenario.materials[n]);
+        let definitions = scenario
+            .clearances
+            .iter()
+            .map(|c| lash_contact::ClearanceDefinition {
+                journal_radius: c.journal_radius,
+                bearing_radius: c.bearing_radius,
+                contact: c.contact.clone(),
+                friction: c.friction,
+                journal_material: material(&c.journal_material),
+                bearing_material: material(&c.bearing_material),
+            })
+            .collect();
+        let micro_sub = lash_contact::micro::InterfaceSubsystem::with_definitions(joints, integrator, definitions)
+            .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        Ok(Self { scenario: scenario.clone(), options, macro_sub, micro_sub, recording, signals, master_options })
+    }
+
+    /// Header of the written columns (the same channels as the full model).
+    pub fn header(&self) -> Vec<String> {
+        std::iter::once("time [s]".to_string())
+            .chain(self.recording.channels[..self.recording.written].iter().map(|c| format!("{} [{}]", c.name, c.unit)))
+            .collect()
+    }
+
+    /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
+    pub fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
+            Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
+            _ => None,
+        });
+        let options = self.options;
+        crate::reduced::run_reduced(
+            crate::reduced::Coupled {
+                macro_sub: &mut self.macro_sub,
+                micro_sub: &mut self.micro_sub,
+                master: self.master_options,
+                signals: &self.signals,
+                recording: &self.recording,
+                simulation: &self.scenario.simulation,
+                scenario: &self.scenario.name,
+                period,
+            },
+            |master| crate::reduced::ReducedDetails { options, kinematic_macro: false, master },
+            sink,
+            progress,
+        )
+    }
+}
+
+impl Runner for SpatialReducedRun {
+    fn header(&self) -> Vec<String> {
+        SpatialReducedRun::header(self)
+    }
+    fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        SpatialReducedRun::execute(self, sink, progress)
+    }
+}

@@ -9,6 +9,7 @@
 //!   world frame and angular velocity in its own frame), ν and γ.
 //! * [`solver`]: the index-1 KKT system `[M Cᵀ; C 0][v̇; λ] = [Q; γ̂]` by the Schur complement
 //!   `S = C M⁻¹ Cᵀ` with Baumgarte stabilisation `γ̂ = γ − 2α(C v − ν) − β²Φ`.
+//! * [`subsystem`]: the macro subsystem of the reduced model of spherical clearance joints.
 //! * [`system`]: the equations of motion as a `lash_ode::OdeSystem` on `y = [q; v]`.
 //! * [`interface`]: effective interface terms (M̃, f̃, moment columns, propagation gains) of
 //!   spherical clearance joints in a cut mechanism: the macro side of the reduced model.
@@ -27,6 +28,7 @@ pub mod interface;
 pub mod kinematics;
 pub mod model;
 pub mod solver;
+pub mod subsystem;
 pub mod system;
 
 pub use interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms};
@@ -36,6 +38,7 @@ pub use kinematics::{
 pub use lash_mech::{Baumgarte, BodyId, Motion};
 pub use model::{Marker, SpatialBody, SpatialDriver, SpatialJoint, SpatialJointKind, SpatialLoad, SpatialMechanism};
 pub use solver::{SpatialError, SpatialSolver};
+pub use subsystem::{SpatialMechanismSubsystem, SpatialProbe};
 pub use system::SpatialSystem;
 
 /// Spatial vector.

@@ -1,0 +1,538 @@
+//! The macro subsystem of the reduced interface model for spatial mechanisms: the ideal
+//! mechanism around its k spherical clearance joints (n = 3k interface coordinates), as a
+//! [`Subsystem`] — the spatial counterpart of `lash_mech::MechanismSubsystem`, with the same
+//! variable names, so that the same master and micro subsystem run it.
+//!
+//! One-way coupling: the ideal mechanism (balls centred) is integrated (DOPRI5, tight tolerances)
+//! over each communication step; at each communication point the subsystem exports the cut
+//! system's effective terms (M̃, f̃, W, a_free), H = M̃ W_τ for the friction loads (the friction
+//! force's torques on each joint's ball body and socket body, world frame), the journal and
+//! bearing bodies' world angular velocities and accelerations, and for every probe its propagation
+//! map (`…_free` at no interface load, `…_gain` per unit load: the contact forces, then the
+//! friction loads).
+
+use crate::interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms};
+use crate::model::SpatialMechanism;
+use crate::solver::SpatialSolver;
+use crate::system::SpatialSystem;
+use crate::{Vec3, assemble, velocity_analysis};
+use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
+use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_mech::BodyId;
+use lash_ode::{AdaptiveOptions, Method};
+
+/// A quantity of the spatial mechanism exported with its propagation map.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SpatialProbe {
+    /// A body point: `name.position`, `name.velocity`, `name.acceleration…` (3 each).
+    Point {
+        /// Prefix of the variable names.
+        name: String,
+        /// Moving body index.
+        body: usize,
+        /// Point (body frame, from the centroid) [m].
+        point: Vec3,
+    },
+    /// Reaction force of ideal joint `joint` of the cut mechanism on its body I: `name.reaction…`.
+    JointReaction {
+        /// Prefix of the variable names.
+        name: String,
+        /// Joint index in the cut mechanism.
+        joint: usize,
+    },
+    /// Torque of driver `driver` about its joint's axis on body J: `name.torque…`.
+    DriverTorque {
+        /// Prefix of the variable names.
+        name: String,
+        /// Driver index.
+        driver: usize,
+    },
+    /// A body's angular velocity in its own frame: `name.angular_velocity` with its derivative
+    /// `name.angular_acceleration` (the macro's own motion; not propagated).
+    BodyRates {
+        /// Prefix of the variable names.
+        name: String,
+        /// Moving body index.
+        body: usize,
+    },
+}
+
+/// Fixed value references (probe variables follow in probe order).
+pub mod vr {
+    lash_core::value_references! {
+        /// Output M̃ (n × n) [kg].
+        EFFECTIVE_MASS,
+        /// Output f̃ (n) [N].
+        EFFECTIVE_FORCE,
+        /// Output W = M̃⁻¹ (n × n) [1/kg].
+        MOBILITY,
+        /// Output a_free (n) [m/s²].
+        FREE_ACCELERATION,
+        /// Output H = M̃ W_τ (n × 6k).
+        FRICTION_MOMENT_FORCE,
+        /// Output ω of each journal body (3k, world frame).
+        JOURNAL_ANGULAR_VELOCITY,
+        /// Output α of each journal body (3k).
+        JOURNAL_ANGULAR_ACCELERATION,
+        /// Output ω of each bearing body (3k).
+        BEARING_ANGULAR_VELOCITY,
+        /// Output α of each bearing body (3k).
+        BEARING_ANGULAR_ACCELERATION,
+        /// Output max |Φ| of the ideal mechanism.
+        CONSTRAINT_ERROR,
+    }
+}
+
+/// The spatial mechanism around its spherical clearance joints as the macro [`Subsystem`].
+pub struct SpatialMechanismSubsystem {
+    name: String,
+    variables: Vec<Variable>,
+    offsets: Vec<usize>,
+    values: Vec<f64>,
+    cut: SpatialMechanism,
+    ideal: SpatialSystem,
+    joints: Vec<SphericalInterface>,
+    probes: Vec<SpatialProbe>,
+    integrator: AdaptiveOptions,
+    y: Vec<f64>,
+    time: Ticks,
+    phase: Phase,
+    cut_solver: SpatialSolver,
+    /// The effective terms at the current communication point.
+    pub terms: Option<SpatialCoupledTerms>,
+    /// Steps and right-hand-side evaluations of the integration.
+    pub integration_stats: lash_ode::Stats,
+}
+
+fn body_index(id: BodyId) -> Option<usize> {
+    match id {
+        BodyId::Body(k) => Some(k),
+        BodyId::Ground => None,
+    }
+}
+
+impl SpatialMechanismSubsystem {
+    /// A macro subsystem for the cut mechanism `cut` (every spherical clearance joint removed) and
+    /// the ideal one `ideal` (with them), the interfaces and the probes (one-way coupling).
+    pub fn new(
+        name: &str,
+        cut: SpatialMechanism,
+        ideal: SpatialMechanism,
+        joints: Vec<SphericalInterface>,
+        probes: Vec<SpatialProbe>,
+    ) -> Self {
+        use Causality::Output;
+        use Variability::Continuous as C;
+        let k = joints.len();
+        let (n, m) = (3 * k, 6 * k);
+        let g = n + m;
+        let rotations = per_joint_shape(3 * k, &[]);
+        let mut t = VariableTable::new();
+        t.add_at(
+            vr::EFFECTIVE_MASS,
+            "effective_mass",
+            Output,
+            C,
+            "kg",
+            "effective mass M~ of the interface",
+            &[n, n],
+            &[0.0],
+        );
+        t.add_at(
+            vr::EFFECTIVE_FORCE,
+            "effective_force",
+            Output,
+            C,
+            "N",
+            "effective force f~ (M~ w'' = f~ + f_c + H L)",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
+        t.add_at(
+            vr::FREE_ACCELERATION,
+            "free_acceleration",
+            Output,
+            C,
+            "m/s^2",
+            "interface acceleration with f_c = 0",
+            &[n],
+            &[0.0],
+        );
+        t.add_at(
+            vr::FRICTION_MOMENT_FORCE,
+            "friction_moment_force",
+            Output,
+            C,
+            "1/m",
+            "force on the balls equivalent to a unit torque on each joint's ball body, then socket body (M~ W_tau)",
+            &[n, m],
+            &[0.0],
+        );
+        lash_mech::subsystem::add_body_rates(
+            &mut t,
+            [
+                vr::JOURNAL_ANGULAR_VELOCITY,
+                vr::JOURNAL_ANGULAR_ACCELERATION,
+                vr::BEARING_ANGULAR_VELOCITY,
+                vr::BEARING_ANGULAR_ACCELERATION,
+            ],
+            Output,
+            &rotations,
+        );
+        t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
+        let gain = "per unit contact force (f_c), then per unit friction load (torques)";
+        for p in &probes {
+            match p {
+                SpatialProbe::Point { name, .. } => {
+                    t.add(format!("{name}.position"), Output, C, "m", "point position", &[3], &[0.0]);
+                    t.add(format!("{name}.velocity"), Output, C, "m/s", "point velocity", &[3], &[0.0]);
+                    t.add(format!("{name}.acceleration"), Output, C, "m/s^2", "macro's own", &[3], &[0.0]);
+                    t.add(
+                        format!("{name}.acceleration_free"),
+                        Output,
+                        C,
+                        "m/s^2",
+                        "at no interface load",
+                        &[3],
+                        &[0.0],
+                    );
+                    t.add(format!("{name}.acceleration_gain"), Output, C, "1", gain, &[3, g], &[0.0]);
+                }
+                SpatialProbe::JointReaction { name, .. } => {
+                    t.add(format!("{name}.reaction"), Output, C, "N", "macro's own", &[3], &[0.0]);
+                    t.add(format!("{name}.reaction_free"), Output, C, "N", "at no interface load", &[3], &[0.0]);
+                    t.add(format!("{name}.reaction_gain"), Output, C, "1", gain, &[3, g], &[0.0]);
+                }
+                SpatialProbe::DriverTorque { name, .. } => {
+                    t.add(format!("{name}.torque"), Output, C, "N.m", "macro's own", &[], &[0.0]);
+                    t.add(format!("{name}.torque_free"), Output, C, "N.m", "at no interface load", &[], &[0.0]);
+                    t.add(format!("{name}.torque_gain"), Output, C, "1", gain, &[g], &[0.0]);
+                }
+                SpatialProbe::BodyRates { name, .. } => {
+                    t.add(format!("{name}.angular_velocity"), Output, C, "rad/s", "in the body frame", &[3], &[0.0]);
+                    t.add(format!("{name}.angular_acceleration"), Output, C, "rad/s^2", "its rate", &[3], &[0.0]);
+                }
+            }
+        }
+        let variables = t.into_checked_variables().expect("the spatial mechanism subsystem's variables follow `vr`");
+        let mut offsets = Vec::with_capacity(variables.len() + 1);
+        let mut at = 0;
+        for v in &variables {
+            offsets.push(at);
+            at += v.len();
+        }
+        offsets.push(at);
+        let dim = ideal.coordinate_count() + ideal.velocity_count();
+        Self {
+            name: name.to_string(),
+            variables,
+            offsets,
+            values: vec![0.0; at],
+            cut_solver: SpatialSolver::new(&cut),
+            cut,
+            ideal: SpatialSystem::new(ideal),
+            joints,
+            probes,
+            integrator: AdaptiveOptions {
+                rtol: 1e-10,
+                atol: 1e-12,
+                initial_step: 1e-5,
+                max_step: 1e-3,
+                min_step: 1e-12,
+            },
+            y: vec![0.0; dim],
+            time: Ticks::ZERO,
+            phase: Phase::Instantiated,
+            terms: None,
+            integration_stats: lash_ode::Stats::default(),
+        }
+    }
+
+    /// The value of an output by value reference.
+    pub fn output(&self, vr: ValueReference) -> &[f64] {
+        &self.values[self.offsets[vr as usize]..self.offsets[vr as usize + 1]]
+    }
+
+    fn simulation_error(&mut self, message: String) -> SubsystemError {
+        self.phase = Phase::Failed;
+        SubsystemError::Simulation { t: self.time.seconds(), message }
+    }
+
+    /// Terms and every output at the current state.
+    fn refresh(&mut self) -> Result<(), String> {
+        let t = self.time.seconds();
+        let nq = self.cut.coordinate_count();
+        let (q, v) = self.y.split_at(nq);
+        let terms = spatial_effective_terms(&self.cut, &mut self.cut_solver, &self.joints, t, q, v)
+            .map_err(|e| e.to_string())?;
+        let Some(mass) = terms.effective_mass.clone() else {
+            return Err(format!(
+                "the interface mobility W = {} is singular: the cut mechanism cannot move the balls freely in every \
+                 direction",
+                terms.mobility
+            ));
+        };
+        let k = self.joints.len();
+        let (n, m) = (3 * k, 6 * k);
+        let g = n + m;
+        let moment_force = &mass * &terms.moment_mobility;
+        // One-way: the macro's own motion has ẅ = 0, so its interface load is −f̃ (no friction).
+        let mut own_load = vec![0.0; g];
+        for (o, f) in own_load.iter_mut().zip(terms.effective_force.iter()) {
+            *o = -f;
+        }
+        let mut own = terms.free_accelerations.clone();
+        for (column, &f) in terms.gain.iter().zip(&own_load) {
+            for (a, c) in own.iter_mut().zip(column) {
+                *a += c * f;
+            }
+        }
+        let frames = self.cut_solver.frames.clone();
+        let world = |b: BodyId, x: &[f64], angular: bool| -> Vec3 {
+            match body_index(b) {
+                None => Vec3::zeros(),
+                Some(k) if angular => frames[k].rotation * Vec3::new(x[6 * k + 3], x[6 * k + 4], x[6 * k + 5]),
+                Some(k) => Vec3::new(x[6 * k], x[6 * k + 1], x[6 * k + 2]),
+            }
+        };
+        let omega = |b: BodyId| body_index(b).map_or(Vec3::zeros(), |k| frames[k].angular_velocity);
+        let row_major = |m: &nalgebra::DMatrix<f64>| -> Vec<f64> { m.transpose().as_slice().to_vec() };
+        let (values, offsets) = (&mut self.values, &self.offsets);
+        let mut put =
+            |vr: ValueReference, v: &[f64]| values[offsets[vr as usize]..offsets[vr as usize + 1]].copy_from_slice(v);
+        put(vr::EFFECTIVE_MASS, &row_major(&mass));
+        put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
+        put(vr::MOBILITY, &row_major(&terms.mobility));
+        put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
+        put(vr::FRICTION_MOMENT_FORCE, &row_major(&moment_force));
+        let stack = |f: &dyn Fn(&SphericalInterface) -> Vec3| -> Vec<f64> {
+            self.joints.iter().flat_map(|j| f(j).as_slice().to_vec()).collect()
+        };
+        put(vr::JOURNAL_ANGULAR_VELOCITY, &stack(&|j| omega(j.journal_body)));
+        put(vr::JOURNAL_ANGULAR_ACCELERATION, &stack(&|j| world(j.journal_body, &own, true)));
+        put(vr::BEARING_ANGULAR_VELOCITY, &stack(&|j| omega(j.bearing_body)));
+        put(vr::BEARING_ANGULAR_ACCELERATION, &stack(&|j| world(j.bearing_body, &own, true)));
+        self.ideal.solver.set_state(&self.ideal.mechanism, t, q, v);
+        put(vr::CONSTRAINT_ERROR, &[self.ideal.solver.constraint_error()]);
+        let mut next = vr::CONSTRAINT_ERROR + 1;
+        let mut gains = vec![0.0; 3 * g];
+        // Rows of each cut joint and the first driver row.
+        let mut ranges = Vec::with_capacity(self.cut.joints.len());
+        let mut row = 0;
+        for j in &self.cut.joints {
+            ranges.push(row..row + j.kind.equations());
+            row += j.kind.equations();
+        }
+        for p in &self.probes {
+            match p {
+                SpatialProbe::Point { body, point, .. } => {
+                    let f = &frames[*body];
+                    let s = f.rotation * point;
+                    let w = f.angular_velocity;
+                    let accel = |x: &[f64], centripetal: bool| -> Vec3 {
+                        let linear = Vec3::new(x[6 * body], x[6 * body + 1], x[6 * body + 2]);
+                        let alpha = f.rotation * Vec3::new(x[6 * body + 3], x[6 * body + 4], x[6 * body + 5]);
+                        linear + alpha.cross(&s) + if centripetal { w.cross(&w.cross(&s)) } else { Vec3::zeros() }
+                    };
+                    for (c, column) in terms.gain.iter().enumerate() {
+                        let a = accel(column, false);
+                        for i in 0..3 {
+                            gains[i * g + c] = a[i];
+                        }
+                    }
+                    put(next, (f.position + s).as_slice());
+                    put(next + 1, (f.velocity + w.cross(&s)).as_slice());
+                    put(next + 2, accel(&own, true).as_slice());
+                    put(next + 3, accel(&terms.free_accelerations, true).as_slice());
+                    put(next + 4, &gains);
+                    next += 5;
+                }
+                SpatialProbe::JointReaction { joint, .. } => {
+                    let jt = &self.cut.joints[*joint];
+                    let solver = &mut self.cut_solver;
+                    let mut reaction = |lambda: &[f64]| -> Vec3 {
+                        solver.lambda.copy_from_slice(lambda);
+                        match (body_index(jt.i.body), body_index(jt.j.body)) {
+                            (Some(b), _) => solver.reaction(ranges[*joint].clone(), b).0,
+                            (None, Some(b)) => -solver.reaction(ranges[*joint].clone(), b).0,
+                            (None, None) => Vec3::zeros(),
+                        }
+                    };
+                    let free = reaction(&terms.free_lambda);
+                    let mut total = free;
+                    for (c, column) in terms.lambda_gain.iter().enumerate() {
+                        let r = reaction(column);
+                        for i in 0..3 {
+                            gains[i * g + c] = r[i];
+                        }
+                        total += r * own_load[c];
+                    }
+                    put(next, total.as_slice());
+                    put(next + 1, free.as_slice());
+                    put(next + 2, &gains);
+                    next += 3;
+                }
+                SpatialProbe::DriverTorque { driver, .. } => {
+                    let jt = &self.cut.joints[self.cut.drivers[*driver].joint];
+                    let axis = crate::constraints::marker_world(&jt.i, &frames).2;
+                    let driver_row = row + driver;
+                    let solver = &mut self.cut_solver;
+                    let mut torque = |lambda: &[f64]| -> f64 {
+                        solver.lambda.copy_from_slice(lambda);
+                        body_index(jt.j.body)
+                            .map_or(0.0, |b| solver.reaction(driver_row..driver_row + 1, b).1.dot(&axis))
+                    };
+                    let free = torque(&terms.free_lambda);
+                    let mut total = free;
+                    for (c, column) in terms.lambda_gain.iter().enumerate() {
+                        gains[c] = torque(column);
+                        total += gains[c] * own_load[c];
+                    }
+                    put(next, &[total]);
+                    put(next + 1, &[free]);
+                    put(next + 2, &gains[..g]);
+                    next += 3;
+                }
+                SpatialProbe::BodyRates { body, .. } => {
+                    let b = *body;
+                    put(next, &v[6 * b + 3..6 * b + 6]);
+                    put(next + 1, &own[6 * b + 3..6 * b + 6]);
+                    next += 2;
+                }
+            }
+        }
+        if let Some(bad) = self.values.iter().position(|v| !v.is_finite()) {
+            let name = self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name.clone();
+            return Err(format!("output {name} became {}", self.values[bad]));
+        }
+        let _ = n;
+        self.terms = Some(terms);
+        Ok(())
+    }
+}
+
+impl Subsystem for SpatialMechanismSubsystem {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn variables(&self) -> &[Variable] {
+        &self.variables
+    }
+
+    fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
+        self.phase.require("setup", &[Phase::Instantiated])?;
+        self.time = start;
+        self.phase = Phase::Configured;
+        Ok(())
+    }
+
+    fn initialize(&mut self) -> Result<(), SubsystemError> {
+        self.phase.require("initialize", &[Phase::Configured])?;
+        let t = self.time.seconds();
+        let mech = &self.ideal.mechanism;
+        self.y = mech.initial_state();
+        let nq = mech.coordinate_count();
+        let (q, v) = self.y.split_at_mut(nq);
+        let r = assemble(mech, t, q, 1e-13).and_then(|_| velocity_analysis(mech, t, q, v));
+        if let Err(e) = r {
+            return Err(self.simulation_error(format!("initial conditions: {e}")));
+        }
+        if let Err(m) = self.refresh() {
+            return Err(self.simulation_error(m));
+        }
+        self.phase = Phase::Stepping;
+        Ok(())
+    }
+
+    fn set_f64(&mut self, refs: &[ValueReference], _values: &[f64]) -> Result<(), SubsystemError> {
+        self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
+        match refs.first() {
+            None => Ok(()),
+            Some(&r) => Err(SubsystemError::BadValue {
+                name: self.variables.get(r as usize).map_or_else(|| r.to_string(), |v| v.name.clone()),
+                problem: "is not an input (the spatial mechanism subsystem has no inputs: one-way coupling)".into(),
+            }),
+        }
+    }
+
+    fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        let count = element_count(&self.variables, refs)?;
+        if count != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
+        }
+        let mut at = 0;
+        for &r in refs {
+            let v = self.output(r);
+            values[at..at + v.len()].copy_from_slice(v);
+            at += v.len();
+        }
+        Ok(())
+    }
+
+    fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
+        self.phase.require("do_step", &[Phase::Stepping])?;
+        if t != self.time || h.0 <= 0 {
+            return Err(SubsystemError::BadArguments(format!(
+                "do_step(t = {} s, h = {} s) but the subsystem is at {} s",
+                t.seconds(),
+                h.seconds(),
+                self.time.seconds()
+            )));
+        }
+        let (t0, t1) = (t.seconds(), Ticks(t.0 + h.0).seconds());
+        let method =
+            Method::Dop853(AdaptiveOptions { max_step: self.integrator.max_step.min(t1 - t0), ..self.integrator });
+        let mut y = self.y.clone();
+        // Each step goes on with the step size the last one proposed (no ramp-up from the initial
+        // step at every communication point).
+        let first = (self.integration_stats.next_step > 0.0).then_some(self.integration_stats.next_step);
+        let result = lash_ode::integrate_from(
+            &method,
+            &mut self.ideal,
+            t0,
+            &mut y,
+            t1,
+            t1 - t0,
+            &mut |_: &mut SpatialSystem, _: f64, _: &[f64]| Ok(()),
+            first,
+        );
+        let result = match result {
+            Ok(stats) => {
+                self.y = y;
+                self.integration_stats.steps += stats.steps;
+                self.integration_stats.rejected += stats.rejected;
+                self.integration_stats.rhs_evaluations += stats.rhs_evaluations;
+                self.integration_stats.next_step = stats.next_step;
+                Ok(())
+            }
+            Err(e) => Err(format!("macro integration: {e}")),
+        };
+        self.time = Ticks(t.0 + h.0);
+        if let Err(m) = result.and_then(|_| self.refresh()) {
+            return Err(self.simulation_error(m));
+        }
+        Ok(StepOutcome::Completed)
+    }
+
+    fn time(&self) -> Ticks {
+        self.time
+    }
+
+    fn save_state(&self) -> Result<SavedState, SubsystemError> {
+        Ok(SavedState(Box::new((self.y.clone(), self.time, self.phase, self.values.clone()))))
+    }
+
+    fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
+        let (y, time, phase, values) = state
+            .0
+            .downcast_ref::<(Vec<f64>, Ticks, Phase, Vec<f64>)>()
+            .ok_or_else(|| SubsystemError::Other("the saved state is not a spatial mechanism subsystem's".into()))?;
+        self.y.clone_from(y);
+        self.time = *time;
+        self.phase = *phase;
+        self.values.clone_from(values);
+        Ok(())
+    }
+}
