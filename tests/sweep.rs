@@ -330,12 +330,15 @@ values = [0.0055, 0.00575, 0.0061]
     assert!(runs[2]["error"].as_str().unwrap().contains("journal_radius"), "{}", runs[2]["error"]);
     assert_eq!(m["channels"][1]["unit"], "m");
     assert!(out.join("data.parquet").exists());
-    // The reduced model is refused before any work, naming the field.
+    // The reduced model sweeps it too, with the same failing run.
     std::fs::write(&file, std::fs::read_to_string(&file).unwrap().replace("model = \"full\"", "model = \"reduced\""))
         .unwrap();
     let o = run_sweep(&file, &dir.join("reduced"), &[]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("model") && stderr(&o).contains("spatial"), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&bytes(dir.join("reduced").join("manifest.json"))).unwrap();
+    let runs = m["runs"].as_array().unwrap();
+    assert_eq!((runs[0]["status"].as_str(), runs[1]["status"].as_str()), (Some("ok"), Some("ok")));
+    assert_eq!(runs[2]["status"], "failed");
 }
 
 #[test]

@@ -178,8 +178,8 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
             Box::new(lash_run::FullRun::new(s, lash_run::BuildOptions::default()))
         }
         (lash_scenario::AnyScenario::Spatial(s), ModelKind::Full) => Box::new(lash_run::SpatialRun::new(s, false)),
-        (lash_scenario::AnyScenario::Spatial(_), ModelKind::Reduced) => {
-            return Err("the reduced model of spherical clearance joints is not there yet".into());
+        (lash_scenario::AnyScenario::Spatial(s), ModelKind::Reduced) => {
+            Box::new(lash_run::SpatialReducedRun::new(s, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?)
         }
     };
     let header = runner.header();

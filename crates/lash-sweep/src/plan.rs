@@ -85,9 +85,6 @@ impl Plan {
         if spec.model == ModelKind::Reduced && base.clearance_count() == 0 {
             p.push("model", "the reduced model needs at least one clearance joint; the base has none".to_string());
         }
-        if spec.model == ModelKind::Reduced && matches!(base, AnyScenario::Spatial(_)) {
-            p.push("model", "the base is spatial: the reduced model of spherical clearance joints is not there yet (use model = \"full\")");
-        }
         let base_table: toml::Table = match base.to_table() {
             Ok(t) => t,
             Err(e) => {
@@ -111,10 +108,14 @@ impl Plan {
                 );
             }
         }
-        if let (true, ModelKind::Reduced, AnyScenario::Planar(base)) = (p.is_empty(), spec.model, &base) {
+        if p.is_empty() && spec.model == ModelKind::Reduced {
             // Step sizes, sampling and horizon must fit the reduced model's integer time grid:
             // building its runner for the base checks them once, before any run.
-            if let Err(e) = lash_run::ReducedRun::new(base, reduced_options(&spec)) {
+            let refused = match &base {
+                AnyScenario::Planar(b) => lash_run::ReducedRun::new(b, reduced_options(&spec)).err(),
+                AnyScenario::Spatial(b) => lash_run::SpatialReducedRun::new(b, reduced_options(&spec)).err(),
+            };
+            if let Some(e) = refused {
                 let field = if e.to_string().contains("output_interval") { "output.sample_rate" } else { "model" };
                 p.push(field, format!("the reduced model refuses the base scenario: {e}"));
             }
