@@ -416,11 +416,13 @@ fn a_spatial_scenario_runs_and_writes_its_emulated_measurement() {
 
 #[test]
 fn spatial_scenarios_get_clear_errors_where_a_command_does_not_take_them_yet() {
+    // (`lash compare E` runs: full, reduced, RK4 at the micro step and ideal, with its figures.)
     let dir = scratch("spatial-errors");
-    let o = lash(&["run", "E", "--model", "reduced", "--out", dir.join("r").to_str().unwrap()]);
+    let o =
+        lash(&["run", "E", "--model", "reduced", "--coupling", "two-way", "--out", dir.join("r").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("spatial"), "{}", stderr(&o));
-    let o = lash(&["compare", "E", "--out", dir.join("c").to_str().unwrap()]);
+    assert!(stderr(&o).contains("two-way"), "{}", stderr(&o));
+    let o = lash(&["fmu", "pack", "E", "--out", dir.join("f").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("is spatial"), "{}", stderr(&o));
     // A spatial file with mistakes: every one with its field path.

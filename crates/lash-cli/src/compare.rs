@@ -2,8 +2,8 @@
 
 use crate::CliError;
 use lash_metrics as compare;
-use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun};
-use lash_scenario::Scenario;
+use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun, Runner, SpatialReducedRun, SpatialRun};
+use lash_scenario::AnyScenario;
 use std::path::Path;
 
 /// Pointwise errors are also reported over this first window, through the first impacts [s].
@@ -31,44 +31,73 @@ fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
     serde_json::from_str(&text).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))
 }
 
-pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Result<(), CliError> {
-    let mut reduced = ReducedRun::new(s, options)
-        .map_err(|e| CliError::Input(format!("the reduced model cannot run this scenario: {e}")))?;
+/// The full (or ideal) model's runner of a planar or spatial scenario.
+fn full_runner(s: &AnyScenario, ideal: bool) -> Box<dyn Runner> {
+    match s {
+        AnyScenario::Planar(p) => Box::new(FullRun::new(p, BuildOptions { ideal })),
+        AnyScenario::Spatial(p) => Box::new(SpatialRun::new(p, ideal)),
+    }
+}
+
+pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) -> Result<(), CliError> {
+    let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
+    let mut reduced: Box<dyn Runner> = match s {
+        AnyScenario::Planar(p) => Box::new(ReducedRun::new(p, options).map_err(refuse)?),
+        AnyScenario::Spatial(p) => Box::new(SpatialReducedRun::new(p, options).map_err(refuse)?),
+    };
+    // What the comparison looks at: every sensor's accelerations, the drivers' torques, the
+    // clearance joints' force magnitudes.
+    let (name, sensors, drivers, clearances, axes, motion) = match s {
+        AnyScenario::Planar(p) => (
+            p.name.clone(),
+            p.sensors.iter().map(|x| x.name.clone()).collect::<Vec<_>>(),
+            p.drivers.iter().map(|d| d.name.clone()).collect::<Vec<_>>(),
+            p.clearances.iter().map(|c| c.joint.clone()).collect::<Vec<_>>(),
+            &["ax", "ay"][..],
+            p.drivers.first().map(|d| d.motion.clone()),
+        ),
+        AnyScenario::Spatial(p) => (
+            p.name.clone(),
+            p.sensors.iter().map(|x| x.name.clone()).collect(),
+            p.drivers.iter().map(|d| d.name.clone()).collect(),
+            p.clearances.iter().map(|c| c.joint.clone()).collect(),
+            &["ax", "ay", "az"][..],
+            p.drivers.first().map(|d| d.motion.clone()),
+        ),
+    };
     let (full_dir, reduced_dir) = (out.join("full"), out.join("reduced"));
     let comparison_path = out.join("comparison.json");
     if comparison_path.exists() {
         std::fs::remove_file(&comparison_path)
             .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
     }
-    let full_timing = crate::run::run(s, &mut FullRun::new(s, BuildOptions::default()), &full_dir, quiet)?;
-    let reduced_timing = crate::run::run(s, &mut reduced, &reduced_dir, quiet)?;
+    let full_timing = crate::run::run(s, full_runner(s, false).as_mut(), &full_dir, quiet)?;
+    let reduced_timing = crate::run::run(s, reduced.as_mut(), &reduced_dir, quiet)?;
     // The full model at the reduced model's micro step with RK4 (the reduced-interface-model papers' setting): the speed-up
     // at equal step. It is not converged (impacts last about five such steps), so its results
     // are not compared, only its time; a blow-up is reported, not fatal.
     let fixed_dir = out.join("full-fixed-step");
     let mut fixed = s.clone();
-    fixed.simulation.integrator = lash_ode::Method::Rk4 { step: options.micro_step };
-    let fixed_timing = if lash_scenario::validate(&fixed).is_empty() {
-        crate::run::run(&fixed, &mut FullRun::new(&fixed, BuildOptions::default()), &fixed_dir, true)
-            .map_err(|e| e.to_string())
+    fixed.simulation_mut().integrator = lash_ode::Method::Rk4 { step: options.micro_step };
+    let fixed_timing = if fixed.validate().is_empty() {
+        crate::run::run(&fixed, full_runner(&fixed, false).as_mut(), &fixed_dir, true).map_err(|e| e.to_string())
     } else {
-        Err(format!("{}", lash_scenario::validate(&fixed)))
+        Err(format!("{}", fixed.validate()))
     };
 
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
     let ideal_dir = out.join("ideal");
-    let ideal_ok = crate::run::run(s, &mut FullRun::new(s, BuildOptions { ideal: true }), &ideal_dir, true).is_ok();
+    let ideal_ok = crate::run::run(s, full_runner(s, true).as_mut(), &ideal_dir, true).is_ok();
     let ideal_rows = if ideal_ok { Some(read_csv(&ideal_dir.join("timeseries.csv"))?) } else { None };
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;
     let (sf, sr) = (read_json(&full_dir.join("summary.json"))?, read_json(&reduced_dir.join("summary.json"))?);
     let mut channels: Vec<String> = Vec::new();
-    for sensor in &s.sensors {
-        channels.push(format!("{}.ax", sensor.name));
-        channels.push(format!("{}.ay", sensor.name));
+    for sensor in &sensors {
+        channels.extend(axes.iter().map(|a| format!("{sensor}.{a}")));
     }
-    channels.extend(s.drivers.iter().map(|d| format!("{}.torque", d.name)));
-    channels.extend(s.clearances.iter().map(|c| format!("{}.force", c.joint)));
+    channels.extend(drivers.iter().map(|d| format!("{d}.torque")));
+    channels.extend(clearances.iter().map(|c| format!("{c}.force")));
     let mut metrics =
         compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW).map_err(CliError::Failure)?;
     // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
@@ -79,7 +108,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
     let mut figures = Vec::new();
     let col = |header: &[String], name: &str| header.iter().position(|h| h.starts_with(&format!("{name} [")));
     // Crank angle [°] against time, when the first driver turns its body at constant speed.
-    let constant_speed = s.drivers.first().and_then(|d| match d.motion {
+    let constant_speed = motion.and_then(|m| match m {
         lash_mech::Motion::ConstantSpeed { angle0, omega } => Some((angle0, omega)),
         _ => None,
     });
@@ -108,7 +137,7 @@ pub fn run(s: &Scenario, out: &Path, options: ReducedOptions, quiet: bool) -> Re
     let clearance =
         |key: &str| serde_json::json!({"full": sf["clearances"][0][key], "reduced": sr["clearances"][0][key]});
     let report = serde_json::json!({
-        "scenario": s.name,
+        "scenario": name,
         "timing": {
             "clock": "wall time, one monotonic clock, runs one after the other in this process",
             "full": full_timing,

@@ -397,7 +397,14 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             }
         }
         Command::Compare { scenario, out, horizon, reduced, quiet } => {
-            let s = load_with_horizon(&scenario, horizon)?;
+            let mut s = lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?;
+            if let Some(h) = horizon {
+                s.simulation_mut().horizon = h;
+                let p = s.validate();
+                if !p.is_empty() {
+                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
+                }
+            }
             compare::run(&s, &out, reduced.options(), quiet)
         }
         Command::Validate { scenario } => {

@@ -50,8 +50,9 @@ pub fn by_name_or_file(arg: &str) -> Result<Scenario, String> {
     read_file(path)
 }
 
-/// A planar or a spatial scenario.
-#[derive(Debug, Clone, PartialEq)]
+/// A planar or a spatial scenario (written as its own file format).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(untagged)]
 pub enum AnyScenario {
     /// A planar mechanism (the default of a file).
     Planar(Scenario),
