@@ -116,7 +116,7 @@ impl<'a> Recorder<'a> {
 
     /// Per-channel statistics.
     pub fn channel_stats(&self) -> BTreeMap<String, ChannelStats> {
-        channel_stats(self.sources, &self.stats, self.samples)
+        channel_stats(self.sources.iter().map(|(c, _)| c), &self.stats, self.samples)
     }
 
     /// Summary of clearance joint `k` from its impacts (open ones included).
@@ -129,33 +129,30 @@ impl<'a> Recorder<'a> {
         horizon: f64,
         period: Option<f64>,
     ) -> ClearanceSummary {
-        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
-        ClearanceSummary {
-            name: name.to_string(),
+        ClearanceSummary::from_impacts(
+            name.to_string(),
             radial_clearance,
-            impacts: impacts.len(),
-            impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
-            contact_fraction: in_contact / horizon,
-            max_eccentricity: self.max_eccentricity[k],
-            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
-            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
-            mean_contact_force: self.sum_force[k] / self.samples.max(1) as f64,
-            first_impacts: impacts.into_iter().take(20).collect(),
-        }
+            impacts,
+            horizon,
+            period,
+            self.max_eccentricity[k],
+            self.sum_force[k] / self.samples.max(1) as f64,
+        )
     }
 }
 
-/// Channel statistics from running sums (min, max, Σv, Σv²) over `samples` samples.
-pub(crate) fn channel_stats(
-    sources: &[(Channel, Source)],
+/// Channel statistics from running sums (min, max, Σv, Σv²) over `samples` samples, one per
+/// channel (the planar and spatial runners, full and reduced).
+pub(crate) fn channel_stats<'a>(
+    channels: impl IntoIterator<Item = &'a Channel>,
     sums: &[(f64, f64, f64, f64)],
     samples: u64,
 ) -> BTreeMap<String, ChannelStats> {
     let m = samples.max(1) as f64;
-    sources
-        .iter()
+    channels
+        .into_iter()
         .zip(sums)
-        .map(|((c, _), s)| {
+        .map(|(c, s)| {
             (
                 c.name.clone(),
                 ChannelStats {

@@ -77,7 +77,7 @@ pub struct ReducedRun {
     master_options: MasterOptions,
 }
 
-pub(crate) fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
+fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
     Ticks::from_seconds(v).map_err(|e| RunError::Unsupported(format!("{what}: {e}")))
 }
 
@@ -91,35 +91,7 @@ impl ReducedRun {
                 scenario.clearances.len()
             )));
         }
-        let sim = &scenario.simulation;
-        let master_options = MasterOptions {
-            start: ticks(sim.start_time, "simulation.start_time")?,
-            stop: ticks(sim.start_time + sim.horizon, "simulation.horizon")?,
-            macro_step: ticks(options.macro_step, "macro step")?,
-            micro_step: ticks(options.micro_step, "micro step")?,
-            interpolation: options.interpolation,
-            coupling: options.coupling,
-            execution: options.execution,
-        };
-        let (hm, hr) = (master_options.macro_step, master_options.micro_step);
-        if hr.0 <= 0 || hm.exact_ratio(hr).is_none() {
-            return Err(RunError::Unsupported(format!(
-                "macro step {} s is not a whole multiple of the micro step {} s",
-                options.macro_step, options.micro_step
-            )));
-        }
-        if ticks(sim.horizon, "simulation.horizon")?.exact_ratio(hm).is_none() {
-            return Err(RunError::Unsupported(format!(
-                "horizon {} s is not a whole multiple of the macro step {} s",
-                sim.horizon, options.macro_step
-            )));
-        }
-        if ticks(sim.output_interval, "simulation.output_interval")?.exact_ratio(hr).is_none() {
-            return Err(RunError::Unsupported(format!(
-                "output interval {} s is not a whole multiple of the micro step {} s",
-                sim.output_interval, options.micro_step
-            )));
-        }
+        let master_options = master_options(&scenario.simulation, options)?;
         if options.coupling == Coupling::TwoWay && options.execution == Execution::Threaded {
             return Err(RunError::Unsupported(
                 "two-way coupling runs sequentially (the macro step needs the micro result of the step before)".into(),
@@ -288,6 +260,43 @@ impl ReducedRun {
     }
 }
 
+/// The master's options for a scenario's time span and the reduced model's steps, checked: the
+/// steps, the horizon and the output interval must fit the integer time grid.
+pub(crate) fn master_options(
+    sim: &lash_scenario::schema::SimulationSpec,
+    options: ReducedOptions,
+) -> Result<MasterOptions, RunError> {
+    let master_options = MasterOptions {
+        start: ticks(sim.start_time, "simulation.start_time")?,
+        stop: ticks(sim.start_time + sim.horizon, "simulation.horizon")?,
+        macro_step: ticks(options.macro_step, "macro step")?,
+        micro_step: ticks(options.micro_step, "micro step")?,
+        interpolation: options.interpolation,
+        coupling: options.coupling,
+        execution: options.execution,
+    };
+    let (hm, hr) = (master_options.macro_step, master_options.micro_step);
+    if hr.0 <= 0 || hm.exact_ratio(hr).is_none() {
+        return Err(RunError::Unsupported(format!(
+            "macro step {} s is not a whole multiple of the micro step {} s",
+            options.macro_step, options.micro_step
+        )));
+    }
+    if ticks(sim.horizon, "simulation.horizon")?.exact_ratio(hm).is_none() {
+        return Err(RunError::Unsupported(format!(
+            "horizon {} s is not a whole multiple of the macro step {} s",
+            sim.horizon, options.macro_step
+        )));
+    }
+    if ticks(sim.output_interval, "simulation.output_interval")?.exact_ratio(hr).is_none() {
+        return Err(RunError::Unsupported(format!(
+            "output interval {} s is not a whole multiple of the micro step {} s",
+            sim.output_interval, options.micro_step
+        )));
+    }
+    Ok(master_options)
+}
+
 /// The channels a reduced run records: all of them (name, unit), the first `written` of which
 /// go to the rows, and for each joint the positions of its eccentricity and force magnitude (the
 /// clearance summary).
@@ -393,39 +402,17 @@ pub(crate) fn run_reduced(
         let open = micro.open_impacts(j, t_end);
         events += 2 * impacts.len() as u64 + open.len() as u64;
         impacts.extend(open);
-        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
-        clearances.push(crate::run::ClearanceSummary {
+        clearances.push(crate::run::ClearanceSummary::from_impacts(
             name,
-            radial_clearance: micro.radial_clearance(j),
-            impacts: impacts.len(),
-            impacts_per_cycle: c.period.map(|p| impacts.len() as f64 / (horizon / p)),
-            contact_fraction: in_contact / horizon,
-            max_eccentricity: max_ecc[j],
-            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
-            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
-            mean_contact_force: sum_force[j] / m,
-            first_impacts: impacts.into_iter().take(20).collect(),
-        });
+            micro.radial_clearance(j),
+            impacts,
+            horizon,
+            c.period,
+            max_ecc[j],
+            sum_force[j] / m,
+        ));
     }
-    let channels: std::collections::BTreeMap<String, crate::run::ChannelStats> = c
-        .recording
-        .channels
-        .iter()
-        .zip(&stats)
-        .map(|(ch, s)| {
-            (
-                ch.name.clone(),
-                crate::run::ChannelStats {
-                    unit: ch.unit,
-                    min: s.0,
-                    max: s.1,
-                    max_abs: s.0.abs().max(s.1.abs()),
-                    mean: s.2 / m,
-                    rms: (s.3 / m).sqrt(),
-                },
-            )
-        })
-        .collect();
+    let channels = crate::record::channel_stats(&c.recording.channels, &stats, samples);
     let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
     Ok(Summary {
         scenario: c.scenario.to_string(),

@@ -75,6 +75,34 @@ pub struct ClearanceSummary {
     pub first_impacts: Vec<Impact>,
 }
 
+impl ClearanceSummary {
+    /// The summary of one joint from its impacts (open ones included, exit time NaN) and the
+    /// sampled largest eccentricity and mean force magnitude.
+    pub fn from_impacts(
+        name: String,
+        radial_clearance: f64,
+        impacts: Vec<Impact>,
+        horizon: f64,
+        period: Option<f64>,
+        max_eccentricity: f64,
+        mean_contact_force: f64,
+    ) -> Self {
+        let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
+        Self {
+            name,
+            radial_clearance,
+            impacts: impacts.len(),
+            impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
+            contact_fraction: in_contact / horizon,
+            max_eccentricity,
+            max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
+            peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
+            mean_contact_force,
+            first_impacts: impacts.into_iter().take(20).collect(),
+        }
+    }
+}
+
 /// Summary of a run (written as summary.json).
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {

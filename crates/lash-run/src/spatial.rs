@@ -2,7 +2,7 @@
 //! ideal mechanism), integrated, every channel sampled at the output interval, and the same
 //! [`Summary`] as the planar runners.
 
-use crate::run::{ChannelStats, ClearanceSummary, RunError, Runner, Summary};
+use crate::run::{ClearanceSummary, RunError, Runner, Summary};
 use lash_contact::{Material, SpatialFullModel, SphericalClearance};
 use lash_mech::{BodyId, Motion};
 use lash_ode::OdeError;
@@ -14,7 +14,6 @@ use lash_spatial::{
     Baumgarte, Marker, Orientation, SpatialBody, SpatialDriver, SpatialJoint, SpatialLoad, SpatialMechanism, Vec3,
     point_kinematics,
 };
-use std::collections::BTreeMap;
 
 fn v3(a: [f64; 3]) -> Vec3 {
     Vec3::from(a)
@@ -326,38 +325,18 @@ impl SpatialRun {
                 let c = &self.model.clearances[k];
                 let mut impacts = self.model.impacts[k].clone();
                 impacts.extend(self.model.open_impact(k, t_end));
-                let in_contact: f64 = impacts.iter().map(|i| if i.duration.is_nan() { 0.0 } else { i.duration }).sum();
-                ClearanceSummary {
-                    name: c.name.clone(),
-                    radial_clearance: c.radial_clearance(),
-                    impacts: impacts.len(),
-                    impacts_per_cycle: period.map(|p| impacts.len() as f64 / (horizon / p)),
-                    contact_fraction: in_contact / horizon,
-                    max_eccentricity: max_eccentricity[k],
-                    max_penetration: impacts.iter().map(|i| i.max_penetration).fold(0.0, f64::max),
-                    peak_normal_force: impacts.iter().map(|i| i.peak_force).fold(0.0, f64::max),
-                    mean_contact_force: sum_force[k] / m,
-                    first_impacts: impacts.into_iter().take(20).collect(),
-                }
-            })
-            .collect();
-        let channels: BTreeMap<String, ChannelStats> = sources
-            .iter()
-            .zip(&stats)
-            .map(|((c, _), s)| {
-                (
+                ClearanceSummary::from_impacts(
                     c.name.clone(),
-                    ChannelStats {
-                        unit: c.unit,
-                        min: s.0,
-                        max: s.1,
-                        max_abs: s.0.abs().max(s.1.abs()),
-                        mean: s.2 / m,
-                        rms: (s.3 / m).sqrt(),
-                    },
+                    c.radial_clearance(),
+                    impacts,
+                    horizon,
+                    period,
+                    max_eccentricity[k],
+                    sum_force[k] / m,
                 )
             })
             .collect();
+        let channels = crate::record::channel_stats(sources.iter().map(|(c, _)| c), &stats, samples);
         Ok(Summary {
             scenario: self.scenario.name.clone(),
             model: if self.ideal { "ideal" } else { "full" },
@@ -412,8 +391,7 @@ impl SpatialReducedRun {
     /// Prepares a run; refuses what the spatial reduced model does not cover (two-way coupling,
     /// the threaded pipeline, more than four joints).
     pub fn new(scenario: &SpatialScenario, options: crate::ReducedOptions) -> Result<Self, RunError> {
-        use crate::reduced::ticks;
-        use lash_orchestrate::{Execution, MasterOptions, Signal};
+        use lash_orchestrate::{Execution, Signal};
         let unsupported = |m: &str| Err(RunError::Unsupported(m.to_string()));
         let max_joints = lash_contact::micro::MAX_COORDINATES / 3;
         if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
@@ -428,38 +406,7 @@ impl SpatialReducedRun {
         if options.execution == Execution::Threaded {
             return unsupported("the spatial reduced model runs sequentially");
         }
-        let sim = &scenario.simulation;
-        let master_options = MasterOptions {
-            start: ticks(sim.start_time, "simulation.start_time")?,
-            stop: ticks(sim.start_time + sim.horizon, "simulation.horizon")?,
-            macro_step: ticks(options.macro_step, "macro step")?,
-            micro_step: ticks(options.micro_step, "micro step")?,
-            interpolation: options.interpolation,
-            coupling: options.coupling,
-            execution: options.execution,
-        };
-        let (hm, hr) = (master_options.macro_step, master_options.micro_step);
-        if hr.0 <= 0 || hm.exact_ratio(hr).is_none() {
-            return Err(RunError::Unsupported(format!(
-                "macro step {} s is not a whole multiple of the micro step {} s",
-                options.macro_step, options.micro_step
-            )));
-        }
-        if ticks(sim.horizon, "simulation.horizon")?.exact_ratio(hm).is_none() {
-            return Err(RunError::Unsupported(format!(
-                "simulation.horizon {} s is not a whole multiple of the macro step {} s",
-                sim.horizon, options.macro_step
-            )));
-        }
-        match ticks(sim.output_interval, "simulation.output_interval")?.exact_ratio(hr) {
-            Some(d) if d >= 1 => {}
-            _ => {
-                return Err(RunError::Unsupported(format!(
-                    "simulation.output_interval {} s is not a whole multiple of the micro step {} s",
-                    sim.output_interval, options.micro_step
-                )));
-            }
-        }
+        let master_options = crate::reduced::master_options(&scenario.simulation, options)?;
         let full = build_spatial(scenario, false);
         let cut = full.mechanism.clone();
         let ideal = full.ideal_mechanism();

@@ -68,3 +68,19 @@ pub fn write_orientation(o: &Orientation, p: &mut [f64]) {
     p[2] = q.j;
     p[3] = q.k;
 }
+
+/// The position rates of `bodies` bodies: `ṙ = v` and `ṗ = ½ p ⊗ (0, ω')` (scalar −½ u·ω',
+/// vector ½ (p₀ ω' + u × ω')), from positions `q` (7 per body) and velocities `v` (6 per body).
+#[inline]
+pub fn position_rates(bodies: usize, q: &[f64], v: &[f64], dq: &mut [f64]) {
+    for k in 0..bodies {
+        let (p, d) = (&q[7 * k..7 * k + 7], &mut dq[7 * k..7 * k + 7]);
+        d[..3].copy_from_slice(&v[6 * k..6 * k + 3]);
+        let (w, u) = (p[3], [p[4], p[5], p[6]]);
+        let o = [v[6 * k + 3], v[6 * k + 4], v[6 * k + 5]];
+        d[3] = -0.5 * (u[0] * o[0] + u[1] * o[1] + u[2] * o[2]);
+        d[4] = 0.5 * (w * o[0] + u[1] * o[2] - u[2] * o[1]);
+        d[5] = 0.5 * (w * o[1] + u[2] * o[0] - u[0] * o[2]);
+        d[6] = 0.5 * (w * o[2] + u[0] * o[1] - u[1] * o[0]);
+    }
+}

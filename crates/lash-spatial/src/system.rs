@@ -57,18 +57,7 @@ impl OdeSystem for SpatialSystem {
             dydt.fill(f64::NAN);
             return;
         }
-        let v = &y[n..];
-        for k in 0..self.mechanism.bodies.len() {
-            let (q, dq) = (&y[7 * k..7 * k + 7], &mut dydt[7 * k..7 * k + 7]);
-            dq[..3].copy_from_slice(&v[6 * k..6 * k + 3]);
-            // ṗ = ½ p ⊗ (0, ω'): scalar −½ u·ω', vector ½ (p₀ ω' + u × ω').
-            let (w, u) = (q[3], [q[4], q[5], q[6]]);
-            let o = [v[6 * k + 3], v[6 * k + 4], v[6 * k + 5]];
-            dq[3] = -0.5 * (u[0] * o[0] + u[1] * o[1] + u[2] * o[2]);
-            dq[4] = 0.5 * (w * o[0] + u[1] * o[2] - u[2] * o[1]);
-            dq[5] = 0.5 * (w * o[1] + u[2] * o[0] - u[0] * o[2]);
-            dq[6] = 0.5 * (w * o[2] + u[0] * o[1] - u[1] * o[0]);
-        }
+        crate::position_rates(self.mechanism.bodies.len(), &y[..n], &y[n..], &mut dydt[..n]);
         dydt[n..].copy_from_slice(&self.solver.accelerations);
     }
 }
