@@ -166,6 +166,11 @@ impl SpatialFullModel {
     /// Joint `k`'s contact state at `y` with onset velocity `onset` (no solve).
     pub fn contact_state(&mut self, k: usize, y: &[f64], onset: f64) -> SphericalContactState {
         frames_of(&self.mechanism, y, &mut self.frames);
+        self.contact_in_frames(k, onset)
+    }
+
+    /// Joint `k`'s contact state in the frames last computed by `frames_of`.
+    fn contact_in_frames(&self, k: usize, onset: f64) -> SphericalContactState {
         let c = &self.clearances[k];
         c.evaluate(&frame(&self.frames, c.journal_body), &frame(&self.frames, c.bearing_body), onset)
     }
@@ -196,8 +201,9 @@ impl OdeSystem for SpatialFullModel {
     }
 
     fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
+        frames_of(&self.mechanism, y, &mut self.frames);
         for k in 0..self.clearances.len() {
-            let delta = self.contact_state(k, y, 0.0).penetration;
+            let delta = self.contact_in_frames(k, 0.0).penetration;
             g[k] = if self.clearances[k].in_contact { -delta } else { delta };
         }
     }
@@ -251,9 +257,10 @@ impl OdeSystem for SpatialFullModel {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
+        frames_of(&self.mechanism, y, &mut self.frames);
         for k in 0..self.clearances.len() {
             let onset = self.clearances[k].onset_velocity;
-            let s = self.contact_state(k, y, onset);
+            let s = self.contact_in_frames(k, onset);
             let c = &self.clearances[k];
             if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
                 return Err(format!(

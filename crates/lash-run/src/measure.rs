@@ -47,6 +47,17 @@ pub struct MeasuredTable {
     pub rows: Vec<Vec<f64>>,
 }
 
+/// Adds to `recorded` (indices into `names`) the force channels of `specs` not there yet: a
+/// reduced run records them so that its measurements can be computed.
+pub(crate) fn record_forces(recorded: &mut Vec<usize>, names: &[&str], specs: &[MeasurementSpec]) {
+    for f in specs.iter().flat_map(|m| &m.forces) {
+        let i = names.iter().position(|n| n == f).expect("validated measurement channel");
+        if !recorded.contains(&i) {
+            recorded.push(i);
+        }
+    }
+}
+
 /// Keeps the force channels of every measurement while a run samples.
 pub(crate) struct MeasurementRecorder {
     specs: Vec<MeasurementSpec>,

@@ -140,14 +140,8 @@ impl ReducedRun {
             }
         }
         // The force channels of the emulated measurements.
-        for m in &scenario.output.measurements {
-            for f in &m.forces {
-                let k = sources.iter().position(|(c, _)| &c.name == f).expect("validated measurement channel");
-                if !recorded.contains(&k) {
-                    recorded.push(k);
-                }
-            }
-        }
+        let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
+        crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);
         let signals = recorded
             .iter()
             .map(|&k| signal(scenario, &joint_names, loads, &sources[k].0, sources[k].1))

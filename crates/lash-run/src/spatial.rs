@@ -439,14 +439,8 @@ impl SpatialReducedRun {
                 }
             }
         }
-        for m in &scenario.output.measurements {
-            for f in &m.forces {
-                let i = sources.iter().position(|(c, _)| &c.name == f).expect("validated measurement channel");
-                if !recorded.contains(&i) {
-                    recorded.push(i);
-                }
-            }
-        }
+        let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
+        crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);
         let cut_joint_names: Vec<&str> = cut.joints.iter().map(|j| j.name.as_str()).collect();
         let mut probes: Vec<lash_spatial::SpatialProbe> = Vec::new();
         let mut signals = Vec::with_capacity(recorded.len());

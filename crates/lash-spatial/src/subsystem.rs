@@ -286,8 +286,7 @@ impl SpatialMechanismSubsystem {
             ));
         };
         let k = self.joints.len();
-        let (n, m) = (3 * k, 6 * k);
-        let g = n + m;
+        let g = 9 * k; // loads: 3k contact forces, then 6k friction torques
         let moment_force = &mass * &terms.moment_mobility;
         // One-way: the macro's own motion has ẅ = 0, so its interface load is −f̃ (no friction).
         let mut own_load = vec![0.0; g];
@@ -418,7 +417,6 @@ impl SpatialMechanismSubsystem {
             let name = self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name.clone();
             return Err(format!("output {name} became {}", self.values[bad]));
         }
-        let _ = n;
         self.terms = Some(terms);
         Ok(())
     }
