@@ -422,9 +422,6 @@ fn spatial_scenarios_get_clear_errors_where_a_command_does_not_take_them_yet() {
         lash(&["run", "E", "--model", "reduced", "--coupling", "two-way", "--out", dir.join("r").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("two-way"), "{}", stderr(&o));
-    let o = lash(&["fmu", "pack", "E", "--out", dir.join("f").to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("is spatial"), "{}", stderr(&o));
     // A spatial file with mistakes: every one with its field path.
     let text = std::process::Command::new(env!("CARGO_BIN_EXE_lash")).args(["show", "E"]).output().unwrap().stdout;
     let text = String::from_utf8(text)

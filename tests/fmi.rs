@@ -565,3 +565,77 @@ fn the_full_model_fmu_rolls_back_through_get_and_set_fmu_state() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The FMUs of the spatial scenario E (two spherical clearance joints: a 6 × 6 M̃, 12 friction
+/// loads; the same three generic binaries, E in the archives' resources): fmpy validates all six
+/// archives; a Python master through the mechanism and interface FMUs reproduces
+/// `lash run E --model reduced` bit for bit in FMI 3.0 and 2.0; fmpy simulates the full-model FMU
+/// like `lash run E`, as packed and with the rod's mass set as a parameter (against the edited
+/// file), within the bound tests/fmi/full_fmu.py argues for E's chattering contacts.
+#[test]
+fn the_spatial_scenario_e_exports_fmus_that_reproduce_its_runs() {
+    let python = fmpy_python();
+    let out = packed_scenario("spatial", Some("E"));
+    let run = |args: &[&str]| {
+        let o = Command::new(&python).args(args).output().unwrap();
+        let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+        assert!(o.status.success(), "{args:?}: {text}");
+        text
+    };
+    for name in [
+        "lash_mechanism.fmu",
+        "lash_interface.fmu",
+        "lash_full.fmu",
+        "lash_mechanism-fmi2.fmu",
+        "lash_interface-fmi2.fmu",
+        "lash_full-fmi2.fmu",
+    ] {
+        let validate = run(&["-m", "fmpy.cli", "validate", out.join(name).to_str().unwrap()]);
+        assert!(validate.contains("No problems found"), "E {name}: {validate}");
+    }
+    let lash_run = |scenario: &str, model: &str, dir: &Path| {
+        let o = Command::new(env!("CARGO_BIN_EXE_lash"))
+            .args(["run", scenario, "--model", model, "--horizon", "0.036", "--quiet", "--out"])
+            .arg(dir)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        dir.join("timeseries.csv")
+    };
+    let reduced = lash_run("E", "reduced", &out.join("E-reduced"));
+    let cosim = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmi/reduced_cosim.py");
+    for (mech, micro) in
+        [("lash_mechanism.fmu", "lash_interface.fmu"), ("lash_mechanism-fmi2.fmu", "lash_interface-fmi2.fmu")]
+    {
+        let text = run(&[
+            cosim.to_str().unwrap(),
+            out.join(mech).to_str().unwrap(),
+            out.join(micro).to_str().unwrap(),
+            reduced.to_str().unwrap(),
+        ]);
+        eprintln!("E: {text}");
+        assert!(text.contains("bit-identical: True"), "E: {text}");
+    }
+    let shown = Command::new(env!("CARGO_BIN_EXE_lash")).args(["show", "E"]).output().unwrap();
+    let text = String::from_utf8(shown.stdout).unwrap();
+    assert_eq!(text.matches("mass = 0.25\n").count(), 1, "the rod's mass, once");
+    let edited_file = out.join("E-edited.toml");
+    std::fs::write(&edited_file, text.replace("mass = 0.25\n", "mass = 0.35\n")).unwrap();
+    let plain = lash_run("E", "full", &out.join("E-full"));
+    let edited = lash_run(edited_file.to_str().unwrap(), "full", &out.join("E-edited"));
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmi/full_fmu.py");
+    for fmu in ["lash_full.fmu", "lash_full-fmi2.fmu"] {
+        for (reference, parameters) in [(&plain, None), (&edited, Some("rod.mass=0.35"))] {
+            let fmu = out.join(fmu);
+            let mut args = vec![script.to_str().unwrap(), fmu.to_str().unwrap(), reference.to_str().unwrap()];
+            args.extend(parameters);
+            args.extend(["--bound", "2e-3"]);
+            let text = run(&args);
+            eprintln!("E {} {parameters:?}: {text}", fmu.display());
+            assert!(text.contains("OK"), "{text}");
+        }
+    }
+    // The edit matters: the edited run is not the plain one.
+    assert_ne!(std::fs::read(&plain).unwrap(), std::fs::read(&edited).unwrap());
+    let _ = std::fs::remove_dir_all(&out);
+}

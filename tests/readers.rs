@@ -151,7 +151,7 @@ fn model_descriptions() {
     let mut seeds =
         vec![read("tests/fmi/oscillator/modelDescription.xml"), read("tests/fmi/vanderpol/modelDescription.xml")];
     seeds.extend(
-        lash_catalog::descriptions(&lash_catalog::default_scenario().unwrap())
+        lash_catalog::descriptions(&lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario().unwrap()))
             .unwrap()
             .into_iter()
             .map(|(_, _, xml)| xml),

@@ -5,7 +5,7 @@ slopes to the next node; the slider acceleration is propagated at every micro st
 free + gain . [f_c; F_T] with the maps interpolated linearly), for any number of clearance joints
 (sizes read from the mechanism FMU).
 
-Compares the slider acceleration with lash's in-process run (a CSV of `lash run SCENARIO --model reduced`).
+Compares the slider acceleration with lash's in-process run (a CSV of `lash run SCENARIO --model reduced --horizon 0.036`), for planar and spatial scenarios alike.
 Usage: python reduced_cosim.py lash_mechanism.fmu lash_interface.fmu lash_reduced_timeseries.csv [name=value,...]
 
 The optional last argument sets parameters of the interface FMU (its clearance joint's radii and
@@ -83,9 +83,6 @@ if len(sys.argv) > 4:
 micro = Fmu(sys.argv[2], "interface", parameters)
 h_m, h_r, n_micro, n_macro = 1e-3, 1e-5, 100, 36
 
-# Sizes from the mechanism: n interface coordinates, k clearance joints.
-n = len(mech.get("effective_force"))
-k = len(mech.get("journal_angular_velocity"))
 names = ["effective_mass", "effective_force", "friction_moment_force", "journal_angular_velocity",
          "bearing_angular_velocity", "slider.acceleration_free", "slider.acceleration_gain"]
 
@@ -106,8 +103,11 @@ for step in range(n_macro):
     mech.step(t_k, h_m)
     b = frame()
     values = []
-    for name, count in [("effective_mass", n * n), ("effective_force", n), ("friction_moment_force", n * k),
-                        ("journal_angular_velocity", k), ("bearing_angular_velocity", k)]:
+    # Sizes from the mechanism's arrays (n interface coordinates, m friction loads, r angular
+    # velocity components: planar revolute or spherical joints alike).
+    for name in ["effective_mass", "effective_force", "friction_moment_force", "journal_angular_velocity",
+                 "bearing_angular_velocity"]:
+        count = len(a[name])
         value = [a[name][e] + (b[name][e] - a[name][e]) * 0.0 for e in range(count)]
         rate = [(b[name][e] - a[name][e]) / h_m for e in range(count)]
         values += value + rate
@@ -118,7 +118,8 @@ for step in range(n_macro):
 
     for j in range(n_micro):
         micro.step(t_k + j * h_r, h_r)
-        # The loads in lash's order: contact forces (n), then friction loads (k, planar: F_T).
+        # The loads in lash's order: contact forces (n), then friction loads (m: F_T per planar
+        # joint, the friction force's and moments' components per spherical joint).
         loads = list(micro.get("contact_force")) + list(micro.get("friction_load"))
         s = (j + 1) / n_micro
         v = lerp("slider.acceleration_free", 0, s)

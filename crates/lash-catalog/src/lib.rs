@@ -12,10 +12,9 @@
 use lash_contact::micro::InterfaceSubsystem;
 use lash_core::Subsystem;
 use lash_fmi::{ModelInfo, instantiation_token};
-use lash_mech::MechanismSubsystem;
 use lash_run::FullSubsystem;
 use lash_scenario::parameters::{clearance_parameters, mechanism_parameters};
-use lash_scenario::{Scenario, WithParameters};
+use lash_scenario::{AnyScenario, Scenario, WithParameters};
 use std::path::Path;
 
 /// Where an FMU carries its scenario: `resources/scenario.toml` (written by `lash fmu pack`).
@@ -31,17 +30,27 @@ pub fn default_scenario() -> Result<Scenario, String> {
 
 /// The scenario of an FMU instance: its resources' `scenario.toml` when there is one, else
 /// [`default_scenario`] (a plugin loaded straight from its library, an archive of an older lash).
-pub fn scenario(resources: Option<&Path>) -> Result<Scenario, String> {
+pub fn scenario(resources: Option<&Path>) -> Result<AnyScenario, String> {
     let Some(file) = resources.map(|r| r.join(SCENARIO_RESOURCE)).filter(|f| f.is_file()) else {
-        return default_scenario();
+        return default_scenario().map(AnyScenario::Planar);
     };
-    lash_scenario::read_file(&file).map_err(|e| e.trim_end().to_string())
+    lash_scenario::read_any(&file).map_err(|e| e.trim_end().to_string())
 }
 
-/// The reduced model's two subsystems of a scenario.
-fn reduced_subsystems(s: &Scenario) -> Result<(MechanismSubsystem, InterfaceSubsystem), String> {
-    let run = lash_run::ReducedRun::new(s, lash_run::ReducedOptions::default()).map_err(|e| e.to_string())?;
-    Ok(run.into_subsystems())
+/// The reduced model's two subsystems of a scenario, planar or spatial: the mechanism (boxed: a
+/// planar or a spatial macro subsystem) and the interface of its clearance joints.
+fn reduced_subsystems(s: &AnyScenario) -> Result<(Box<dyn Subsystem>, InterfaceSubsystem), String> {
+    let options = lash_run::ReducedOptions::default();
+    Ok(match s {
+        AnyScenario::Planar(s) => {
+            let (m, i) = lash_run::ReducedRun::new(s, options).map_err(|e| e.to_string())?.into_subsystems();
+            (Box::new(m), i)
+        }
+        AnyScenario::Spatial(s) => {
+            let (m, i) = lash_run::SpatialReducedRun::new(s, options).map_err(|e| e.to_string())?.into_subsystems();
+            (Box::new(m), i)
+        }
+    })
 }
 
 /// Model identifier of the clearance-interface FMU.
@@ -51,28 +60,28 @@ pub const MECHANISM: &str = "lash_mechanism";
 /// Model identifier of the full-model FMU.
 pub const FULL: &str = "lash_full";
 
-/// The exported mechanism: the macro subsystem with the scenario's link data, masses, inertias,
-/// drivers and gravity as FMI parameters.
-pub type ExportedMechanism = WithParameters<MechanismSubsystem>;
+/// The exported mechanism: the macro subsystem (planar or spatial) with the scenario's link data,
+/// masses, inertias, drivers and gravity as FMI parameters.
+pub type ExportedMechanism = WithParameters<Box<dyn Subsystem>>;
 /// The exported full model: the scenario's mechanism with its clearance joints, all its numbers
 /// as FMI parameters.
 pub type ExportedFullModel = WithParameters<FullSubsystem>;
 
 /// The clearance interface (micro subsystem) of the scenario's clearance joints, sized by them
-/// (n = 2 per joint), RK4 at the scenario's micro step.
-pub fn interface(s: &Scenario) -> Result<InterfaceSubsystem, String> {
+/// (n = 2 per planar revolute joint, 3 per spherical joint), RK4 at the scenario's micro step.
+pub fn interface(s: &AnyScenario) -> Result<InterfaceSubsystem, String> {
     reduced_subsystems(s).map(|x| x.1)
 }
 
 /// The scenario's mechanism with ideal joints (macro subsystem, one-way), probing the scenario's
 /// output channels, its numbers as parameters.
-pub fn mechanism(s: &Scenario) -> Result<ExportedMechanism, String> {
+pub fn mechanism(s: &AnyScenario) -> Result<ExportedMechanism, String> {
     WithParameters::new(s, mechanism_parameters(s)?, |s| reduced_subsystems(s).map(|x| x.0))
 }
 
 /// The scenario's full model (its integrator settings) with every channel as an output and the
 /// mechanism's and the clearance joints' numbers as parameters.
-pub fn full(s: &Scenario) -> Result<ExportedFullModel, String> {
+pub fn full(s: &AnyScenario) -> Result<ExportedFullModel, String> {
     let mut parameters = mechanism_parameters(s)?;
     parameters.extend(clearance_parameters(s)?);
     WithParameters::new(s, parameters, FullSubsystem::new)
@@ -96,62 +105,66 @@ fn info(
 }
 
 /// "scenario A's crank_pivot" / "scenario C's crank_pivot and rod_slider".
-fn joints_of(s: &Scenario) -> String {
-    let names: Vec<&str> = s.clearances.iter().map(|c| c.joint.as_str()).collect();
+fn joints_of(s: &AnyScenario) -> String {
+    let names: Vec<&str> = s.clearances().iter().map(|c| c.joint.as_str()).collect();
     let list = match names.as_slice() {
         [] => "no joint".to_string(),
         [one] => one.to_string(),
         [head @ .., last] => format!("{} and {last}", head.join(", ")),
     };
-    format!("scenario {}'s {list}", s.name)
+    format!("scenario {}'s {list}", s.name())
 }
 
 /// FMI identity of the interface FMU of `s` (its variables are `vars`).
-pub fn interface_info(s: &Scenario, vars: &[lash_core::Variable]) -> ModelInfo {
+pub fn interface_info(s: &AnyScenario, vars: &[lash_core::Variable]) -> ModelInfo {
+    let (kind, per_joint) = match s {
+        AnyScenario::Planar(_) => ("revolute", 2),
+        AnyScenario::Spatial(_) => ("spherical", 3),
+    };
     info(
-        &format!("lash clearance interface ({})", s.name),
+        &format!("lash clearance interface ({})", s.name()),
         INTERFACE,
         &format!(
-            "Micro subsystem of lash's reduced interface model: M~ w'' = f~ + f_c(w, w') + H F_T for the revolute \
+            "Micro subsystem of lash's reduced interface model: M~ w'' = f~ + f_c(w, w') + H L for the {kind} \
              clearance joints {} ({} coordinates), RK4 at the micro step",
             joints_of(s),
-            2 * s.clearances.len()
+            per_joint * s.clearance_count()
         ),
         vars,
-        s.simulation.horizon.min(0.01),
+        s.simulation().horizon.min(0.01),
         1e-5,
     )
 }
 
 /// FMI identity of the mechanism FMU of `s`.
-pub fn mechanism_info(s: &Scenario, vars: &[lash_core::Variable]) -> ModelInfo {
+pub fn mechanism_info(s: &AnyScenario, vars: &[lash_core::Variable]) -> ModelInfo {
     info(
-        &format!("lash mechanism ({})", s.name),
+        &format!("lash mechanism ({})", s.name()),
         MECHANISM,
         &format!(
             "Macro subsystem of lash's reduced interface model: scenario {}'s mechanism (ideal motion), exporting \
              M~, f~ and the propagation maps of {} at each communication point",
-            s.name,
+            s.name(),
             joints_of(s)
         ),
         vars,
-        s.simulation.horizon,
+        s.simulation().horizon,
         1e-3,
     )
 }
 
 /// FMI identity of the full-model FMU of `s`.
-pub fn full_info(s: &Scenario, vars: &[lash_core::Variable]) -> ModelInfo {
+pub fn full_info(s: &AnyScenario, vars: &[lash_core::Variable]) -> ModelInfo {
     info(
-        &format!("lash full model ({})", s.name),
+        &format!("lash full model ({})", s.name()),
         FULL,
         &format!(
             "Scenario {}'s mechanism with its clearance joints integrated as one stiff system: every channel of \
              `lash run` as an output, link data and clearance laws as parameters",
-            s.name
+            s.name()
         ),
         vars,
-        s.simulation.horizon,
+        s.simulation().horizon,
         1e-4,
     )
 }
@@ -167,7 +180,7 @@ pub enum FmiVersion {
 
 /// `(model identifier, version, modelDescription.xml)` of every exported FMU of `s`, in both
 /// versions.
-pub fn descriptions(s: &Scenario) -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
+pub fn descriptions(s: &AnyScenario) -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
     use lash_fmi::description::{fmi2, fmi3};
     let (i, m, f) = (interface(s)?, mechanism(s)?, full(s)?);
     let infos = [

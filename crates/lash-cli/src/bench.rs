@@ -430,7 +430,7 @@ fn fmi_section(quick: bool) -> Result<(), CliError> {
     use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
     let fail = |e: &dyn std::fmt::Display| CliError::Failure(e.to_string());
     let dir = std::env::temp_dir().join(format!("lash-bench-fmu-{}", std::process::id()));
-    let a = lash_catalog::default_scenario().map_err(|e| fail(&e))?;
+    let a = lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario().map_err(|e| fail(&e))?);
     if let Err(e) = crate::fmu::pack_quiet(&a, &dir) {
         println!("FMI: skipped ({e})");
         return Ok(());

@@ -61,7 +61,7 @@ fn pack_one(
 }
 
 /// `lash fmu pack [SCENARIO] --out <dir>`.
-pub fn pack(scenario: &lash_scenario::Scenario, out: &Path) -> Result<(), CliError> {
+pub fn pack(scenario: &lash_scenario::AnyScenario, out: &Path) -> Result<(), CliError> {
     for path in pack_quiet(scenario, out)? {
         println!("{}", path.display());
     }
@@ -69,14 +69,14 @@ pub fn pack(scenario: &lash_scenario::Scenario, out: &Path) -> Result<(), CliErr
 }
 
 /// Packs every FMU of `scenario` into `out`; returns the archives written.
-pub fn pack_quiet(scenario: &lash_scenario::Scenario, out: &Path) -> Result<Vec<PathBuf>, CliError> {
+pub fn pack_quiet(scenario: &lash_scenario::AnyScenario, out: &Path) -> Result<Vec<PathBuf>, CliError> {
     let text = toml::to_string(scenario).map_err(|e| CliError::Failure(format!("the scenario as TOML: {e}")))?;
     // The archive's scenario must build the same models as the one given (same variables, same
     // token): checked by reading it back as the FMU will.
-    let reread = lash_scenario::parse(&text)
+    let reread = lash_scenario::parse_any(&text)
         .map_err(|p| CliError::Failure(format!("the scenario written into the FMUs does not read back: {p}")))?;
     let descriptions = lash_catalog::descriptions(scenario)
-        .map_err(|e| CliError::Input(format!("scenario {}: {e}", scenario.name)))?;
+        .map_err(|e| CliError::Input(format!("scenario {}: {e}", scenario.name())))?;
     if lash_catalog::descriptions(&reread).map_err(CliError::Failure)? != descriptions {
         return Err(CliError::Failure(
             "the scenario written into the FMUs builds other models than the one given".into(),

@@ -478,8 +478,10 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         },
         Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {
             let scenario = match scenario {
-                Some(arg) => load_scenario(&arg)?,
-                None => lash_catalog::default_scenario().map_err(CliError::Failure)?,
+                Some(arg) => lash_scenario::any_by_name_or_file(&arg).map_err(CliError::Input)?,
+                None => {
+                    lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario().map_err(CliError::Failure)?)
+                }
             };
             fmu::pack(&scenario, &out)
         }

@@ -21,5 +21,5 @@ pub use friction::FrictionLaw;
 pub use full_model::{FullModel, ModelError};
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};
 pub use parameters::ClearanceDefinition;
-pub use spatial_model::SpatialFullModel;
+pub use spatial_model::{SpatialFullModel, SpatialFullModelState};
 pub use spherical::{SphericalClearance, SphericalContactState};

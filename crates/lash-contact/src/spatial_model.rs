@@ -33,6 +33,17 @@ pub struct SpatialFullModel {
     frames: Vec<BodyFrame>,
 }
 
+/// A [`SpatialFullModel::snapshot`]: contact modes, impacts and pending error.
+#[derive(Debug, Clone)]
+pub struct SpatialFullModelState {
+    clearances: Vec<SphericalClearance>,
+    contacts: Vec<SphericalContactState>,
+    impacts: Vec<Vec<Impact>>,
+    open: Vec<Option<ImpactTracker>>,
+    violation: bool,
+    error: Option<String>,
+}
+
 fn frame(frames: &[BodyFrame], id: BodyId) -> BodyFrame {
     match id {
         BodyId::Body(k) => frames[k],
@@ -156,6 +167,34 @@ impl SpatialFullModel {
             *state = s;
         }
         solver.solve(mechanism)
+    }
+
+    /// The model's history (contact modes, impacts, pending error) for [`SpatialFullModel::restore`]:
+    /// together with the state vector, everything a co-simulation step can be repeated from.
+    pub fn snapshot(&self) -> SpatialFullModelState {
+        SpatialFullModelState {
+            clearances: self.clearances.clone(),
+            contacts: self.contacts.clone(),
+            impacts: self.impacts.clone(),
+            open: self.open.clone(),
+            violation: self.violation,
+            error: self.error.clone(),
+        }
+    }
+
+    /// Returns to a [`SpatialFullModel::snapshot`] of this model.
+    pub fn restore(&mut self, state: &SpatialFullModelState) {
+        self.clearances.clone_from(&state.clearances);
+        self.contacts.clone_from(&state.contacts);
+        self.impacts.clone_from(&state.impacts);
+        self.open.clone_from(&state.open);
+        self.violation = state.violation;
+        self.error.clone_from(&state.error);
+    }
+
+    /// The error a right-hand side recorded (a singular solve), if any; cleared.
+    pub fn take_error(&mut self) -> Option<String> {
+        self.error.take()
     }
 
     /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).

@@ -554,6 +554,59 @@ pub trait Subsystem: Send {
     }
 }
 
+/// A boxed subsystem is a subsystem (every call forwarded, the provided ones included): a model
+/// chosen at run time — a planar or a spatial scenario's — behind one type.
+impl<S: Subsystem + ?Sized> Subsystem for Box<S> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn variables(&self) -> &[Variable] {
+        (**self).variables()
+    }
+    fn setup(&mut self, start: Ticks, stop: Option<Ticks>) -> Result<(), SubsystemError> {
+        (**self).setup(start, stop)
+    }
+    fn initialize(&mut self) -> Result<(), SubsystemError> {
+        (**self).initialize()
+    }
+    fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        (**self).set_f64(refs, values)
+    }
+    fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        (**self).get_f64(refs, values)
+    }
+    fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
+        (**self).do_step(t, h)
+    }
+    fn time(&self) -> Ticks {
+        (**self).time()
+    }
+    fn save_state(&self) -> Result<SavedState, SubsystemError> {
+        (**self).save_state()
+    }
+    fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
+        (**self).restore_state(state)
+    }
+    fn configure(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        (**self).configure(refs, values)
+    }
+    fn get_string(&self, vr: ValueReference) -> Result<String, SubsystemError> {
+        (**self).get_string(vr)
+    }
+    fn set_string(&mut self, vr: ValueReference, value: &str) -> Result<(), SubsystemError> {
+        (**self).set_string(vr, value)
+    }
+    fn get_binary(&self, vr: ValueReference) -> Result<Vec<u8>, SubsystemError> {
+        (**self).get_binary(vr)
+    }
+    fn set_binary(&mut self, vr: ValueReference, value: &[u8]) -> Result<(), SubsystemError> {
+        (**self).set_binary(vr, value)
+    }
+    fn terminate(&mut self) -> Result<(), SubsystemError> {
+        (**self).terminate()
+    }
+}
+
 /// The variable with value reference `vr` (its position, by the [`Subsystem::variables`] contract).
 pub fn variable(variables: &[Variable], vr: ValueReference) -> Option<&Variable> {
     variables.get(vr as usize).filter(|v| v.value_reference == vr)

@@ -153,6 +153,92 @@ pub fn build_spatial(s: &SpatialScenario, ideal: bool) -> SpatialFullModel {
     SpatialFullModel::new(mechanism, clearances)
 }
 
+/// Computes a spatial full model's channels from its last evaluation: the one sampling routine of
+/// `lash run` and of the full-model FMU.
+pub(crate) struct SpatialSampler {
+    /// Row range of each joint's equations in the solver (joints first, in order).
+    ranges: Vec<std::ops::Range<usize>>,
+    /// Row of each driver's equation (after the joints').
+    driver_rows: Vec<usize>,
+    /// Body and body-frame point of each sensor.
+    sensors: Vec<(usize, Vec3)>,
+}
+
+impl SpatialSampler {
+    /// The rows and sensor points of `model` built from `scenario`.
+    pub(crate) fn new(scenario: &SpatialScenario, model: &SpatialFullModel) -> Self {
+        let mech = &model.mechanism;
+        let mut ranges = Vec::new();
+        let mut at = 0;
+        for j in &mech.joints {
+            ranges.push(at..at + j.kind.equations());
+            at += j.kind.equations();
+        }
+        let driver_rows = (0..mech.drivers.len()).map(|k| at + k).collect();
+        let sensors = scenario
+            .sensors
+            .iter()
+            .map(|x| (scenario.bodies.iter().position(|b| b.name == x.body).expect("validated"), v3(x.point)))
+            .collect();
+        Self { ranges, driver_rows, sensors }
+    }
+
+    /// The value of each of `sources` after `model.evaluate(t, y)`.
+    pub(crate) fn sample(&self, model: &SpatialFullModel, sources: &[(Channel, SpatialSource)], values: &mut [f64]) {
+        let (mech, solver) = (&model.mechanism, &model.solver);
+        let reaction_on_body1 = |k: usize| -> Vec3 {
+            let j = &mech.joints[k];
+            match (j.i.body, j.j.body) {
+                (BodyId::Body(b), _) => solver.reaction(self.ranges[k].clone(), b).0,
+                (BodyId::Ground, BodyId::Body(b)) => -solver.reaction(self.ranges[k].clone(), b).0,
+                (BodyId::Ground, BodyId::Ground) => Vec3::zeros(),
+            }
+        };
+        for (v, (_, src)) in values.iter_mut().zip(sources.iter()) {
+            *v = match *src {
+                SpatialSource::Sensor(k, q) => {
+                    let (body, point) = self.sensors[k];
+                    let p = point_kinematics(solver, body, point);
+                    let q = q as usize;
+                    [p.position, p.velocity, p.acceleration][q / 3][q % 3]
+                }
+                SpatialSource::Clearance(k, q) => {
+                    let c = &model.contacts[k];
+                    match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
+                        "fx" => c.force_on_journal.x,
+                        "fy" => c.force_on_journal.y,
+                        "fz" => c.force_on_journal.z,
+                        "force" => c.force_on_journal.norm(),
+                        "normal_force" => c.normal_force,
+                        "friction_force" => c.friction_force,
+                        "ex" => c.eccentricity.x,
+                        "ey" => c.eccentricity.y,
+                        "ez" => c.eccentricity.z,
+                        "eccentricity" => c.eccentricity_norm,
+                        "penetration" => c.penetration,
+                        "penetration_rate" => c.penetration_rate,
+                        _ => c.slip_velocity.norm(),
+                    }
+                }
+                SpatialSource::DriverTorque(k) => {
+                    let d = &mech.drivers[k];
+                    let jt = &mech.joints[d.joint];
+                    let axis = lash_spatial::constraints::marker_world(&jt.i, &solver.frames).2;
+                    match jt.j.body {
+                        BodyId::Body(b) => {
+                            solver.reaction(self.driver_rows[k]..self.driver_rows[k] + 1, b).1.dot(&axis)
+                        }
+                        BodyId::Ground => 0.0,
+                    }
+                }
+                SpatialSource::JointReaction(k, q) => reaction_on_body1(k)[q as usize],
+                SpatialSource::AngularVelocity(k, q) => solver.angular_velocities[k][q as usize],
+                SpatialSource::ConstraintError => solver.constraint_error(),
+            };
+        }
+    }
+}
+
 /// A prepared spatial run (full model, or the ideal mechanism).
 pub struct SpatialRun {
     /// The model.
@@ -192,21 +278,7 @@ impl SpatialRun {
             .model
             .initial_state(t0)
             .map_err(|e| RunError::Simulation { t: t0, message: format!("initial conditions: {e}") })?;
-        let mech = &self.model.mechanism;
-        // Row ranges of each joint and driver (joints first, in order, then drivers).
-        let mut ranges = Vec::new();
-        let mut at = 0;
-        for j in &mech.joints {
-            ranges.push(at..at + j.kind.equations());
-            at += j.kind.equations();
-        }
-        let driver_rows: Vec<usize> = (0..mech.drivers.len()).map(|k| at + k).collect();
-        let sensors: Vec<(usize, Vec3)> = self
-            .scenario
-            .sensors
-            .iter()
-            .map(|x| (self.scenario.bodies.iter().position(|b| b.name == x.body).expect("validated"), v3(x.point)))
-            .collect();
+        let sampler = SpatialSampler::new(&self.scenario, &self.model);
         let nc = self.model.clearances.len();
         let (sources, selected) = (&self.sources, &self.selected);
         let mut values = vec![0.0; sources.len()];
@@ -219,55 +291,8 @@ impl SpatialRun {
         let horizon = sim.horizon;
         let mut observer = |model: &mut SpatialFullModel, t: f64, y: &[f64]| -> Result<(), String> {
             model.evaluate(t, y).map_err(|e| e.to_string())?;
-            let (mech, solver) = (&model.mechanism, &model.solver);
-            let reaction_on_body1 = |k: usize| -> Vec3 {
-                let j = &mech.joints[k];
-                match (j.i.body, j.j.body) {
-                    (BodyId::Body(b), _) => solver.reaction(ranges[k].clone(), b).0,
-                    (BodyId::Ground, BodyId::Body(b)) => -solver.reaction(ranges[k].clone(), b).0,
-                    (BodyId::Ground, BodyId::Ground) => Vec3::zeros(),
-                }
-            };
-            for (v, (_, src)) in values.iter_mut().zip(sources.iter()) {
-                *v = match *src {
-                    SpatialSource::Sensor(k, q) => {
-                        let (body, point) = sensors[k];
-                        let p = point_kinematics(solver, body, point);
-                        let q = q as usize;
-                        [p.position, p.velocity, p.acceleration][q / 3][q % 3]
-                    }
-                    SpatialSource::Clearance(k, q) => {
-                        let c = &model.contacts[k];
-                        match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
-                            "fx" => c.force_on_journal.x,
-                            "fy" => c.force_on_journal.y,
-                            "fz" => c.force_on_journal.z,
-                            "force" => c.force_on_journal.norm(),
-                            "normal_force" => c.normal_force,
-                            "friction_force" => c.friction_force,
-                            "ex" => c.eccentricity.x,
-                            "ey" => c.eccentricity.y,
-                            "ez" => c.eccentricity.z,
-                            "eccentricity" => c.eccentricity_norm,
-                            "penetration" => c.penetration,
-                            "penetration_rate" => c.penetration_rate,
-                            _ => c.slip_velocity.norm(),
-                        }
-                    }
-                    SpatialSource::DriverTorque(k) => {
-                        let d = &mech.drivers[k];
-                        let jt = &mech.joints[d.joint];
-                        let axis = lash_spatial::constraints::marker_world(&jt.i, &solver.frames).2;
-                        match jt.j.body {
-                            BodyId::Body(b) => solver.reaction(driver_rows[k]..driver_rows[k] + 1, b).1.dot(&axis),
-                            BodyId::Ground => 0.0,
-                        }
-                    }
-                    SpatialSource::JointReaction(k, q) => reaction_on_body1(k)[q as usize],
-                    SpatialSource::AngularVelocity(k, q) => solver.angular_velocities[k][q as usize],
-                    SpatialSource::ConstraintError => solver.constraint_error(),
-                };
-            }
+            sampler.sample(model, sources, &mut values);
+            let solver = &model.solver;
             for (k, c) in model.contacts.iter().enumerate() {
                 max_eccentricity[k] = max_eccentricity[k].max(c.eccentricity_norm);
                 sum_force[k] += c.force_on_journal.norm();
@@ -585,6 +610,11 @@ impl SpatialReducedRun {
         let micro_sub = lash_contact::micro::InterfaceSubsystem::with_definitions(joints, integrator, definitions)
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self { scenario: scenario.clone(), options, macro_sub, micro_sub, recording, signals, master_options })
+    }
+
+    /// The two subsystems, unstarted (for export as FMUs or for another master).
+    pub fn into_subsystems(self) -> (lash_spatial::SpatialMechanismSubsystem, lash_contact::micro::InterfaceSubsystem) {
+        (self.macro_sub, self.micro_sub)
     }
 
     /// Header of the written columns (the same channels as the full model).

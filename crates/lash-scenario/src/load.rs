@@ -70,6 +70,22 @@ impl AnyScenario {
     }
 
     /// Its time span, integrator and sampling.
+    pub fn simulation(&self) -> &SimulationSpec {
+        match self {
+            AnyScenario::Planar(s) => &s.simulation,
+            AnyScenario::Spatial(s) => &s.simulation,
+        }
+    }
+
+    /// Its clearance joints.
+    pub fn clearances(&self) -> &[crate::schema::ClearanceSpec] {
+        match self {
+            AnyScenario::Planar(s) => &s.clearances,
+            AnyScenario::Spatial(s) => &s.clearances,
+        }
+    }
+
+    /// Its time span, integrator and sampling.
     pub fn simulation_mut(&mut self) -> &mut SimulationSpec {
         match self {
             AnyScenario::Planar(s) => &mut s.simulation,

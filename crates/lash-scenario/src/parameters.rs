@@ -9,8 +9,8 @@
 //! from it, so an FMU with edited parameters computes exactly what lash computes for the edited
 //! scenario file.
 
+use crate::load::AnyScenario;
 use crate::paths::EditError;
-use crate::schema::Scenario;
 use lash_core::{
     Causality, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variability, Variable,
 };
@@ -71,64 +71,74 @@ fn number(v: &toml::Value) -> f64 {
     v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).unwrap_or(f64::NAN)
 }
 
-fn scenario_table(s: &Scenario) -> Result<toml::Table, String> {
-    toml::Table::try_from(s).map_err(|e| format!("scenario {:?} does not serialise: {e}", s.name))
+fn scenario_table(s: &AnyScenario) -> Result<toml::Table, String> {
+    s.to_table().map_err(|e| format!("scenario {:?} does not serialise: {e}", s.name()))
 }
 
-/// The mechanism's parameters: gravity, each body's mass and inertia, each joint's points (and
-/// axis), each driver's motion, each load's numbers.
-pub fn mechanism_parameters(s: &Scenario) -> Result<Vec<ScenarioParameter>, String> {
-    let table = scenario_table(s)?;
-    let mut out = Vec::new();
-    leaves("gravity", "gravity", "gravity", &table["gravity"], &mut out);
-    for (k, b) in s.bodies.iter().enumerate() {
-        for key in ["mass", "inertia"] {
-            let path = format!("bodies[{k}].{key}");
-            let value = if key == "mass" { b.mass } else { b.inertia };
-            out.push(ScenarioParameter {
-                name: format!("{}.{key}", b.name),
-                paths: vec![path],
-                unit: lash_core::units::field_unit(key),
-                start: vec![value],
-                array: false,
-            });
+/// The `name` of each item of the array `section` of a scenario table.
+fn item_names(table: &toml::Table, section: &str) -> Vec<String> {
+    let Some(toml::Value::Array(items)) = table.get(section) else { return Vec::new() };
+    items.iter().map(|item| item.get("name").and_then(toml::Value::as_str).unwrap_or_default().to_string()).collect()
+}
+
+/// Every number of each item of the array `section`, named `<item name>.<key path>`.
+fn named(table: &toml::Table, section: &str, names: &[String], out: &mut Vec<ScenarioParameter>) {
+    let Some(toml::Value::Array(items)) = table.get(section) else { return };
+    for (k, (item, name)) in items.iter().zip(names).enumerate() {
+        if let toml::Value::Table(t) = item {
+            for (key, v) in t {
+                leaves(&format!("{name}.{key}"), &format!("{section}[{k}].{key}"), key, v, out);
+            }
         }
     }
-    let named = |section: &str, names: Vec<String>, out: &mut Vec<ScenarioParameter>| {
-        let Some(toml::Value::Array(items)) = table.get(section) else { return };
-        for (k, (item, name)) in items.iter().zip(names).enumerate() {
-            if let toml::Value::Table(t) = item {
-                for (key, v) in t {
-                    leaves(&format!("{name}.{key}"), &format!("{section}[{k}].{key}"), key, v, out);
+}
+
+/// The mechanism's parameters (planar or spatial): gravity, each body's mass and inertia (and
+/// products of inertia in space), each joint's points (and axes), each driver's motion, each
+/// load's numbers.
+pub fn mechanism_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, String> {
+    let table = scenario_table(s)?;
+    let mut out = Vec::new();
+    if let Some(g) = table.get("gravity") {
+        leaves("gravity", "gravity", "gravity", g, &mut out);
+    }
+    if let Some(toml::Value::Array(bodies)) = table.get("bodies") {
+        for (k, (body, name)) in bodies.iter().zip(item_names(&table, "bodies")).enumerate() {
+            for key in ["mass", "inertia", "products"] {
+                if let Some(v) = body.get(key) {
+                    leaves(&format!("{name}.{key}"), &format!("bodies[{k}].{key}"), key, v, &mut out);
                 }
             }
         }
+    }
+    named(&table, "joints", &item_names(&table, "joints"), &mut out);
+    named(&table, "drivers", &item_names(&table, "drivers"), &mut out);
+    let loads = match table.get("loads") {
+        Some(toml::Value::Array(a)) => (0..a.len()).map(|k| format!("loads[{k}]")).collect(),
+        _ => Vec::new(),
     };
-    named("joints", s.joints.iter().map(|j| j.name.clone()).collect(), &mut out);
-    named("drivers", s.drivers.iter().map(|d| d.name.clone()).collect(), &mut out);
-    named("loads", (0..s.loads.len()).map(|k| format!("loads[{k}]")).collect(), &mut out);
+    named(&table, "loads", &loads, &mut out);
     Ok(out)
 }
 
 /// The clearance joints' parameters (radii, contact and friction law coefficients), named after
 /// the joint: `crank_pivot.bearing_radius`, `crank_pivot.contact.restitution`.
-pub fn clearance_parameters(s: &Scenario) -> Result<Vec<ScenarioParameter>, String> {
+pub fn clearance_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, String> {
     let table = scenario_table(s)?;
+    let names: Vec<String> = match table.get("clearances") {
+        Some(toml::Value::Array(items)) => items
+            .iter()
+            .map(|item| item.get("joint").and_then(toml::Value::as_str).unwrap_or_default().to_string())
+            .collect(),
+        _ => Vec::new(),
+    };
     let mut out = Vec::new();
-    if let Some(toml::Value::Array(items)) = table.get("clearances") {
-        for (k, (item, c)) in items.iter().zip(&s.clearances).enumerate() {
-            if let toml::Value::Table(t) = item {
-                for (key, v) in t {
-                    leaves(&format!("{}.{key}", c.joint), &format!("clearances[{k}].{key}"), key, v, &mut out);
-                }
-            }
-        }
-    }
+    named(&table, "clearances", &names, &mut out);
     Ok(out)
 }
 
 /// How a subsystem is built from a (validated) scenario.
-pub type Builder<S> = fn(&Scenario) -> Result<S, String>;
+pub type Builder<S> = fn(&AnyScenario) -> Result<S, String>;
 
 /// A subsystem built from a scenario, with scenario numbers as FMI parameters (appended after the
 /// subsystem's own variables). Setting a parameter before initialization rebuilds the subsystem
@@ -151,7 +161,7 @@ pub struct WithParameters<S: Subsystem> {
 
 impl<S: Subsystem> WithParameters<S> {
     /// Builds the subsystem from `scenario` and appends `parameters` to its variables.
-    pub fn new(scenario: &Scenario, parameters: Vec<ScenarioParameter>, build: Builder<S>) -> Result<Self, String> {
+    pub fn new(scenario: &AnyScenario, parameters: Vec<ScenarioParameter>, build: Builder<S>) -> Result<Self, String> {
         let inner = build(scenario)?;
         let mut variables = inner.variables().to_vec();
         let first = variables.len() as ValueReference;
@@ -197,13 +207,13 @@ impl<S: Subsystem> WithParameters<S> {
     }
 
     /// The scenario with the parameters' current values, validated.
-    pub fn edited_scenario(&self) -> Result<Scenario, String> {
+    pub fn edited_scenario(&self) -> Result<AnyScenario, String> {
         let edits = self
             .parameters
             .iter()
             .enumerate()
             .flat_map(|(k, p)| p.paths.iter().map(String::as_str).zip(self.parameter_values(k).iter().copied()));
-        crate::paths::edited(&self.base, edits).map_err(|e| match e {
+        crate::paths::edited_any(&self.base, edits).map_err(|e| match e {
             EditError::Path(m) => m,
             EditError::Invalid(problems) => format!("the parameters make an invalid scenario: {problems}"),
         })

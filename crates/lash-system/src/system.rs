@@ -151,8 +151,8 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
         }
         ElementSource::Builtin(id, scenario) => {
             let scenario = match scenario {
-                Some(s) => lash_scenario::by_name_or_file(s).map_err(|e| format!("scenario: {e}"))?,
-                None => lash_catalog::default_scenario()?,
+                Some(s) => lash_scenario::any_by_name_or_file(s).map_err(|e| format!("scenario: {e}"))?,
+                None => lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario()?),
             };
             builtin(id, &scenario)?
         }
@@ -160,7 +160,7 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
 }
 
 /// A built-in subsystem of `scenario` by model identifier.
-fn builtin(id: &str, scenario: &lash_scenario::Scenario) -> Result<Box<dyn Subsystem>, String> {
+fn builtin(id: &str, scenario: &lash_scenario::AnyScenario) -> Result<Box<dyn Subsystem>, String> {
     Ok(match id {
         lash_catalog::INTERFACE => Box::new(lash_catalog::interface(scenario)?),
         lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism(scenario)?),
