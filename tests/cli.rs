@@ -195,6 +195,40 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
     assert!(time_figure.contains("crank angle [°]") && time_figure.contains("time [ms]"));
 }
 
+/// `lash compare E`: the spatial scenario's bearing force and emulated housing acceleration, with
+/// clearance (full, reduced) against without (the ideal mechanism), as figures and as the
+/// measurements' analysis of all three runs.
+#[test]
+fn compare_of_the_spatial_scenario_draws_the_bearing_force_and_the_housing_vibration() {
+    let dir = scratch("compare-E");
+    let out = dir.join("cmp");
+    // 0.3 s: the housing's steady-state window opens at 0.24 s, 500 Hz logging.
+    let o = lash(&["compare", "E", "--horizon", "0.3", "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
+    let figures: Vec<&str> = c["figures"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+    for f in ["slider_guide.fy", "slider_guide.fz", "housing.ay", "housing.az"] {
+        for file in [format!("figures/{f}.svg"), format!("figures/{f}_spectrum.svg")] {
+            assert!(figures.contains(&file.as_str()), "{file} missing from {figures:?}");
+            let svg = std::fs::read_to_string(out.join(&file)).unwrap();
+            assert!(svg.contains("<polyline") && svg.contains("(clearance joint closed)"), "{file}");
+        }
+    }
+    assert!(!c["channels"]["slider_guide.fy"].is_null(), "the bearing force is a compared channel");
+    // The clearance makes the vibration: the ideal mechanism's housing barely moves at 150 Hz.
+    let rms = |run: &str, axis: usize| {
+        let a = &c["measurements"][run][0]["axes"][axis]["logged"];
+        assert_eq!(a["samples"].as_u64().unwrap(), 31, "{run}: 0.24–0.3 s at 500 Hz, both ends");
+        a["rms"].as_f64().unwrap()
+    };
+    for axis in [1, 2] {
+        let (full, reduced, ideal) = (rms("full", axis), rms("reduced", axis), rms("ideal", axis));
+        assert!(full > 0.1 && reduced > 0.1, "axis {axis}: {full} {reduced}");
+        assert!(ideal < 0.01 * full, "axis {axis}: ideal {ideal} against {full} with clearance");
+    }
+}
+
 #[test]
 fn reduced_options_reach_the_summary() {
     let dir = scratch("reduced_options");

@@ -58,4 +58,63 @@ axes[1].set_title("B: second and third impacts")
 axes[1].legend(fontsize=8)
 fig.tight_layout()
 fig.savefig("docs/figures/B_convergence.png", dpi=110)
+
+
+# Scenario E (spatial slider-crank, two spherical clearance joints): the vibration study's layout.
+def spectrum(t, x):
+    x = x - x.mean()
+    w = np.hanning(len(x))
+    a = 2.0 * np.abs(np.fft.rfft(x * w)) / w.sum()
+    return np.fft.rfftfreq(len(x), t[1] - t[0]), a
+
+
+e, ei = load("out/E-0.5mm-250rpm/timeseries.csv"), load("out/E-250rpm-ideal/timeseries.csv")
+fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
+m = e["time"] >= 0.24
+for ax, axis in zip(axes, ["y", "z"]):
+    ax.plot(e["time"][m] * 1e3, e[f"slider_guide.f{axis}"][m], lw=0.6, label="with clearance (c = 0.5 mm)")
+    ax.plot(ei["time"][m] * 1e3, ei[f"slider_guide.f{axis}"][m], lw=1.4, label="without clearance (ideal joints)")
+    ax.set_xlabel("time [ms]")
+    ax.set_ylabel(f"slider bearing force F{axis} [N]")
+    ax.grid(alpha=0.3)
+axes[0].set_title("E, 250 rpm: slider bearing force, vertical (Y)")
+axes[1].set_title("lateral (Z)")
+axes[1].legend(fontsize=8)
+fig.tight_layout()
+fig.savefig("docs/figures/E_bearing_force.png", dpi=110)
+
+h, hi = load("out/E-0.5mm-250rpm/measurement_housing.csv"), load("out/E-250rpm-ideal/measurement_housing.csv")
+fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
+for ax, axis in zip(axes, ["y", "z"]):
+    ax.plot(h["time"] * 1e3, h[f"housing.a{axis}"], ".-", lw=0.8, ms=3, label="with clearance (c = 0.5 mm)")
+    ax.plot(hi["time"] * 1e3, hi[f"housing.a{axis}"], lw=1.4, label="without clearance (ideal joints)")
+    ax.set_xlabel("time [ms]")
+    ax.set_ylabel(f"housing acceleration a{axis} [m/s²]")
+    ax.grid(alpha=0.3)
+axes[0].set_title("E, 250 rpm: bearing housing, logged at 500 Hz, Y")
+axes[1].set_title("Z")
+axes[1].legend(fontsize=8)
+fig.tight_layout()
+fig.savefig("docs/figures/E_housing_acceleration.png", dpi=110)
+
+fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), sharex=True, sharey=True)
+for row, c in enumerate(["0.25", "0.5"]):
+    for col, rpm in enumerate(["125", "250"]):
+        ax = axes[row][col]
+        h, hi = load(f"out/E-{c}mm-{rpm}rpm/measurement_housing.csv"), load(f"out/E-{rpm}rpm-ideal/measurement_housing.csv")
+        for axis, style in [("z", "-"), ("y", "--")]:
+            f, a = spectrum(h["time"], h[f"housing.a{axis}"])
+            ax.semilogy(f[1:], a[1:], style, lw=1, label=f"{axis.upper()}, with clearance")
+        f, a = spectrum(hi["time"], hi["housing.az"])
+        ax.semilogy(f[1:], np.maximum(a[1:], 1e-6), ":", color="k", lw=1, label="Z, without clearance")
+        ax.set_title(f"c = {c} mm, {rpm} rpm", fontsize=9)
+        ax.grid(alpha=0.3)
+        if row == 1:
+            ax.set_xlabel("frequency [Hz]")
+        if col == 0:
+            ax.set_ylabel("amplitude [m/s²]")
+axes[0][1].legend(fontsize=8)
+fig.suptitle("E: housing acceleration spectra (500 Hz logger, Hann window over the second revolution)")
+fig.tight_layout()
+fig.savefig("docs/figures/E_spectra.png", dpi=110)
 print("figures written to docs/figures/")

@@ -98,6 +98,10 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
     }
     channels.extend(drivers.iter().map(|d| format!("{d}.torque")));
     channels.extend(clearances.iter().map(|c| format!("{c}.force")));
+    // The forces that drive each emulated measurement (E's slider bearing force, on the guide).
+    for m in &s.output().measurements {
+        channels.extend(m.forces.iter().filter(|f| !channels.contains(f)).cloned().collect::<Vec<_>>());
+    }
     let mut metrics =
         compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW).map_err(CliError::Failure)?;
     // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
@@ -128,6 +132,37 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
             figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
         }
     }
+    // Each emulated measurement as logged (the housing accelerometers at the logger's rate, after
+    // the anti-alias filter): with clearance (full, reduced) against without (ideal), over time
+    // and as spectra up to the logger's Nyquist frequency — the layout of the vibration studies.
+    for m in &s.output().measurements {
+        let file = format!("measurement_{}.csv", m.name);
+        let (hm, fm) = read_csv(&full_dir.join(&file))?;
+        let (_, rm) = read_csv(&reduced_dir.join(&file))?;
+        let im = if ideal_ok { Some(read_csv(&ideal_dir.join(&file))?.1) } else { None };
+        if fm.len() < 2 || rm.len() != fm.len() {
+            eprintln!(
+                "  measurement {}: {} logged samples (the horizon ends before its steady-state window): no figures",
+                m.name,
+                fm.len()
+            );
+            continue;
+        }
+        let time: Vec<f64> = fm.iter().map(|r| r[0]).collect();
+        for (k, header) in hm.iter().enumerate().skip(1) {
+            let (name, unit) =
+                header.split_once(" [").map_or((header.as_str(), ""), |(n, u)| (n, u.trim_end_matches(']')));
+            let column = |rows: &[Vec<f64>]| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+            let (yf, yr) = (column(&fm), column(&rm));
+            let yi = im.as_ref().filter(|rows| rows.len() == fm.len()).map(|rows| column(rows));
+            let channel =
+                crate::plots::Channel { name, unit, time: &time, full: &yf, reduced: &yr, ideal: yi.as_deref() };
+            let nyquist = 0.5 * m.acquisition.sample_rate;
+            for path in crate::plots::comparison_figures(&figures_dir, &channel, crank_angle, nyquist)? {
+                figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
+            }
+        }
+    }
     let sim = |t: &crate::run::Timing| t.simulation_s;
     let speedup = serde_json::json!({
         "simulation_vs_converged_full": sim(&full_timing) / sim(&reduced_timing),
@@ -151,6 +186,11 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,
+        "measurements": {
+            "full": sf["measurements"],
+            "reduced": sr["measurements"],
+            "ideal": if ideal_ok { read_json(&ideal_dir.join("summary.json"))?["measurements"].clone() } else { serde_json::Value::Null },
+        },
         "figures": figures,
         "clearance": {
             "impacts": clearance("impacts"),

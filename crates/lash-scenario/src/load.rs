@@ -94,6 +94,14 @@ impl AnyScenario {
     }
 
     /// Its output selection.
+    pub fn output(&self) -> &OutputSpec {
+        match self {
+            AnyScenario::Planar(s) => &s.output,
+            AnyScenario::Spatial(s) => &s.output,
+        }
+    }
+
+    /// Its output selection, to edit.
     pub fn output_mut(&mut self) -> &mut OutputSpec {
         match self {
             AnyScenario::Planar(s) => &mut s.output,
