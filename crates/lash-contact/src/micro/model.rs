@@ -276,8 +276,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             wb[i] = u.bearing_angular_velocity[r * j + i] + u.bearing_angular_acceleration[r * j + i] * dt;
         }
         let joint = &self.joints[j];
+        if joint.in_contact() {
+            // The common case on the hot path, one evaluation returned as it is.
+            return joint.evaluate(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
+        }
         let s = joint.evaluate(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
-        if !joint.in_contact() && J::penetration(&s) > 0.0 {
+        if J::penetration(&s) > 0.0 {
             // A stage ahead of the onset: the local approach velocity stands in for δ̇⁻.
             joint.evaluate(e, ed, &wj[..r], &wb[..r], J::penetration_rate(&s).max(0.0))
         } else {
