@@ -229,6 +229,35 @@ fn compare_of_the_spatial_scenario_draws_the_bearing_force_and_the_housing_vibra
     }
 }
 
+/// `lash bush`: the study's bush characterised, the example file read, bad files refused with
+/// every field named.
+#[test]
+fn bush_prints_the_fe_table_and_names_bad_fields() {
+    let o = lash(&["bush"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        text.contains("bonded pin: stiffness") && text.contains("closed form") && text.contains("FE/Hertz"),
+        "{text}"
+    );
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/bush.toml");
+    let o = lash(&["bush", example, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let bonded = &j["table"]["bonded"];
+    let ratio = bonded["stiffness"].as_f64().unwrap() / bonded["stiffness_closed_form"].as_f64().unwrap();
+    assert!((ratio - 1.0).abs() < 1e-5, "{bonded}");
+    assert_eq!(j["table"]["pressure"].as_array().unwrap().len(), 7);
+    let dir = scratch("bush");
+    let bad = dir.join("bad.toml");
+    let text = std::fs::read_to_string(example).unwrap();
+    std::fs::write(&bad, text.replace("poisson = 0.34", "poisson = 0.6").replace("length = 0.032", "length = -1.0"))
+        .unwrap();
+    let o = lash(&["bush", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bush.length") && stderr(&o).contains("bush.material.poisson"), "{}", stderr(&o));
+}
+
 #[test]
 fn reduced_options_reach_the_summary() {
     let dir = scratch("reduced_options");

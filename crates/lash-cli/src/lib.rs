@@ -19,6 +19,7 @@
 //! Exit codes: 0 success, 1 simulation or output failure, 2 invalid input.
 
 mod bench;
+mod bush;
 mod compare;
 mod fmu;
 mod output;
@@ -209,6 +210,16 @@ enum Command {
         /// `lash bench fmu`: also measure the FMU in a child process (isolated).
         #[arg(long)]
         isolate: bool,
+    },
+    /// Characterise a flexible bush by finite elements: bonded-pin and Hertz-pressure stiffness,
+    /// Kelvin–Voigt damping, interface von Mises stress against Hertz (the study's bush without a
+    /// file).
+    Bush {
+        /// A bush file (TOML: `[bush]` with radii, length, material, and `loads = [...]` in N).
+        file: Option<std::path::PathBuf>,
+        /// Print the table as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// Parameter sweep of a scenario into a Parquet dataset (data.parquet, params.parquet,
     /// manifest.json): parallel, resumable (re-run the same command), shardable.
@@ -419,6 +430,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             println!("{scenario}: valid ({kind}; {bodies} bodies, {joints} joints, {clearances} clearance joints)");
             Ok(())
         }
+        Command::Bush { file, json } => bush::run(file.as_deref(), json),
         Command::Scenarios => {
             for name in lash_scenario::builtin::NAMES {
                 let s = lash_scenario::builtin::by_name(name).expect("listed");
