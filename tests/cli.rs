@@ -251,8 +251,11 @@ fn bush_prints_the_fe_table_and_names_bad_fields() {
     let dir = scratch("bush");
     let bad = dir.join("bad.toml");
     let text = std::fs::read_to_string(example).unwrap();
-    std::fs::write(&bad, text.replace("poisson = 0.34", "poisson = 0.6").replace("length = 0.032", "length = -1.0"))
-        .unwrap();
+    std::fs::write(
+        &bad,
+        text.replace("poisson_ratio = 0.34", "poisson_ratio = 0.6").replace("length = 0.032", "length = -1.0"),
+    )
+    .unwrap();
     let o = lash(&["bush", bad.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("bush.length") && stderr(&o).contains("bush.material.poisson"), "{}", stderr(&o));

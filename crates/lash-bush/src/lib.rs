@@ -36,9 +36,9 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields)]
 pub struct BushMaterial {
     /// Young's modulus E [Pa].
-    pub young: f64,
+    pub young_modulus: f64,
     /// Poisson's ratio ν [-].
-    pub poisson: f64,
+    pub poisson_ratio: f64,
     /// Density ρ [kg/m³].
     pub density: f64,
     /// Shear viscosity η_s [Pa s].
@@ -49,8 +49,13 @@ pub struct BushMaterial {
 
 impl BushMaterial {
     /// Tin bronze with the viscosities of the flexible-bush study (300 and 900 Pa s).
-    pub const TIN_BRONZE: Self =
-        Self { young: 110e9, poisson: 0.34, density: 8800.0, shear_viscosity: 300.0, bulk_viscosity: 900.0 };
+    pub const TIN_BRONZE: Self = Self {
+        young_modulus: 110e9,
+        poisson_ratio: 0.34,
+        density: 8800.0,
+        shear_viscosity: 300.0,
+        bulk_viscosity: 900.0,
+    };
 }
 
 /// An elastic material (the pin's).
@@ -58,14 +63,14 @@ impl BushMaterial {
 #[serde(deny_unknown_fields)]
 pub struct Elastic {
     /// Young's modulus E [Pa].
-    pub young: f64,
+    pub young_modulus: f64,
     /// Poisson's ratio ν [-].
-    pub poisson: f64,
+    pub poisson_ratio: f64,
 }
 
 impl Elastic {
     /// Steel.
-    pub const STEEL: Self = Self { young: 210e9, poisson: 0.3 };
+    pub const STEEL: Self = Self { young_modulus: 210e9, poisson_ratio: 0.3 };
 }
 
 fn steel() -> Elastic {
@@ -134,12 +139,12 @@ impl BushSpec {
             );
         }
         for (name, m) in [
-            ("material", (self.material.young, self.material.poisson)),
-            ("pin_material", (self.pin_material.young, self.pin_material.poisson)),
+            ("material", (self.material.young_modulus, self.material.poisson_ratio)),
+            ("pin_material", (self.pin_material.young_modulus, self.pin_material.poisson_ratio)),
         ] {
-            positive(&mut p, &format!("{name}.young"), m.0, "Pa");
+            positive(&mut p, &format!("{name}.young_modulus"), m.0, "Pa");
             if !(m.1 > -1.0 && m.1 < 0.5) {
-                p.push(format!("{prefix}{name}.poisson"), format!("must lie in (−1, 0.5), got {}", m.1));
+                p.push(format!("{prefix}{name}.poisson_ratio"), format!("must lie in (−1, 0.5), got {}", m.1));
             }
         }
         positive(&mut p, "material.density", self.material.density, "kg/m^3");
@@ -156,7 +161,7 @@ impl BushSpec {
 
     /// Lamé parameters (λ, μ) of the bush.
     pub fn lame(&self) -> (f64, f64) {
-        lame(self.material.young, self.material.poisson)
+        lame(self.material.young_modulus, self.material.poisson_ratio)
     }
 
     /// The viscous constitutive matrix: λ_v = η_b − 2η_s/3, μ_v = η_s.
@@ -169,10 +174,10 @@ impl BushSpec {
     pub fn hertz(&self, load: f64) -> LineContact {
         let radius = hertz::effective_radius(self.pin_radius, self.inner_radius);
         let modulus = hertz::effective_modulus(
-            self.material.young,
-            self.material.poisson,
-            self.pin_material.young,
-            self.pin_material.poisson,
+            self.material.young_modulus,
+            self.material.poisson_ratio,
+            self.pin_material.young_modulus,
+            self.pin_material.poisson_ratio,
         );
         LineContact::new(load / self.length, radius, modulus)
     }
@@ -237,6 +242,41 @@ pub struct BushTable {
     pub unknowns: usize,
 }
 
+/// The bonded-pin case of `spec` (checked first): the stiffness and damping of a bushing whose
+/// bore fits its pin. Computed once per bush in a process (a run or a sweep builds the same
+/// bushing many times).
+pub fn bonded_pin(spec: &BushSpec) -> Result<BondedPin, SolveError> {
+    static CACHE: std::sync::Mutex<Vec<(BushSpec, BondedPin)>> = std::sync::Mutex::new(Vec::new());
+    let cached = |cache: &Vec<(BushSpec, BondedPin)>| cache.iter().find(|(s, _)| s == spec).map(|(_, b)| *b);
+    if let Some(hit) = cached(&CACHE.lock().unwrap_or_else(|e| e.into_inner())) {
+        return Ok(hit);
+    }
+    let problems = spec.check("");
+    if !problems.is_empty() {
+        return Err(SolveError(format!("the bush: {problems}")));
+    }
+    let b = bonded(spec, &AnnulusMesh::new(spec.inner_radius, spec.outer_radius, &spec.mesh))?;
+    CACHE.lock().unwrap_or_else(|e| e.into_inner()).push((*spec, b));
+    Ok(b)
+}
+
+/// The bonded pin translated by U along x on `mesh`.
+fn bonded(spec: &BushSpec, mesh: &AnnulusMesh) -> Result<BondedPin, SolveError> {
+    let (a, b, length) = (spec.inner_radius, spec.outer_radius, spec.length);
+    let (lambda, mu) = spec.lame();
+    let model = Annulus::new(mesh.clone(), plane_strain(lambda, mu), true)?;
+    let translation = 1e-6;
+    let per_ring = mesh.nodes_per_ring();
+    let u = model.solve(&|n| if n < per_ring { [translation, 0.0] } else { [0.0; 2] }, &[]);
+    let f = model.internal_forces(&u, 0..2);
+    let reaction: f64 = f[..per_ring].iter().map(|v| v[0]).sum();
+    Ok(BondedPin {
+        stiffness: reaction / translation * length,
+        stiffness_closed_form: bonded_stiffness_closed_form(mu, spec.material.poisson_ratio, a, b) * length,
+        damping: model.quadratic_form(&u, &spec.viscous_matrix()) / (translation * translation) * length,
+    })
+}
+
 /// Characterises `spec` (checked first) for the Hertz loads `loads` [N].
 pub fn characterise(spec: &BushSpec, loads: &[f64]) -> Result<BushTable, SolveError> {
     let problems = spec.check("");
@@ -252,23 +292,11 @@ pub fn characterise(spec: &BushSpec, loads: &[f64]) -> Result<BushTable, SolveEr
     let viscous = spec.viscous_matrix();
     let mesh = AnnulusMesh::new(a, b, &spec.mesh);
     let elements = mesh.radial_elements() * mesh.angular_elements();
-
-    // Bonded pin translated by U along x.
-    let bonded_model = Annulus::new(mesh.clone(), d, true)?;
-    let translation = 1e-6;
-    let per_ring = mesh.nodes_per_ring();
-    let u = bonded_model.solve(&|n| if n < per_ring { [translation, 0.0] } else { [0.0; 2] }, &[]);
-    let f = bonded_model.internal_forces(&u, 0..2);
-    let reaction: f64 = f[..per_ring].iter().map(|v| v[0]).sum();
-    let bonded = BondedPin {
-        stiffness: reaction / translation * length,
-        stiffness_closed_form: bonded_stiffness_closed_form(mu, spec.material.poisson, a, b) * length,
-        damping: bonded_model.quadratic_form(&u, &viscous) / (translation * translation) * length,
-    };
+    let bonded = bonded(spec, &mesh)?;
 
     // Hertz pressure at θ = 0, bore free: one factorisation for every load.
     let model = Annulus::new(mesh, d, false)?;
-    let (peak_per_p0, depth_per_b) = hertz::max_von_mises(spec.material.poisson);
+    let (peak_per_p0, depth_per_b) = hertz::max_von_mises(spec.material.poisson_ratio);
     let mut pressure = Vec::with_capacity(loads.len());
     for &load in loads {
         let contact = spec.hertz(load);

@@ -13,8 +13,8 @@ fn bonded_pin_stiffness_equals_the_closed_form() {
         outer_radius: 0.03,
         length: 0.05,
         material: BushMaterial {
-            young: 1e9,
-            poisson: 0.45,
+            young_modulus: 1e9,
+            poisson_ratio: 0.45,
             density: 1200.0,
             shear_viscosity: 1e5,
             bulk_viscosity: 3e5,
@@ -50,7 +50,7 @@ fn proportional_viscosity_gives_proportional_damping() {
 fn the_interface_stress_tends_to_the_half_space_maximum() {
     let spec = BushSpec::study();
     let t = characterise(&spec, &[100.0, 300.0, 1e3, 5e3, 2e4]).unwrap();
-    let (_, depth) = hertz::max_von_mises(spec.material.poisson);
+    let (_, depth) = hertz::max_von_mises(spec.material.poisson_ratio);
     let mut last = 0.0;
     for p in &t.pressure {
         let ratio = p.half_width / spec.inner_radius;
@@ -86,8 +86,8 @@ fn the_default_mesh_is_converged() {
 fn a_bad_bush_names_its_field() {
     let mut spec = BushSpec::study();
     spec.outer_radius = 0.005;
-    spec.material.poisson = 0.5;
+    spec.material.poisson_ratio = 0.5;
     let text = characterise(&spec, &[1e3]).unwrap_err().to_string();
-    assert!(text.contains("outer_radius") && text.contains("material.poisson"), "{text}");
+    assert!(text.contains("outer_radius") && text.contains("material.poisson_ratio"), "{text}");
     assert!(characterise(&BushSpec::study(), &[-1.0]).unwrap_err().to_string().contains("loads"));
 }

@@ -31,8 +31,8 @@ pub fn run(file: Option<&std::path::Path>, json: bool) -> Result<(), CliError> {
         b.outer_radius,
         b.length,
         b.pin_radius,
-        b.material.young,
-        b.material.poisson,
+        b.material.young_modulus,
+        b.material.poisson_ratio,
         b.material.shear_viscosity,
         b.material.bulk_viscosity
     );

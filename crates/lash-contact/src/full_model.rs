@@ -76,7 +76,8 @@ impl FullModel {
     }
 
     /// The mechanism with every clearance joint replaced by an ideal revolute joint at the bearing
-    /// centre (journal centred).
+    /// centre (journal centred), and every bushing by an ideal revolute joint (undeflected): the
+    /// consistent start of a run, and the reduced model's macro mechanism.
     pub fn ideal_mechanism(&self) -> Mechanism {
         let mut m = self.mechanism.clone();
         for c in &self.clearances {
@@ -89,17 +90,62 @@ impl FullModel {
                 point_j: c.bearing_point,
             });
         }
+        // Bushings closed too: their two points joined by an ideal revolute joint.
+        let mut k = 0;
+        m.loads.retain(|l| match *l {
+            lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, .. } => {
+                k += 1;
+                let joint =
+                    Joint { name: format!("bushing {k}"), kind: JointKind::Revolute, body_i, point_i, body_j, point_j };
+                m.joints.push(joint);
+                false
+            }
+            _ => true,
+        });
         m
     }
 
     /// Consistent initial state at `t0`: the ideal mechanism (journals centred) assembled from the
-    /// bodies' guesses and driven to its velocities. Resets contact modes and impact records.
+    /// bodies' guesses and driven to its velocities; bushings deflected by their quasi-static load
+    /// (the ideal joint's reaction over the stiffness), so that a stiff, lightly damped bush does
+    /// not ring from an unloaded start. Resets contact modes and impact records.
     pub fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, ModelError> {
-        let ideal = self.ideal_mechanism();
+        let mut ideal = self.ideal_mechanism();
         let mut solver = Solver::new(&ideal);
         let (mut q, mut qd) = kinematics::initial_guess(&ideal);
         assemble(&ideal, t0, &mut q, &mut solver, 1e-13)?;
         velocity_analysis(&ideal, t0, &q, &mut qd, &mut solver)?;
+        let stiffness: Vec<f64> = self
+            .mechanism
+            .loads
+            .iter()
+            .filter_map(|l| match *l {
+                lash_mech::Load::Bushing { stiffness, .. } => Some(stiffness),
+                _ => None,
+            })
+            .collect();
+        if !stiffness.is_empty() {
+            // The bushings' joints are the ideal mechanism's last ones (see ideal_mechanism).
+            solver.set_state(&ideal, t0, &q, &qd);
+            solver.factor()?;
+            solver.solve(&ideal, &qd);
+            let first = ideal.joints.len() - stiffness.len();
+            for (k, &stiff) in stiffness.iter().enumerate() {
+                // The bush carries the joint's force f on body i: −k d = f, d = p_i − p_j = −f / k.
+                // The joint then holds body i's point shifted by −A_iᵀ d on body j's point, which
+                // leaves the bush's own two points apart by d.
+                let deflection = -kinematics::joint_reaction(&ideal, &solver, first + k) / stiff;
+                let joint = &mut ideal.joints[first + k];
+                let pose = lash_mech::Pose::of(joint.body_i, &q, &qd);
+                let local = lash_mech::Vec2::new(
+                    pose.cos * deflection.x + pose.sin * deflection.y,
+                    -pose.sin * deflection.x + pose.cos * deflection.y,
+                );
+                joint.point_i -= local;
+            }
+            assemble(&ideal, t0, &mut q, &mut solver, 1e-13)?;
+            velocity_analysis(&ideal, t0, &q, &mut qd, &mut solver)?;
+        }
         q.extend_from_slice(&qd);
         self.reset(t0, &q);
         Ok(q)

@@ -33,7 +33,9 @@ pub use kinematics::{
     velocity_analysis,
 };
 pub use lash_core::Coupling;
-pub use model::{Baumgarte, Body, BodyId, Driver, Joint, JointKind, Load, Mechanism, Motion};
+pub use model::{
+    Baumgarte, Body, BodyId, BushingState, Driver, Joint, JointKind, Load, Mechanism, Motion, bushing_state,
+};
 pub use solver::{MechError, Solver};
 pub use subsystem::{MechanismSubsystem, Probe};
 

@@ -206,6 +206,51 @@ pub enum Load {
         /// Speed at which the torque vanishes [rad/s] (> 0).
         no_load_speed: f64,
     },
+    /// A bushing: a linear isotropic spring–damper joining a point of body i to a point of body
+    /// j (a revolute joint made flexible). The force on i is −k d − c ḋ with d = p_i − p_j the
+    /// separation of the two points; j takes the opposite force at its point.
+    Bushing {
+        /// Body carrying the first point (the journal's).
+        body_i: BodyId,
+        /// Its point (local) [m].
+        point_i: Vec2,
+        /// Body carrying the second point (the bore's).
+        body_j: BodyId,
+        /// Its point (local) [m].
+        point_j: Vec2,
+        /// Radial stiffness k [N/m].
+        stiffness: f64,
+        /// Radial damping c [N s/m].
+        damping: f64,
+    },
+}
+
+/// The state of a bushing: separation d = p_i − p_j, its rate, and the force on body i.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BushingState {
+    /// Separation of the two points [m].
+    pub deflection: Vec2,
+    /// Its rate [m/s].
+    pub deflection_rate: Vec2,
+    /// Force on body i (−k d − c ḋ) [N].
+    pub force: Vec2,
+}
+
+/// A bushing's state from the two bodies' poses (`pose_i`, `pose_j`).
+pub fn bushing_state(
+    pose_i: &crate::Pose,
+    point_i: Vec2,
+    pose_j: &crate::Pose,
+    point_j: Vec2,
+    stiffness: f64,
+    damping: f64,
+) -> (BushingState, Vec2, Vec2) {
+    let (ai, aj) = (pose_i.rotate(point_i), pose_j.rotate(point_j));
+    let deflection = pose_i.position + ai - pose_j.position - aj;
+    let velocity = |p: &crate::Pose, a: Vec2| p.velocity + Vec2::new(-a.y, a.x) * p.angular_velocity;
+    let deflection_rate = velocity(pose_i, ai) - velocity(pose_j, aj);
+    let force = -(deflection * stiffness + deflection_rate * damping);
+    (BushingState { deflection, deflection_rate, force }, ai, aj)
 }
 
 /// Baumgarte constraint stabilisation: Φ̈ + 2α Φ̇ + β² Φ = 0.
@@ -342,6 +387,15 @@ impl Mechanism {
                     check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
                     p.finite(format!("loads[{k}].stall_torque"), *stall_torque);
                     p.positive(format!("loads[{k}].no_load_speed"), *no_load_speed);
+                }
+                Load::Bushing { body_i, body_j, stiffness, damping, .. } => {
+                    check_body(&mut p, format!("loads[{k}].body_i"), *body_i);
+                    check_body(&mut p, format!("loads[{k}].body_j"), *body_j);
+                    if body_i == body_j {
+                        p.push(format!("loads[{k}].body_j"), "must differ from body_i");
+                    }
+                    p.positive(format!("loads[{k}].stiffness"), *stiffness);
+                    p.non_negative(format!("loads[{k}].damping"), *damping);
                 }
             }
         }

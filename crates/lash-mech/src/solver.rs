@@ -224,6 +224,13 @@ impl Solver {
                     let omega = self.poses[*body].angular_velocity;
                     self.forces[3 * body + 2] += stall_torque * (1.0 - omega / no_load_speed);
                 }
+                Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping } => {
+                    let (pi, pj) =
+                        (constraints::pose_of(&self.poses, *body_i), constraints::pose_of(&self.poses, *body_j));
+                    let (s, ai, aj) = crate::model::bushing_state(&pi, *point_i, &pj, *point_j, *stiffness, *damping);
+                    self.add_force(*body_i, ai, s.force);
+                    self.add_force(*body_j, aj, -s.force);
+                }
             }
         }
     }

@@ -53,11 +53,14 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
             angular_velocity: b.angular_velocity,
         })
         .collect();
-    let is_clearance = |j: &JointSpec| !options.ideal && s.clearances.iter().any(|c| c.joint == j.name);
+    let is_cut = |j: &JointSpec| {
+        !options.ideal
+            && (s.clearances.iter().any(|c| c.joint == j.name) || s.bushings.iter().any(|b| b.joint == j.name))
+    };
     let joints = s
         .joints
         .iter()
-        .filter(|j| !is_clearance(j))
+        .filter(|j| !is_cut(j))
         .map(|j| Joint {
             name: j.name.clone(),
             kind: match j.kind {
@@ -87,6 +90,19 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
         BodyId::Body(k) => k,
         BodyId::Ground => unreachable!("validated: loads act on moving bodies"),
     };
+    let bushings = s.bushings.iter().filter(|_| !options.ideal).map(|b| {
+        let j = s.joints.iter().find(|j| j.name == b.joint).expect("validated bushing joint");
+        // Validation computed (and kept) the bush's numbers: they cannot fail here.
+        let (stiffness, damping) = b.stiffness_damping().expect("validated bushing");
+        Load::Bushing {
+            body_i: id(&j.body1),
+            point_i: v2(j.point1),
+            body_j: id(&j.body2),
+            point_j: v2(j.point2),
+            stiffness,
+            damping,
+        }
+    });
     let loads = s
         .loads
         .iter()
@@ -99,6 +115,7 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                 Load::Motor { body: body_index(body), stall_torque: *stall_torque, no_load_speed: *no_load_speed }
             }
         })
+        .chain(bushings)
         .collect();
     let mechanism =
         Mechanism { bodies, joints, drivers, loads, gravity: v2(s.gravity), baumgarte: s.simulation.baumgarte };

@@ -8,6 +8,20 @@ use lash_mech::{BodyId, Mechanism, Solver, Vec2, driver_torque, kinematics, poin
 use lash_scenario::channels::{Channel, Source};
 use std::collections::BTreeMap;
 
+/// Quantity `quantity` (fx, fy, |f|, |d|) of the `k`-th bushing among the mechanism's loads.
+fn bushing_value(mech: &Mechanism, q: &[f64], qd: &[f64], k: usize, quantity: u8) -> f64 {
+    let bushing = mech.loads.iter().filter_map(|l| match *l {
+        lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping } => {
+            Some((body_i, point_i, body_j, point_j, stiffness, damping))
+        }
+        _ => None,
+    });
+    let Some((bi, pi, bj, pj, k_, c)) = bushing.clone().nth(k) else { return f64::NAN };
+    let (pose_i, pose_j) = (lash_mech::Pose::of(bi, q, qd), lash_mech::Pose::of(bj, q, qd));
+    let (s, _, _) = lash_mech::bushing_state(&pose_i, pi, &pose_j, pj, k_, c);
+    [s.force.x, s.force.y, s.force.norm(), s.deflection.norm()][quantity as usize]
+}
+
 /// Channel sampler with running statistics.
 pub(crate) struct Recorder<'a> {
     sources: &'a [(Channel, Source)],
@@ -88,6 +102,7 @@ impl<'a> Recorder<'a> {
                     if comp == 0 { r.x } else { r.y }
                 }
                 Source::ConstraintError => solver.constraint_error(),
+                Source::Bushing(k, quantity) => bushing_value(mech, q, qd, k, quantity),
             };
         }
         for (k, c) in contacts.iter().enumerate() {

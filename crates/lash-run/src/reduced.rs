@@ -84,6 +84,12 @@ fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
 impl ReducedRun {
     /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
+        if let Some(b) = scenario.bushings.first() {
+            return Err(RunError::Unsupported(format!(
+                "the reduced model does not take bushings yet (joint {:?}); run the full model",
+                b.joint
+            )));
+        }
         let max_joints = lash_contact::micro::MAX_COORDINATES / lash_contact::micro::PLANAR_JOINT_COORDINATES;
         if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
             return Err(RunError::Unsupported(format!(
@@ -158,7 +164,7 @@ impl ReducedRun {
                 }
                 Source::JointReaction(k, _) => Probe::JointReaction { name: joint_names[k].to_string(), joint: k },
                 Source::DriverTorque(k) => Probe::DriverTorque { name: scenario.drivers[k].name.clone(), driver: k },
-                Source::Clearance(..) | Source::ConstraintError => continue,
+                Source::Clearance(..) | Source::ConstraintError | Source::Bushing(..) => continue,
             };
             if !probes.contains(&probe) {
                 probes.push(probe);
@@ -490,5 +496,6 @@ fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: So
         Source::ConstraintError => {
             Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None }
         }
+        Source::Bushing(..) => unreachable!("ReducedRun::new refuses scenarios with bushings"),
     }
 }

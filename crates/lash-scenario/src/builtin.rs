@@ -27,7 +27,23 @@ pub const CRANK_SPEED: f64 = 5000.0 * 2.0 * std::f64::consts::PI / 60.0;
 pub const BEARING_RADIUS: f64 = 0.010;
 
 /// Names of the built-in scenarios.
-pub const NAMES: [&str; 9] = ["A", "A-200um", "A-motor", "B", "B-0.25mm", "B-0.1mm", "B-0.02mm", "B-frictionless", "C"];
+pub const NAMES: [&str; 15] = [
+    "A",
+    "A-200um",
+    "A-motor",
+    "B",
+    "B-0.25mm",
+    "B-0.1mm",
+    "B-0.02mm",
+    "B-frictionless",
+    "C",
+    "F",
+    "F-0.5mm",
+    "F-0.25mm",
+    "F-0.1mm",
+    "F-rigid-perfect",
+    "F-flexible-perfect",
+];
 
 /// The built-in scenario called `name`, if any.
 pub fn by_name(name: &str) -> Option<Scenario> {
@@ -40,6 +56,12 @@ pub fn by_name(name: &str) -> Option<Scenario> {
         "B-0.1mm" => scenario_b(0.1e-3),
         "B-0.02mm" => scenario_b(0.02e-3),
         "C" => scenario_c(),
+        "F" => scenario_f(FJoint::Clearance(1e-3)),
+        "F-0.5mm" => scenario_f(FJoint::Clearance(0.5e-3)),
+        "F-0.25mm" => scenario_f(FJoint::Clearance(0.25e-3)),
+        "F-0.1mm" => scenario_f(FJoint::Clearance(0.1e-3)),
+        "F-rigid-perfect" => scenario_f(FJoint::Ideal),
+        "F-flexible-perfect" => scenario_f(FJoint::Bush),
         "B-frictionless" => {
             let mut s = scenario_b(0.5e-3);
             s.name = "B-frictionless".into();
@@ -128,6 +150,7 @@ fn slider_crank(name: &str, description: &str) -> Scenario {
         }],
         loads: vec![],
         clearances: vec![],
+        bushings: vec![],
         sensors: vec![SensorSpec { name: "slider".into(), body: "slider".into(), point: [0.0, 0.0] }],
         simulation: SimulationSpec {
             start_time: 0.0,
@@ -198,6 +221,84 @@ pub fn scenario_c() -> Scenario {
     );
     s.clearances.push(clearance("crank_pivot", "crank", 100e-6, AMBROSIO));
     s.clearances.push(clearance("rod_slider", "slider", 100e-6, AMBROSIO));
+    s
+}
+
+/// The rod–slider joint of scenario F.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FJoint {
+    /// Rigid and perfect: an ideal revolute joint.
+    Ideal,
+    /// Rigid and imperfect: radial clearance c [m] (bore 10 mm + c around the 10 mm pin).
+    Clearance(f64),
+    /// Flexible and perfect: the bronze bush (bore 10 mm = pin, outer 20 mm, 32 mm long) by finite
+    /// elements, no clearance.
+    Bush,
+}
+
+const BRONZE: lash_bush::BushMaterial = lash_bush::BushMaterial::TIN_BRONZE;
+
+/// The bronze bush of scenario F around its 10 mm pin, bore `bore` [m].
+pub fn scenario_f_bush(bore: f64) -> lash_bush::BushSpec {
+    lash_bush::BushSpec { pin_radius: 0.010, inner_radius: bore, ..lash_bush::BushSpec::study() }
+}
+
+/// Scenario F: the crank–slider of the flexible-bush study at 3000 rpm (crank 0.14 m, 1.30 kg,
+/// 5e-2 kg m²; rod 0.32 m, 3.37 kg, 3.2e-2 kg m²; slider 2.2 kg), its rod–slider joint (the
+/// piston pin in a tin-bronze bush pressed into the rod's small end) ideal, with clearance, or
+/// flexible. The study prints the bush's radii as 0.10/0.11/0.20 m, which cannot fit a 0.14 m
+/// crank: they are read as 10/11/20 mm (1 mm radial clearance). No gravity (the study gives none;
+/// the inertia loads are 10³ times the weights).
+pub fn scenario_f(joint: FJoint) -> Scenario {
+    let (name, what) = match joint {
+        FJoint::Ideal => ("F-rigid-perfect".to_string(), "rigid and perfect (ideal revolute)".to_string()),
+        FJoint::Clearance(1e-3) => ("F".to_string(), "rigid with 1 mm radial clearance".to_string()),
+        FJoint::Clearance(c) => (format!("F-{}mm", c * 1e3), format!("rigid with {} mm radial clearance", c * 1e3)),
+        FJoint::Bush => (
+            "F-flexible-perfect".to_string(),
+            "flexible without clearance (the bronze bush by finite elements)".to_string(),
+        ),
+    };
+    let mut s = slider_crank(
+        &name,
+        &format!(
+            "Flexible-bush crank–slider (scenario F), 3000 rpm: crank 0.14 m, rod 0.32 m, slider 2.2 kg; the \
+             rod–slider joint (piston pin in a tin-bronze bush in the rod's small end) {what}."
+        ),
+    );
+    let (l1, l2) = (0.14, 0.32);
+    s.materials.insert(
+        "bronze".to_string(),
+        Material { young_modulus: BRONZE.young_modulus, poisson_ratio: BRONZE.poisson_ratio },
+    );
+    let masses = [(1.30, 5e-2, l1 / 2.0), (3.37, 3.2e-2, l1 + l2 / 2.0), (2.2, 1e-3, l1 + l2)];
+    for (b, (m, j, x)) in s.bodies.iter_mut().zip(masses) {
+        b.mass = m;
+        b.inertia = j;
+        b.position = [x, 0.0];
+    }
+    s.joints[0].point1 = [-l1 / 2.0, 0.0];
+    s.joints[1].point1 = [l1 / 2.0, 0.0];
+    s.joints[1].point2 = [-l2 / 2.0, 0.0];
+    s.joints[2].point2 = [l2 / 2.0, 0.0];
+    s.drivers[0].motion = Motion::ConstantSpeed { angle0: 0.0, omega: 3000.0 * 2.0 * std::f64::consts::PI / 60.0 };
+    s.simulation.horizon = 0.06;
+    match joint {
+        FJoint::Ideal => {}
+        FJoint::Clearance(c) => {
+            let mut spec = clearance("rod_slider", "slider", 0.0, AMBROSIO);
+            spec.journal_radius = 0.010;
+            spec.bearing_radius = 0.010 + c;
+            spec.bearing_material = Some("bronze".into());
+            s.clearances.push(spec);
+        }
+        FJoint::Bush => s.bushings.push(BushingSpec {
+            joint: "rod_slider".into(),
+            stiffness: None,
+            damping: None,
+            bush: Some(scenario_f_bush(0.010)),
+        }),
+    }
     s
 }
 

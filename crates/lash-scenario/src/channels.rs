@@ -24,7 +24,13 @@ pub enum Source {
     JointReaction(usize, u8),
     /// max |Φ|.
     ConstraintError,
+    /// Bushing k, quantity (see BUSHING_QUANTITIES).
+    Bushing(usize, u8),
 }
+
+/// The quantities of a bushing's channels: the force on the joint's body1 (x, y, magnitude) and
+/// the deflection |d| of the two joint points.
+pub const BUSHING_QUANTITIES: [(&str, &str); 4] = [("fx", "N"), ("fy", "N"), ("force", "N"), ("deflection", "m")];
 
 const SENSOR_QUANTITIES: [(&str, &str); 6] =
     [("x", "m"), ("y", "m"), ("vx", "m/s"), ("vy", "m/s"), ("ax", "m/s^2"), ("ay", "m/s^2")];
@@ -59,13 +65,18 @@ pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
                 out.push((Channel { name: format!("{}.{name}", c.joint), unit }, Source::Clearance(k, q as u8)));
             }
         }
+        for (k, b) in s.bushings.iter().enumerate() {
+            for (q, (name, unit)) in BUSHING_QUANTITIES.iter().enumerate() {
+                out.push((Channel { name: format!("{}.{name}", b.joint), unit }, Source::Bushing(k, q as u8)));
+            }
+        }
     }
     for (k, d) in s.drivers.iter().enumerate() {
         out.push((Channel { name: format!("{}.torque", d.name), unit: "N m" }, Source::DriverTorque(k)));
     }
     let mut k = 0;
     for j in &s.joints {
-        if !ideal && s.clearances.iter().any(|c| c.joint == j.name) {
+        if !ideal && (s.clearances.iter().any(|c| c.joint == j.name) || s.bushings.iter().any(|b| b.joint == j.name)) {
             continue;
         }
         if j.kind == crate::schema::JointType::Revolute {

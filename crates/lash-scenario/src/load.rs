@@ -6,7 +6,7 @@ use serde::de::DeserializeOwned;
 use std::collections::HashSet;
 
 /// Top-level keys of a scenario file.
-const TOP_KEYS: [&str; 12] = [
+const TOP_KEYS: [&str; 13] = [
     "name",
     "description",
     "gravity",
@@ -16,6 +16,7 @@ const TOP_KEYS: [&str; 12] = [
     "drivers",
     "loads",
     "clearances",
+    "bushings",
     "sensors",
     "simulation",
     "output",
@@ -213,6 +214,7 @@ pub fn parse(text: &str) -> Result<Scenario, Problems> {
     array::<DriverSpec>(&table, "drivers", &mut problems);
     array::<LoadSpec>(&table, "loads", &mut problems);
     array::<ClearanceSpec>(&table, "clearances", &mut problems);
+    array::<BushingSpec>(&table, "bushings", &mut problems);
     array::<SensorSpec>(&table, "sensors", &mut problems);
     let structural_ok = problems.0.len() == structural_before && problems.is_empty();
 
@@ -580,8 +582,68 @@ fn cross_check(s: &Scenario) -> Problems {
             }
         }
     }
+    let mut bushing_joints = HashSet::new();
+    for (k, b) in s.bushings.iter().enumerate() {
+        let f = |x: &str| format!("bushings[{k}].{x}");
+        match s.joints.iter().find(|j| j.name == b.joint) {
+            None => p.push(f("joint"), format!("no joint called {:?}", b.joint)),
+            Some(j) if j.kind != JointType::Revolute => {
+                p.push(f("joint"), format!("joint {:?} is not revolute; only revolute joints take a bush", b.joint))
+            }
+            Some(_) => {}
+        }
+        if clearance_joints.contains(b.joint.as_str()) {
+            p.push(
+                f("joint"),
+                format!(
+                    "joint {:?} has a clearance: contact in series with a flexible bush is not there yet (give the \
+                     joint either a clearance or a bushing)",
+                    b.joint
+                ),
+            );
+        }
+        if !bushing_joints.insert(b.joint.as_str()) {
+            p.push(f("joint"), format!("joint {:?} already has a bushing", b.joint));
+        }
+        match (&b.bush, b.stiffness) {
+            (Some(_), Some(_)) => p.push(f("stiffness"), "give either stiffness or bush, not both"),
+            (None, None) => p.push(f("stiffness"), "missing: give stiffness [N/m] (and damping) or a bush"),
+            (None, Some(k)) => {
+                if !(k > 0.0 && k.is_finite()) {
+                    p.push(f("stiffness"), format!("must be > 0 N/m, got {k}"));
+                }
+            }
+            (Some(bush), None) => {
+                let problems = bush.check(&f("bush."));
+                if problems.is_empty()
+                    && let Err(e) = b.stiffness_damping()
+                {
+                    p.push(f("bush"), e);
+                }
+                p.0.extend(problems.0);
+                if bush.inner_radius != bush.pin_radius {
+                    p.push(
+                        f("bush.inner_radius"),
+                        format!(
+                            "a bushing's bore fits its pin (inner_radius = pin_radius = {} m); a bore with clearance \
+                             (contact in series with the bush) is not there yet",
+                            bush.pin_radius
+                        ),
+                    );
+                }
+                if b.damping.is_some() {
+                    p.push(f("damping"), "comes from the bush's viscosities: give it only with stiffness");
+                }
+            }
+        }
+        if let Some(c) = b.damping
+            && !(c >= 0.0 && c.is_finite())
+        {
+            p.push(f("damping"), format!("must be ≥ 0 N s/m, got {c}"));
+        }
+    }
     let coords = 3 * s.bodies.len();
-    let equations = 2 * s.joints.len() + s.drivers.len();
+    let equations = 2 * s.joints.len().saturating_sub(s.bushings.len()) + s.drivers.len();
     if equations > coords {
         p.push("joints", format!("{equations} constraint equations for {coords} coordinates: over-constrained"));
     }

@@ -35,6 +35,9 @@ pub struct Scenario {
     /// Clearance joints.
     #[serde(default)]
     pub clearances: Vec<ClearanceSpec>,
+    /// Revolute joints made flexible by a bush (no clearance).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bushings: Vec<BushingSpec>,
     /// Body points whose position, velocity and acceleration are output.
     #[serde(default)]
     pub sensors: Vec<SensorSpec>,
@@ -179,6 +182,42 @@ pub struct ClearanceSpec {
     /// Friction law (default: none).
     #[serde(default)]
     pub friction: FrictionLaw,
+}
+
+/// Makes the revolute joint `joint` flexible: its two points are joined by a linear isotropic
+/// spring–damper (a bush pressed in one body around a pin of the other, without clearance) instead
+/// of the ideal constraint. The stiffness and damping are given, or computed from the bush by
+/// finite elements (the bonded-pin case of `lash bush`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BushingSpec {
+    /// Name of a revolute joint in `joints`.
+    pub joint: String,
+    /// Radial stiffness [N/m] (instead of `bush`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<f64>,
+    /// Radial damping [N s/m] (with `stiffness`; 0 unless given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<f64>,
+    /// The bush, characterised by finite elements (instead of `stiffness`): its bore must fit the
+    /// pin (inner_radius = pin_radius).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bush: Option<lash_bush::BushSpec>,
+}
+
+impl BushingSpec {
+    /// (stiffness [N/m], damping [N s/m]): as given, or the bush's bonded-pin values by finite
+    /// elements (computed once per bush in a process).
+    pub fn stiffness_damping(&self) -> Result<(f64, f64), String> {
+        match (&self.bush, self.stiffness) {
+            (Some(bush), _) => {
+                let b = lash_bush::bonded_pin(bush).map_err(|e| format!("bushing {:?}: {e}", self.joint))?;
+                Ok((b.stiffness, b.damping))
+            }
+            (None, Some(k)) => Ok((k, self.damping.unwrap_or(0.0))),
+            (None, None) => Err(format!("bushing {:?}: give stiffness or bush", self.joint)),
+        }
+    }
 }
 
 /// A body point to observe.

@@ -1,0 +1,141 @@
+//! Bushings (revolute joints made flexible by a bush) in the full model, and scenario F's joint
+//! configurations: a static closed form, the quasi-static limit against the rigid mechanism, the
+//! stiff limit, and clear errors.
+
+mod common;
+use common::{column, rows};
+use lash_run::{BuildOptions, FullRun};
+use lash_scenario::builtin;
+
+/// A 2 kg body hanging in gravity from a bushing (k = 1e6 N/m) at its centroid: it starts and
+/// stays at the static deflection m g / k, and the bush carries m g.
+#[test]
+fn a_body_on_a_bushing_rests_at_its_static_deflection() {
+    let text = r#"
+name = "hanging"
+gravity = [0.0, -9.81]
+[[bodies]]
+name = "block"
+mass = 2.0
+inertia = 0.01
+position = [0.0, 0.0]
+[[joints]]
+name = "pin"
+type = "revolute"
+body1 = "block"
+point1 = [0.0, 0.0]
+body2 = "ground"
+point2 = [0.0, 0.0]
+[[bushings]]
+joint = "pin"
+stiffness = 1e6
+damping = 10.0
+[[sensors]]
+name = "block"
+body = "block"
+[simulation]
+horizon = 0.05
+output_interval = 1e-3
+[simulation.integrator]
+method = "dop853"
+rtol = 1e-10
+atol = 1e-14
+initial_step = 1e-6
+max_step = 1e-3
+min_step = 1e-14
+"#;
+    let s = lash_scenario::parse(text).unwrap();
+    let (_, header, rows) = rows(&mut FullRun::new(&s, BuildOptions::default()));
+    let (y, force, deflection) =
+        (column(&header, "block.y"), column(&header, "pin.force"), column(&header, "pin.deflection"));
+    let static_deflection = 2.0 * 9.81 / 1e6;
+    for r in &rows {
+        assert!((r[y] + static_deflection).abs() < 1e-9 * static_deflection, "t = {}: y = {}", r[0], r[y]);
+        assert!((r[deflection] / static_deflection - 1.0).abs() < 1e-9);
+        assert!((r[force] / (2.0 * 9.81) - 1.0).abs() < 1e-9, "t = {}: {}", r[0], r[force]);
+    }
+}
+
+/// The column `name` of every row.
+fn series(header: &[String], rows: &[Vec<f64>], name: &str) -> Vec<f64> {
+    let k = column(header, name);
+    rows.iter().map(|r| r[k]).collect()
+}
+
+/// Scenario F with its bronze bush (20 kHz against a 50 Hz crank) follows the rigid mechanism
+/// quasi-statically: the bush's force is the rigid joint's reaction (the load's harmonics excite it
+/// far below resonance), its deflection is that force over the FE stiffness, and the crank
+/// torque is the rigid one, to 0.2 % of their peaks. What is left is the ringing the start leaves:
+/// the bush starts deflected by its load but not at its load's rate ḟ/k, so it rings with a
+/// force amplitude ḟ/ω_n ∝ k^(−1/2), undamped (ζ ≈ 1e-6): a ten times stiffer bush comes
+/// √10 closer.
+#[test]
+fn the_flexible_crank_slider_follows_the_rigid_one_quasi_statically() {
+    // Tight tolerances: a position error ε of the integrator is a bush force error k ε.
+    let tight = |mut s: lash_scenario::Scenario| {
+        s.simulation.integrator = lash_ode::Method::Dop853(lash_ode::AdaptiveOptions {
+            rtol: 1e-11,
+            atol: 1e-14,
+            initial_step: 1e-7,
+            max_step: 1e-4,
+            min_step: 1e-14,
+        });
+        s
+    };
+    let rigid = tight(builtin::by_name("F-rigid-perfect").unwrap());
+    let (_, hr, rr) = rows(&mut FullRun::new(&rigid, BuildOptions::default()));
+    let (fx, fy) = (series(&hr, &rr, "rod_slider.fx"), series(&hr, &rr, "rod_slider.fy"));
+    let reaction: Vec<f64> = fx.iter().zip(&fy).map(|(x, y)| x.hypot(*y)).collect();
+    let torque = series(&hr, &rr, "motor.torque");
+    let peak = reaction.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let torque_peak = torque.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let flexible = tight(builtin::by_name("F-flexible-perfect").unwrap());
+    let stiffness = flexible.bushings[0].stiffness_damping().unwrap().0;
+    let worst = |s: &lash_scenario::Scenario| {
+        let (_, h, r) = rows(&mut FullRun::new(s, BuildOptions::default()));
+        let (force, deflection) = (series(&h, &r, "rod_slider.force"), series(&h, &r, "rod_slider.deflection"));
+        let k = s.bushings[0].stiffness_damping().unwrap().0;
+        for (f, d) in force.iter().zip(&deflection) {
+            // The damping part is below 1e-6 of the force: the force is k |d|.
+            assert!((f - k * d).abs() <= 1e-5 * peak, "{f} vs {}", k * d);
+        }
+        let t = series(&h, &r, "motor.torque");
+        let force_error = force.iter().zip(&reaction).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / peak;
+        let torque_error = t.iter().zip(&torque).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / torque_peak;
+        eprintln!(
+            "k = {k:e} N/m: largest differences from the rigid joint {force_error:e} (force), {torque_error:e} (torque) of the peaks"
+        );
+        (force_error, torque_error)
+    };
+    let (force_error, torque_error) = worst(&flexible);
+    assert!(force_error < 2e-3 && torque_error < 2e-3, "{force_error} {torque_error}");
+    let mut stiffer = flexible.clone();
+    stiffer.bushings[0].bush = None;
+    stiffer.bushings[0].stiffness = Some(10.0 * stiffness);
+    stiffer.bushings[0].damping = Some(flexible.bushings[0].stiffness_damping().unwrap().1);
+    let (force_error_10, torque_error_10) = worst(&stiffer);
+    let expected = 10f64.sqrt().recip();
+    for (a, b) in [(force_error, force_error_10), (torque_error, torque_error_10)] {
+        assert!((b / a / expected - 1.0).abs() < 0.25, "{a} → {b}: ratio {} against {expected}", b / a);
+    }
+}
+
+/// What a bushing cannot be, each with its field; the reduced model refuses bushings.
+#[test]
+fn bad_bushings_are_clear_errors() {
+    let mut s = builtin::by_name("F-flexible-perfect").unwrap();
+    s.bushings[0].stiffness = Some(1e9);
+    let text = format!("{}", lash_scenario::validate(&s));
+    assert!(text.contains("bushings[0].stiffness") && text.contains("not both"), "{text}");
+    let mut s = builtin::by_name("F-flexible-perfect").unwrap();
+    s.bushings[0].bush.as_mut().unwrap().inner_radius = 0.011;
+    let text = format!("{}", lash_scenario::validate(&s));
+    assert!(text.contains("bushings[0].bush.inner_radius") && text.contains("clearance"), "{text}");
+    let mut s = builtin::by_name("F").unwrap();
+    s.bushings.push(builtin::by_name("F-flexible-perfect").unwrap().bushings[0].clone());
+    let text = format!("{}", lash_scenario::validate(&s));
+    assert!(text.contains("bushings[0].joint") && text.contains("has a clearance"), "{text}");
+    let s = builtin::by_name("F-flexible-perfect").unwrap();
+    let e = lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).err().unwrap();
+    assert!(e.to_string().contains("bushings"), "{e}");
+}
