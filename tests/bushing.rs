@@ -135,6 +135,12 @@ fn bad_bushings_are_clear_errors() {
     s.bushings.push(builtin::by_name("F-flexible-perfect").unwrap().bushings[0].clone());
     let text = format!("{}", lash_scenario::validate(&s));
     assert!(text.contains("bushings[0].joint") && text.contains("has a clearance"), "{text}");
+    let mut s = builtin::by_name("F-flexible-imperfect").unwrap();
+    s.clearances[0].bearing_material = Some("bronze".into());
+    s.clearances[0].bush.as_mut().unwrap().inner_radius = 0.0105;
+    let text = format!("{}", lash_scenario::validate(&s));
+    assert!(text.contains("clearances[0].bearing_material") && text.contains("bush's"), "{text}");
+    assert!(text.contains("clearances[0].bush.inner_radius") && text.contains("bearing radius"), "{text}");
     let s = builtin::by_name("F-flexible-perfect").unwrap();
     let e = lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).err().unwrap();
     assert!(e.to_string().contains("bushings"), "{e}");

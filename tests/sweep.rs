@@ -292,7 +292,7 @@ fn pandas_reads_the_dataset_and_a_dask_cluster_reproduces_it() {
 #[test]
 fn the_example_sweeps_run() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for name in ["sweep-grid", "sweep-lhs"] {
+    for name in ["sweep-grid", "sweep-lhs", "sweep-bush"] {
         let out = scratch(name).join("out");
         let o = run_sweep(&root.join(format!("examples/{name}.toml")), &out, &[]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));

@@ -27,6 +27,9 @@ pub struct ClearanceJoint {
     pub law: NormalForce,
     /// Friction law.
     pub friction: FrictionLaw,
+    /// Radial stiffness of a flexible bush in series with the contact [N/m] (the bush's structural
+    /// stiffness; the contact law keeps the local indentation); infinite: a rigid bearing.
+    pub bush_stiffness: f64,
     /// Discrete state: contact closed (δ > 0 since the last located onset).
     pub in_contact: bool,
     /// Discrete state: approach velocity δ̇⁻ captured at the last onset [m/s].
@@ -97,7 +100,11 @@ impl ClearanceJoint {
         let delta = norm - self.radial_clearance();
         let delta_dot = e_dot.dot(&n);
         let slip = e_dot.dot(&t) + omega_journal * self.journal_radius - omega_bearing * self.bearing_radius;
-        let fn_ = self.law.force(delta, delta_dot, onset);
+        let fn_ = if self.bush_stiffness.is_finite() {
+            self.law.force_in_series(delta, delta_dot, onset, self.bush_stiffness)
+        } else {
+            self.law.force(delta, delta_dot, onset)
+        };
         // No normal force, no friction (skips the friction law in free flight).
         let ft = if fn_ > 0.0 { self.friction.coefficient(slip) * fn_ } else { 0.0 };
         ContactState {
@@ -351,6 +358,7 @@ mod tests {
             bearing_radius: 0.01,
             law: NormalForce::Power { stiffness: 1e10, exponent: 1.0 },
             friction: FrictionLaw::Coulomb { coefficient: 0.1 },
+            bush_stiffness: f64::INFINITY,
             in_contact: true,
             onset_velocity: 1.0,
         };

@@ -211,6 +211,66 @@ impl NormalForce {
     }
 }
 
+impl NormalForce {
+    /// The normal force of this contact in series with a spring of stiffness `series` [N/m] (a
+    /// flexible bush behind the bearing surface): the approach δ splits into the contact's own
+    /// indentation δ_c and the bush's deflection F/k, F = force(δ_c, δ̇_c) with δ_c = δ − F/k. The
+    /// rate splits as the quasi-static series would: δ̇_c = δ̇ k / (k + k_c), k_c the contact's
+    /// elastic tangent stiffness at δ_c. An infinite `series` is the contact alone.
+    pub fn force_in_series(&self, delta: f64, delta_dot: f64, onset: f64, series: f64) -> f64 {
+        if !series.is_finite() || delta <= 0.0 {
+            return self.force(delta, delta_dot, onset);
+        }
+        let elastic = |d: f64| self.force(d, 0.0, onset);
+        let contact = solve_series(delta, series, elastic);
+        let dc = delta - contact / series;
+        let h = 1e-4 * dc.max(f64::MIN_POSITIVE);
+        let tangent = ((elastic(dc + h) - elastic(dc - h)) / (2.0 * h)).max(0.0);
+        let rate = delta_dot * series / (series + tangent);
+        solve_series(delta, series, |d| self.force(d, rate, onset))
+    }
+}
+
+/// The F ≥ 0 with F = f(δ − F/k): f is increasing in its argument and f(x ≤ 0) = 0, so
+/// g(F) = F − f(δ − F/k) increases from −f(δ) at 0 to ≥ 0 at f(δ); the root by the Illinois
+/// (regula falsi) method, to a relative 1e-13.
+fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> f64) -> f64 {
+    let hi0 = f(delta);
+    if hi0 <= 0.0 {
+        return 0.0;
+    }
+    let g = |x: f64| x - f(delta - x / k);
+    let (mut a, mut b) = (0.0, hi0);
+    let (mut ga, mut gb) = (g(a), g(b));
+    if gb <= 0.0 {
+        return b;
+    }
+    let mut side = 0;
+    for _ in 0..200 {
+        let c = (a * gb - b * ga) / (gb - ga);
+        let gc = g(c);
+        if gc == 0.0 || (b - a).abs() <= 1e-13 * hi0 {
+            return c;
+        }
+        if gc > 0.0 {
+            b = c;
+            gb = gc;
+            if side == 1 {
+                ga *= 0.5;
+            }
+            side = 1;
+        } else {
+            a = c;
+            ga = gc;
+            if side == -1 {
+                gb *= 0.5;
+            }
+            side = -1;
+        }
+    }
+    0.5 * (a + b)
+}
+
 /// δⁿ with a fast path for the common n = 1.5 (no powf in the hot loop).
 #[inline]
 fn pow(delta: f64, n: f64) -> f64 {
@@ -343,6 +403,43 @@ mod tests {
         let expected = 4.0 / 3.0 * e_star * 0.19f64.sqrt();
         assert!((k - expected).abs() < 1e-6 * expected);
         assert!((k / 6.61e10 - 1.0).abs() < 2e-3);
+    }
+
+    /// The series force against an independent solve: bisection on F = f(δ − F/k, δ̇_c) written
+    /// out here, with the rate split δ̇_c = δ̇ k/(k + k_c) from the Hertz tangent in closed form
+    /// (k_c = 1.5 K δ_c^0.5); and the two limits (a stiff series spring is the contact alone, a
+    /// soft one carries F ≈ k δ).
+    #[test]
+    fn a_contact_in_series_with_a_bush_splits_the_approach() {
+        let (stiff, chi, floor) = (5e9, 0.3, 1e-5);
+        let law = NormalForce::Hysteresis { stiffness: stiff, exponent: 1.5, chi, floor };
+        let (delta, rate, onset) = (2e-6, 0.05, 0.2);
+        for k in [1e7, 1e9, 3e10, 1e13] {
+            let f = law.force_in_series(delta, rate, onset, k);
+            // Independent: bisection for the elastic split, then the closed-form tangent.
+            let bisect = |g: &dyn Fn(f64) -> f64| {
+                let (mut a, mut b) = (0.0, stiff * delta.powf(1.5) * 10.0);
+                for _ in 0..300 {
+                    let c = 0.5 * (a + b);
+                    if g(c) > 0.0 { b = c } else { a = c }
+                }
+                0.5 * (a + b)
+            };
+            let elastic = bisect(&|x| x - stiff * (delta - x / k).max(0.0).powf(1.5));
+            let dc = delta - elastic / k;
+            let tangent = 1.5 * stiff * dc.sqrt();
+            let rc = rate * k / (k + tangent);
+            let expected = bisect(&|x| {
+                let d = (delta - x / k).max(0.0);
+                x - stiff * d.powf(1.5) * (1.0 + chi * rc / onset.max(floor))
+            });
+            assert!((f / expected - 1.0).abs() < 1e-9, "k = {k}: {f} against {expected}");
+        }
+        let alone = law.force(delta, rate, onset);
+        assert!((law.force_in_series(delta, rate, onset, 1e16) / alone - 1.0).abs() < 1e-6);
+        assert_eq!(law.force_in_series(delta, rate, onset, f64::INFINITY), alone);
+        assert!((law.force_in_series(delta, rate, onset, 1.0) / delta - 1.0).abs() < 1e-3);
+        assert_eq!(law.force_in_series(-1e-6, rate, onset, 1e9), 0.0);
     }
 
     #[test]

@@ -39,6 +39,7 @@ fn free_journal(law: &ContactLaw, friction: FrictionLaw, velocity: Vec2) -> Full
         bearing_radius: R_B,
         law: law.resolve(&Material::STEEL, &Material::STEEL, R_J, R_B),
         friction,
+        bush_stiffness: f64::INFINITY,
         in_contact: false,
         onset_velocity: 0.0,
     };

@@ -19,7 +19,11 @@ pub fn clearance_definition(s: &Scenario, c: &ClearanceSpec) -> lash_contact::Cl
         contact: c.contact.clone(),
         friction: c.friction,
         journal_material: material(&c.journal_material),
-        bearing_material: material(&c.bearing_material),
+        // A bush is the bearing's surface: its material is the bearing's.
+        bearing_material: match &c.bush {
+            Some(b) => Material { young_modulus: b.material.young_modulus, poisson_ratio: b.material.poisson_ratio },
+            None => material(&c.bearing_material),
+        },
     }
 }
 
@@ -141,6 +145,11 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                     bearing_radius: c.bearing_radius,
                     law: clearance_definition(s, c).normal_force(),
                     friction: c.friction,
+                    // Validation computed (and kept) the bush's numbers: they cannot fail here.
+                    bush_stiffness: c
+                        .bush
+                        .as_ref()
+                        .map_or(f64::INFINITY, |b| lash_bush::bonded_pin(b).expect("validated bush").stiffness),
                     in_contact: false,
                     onset_velocity: 0.0,
                 }

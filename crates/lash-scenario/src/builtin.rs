@@ -27,7 +27,7 @@ pub const CRANK_SPEED: f64 = 5000.0 * 2.0 * std::f64::consts::PI / 60.0;
 pub const BEARING_RADIUS: f64 = 0.010;
 
 /// Names of the built-in scenarios.
-pub const NAMES: [&str; 15] = [
+pub const NAMES: [&str; 16] = [
     "A",
     "A-200um",
     "A-motor",
@@ -43,6 +43,7 @@ pub const NAMES: [&str; 15] = [
     "F-0.1mm",
     "F-rigid-perfect",
     "F-flexible-perfect",
+    "F-flexible-imperfect",
 ];
 
 /// The built-in scenario called `name`, if any.
@@ -62,6 +63,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
         "F-0.1mm" => scenario_f(FJoint::Clearance(0.1e-3)),
         "F-rigid-perfect" => scenario_f(FJoint::Ideal),
         "F-flexible-perfect" => scenario_f(FJoint::Bush),
+        "F-flexible-imperfect" => scenario_f(FJoint::BushWithClearance(1e-3)),
         "B-frictionless" => {
             let mut s = scenario_b(0.5e-3);
             s.name = "B-frictionless".into();
@@ -178,6 +180,7 @@ fn clearance(joint: &str, journal: &str, c: f64, friction: FrictionLaw) -> Clear
             velocity_floor: 1e-5,
         }),
         friction,
+        bush: None,
     }
 }
 
@@ -234,6 +237,9 @@ pub enum FJoint {
     /// Flexible and perfect: the bronze bush (bore 10 mm = pin, outer 20 mm, 32 mm long) by finite
     /// elements, no clearance.
     Bush,
+    /// Flexible and imperfect: radial clearance c [m] in the bronze bush (bore 10 mm + c), the
+    /// contact in series with the bush's structural stiffness.
+    BushWithClearance(f64),
 }
 
 const BRONZE: lash_bush::BushMaterial = lash_bush::BushMaterial::TIN_BRONZE;
@@ -257,6 +263,10 @@ pub fn scenario_f(joint: FJoint) -> Scenario {
         FJoint::Bush => (
             "F-flexible-perfect".to_string(),
             "flexible without clearance (the bronze bush by finite elements)".to_string(),
+        ),
+        FJoint::BushWithClearance(c) => (
+            "F-flexible-imperfect".to_string(),
+            format!("flexible with {} mm radial clearance (contact in series with the bronze bush)", c * 1e3),
         ),
     };
     let mut s = slider_crank(
@@ -290,6 +300,14 @@ pub fn scenario_f(joint: FJoint) -> Scenario {
             spec.journal_radius = 0.010;
             spec.bearing_radius = 0.010 + c;
             spec.bearing_material = Some("bronze".into());
+            s.clearances.push(spec);
+        }
+        FJoint::BushWithClearance(c) => {
+            let mut spec = clearance("rod_slider", "slider", 0.0, AMBROSIO);
+            spec.journal_radius = 0.010;
+            spec.bearing_radius = 0.010 + c;
+            spec.bearing_material = None;
+            spec.bush = Some(scenario_f_bush(0.010 + c));
             s.clearances.push(spec);
         }
         FJoint::Bush => s.bushings.push(BushingSpec {

@@ -566,13 +566,35 @@ fn cross_check(s: &Scenario) -> Problems {
         if !clearance_joints.insert(c.joint.as_str()) {
             p.push(f("joint"), format!("joint {:?} already has a clearance", c.joint));
         }
+        if let Some(bush) = &c.bush {
+            let problems = bush.check(&f("bush."));
+            if c.bearing_material.is_some() {
+                p.push(f("bearing_material"), "leave it out: with a bush, the bearing's material is the bush's");
+            }
+            if bush.inner_radius != c.bearing_radius {
+                p.push(
+                    f("bush.inner_radius"),
+                    format!("must be the bearing radius {} m (the bush's bore is the bearing)", c.bearing_radius),
+                );
+            }
+            if bush.pin_radius != c.journal_radius {
+                p.push(f("bush.pin_radius"), format!("must be the journal radius {} m", c.journal_radius));
+            }
+            if problems.is_empty()
+                && let Err(e) = lash_bush::bonded_pin(bush)
+            {
+                p.push(f("bush"), e.to_string());
+            }
+            p.0.extend(problems.0);
+        }
         let needs_materials = c.contact.needs_materials();
-        for (field, m) in [("journal_material", &c.journal_material), ("bearing_material", &c.bearing_material)] {
+        let bearing = if c.bush.is_some() { &None } else { &c.bearing_material };
+        for (field, m) in [("journal_material", &c.journal_material), ("bearing_material", bearing)] {
             match m {
                 Some(name) if !s.materials.contains_key(name) => {
                     p.push(f(field), format!("no material called {name:?} in [materials]"));
                 }
-                None if needs_materials => {
+                None if needs_materials && !(field == "bearing_material" && c.bush.is_some()) => {
                     p.push(
                         f(field),
                         "missing: the contact law takes its stiffness from the materials (or give contact.stiffness)",

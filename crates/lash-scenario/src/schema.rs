@@ -182,6 +182,11 @@ pub struct ClearanceSpec {
     /// Friction law (default: none).
     #[serde(default)]
     pub friction: FrictionLaw,
+    /// A flexible bush whose bore is the bearing (flexible-imperfect joint): its structural
+    /// (bonded-pin) stiffness by finite elements acts in series with the contact law. Its
+    /// `inner_radius` must be `bearing_radius` and its `pin_radius` `journal_radius`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bush: Option<lash_bush::BushSpec>,
 }
 
 /// Makes the revolute joint `joint` flexible: its two points are joined by a linear isotropic

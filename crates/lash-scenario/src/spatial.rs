@@ -489,6 +489,9 @@ fn cross_check(s: &SpatialScenario) -> Problems {
     let mut clearance_joints = HashSet::new();
     for (k, c) in s.clearances.iter().enumerate() {
         let f = |x: &str| format!("clearances[{k}].{x}");
+        if c.bush.is_some() {
+            p.push(f("bush"), "a flexible bush behind a spherical clearance is not there yet (planar joints only)");
+        }
         match s.joints.iter().find(|j| j.name == c.joint) {
             None => p.push(f("joint"), format!("no joint called {:?}", c.joint)),
             Some(j) => {

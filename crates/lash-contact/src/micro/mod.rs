@@ -800,6 +800,7 @@ mod tests {
             bearing_radius: 0.01,
             law: NormalForce::Hysteresis { stiffness: 1e10, exponent: 1.5, chi: 0.2, floor: 1e-5 },
             friction: FrictionLaw::None,
+            bush_stiffness: f64::INFINITY,
             in_contact: false,
             onset_velocity: 0.0,
         }
