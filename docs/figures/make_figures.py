@@ -117,4 +117,29 @@ axes[0][1].legend(fontsize=8)
 fig.suptitle("E: housing acceleration spectra (500 Hz logger, Hann window over the second revolution)")
 fig.tight_layout()
 fig.savefig("docs/figures/E_spectra.png", dpi=110)
+
+# Scenario F (flexible-bush study): crank torque and rod–slider force over the second and third
+# revolutions for the four joint configurations.
+configs = [
+    ("F-rigid-perfect", "rigid, perfect", "-"),
+    ("F-flexible-perfect", "flexible (bronze bush), perfect", "--"),
+    ("F", "rigid, 1 mm clearance", "-"),
+    ("F-flexible-imperfect", "flexible (bronze bush), 1 mm clearance", "-"),
+]
+fig, axes = plt.subplots(2, 1, figsize=(11, 6.4), sharex=True)
+for name, label, style in configs:
+    d = load(f"out/{name}/timeseries.csv")
+    m = d["time"] >= 0.02
+    force = d["rod_slider.force"] if "rod_slider.force" in d else np.hypot(d["rod_slider.fx"], d["rod_slider.fy"])
+    axes[0].plot(d["time"][m] * 1e3, d["motor.torque"][m] / 1e3, style, lw=0.7, label=label)
+    axes[1].plot(d["time"][m] * 1e3, force[m] / 1e3, style, lw=0.7, label=label)
+axes[0].set_ylabel("crank torque [kN m]")
+axes[1].set_ylabel("rod–slider joint force [kN]")
+axes[1].set_xlabel("time [ms]")
+axes[0].set_title("F, 3000 rpm: the four joint configurations (revolutions 2 and 3)")
+axes[0].legend(fontsize=8, loc="upper right")
+for ax in axes:
+    ax.grid(alpha=0.3)
+fig.tight_layout()
+fig.savefig("docs/figures/F_configurations.png", dpi=110)
 print("figures written to docs/figures/")
