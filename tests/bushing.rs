@@ -145,3 +145,24 @@ fn bad_bushings_are_clear_errors() {
     let e = lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).err().unwrap();
     assert!(e.to_string().contains("bushings"), "{e}");
 }
+
+/// A scenario the reduced model refuses (a bushing without clearance) still exports its full
+/// model as FMUs (FMI 3.0 and 2.0), and says why the other two are missing.
+#[test]
+fn a_bushing_scenario_packs_its_full_model_fmu() {
+    let out = std::env::temp_dir().join(format!("lash-bushing-fmu-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(["fmu", "pack", "F-flexible-perfect", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("only the full-model FMU") && stderr.contains("bushings"), "{stderr}");
+    let mut files: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    files.sort();
+    assert_eq!(files, ["lash_full-fmi2.fmu", "lash_full.fmu"]);
+    let _ = std::fs::remove_dir_all(&out);
+}

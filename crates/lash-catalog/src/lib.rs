@@ -178,16 +178,29 @@ pub enum FmiVersion {
     V2,
 }
 
+/// Why the reduced model's two FMUs (mechanism, interface) cannot be made for `s`, if they cannot
+/// (a scenario the reduced model refuses, e.g. bushings without clearance): its full-model FMU
+/// is still exported.
+pub fn reduced_refusal(s: &AnyScenario) -> Option<String> {
+    reduced_subsystems(s).err()
+}
+
 /// `(model identifier, version, modelDescription.xml)` of every exported FMU of `s`, in both
-/// versions.
+/// versions: the interface, the mechanism and the full model, or the full model alone when
+/// [`reduced_refusal`] says why the other two cannot be made.
 pub fn descriptions(s: &AnyScenario) -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
     use lash_fmi::description::{fmi2, fmi3};
-    let (i, m, f) = (interface(s)?, mechanism(s)?, full(s)?);
-    let infos = [
-        (INTERFACE, interface_info(s, i.variables()), i.variables()),
-        (MECHANISM, mechanism_info(s, m.variables()), m.variables()),
-        (FULL, full_info(s, f.variables()), f.variables()),
-    ];
+    let f = full(s)?;
+    let mut reduced = None;
+    if reduced_refusal(s).is_none() {
+        reduced = Some((interface(s)?, mechanism(s)?));
+    }
+    let mut infos = Vec::with_capacity(3);
+    if let Some((i, m)) = &reduced {
+        infos.push((INTERFACE, interface_info(s, i.variables()), i.variables()));
+        infos.push((MECHANISM, mechanism_info(s, m.variables()), m.variables()));
+    }
+    infos.push((FULL, full_info(s, f.variables()), f.variables()));
     let mut out = Vec::with_capacity(6);
     for (version, write) in
         [(FmiVersion::V3, fmi3 as fn(&ModelInfo, &[lash_core::Variable]) -> String), (FmiVersion::V2, fmi2)]

@@ -62,6 +62,9 @@ fn pack_one(
 
 /// `lash fmu pack [SCENARIO] --out <dir>`.
 pub fn pack(scenario: &lash_scenario::AnyScenario, out: &Path) -> Result<(), CliError> {
+    if let Some(reason) = lash_catalog::reduced_refusal(scenario) {
+        eprintln!("note: only the full-model FMU is packed: no mechanism and interface FMUs ({reason})");
+    }
     for path in pack_quiet(scenario, out)? {
         println!("{}", path.display());
     }
