@@ -166,3 +166,23 @@ fn a_bushing_scenario_packs_its_full_model_fmu() {
     assert_eq!(files, ["lash_full-fmi2.fmu", "lash_full.fmu"]);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A clearance with a bush writes the interface's von Mises stress: the Hertz stress of its normal
+/// force with the bush's FE correction, zero without contact, in the full and the reduced model.
+#[test]
+fn the_interface_stress_channel_follows_the_normal_force() {
+    let mut s = builtin::by_name("F-flexible-imperfect").unwrap();
+    s.simulation.horizon = 0.02;
+    let model = lash_bush::InterfaceStress::of(s.clearances[0].bush.as_ref().unwrap()).unwrap();
+    let (_, h, r) = rows(&mut FullRun::new(&s, BuildOptions::default()));
+    let (stress, normal) = (series(&h, &r, "rod_slider.von_mises"), series(&h, &r, "rod_slider.normal_force"));
+    assert!(normal.iter().any(|f| *f > 1e4), "impacts in the run");
+    for (s, f) in stress.iter().zip(&normal) {
+        assert_eq!(*s, model.von_mises(*f));
+        assert_eq!(*s == 0.0, *f == 0.0);
+    }
+    let (_, h, r) = rows(&mut lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).unwrap());
+    let (stress, normal) = (series(&h, &r, "rod_slider.von_mises"), series(&h, &r, "rod_slider.normal_force"));
+    assert!(stress.iter().zip(&normal).all(|(s, f)| *s == model.von_mises(*f)));
+    assert!(stress.iter().any(|s| *s > 1e8));
+}

@@ -429,3 +429,59 @@ impl BushFile {
         if problems.is_empty() { Ok(file) } else { Err(problems) }
     }
 }
+
+/// The pin–bush interface stress as a function of the contact's normal force: the Hertz line
+/// contact's largest von Mises stress (∝ p₀ ∝ √F) times the FE correction of the bush, the
+/// correction interpolated linearly in ln F between the loads of the bush's table (held at the
+/// table's ends outside it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct InterfaceStress {
+    spec: BushSpec,
+    peak_per_p0: f64,
+    loads: Vec<f64>,
+    corrections: Vec<f64>,
+}
+
+impl InterfaceStress {
+    /// The stress model of `spec`: its FE table at [`DEFAULT_LOADS`] (computed once per bush in a
+    /// process).
+    pub fn of(spec: &BushSpec) -> Result<Self, SolveError> {
+        static CACHE: std::sync::Mutex<Vec<InterfaceStress>> = std::sync::Mutex::new(Vec::new());
+        let cached = |cache: &Vec<InterfaceStress>| cache.iter().find(|m| m.spec == *spec).cloned();
+        if let Some(hit) = cached(&CACHE.lock().unwrap_or_else(|e| e.into_inner())) {
+            return Ok(hit);
+        }
+        let table = characterise(spec, &DEFAULT_LOADS)?;
+        let model = Self {
+            spec: *spec,
+            peak_per_p0: hertz::max_von_mises(spec.material.poisson_ratio).0,
+            loads: table.pressure.iter().map(|p| p.load).collect(),
+            corrections: table.pressure.iter().map(|p| p.correction).collect(),
+        };
+        CACHE.lock().unwrap_or_else(|e| e.into_inner()).push(model.clone());
+        Ok(model)
+    }
+
+    /// The FE correction at normal force `force` [N].
+    pub fn correction(&self, force: f64) -> f64 {
+        let (l, c) = (&self.loads, &self.corrections);
+        if force <= l[0] {
+            return c[0];
+        }
+        if force >= l[l.len() - 1] {
+            return c[c.len() - 1];
+        }
+        let k = l.iter().position(|x| *x > force).expect("inside the table") - 1;
+        let s = (force / l[k]).ln() / (l[k + 1] / l[k]).ln();
+        c[k] + s * (c[k + 1] - c[k])
+    }
+
+    /// Largest von Mises stress at the interface [Pa] under normal force `force` [N] (0 without
+    /// contact).
+    pub fn von_mises(&self, force: f64) -> f64 {
+        if !(force > 0.0) {
+            return 0.0;
+        }
+        self.correction(force) * self.peak_per_p0 * self.spec.hertz(force).peak_pressure
+    }
+}

@@ -91,3 +91,24 @@ fn a_bad_bush_names_its_field() {
     assert!(text.contains("outer_radius") && text.contains("material.poisson_ratio"), "{text}");
     assert!(characterise(&BushSpec::study(), &[-1.0]).unwrap_err().to_string().contains("loads"));
 }
+
+/// The interface-stress model returns the FE table's stress at the table's loads, Hertz's √F
+/// scaling times the interpolated correction between them, and nothing without contact.
+#[test]
+fn the_interface_stress_model_follows_the_fe_table() {
+    let spec = BushSpec::study();
+    let model = lash_bush::InterfaceStress::of(&spec).unwrap();
+    let table = characterise(&spec, &lash_bush::DEFAULT_LOADS).unwrap();
+    for p in &table.pressure {
+        assert!((model.von_mises(p.load) / p.von_mises - 1.0).abs() < 1e-12, "{p:?}");
+    }
+    // Between two loads: p₀ ∝ √F (Hertz) and the correction between its neighbours.
+    let (a, b) = (&table.pressure[2], &table.pressure[3]);
+    let f = (a.load * b.load).sqrt();
+    let expected_p0 = a.peak_pressure * (f / a.load).sqrt();
+    let c = model.correction(f);
+    assert!(c > a.correction.min(b.correction) && c < a.correction.max(b.correction));
+    assert!((model.von_mises(f) / (c * a.von_mises_hertz / a.peak_pressure * expected_p0) - 1.0).abs() < 1e-12);
+    assert_eq!(model.von_mises(0.0), 0.0);
+    assert_eq!(model.von_mises(-5.0), 0.0);
+}

@@ -27,6 +27,17 @@ pub fn clearance_definition(s: &Scenario, c: &ClearanceSpec) -> lash_contact::Cl
     }
 }
 
+/// The interface-stress model of each clearance joint that has a bush (None for the others).
+pub fn interface_stresses(s: &Scenario) -> Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>> {
+    s.clearances
+        .iter()
+        .map(|c| {
+            // Validation computed (and kept) the bush's table: it cannot fail here.
+            c.bush.as_ref().map(|b| std::sync::Arc::new(lash_bush::InterfaceStress::of(b).expect("validated bush")))
+        })
+        .collect()
+}
+
 /// Options of a build.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct BuildOptions {

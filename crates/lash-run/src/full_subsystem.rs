@@ -70,6 +70,7 @@ struct PlanarEngine {
     sources: Vec<(Channel, Source)>,
     all: Vec<usize>,
     sensors: Vec<(BodyId, Vec2)>,
+    stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>,
 }
 
 impl FullEngine for PlanarEngine {
@@ -79,7 +80,8 @@ impl FullEngine for PlanarEngine {
 
     fn sample(&mut self, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
         let n = self.model.mechanism.coordinate_count();
-        let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), self.model.clearances.len());
+        let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), self.model.clearances.len())
+            .with_stresses(self.stresses.clone());
         self.model.evaluate(t, y).map_err(|e| e.to_string())?;
         let (q, qd) = y.split_at(n);
         let mut sink = |row: &[f64]| {
@@ -181,7 +183,13 @@ impl FullSubsystem {
                 let sensors = sensor_points(s, &model.mechanism);
                 let channels = sources.iter().map(|(c, _)| c.clone()).collect();
                 let all = (0..sources.len()).collect();
-                (Box::new(PlanarEngine { model, sources, all, sensors }), channels, &s.name, s.simulation.integrator)
+                let stresses = crate::build::interface_stresses(s);
+                (
+                    Box::new(PlanarEngine { model, sources, all, sensors, stresses }),
+                    channels,
+                    &s.name,
+                    s.simulation.integrator,
+                )
             }
             AnyScenario::Spatial(s) => {
                 let sources = spatial_channels(s, false);

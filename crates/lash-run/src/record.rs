@@ -35,6 +35,7 @@ pub(crate) struct Recorder<'a> {
     pub max_constraint_error: f64,
     max_eccentricity: Vec<f64>,
     sum_force: Vec<f64>,
+    stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>,
 }
 
 impl<'a> Recorder<'a> {
@@ -56,7 +57,14 @@ impl<'a> Recorder<'a> {
             max_constraint_error: 0.0,
             max_eccentricity: vec![0.0; clearances],
             sum_force: vec![0.0; clearances],
+            stresses: vec![None; clearances],
         }
+    }
+
+    /// The interface-stress model of each clearance joint (for its `von_mises` channel).
+    pub fn with_stresses(mut self, stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>) -> Self {
+        self.stresses = stresses;
+        self
     }
 
     /// Records one sample. `solver` holds the state's constraint terms, q̈ and λ.
@@ -103,6 +111,9 @@ impl<'a> Recorder<'a> {
                 }
                 Source::ConstraintError => solver.constraint_error(),
                 Source::Bushing(k, quantity) => bushing_value(mech, q, qd, k, quantity),
+                Source::InterfaceStress(k) => {
+                    self.stresses[k].as_ref().map_or(f64::NAN, |m| m.von_mises(contacts[k].normal_force))
+                }
             };
         }
         for (k, c) in contacts.iter().enumerate() {

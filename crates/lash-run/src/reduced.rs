@@ -75,6 +75,7 @@ pub struct ReducedRun {
     selected: Vec<usize>,
     signals: Vec<Signal>,
     master_options: MasterOptions,
+    stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>,
 }
 
 fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
@@ -164,7 +165,9 @@ impl ReducedRun {
                 }
                 Source::JointReaction(k, _) => Probe::JointReaction { name: joint_names[k].to_string(), joint: k },
                 Source::DriverTorque(k) => Probe::DriverTorque { name: scenario.drivers[k].name.clone(), driver: k },
-                Source::Clearance(..) | Source::ConstraintError | Source::Bushing(..) => continue,
+                Source::Clearance(..) | Source::ConstraintError | Source::Bushing(..) | Source::InterfaceStress(..) => {
+                    continue;
+                }
             };
             if !probes.contains(&probe) {
                 probes.push(probe);
@@ -198,6 +201,8 @@ impl ReducedRun {
             selected: selected_positions,
             signals,
             master_options,
+            // The bushes' FE tables before the clock starts.
+            stresses: crate::build::interface_stresses(scenario),
         })
     }
 
@@ -224,6 +229,17 @@ impl ReducedRun {
             written: self.selected.len(),
             summary: (0..joints).map(|j| (quantity(j, "eccentricity"), quantity(j, "force"))).collect(),
             measurements: self.scenario.output.measurements.clone(),
+            stresses: {
+                let models = &self.stresses;
+                self.sources
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, (_, s))| match *s {
+                        Source::InterfaceStress(k) => models[k].clone().map(|m| (i, m)),
+                        _ => None,
+                    })
+                    .collect()
+            },
         };
         let kinematic_macro = self.macro_sub.is_kinematic();
         let options = self.options;
@@ -305,6 +321,9 @@ pub(crate) struct Recording {
     pub written: usize,
     pub summary: Vec<(usize, usize)>,
     pub measurements: Vec<lash_scenario::schema::MeasurementSpec>,
+    /// Recorded signals that are a clearance's normal force standing for its interface stress:
+    /// (position, the stress model).
+    pub stresses: Vec<(usize, std::sync::Arc<lash_bush::InterfaceStress>)>,
 }
 
 /// A macro and a micro subsystem with what the master and the summary need.
@@ -348,7 +367,18 @@ pub(crate) fn run_reduced(
     let per_horizon = 1.0 / horizon;
     let names: Vec<&str> = c.recording.channels.iter().map(|ch| ch.name.as_str()).collect();
     let mut measurements = crate::measure::MeasurementRecorder::new(&c.recording.measurements, &names);
+    let mut mapped = vec![0.0; c.signals.len()];
     let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
+        // Normal forces that stand for interface stresses become the stresses (a copy only then).
+        let values = if c.recording.stresses.is_empty() {
+            values
+        } else {
+            mapped.copy_from_slice(values);
+            for (i, model) in &c.recording.stresses {
+                mapped[*i] = model.von_mises(values[*i]);
+            }
+            &mapped[..]
+        };
         measurements.record(values);
         for (s, &v) in stats.iter_mut().zip(values) {
             s.0 = s.0.min(v);
@@ -497,5 +527,7 @@ fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: So
             Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None }
         }
         Source::Bushing(..) => unreachable!("ReducedRun::new refuses scenarios with bushings"),
+        // The micro side's normal force, turned into the stress when recorded (Recording::stresses).
+        Source::InterfaceStress(k) => Signal::Micro { name, variable: "normal_force".into(), element: k },
     }
 }

@@ -157,6 +157,7 @@ pub struct FullRun {
     ideal: bool,
     sources: Vec<(Channel, Source)>,
     selected: Vec<usize>,
+    stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>,
 }
 
 impl FullRun {
@@ -170,6 +171,12 @@ impl FullRun {
             ideal: options.ideal,
             sources,
             selected,
+            // The bushes' FE tables before the clock starts (none for the ideal mechanism).
+            stresses: if options.ideal {
+                vec![None; scenario.clearances.len()]
+            } else {
+                crate::build::interface_stresses(scenario)
+            },
         }
     }
 
@@ -192,7 +199,8 @@ impl FullRun {
         let sensors = sensor_points(&self.scenario, &self.model.mechanism);
         let nc = self.model.clearances.len();
         let horizon = sim.horizon;
-        let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, nc);
+        let mut recorder =
+            Recorder::new(&self.sources, &self.selected, sensors, nc).with_stresses(self.stresses.clone());
         let names: Vec<&str> = self.sources.iter().map(|(c, _)| c.name.as_str()).collect();
         let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), String> {

@@ -581,6 +581,7 @@ impl SpatialReducedRun {
                 })
                 .collect(),
             measurements: scenario.output.measurements.clone(),
+            stresses: Vec::new(),
         };
         let macro_sub = lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes);
         let integrator = if options.error_controlled_micro {

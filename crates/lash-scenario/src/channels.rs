@@ -26,6 +26,8 @@ pub enum Source {
     ConstraintError,
     /// Bushing k, quantity (see BUSHING_QUANTITIES).
     Bushing(usize, u8),
+    /// Clearance k's largest von Mises stress at the pin–bush interface (a clearance with a bush).
+    InterfaceStress(usize),
 }
 
 /// The quantities of a bushing's channels: the force on the joint's body1 (x, y, magnitude) and
@@ -63,6 +65,11 @@ pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
         for (k, c) in s.clearances.iter().enumerate() {
             for (q, (name, unit)) in CLEARANCE_QUANTITIES.iter().enumerate() {
                 out.push((Channel { name: format!("{}.{name}", c.joint), unit }, Source::Clearance(k, q as u8)));
+            }
+        }
+        for (k, c) in s.clearances.iter().enumerate() {
+            if c.bush.is_some() {
+                out.push((Channel { name: format!("{}.von_mises", c.joint), unit: "Pa" }, Source::InterfaceStress(k)));
             }
         }
         for (k, b) in s.bushings.iter().enumerate() {

@@ -581,7 +581,7 @@ fn cross_check(s: &Scenario) -> Problems {
                 p.push(f("bush.pin_radius"), format!("must be the journal radius {} m", c.journal_radius));
             }
             if problems.is_empty()
-                && let Err(e) = lash_bush::bonded_pin(bush)
+                && let Err(e) = lash_bush::bonded_pin(bush).and_then(|_| lash_bush::InterfaceStress::of(bush))
             {
                 p.push(f("bush"), e.to_string());
             }
