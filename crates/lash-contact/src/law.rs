@@ -232,15 +232,16 @@ impl NormalForce {
 }
 
 /// The F ≥ 0 with F = f(δ − F/k): f is increasing in its argument and f(x ≤ 0) = 0, so
-/// g(F) = F − f(δ − F/k) increases from −f(δ) at 0 to ≥ 0 at f(δ); the root by the Illinois
-/// (regula falsi) method, to a relative 1e-13.
+/// g(F) = F − f(δ − F/k) is increasing, ≥ 0 at f(δ), and ≤ 0 at f(δ − f(δ)/k) (the root is at
+/// most f(δ), so it is at least f of the approach that leaves); the root in that bracket — narrow
+/// when the spring is stiff — by the Illinois (regula falsi) method, to a relative 1e-13.
 fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> f64) -> f64 {
     let hi0 = f(delta);
     if hi0 <= 0.0 {
         return 0.0;
     }
     let g = |x: f64| x - f(delta - x / k);
-    let (mut a, mut b) = (0.0, hi0);
+    let (mut a, mut b) = (f(delta - hi0 / k), hi0);
     let (mut ga, mut gb) = (g(a), g(b));
     if gb <= 0.0 {
         return b;
