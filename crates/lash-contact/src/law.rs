@@ -241,35 +241,21 @@ fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> f64) -> f64 {
         return 0.0;
     }
     let g = |x: f64| x - f(delta - x / k);
-    let (mut a, mut b) = (f(delta - hi0 / k), hi0);
-    let (mut ga, mut gb) = (g(a), g(b));
+    let (a, b) = (f(delta - hi0 / k), hi0);
+    let (ga, gb) = (g(a), g(b));
     if gb <= 0.0 {
         return b;
     }
-    let mut side = 0;
+    let mut bracket = lash_ode::root::Bracket::new(a, ga, b, gb);
     for _ in 0..200 {
-        let c = (a * gb - b * ga) / (gb - ga);
+        let c = bracket.falsi();
         let gc = g(c);
-        if gc == 0.0 || (b - a).abs() <= 1e-13 * hi0 {
+        if gc == 0.0 || (bracket.b - bracket.a).abs() <= 1e-13 * hi0 {
             return c;
         }
-        if gc > 0.0 {
-            b = c;
-            gb = gc;
-            if side == 1 {
-                ga *= 0.5;
-            }
-            side = 1;
-        } else {
-            a = c;
-            ga = gc;
-            if side == -1 {
-                gb *= 0.5;
-            }
-            side = -1;
-        }
+        bracket.update(c, gc);
     }
-    0.5 * (a + b)
+    0.5 * (bracket.a + bracket.b)
 }
 
 /// δⁿ with a fast path for the common n = 1.5 (no powf in the hot loop).

@@ -251,39 +251,20 @@ fn locate<P: Pair, S: OdeSystem + ?Sized>(system: &mut S, t: f64, h: f64, w: &mu
         if w.g_end[k] <= 0.0 || w.g_start[k] > 0.0 {
             continue;
         }
-        // Bracket [a, b] with g(a) ≤ 0 < g(b); Illinois-modified regula falsi.
-        let (mut a, mut ga) = (0.0f64, w.g_start[k]);
-        let (mut b, mut gb) = (1.0f64, w.g_end[k]);
-        let mut side = 0i8;
+        // Bracket [a, b] with g(a) ≤ 0 < g(b) in the step fraction.
+        let mut bracket = crate::root::Bracket::new(0.0, w.g_start[k], 1.0, w.g_end[k]);
         // Root located to 1e-14 s (or to float resolution of the step fraction).
         let tol = (1e-14 / h).max(1e-15);
         for _ in 0..200 {
-            if b - a <= tol {
+            if bracket.b - bracket.a <= tol {
                 break;
             }
-            let mut c = (a * gb - b * ga) / (gb - ga);
-            if !(c > a && c < b) {
-                c = 0.5 * (a + b);
-            }
+            let c = bracket.next();
             w.interpolate(c);
             system.events(t + c * h, &w.y_dense, &mut w.g_probe);
-            let gc = w.g_probe[k];
-            if gc > 0.0 {
-                b = c;
-                gb = gc;
-                if side == 1 {
-                    ga *= 0.5;
-                }
-                side = 1;
-            } else {
-                a = c;
-                ga = gc;
-                if side == -1 {
-                    gb *= 0.5;
-                }
-                side = -1;
-            }
+            bracket.update(c, w.g_probe[k]);
         }
+        let b = bracket.b;
         if !found || b < best.0 {
             best = (b, k);
             found = true;

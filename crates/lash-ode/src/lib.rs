@@ -17,6 +17,7 @@ mod adaptive;
 mod dop853;
 mod dopri5;
 mod rk4;
+pub mod root;
 
 /// The continuous extension of one accepted step `[t, t + h]` (4th order for DOPRI5, 7th for
 /// DOP853), in Hairer's nested form y(θ) = r₀ + θ(r₁ + (1−θ)(r₂ + θ(r₃ + (1−θ)(r₄ + …)))).

@@ -81,7 +81,7 @@ impl FullEngine for PlanarEngine {
     fn sample(&mut self, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
         let n = self.model.mechanism.coordinate_count();
         let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), self.model.clearances.len())
-            .with_stresses(self.stresses.clone());
+            .with_stresses(&self.stresses);
         self.model.evaluate(t, y).map_err(|e| e.to_string())?;
         let (q, qd) = y.split_at(n);
         let mut sink = |row: &[f64]| {

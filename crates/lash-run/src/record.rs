@@ -10,13 +10,13 @@ use std::collections::BTreeMap;
 
 /// Quantity `quantity` (fx, fy, |f|, |d|) of the `k`-th bushing among the mechanism's loads.
 fn bushing_value(mech: &Mechanism, q: &[f64], qd: &[f64], k: usize, quantity: u8) -> f64 {
-    let bushing = mech.loads.iter().filter_map(|l| match *l {
+    let mut bushings = mech.loads.iter().filter_map(|l| match *l {
         lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping } => {
             Some((body_i, point_i, body_j, point_j, stiffness, damping))
         }
         _ => None,
     });
-    let Some((bi, pi, bj, pj, k_, c)) = bushing.clone().nth(k) else { return f64::NAN };
+    let Some((bi, pi, bj, pj, k_, c)) = bushings.nth(k) else { return f64::NAN };
     let (pose_i, pose_j) = (lash_mech::Pose::of(bi, q, qd), lash_mech::Pose::of(bj, q, qd));
     let (s, _, _) = lash_mech::bushing_state(&pose_i, pi, &pose_j, pj, k_, c);
     [s.force.x, s.force.y, s.force.norm(), s.deflection.norm()][quantity as usize]
@@ -35,7 +35,7 @@ pub(crate) struct Recorder<'a> {
     pub max_constraint_error: f64,
     max_eccentricity: Vec<f64>,
     sum_force: Vec<f64>,
-    stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>,
+    stresses: &'a [Option<std::sync::Arc<lash_bush::InterfaceStress>>],
 }
 
 impl<'a> Recorder<'a> {
@@ -57,12 +57,12 @@ impl<'a> Recorder<'a> {
             max_constraint_error: 0.0,
             max_eccentricity: vec![0.0; clearances],
             sum_force: vec![0.0; clearances],
-            stresses: vec![None; clearances],
+            stresses: &[],
         }
     }
 
     /// The interface-stress model of each clearance joint (for its `von_mises` channel).
-    pub fn with_stresses(mut self, stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>) -> Self {
+    pub fn with_stresses(mut self, stresses: &'a [Option<std::sync::Arc<lash_bush::InterfaceStress>>]) -> Self {
         self.stresses = stresses;
         self
     }
@@ -111,9 +111,11 @@ impl<'a> Recorder<'a> {
                 }
                 Source::ConstraintError => solver.constraint_error(),
                 Source::Bushing(k, quantity) => bushing_value(mech, q, qd, k, quantity),
-                Source::InterfaceStress(k) => {
-                    self.stresses[k].as_ref().map_or(f64::NAN, |m| m.von_mises(contacts[k].normal_force))
-                }
+                Source::InterfaceStress(k) => self
+                    .stresses
+                    .get(k)
+                    .and_then(Option::as_ref)
+                    .map_or(f64::NAN, |m| m.von_mises(contacts[k].normal_force)),
             };
         }
         for (k, c) in contacts.iter().enumerate() {

@@ -199,8 +199,7 @@ impl FullRun {
         let sensors = sensor_points(&self.scenario, &self.model.mechanism);
         let nc = self.model.clearances.len();
         let horizon = sim.horizon;
-        let mut recorder =
-            Recorder::new(&self.sources, &self.selected, sensors, nc).with_stresses(self.stresses.clone());
+        let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, nc).with_stresses(&self.stresses);
         let names: Vec<&str> = self.sources.iter().map(|(c, _)| c.name.as_str()).collect();
         let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), String> {

@@ -295,19 +295,17 @@ pub fn scenario_f(joint: FJoint) -> Scenario {
     s.simulation.horizon = 0.06;
     match joint {
         FJoint::Ideal => {}
-        FJoint::Clearance(c) => {
+        FJoint::Clearance(c) | FJoint::BushWithClearance(c) => {
             let mut spec = clearance("rod_slider", "slider", 0.0, AMBROSIO);
             spec.journal_radius = 0.010;
             spec.bearing_radius = 0.010 + c;
-            spec.bearing_material = Some("bronze".into());
-            s.clearances.push(spec);
-        }
-        FJoint::BushWithClearance(c) => {
-            let mut spec = clearance("rod_slider", "slider", 0.0, AMBROSIO);
-            spec.journal_radius = 0.010;
-            spec.bearing_radius = 0.010 + c;
-            spec.bearing_material = None;
-            spec.bush = Some(scenario_f_bush(0.010 + c));
+            if matches!(joint, FJoint::BushWithClearance(_)) {
+                // The bush is the bearing surface: its material is the bearing's.
+                spec.bearing_material = None;
+                spec.bush = Some(scenario_f_bush(0.010 + c));
+            } else {
+                spec.bearing_material = Some("bronze".into());
+            }
             s.clearances.push(spec);
         }
         FJoint::Bush => s.bushings.push(BushingSpec {
