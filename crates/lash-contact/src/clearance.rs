@@ -94,13 +94,31 @@ impl ClearanceJoint {
         omega_bearing: f64,
         onset: f64,
     ) -> ContactState {
+        self.evaluate_relative_as::<true>(e, e_dot, omega_journal, omega_bearing, onset)
+    }
+
+    /// [`ClearanceJoint::evaluate_relative`] with the bush known at compile time: `SERIES = false`
+    /// is only for a joint without a bush (`bush_stiffness` infinite), and then leaves the series
+    /// solve out of the code. The micro model's step takes that path when no joint has a bush: a
+    /// call on the rigid joint's path made the compiler keep the step's floating-point values in
+    /// memory around it (measured: the planar micro step 100 → 126 ns).
+    #[inline(always)]
+    pub fn evaluate_relative_as<const SERIES: bool>(
+        &self,
+        e: Vec2,
+        e_dot: Vec2,
+        omega_journal: f64,
+        omega_bearing: f64,
+        onset: f64,
+    ) -> ContactState {
+        debug_assert!(SERIES || self.bush_stiffness == f64::INFINITY, "a bushed joint on the rigid path");
         let norm = e.norm();
         let n = if norm > 0.0 { e / norm } else { Vec2::new(1.0, 0.0) };
         let t = perp(n);
         let delta = norm - self.radial_clearance();
         let delta_dot = e_dot.dot(&n);
         let slip = e_dot.dot(&t) + omega_journal * self.journal_radius - omega_bearing * self.bearing_radius;
-        let fn_ = if self.bush_stiffness.is_finite() {
+        let fn_ = if SERIES && self.bush_stiffness.is_finite() {
             self.law.force_in_series(delta, delta_dot, onset, self.bush_stiffness)
         } else {
             self.law.force(delta, delta_dot, onset)

@@ -11,7 +11,7 @@ pub mod units;
 
 pub use problems::{Problem, Problems};
 pub use subsystem::{
-    Causality, Coupling, Phase, SavedState, StepOutcome, StopReason, Subsystem, SubsystemError, ValueKind,
+    Causality, Coupling, Phase, SavedState, StepOutcome, Steps, StopReason, Subsystem, SubsystemError, ValueKind,
     ValueReference, Variability, Variable, VariableTable, check_variable_table,
 };
 pub use time::{Ticks, TicksError};

@@ -507,6 +507,18 @@ pub trait Subsystem: Send {
     /// Advances from `t` (must equal the subsystem's current time) by `h`.
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError>;
 
+    /// Takes one step of `h` from `t` per element of `record`, one after the other, and after
+    /// each step whose flag is set and that reached its end reads `refs` into the next row of
+    /// `rows` (a row holds the elements of `refs`, as [`Subsystem::get_f64`] writes them). Stops
+    /// after the first step that does not complete (an early return inside the step, a request
+    /// to terminate) and at the first error. The provided version is exactly that loop of
+    /// `do_step` and `get_f64` ([`steps_one_by_one`]); a subsystem may take the steps without a
+    /// call each (the micro subsystem of the reduced model does: its steps are ~100 ns, so a
+    /// master's call and read per step cost as much as the step).
+    fn do_steps(&mut self, t: Ticks, h: Ticks, record: &[bool], refs: &[ValueReference], rows: &mut [f64]) -> Steps {
+        steps_one_by_one(self, t, h, record, refs, rows)
+    }
+
     /// The subsystem's current time.
     fn time(&self) -> Ticks;
 
@@ -578,6 +590,9 @@ impl<S: Subsystem + ?Sized> Subsystem for Box<S> {
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
         (**self).do_step(t, h)
     }
+    fn do_steps(&mut self, t: Ticks, h: Ticks, record: &[bool], refs: &[ValueReference], rows: &mut [f64]) -> Steps {
+        (**self).do_steps(t, h, record, refs, rows)
+    }
     fn time(&self) -> Ticks {
         (**self).time()
     }
@@ -605,6 +620,77 @@ impl<S: Subsystem + ?Sized> Subsystem for Box<S> {
     fn terminate(&mut self) -> Result<(), SubsystemError> {
         (**self).terminate()
     }
+}
+
+/// What [`Subsystem::do_steps`] did.
+#[derive(Debug)]
+#[must_use = "the steps may have ended early, failed or asked the simulation to stop: the master must honour it"]
+pub struct Steps {
+    /// Steps taken: `do_step` calls that returned an outcome (a step that failed is not
+    /// counted). All but the last of them completed; the last one's outcome is in `last`.
+    pub taken: usize,
+    /// The outcome of the last step taken (`Completed` when none was asked for), or the error that
+    /// ended the calls after `taken` steps.
+    pub last: Result<StepOutcome, SubsystemError>,
+}
+
+/// The rows that `record` asks for, and their width: checks that `rows` holds them.
+pub fn recorded_rows(
+    variables: &[Variable],
+    record: &[bool],
+    refs: &[ValueReference],
+    rows: &[f64],
+) -> Result<usize, SubsystemError> {
+    let flagged = record.iter().filter(|&&r| r).count();
+    if flagged == 0 {
+        return Ok(0);
+    }
+    let width = element_count(variables, refs)?;
+    if rows.len() < flagged * width {
+        return Err(SubsystemError::BadArguments(format!(
+            "{} values for {flagged} rows of {width} elements",
+            rows.len()
+        )));
+    }
+    Ok(width)
+}
+
+/// [`Subsystem::do_steps`] as a loop of [`Subsystem::do_step`] and [`Subsystem::get_f64`] (its
+/// provided version, and the fallback of subsystems that take their steps faster only in some
+/// configurations).
+pub fn steps_one_by_one<S: Subsystem + ?Sized>(
+    sub: &mut S,
+    t: Ticks,
+    h: Ticks,
+    record: &[bool],
+    refs: &[ValueReference],
+    rows: &mut [f64],
+) -> Steps {
+    let width = match recorded_rows(sub.variables(), record, refs, rows) {
+        Ok(w) => w,
+        Err(e) => return Steps { taken: 0, last: Err(e) },
+    };
+    let mut at = t;
+    let mut row = 0;
+    let mut last = StepOutcome::Completed;
+    for (i, &flag) in record.iter().enumerate() {
+        last = match sub.do_step(at, h) {
+            Ok(outcome) => outcome,
+            Err(e) => return Steps { taken: i, last: Err(e) },
+        };
+        let end = Ticks(at.0 + h.0);
+        if flag && last.reached(at, h).0 >= end.0 {
+            if let Err(e) = sub.get_f64(refs, &mut rows[row * width..(row + 1) * width]) {
+                return Steps { taken: i, last: Err(e) };
+            }
+            row += 1;
+        }
+        if last.stop(at, h).is_some() {
+            return Steps { taken: i + 1, last: Ok(last) };
+        }
+        at = end;
+    }
+    Steps { taken: record.len(), last: Ok(last) }
 }
 
 /// The variable with value reference `vr` (its position, by the [`Subsystem::variables`] contract).

@@ -240,6 +240,50 @@ pub fn advance(
     }
 }
 
+/// [`advance`] for consecutive steps taken in one call ([`Subsystem::do_steps`], one step per
+/// element of `record`, the flagged ones' outputs `refs` read into `rows`): returns how many steps
+/// completed (their rows are valid) and, as [`advance`] does, `Ok(None)` when all completed,
+/// `Ok(Some(reason))` when the last completed and the subsystem asks to stop after it, and
+/// [`MasterError::Stopped`] when one returned early or asked to stop inside its step (that step is
+/// not counted).
+pub fn advance_steps(
+    sub: &mut dyn Subsystem,
+    who: &'static str,
+    t: Ticks,
+    h: Ticks,
+    record: &[bool],
+    refs: &[ValueReference],
+    rows: &mut [f64],
+) -> (usize, Result<Option<StopReason>, MasterError>) {
+    let steps = sub.do_steps(t, h, record, refs, rows);
+    let outcome = match steps.last {
+        Ok(outcome) => outcome,
+        Err(source) => return (steps.taken, Err(MasterError::Subsystem { subsystem: who, source })),
+    };
+    if steps.taken == 0 {
+        return (0, Ok(None));
+    }
+    let last = Ticks(t.0 + (steps.taken as i64 - 1) * h.0);
+    match outcome.stop(last, h) {
+        None if steps.taken == record.len() => (steps.taken, Ok(None)),
+        None => (
+            steps.taken,
+            Err(MasterError::Subsystem {
+                subsystem: who,
+                source: SubsystemError::Other(format!(
+                    "took {} of {} steps without saying why it stopped",
+                    steps.taken,
+                    record.len()
+                )),
+            }),
+        ),
+        Some(reason @ StopReason::Requested { reached }) if reached.0 == last.0 + h.0 => {
+            (steps.taken, Ok(Some(reason)))
+        }
+        Some(reason) => (steps.taken - 1, Err(MasterError::Stopped { subsystem: who, reason })),
+    }
+}
+
 /// [`advance`] for a subsystem whose every stop ends the run at once (the macro subsystem of the
 /// interface master, whose nodes run ahead of the micro steps).
 fn advance_or_stop(sub: &mut dyn Subsystem, who: &'static str, t: Ticks, h: Ticks) -> Result<(), MasterError> {
@@ -688,35 +732,11 @@ impl<'a> InterfaceMaster<'a> {
             let mut mean_friction = vec![0.0; k];
             // Countdown of each observer to its next sample (in micro steps): no division per step.
             let mut left = decimation.clone();
-            // The observers due after micro step `j` of the macro step get their samples; the micro
-            // outputs are read only then (nothing else in the micro loop needs them).
-            let mut observe = |j: usize,
-                               t: Ticks,
-                               w: &Window<'_>,
-                               micro_sub: &dyn Subsystem,
-                               micro: &mut [f64],
-                               signals: &mut [f64],
-                               observers: &mut [(&mut dyn Observer, Ticks)]|
-             -> Result<(), MasterError> {
-                let mut due = false;
-                for l in left.iter_mut() {
-                    *l -= 1;
-                    due |= *l == 0;
-                }
-                if !due {
-                    return Ok(());
-                }
-                micro_sub.get_f64(&micro_outputs, micro).map_err(micro_err)?;
-                fill_signals(&resolved, w, fractions[j + 1], &micro[..loads], micro, signals);
-                let t1 = Ticks(t.0 + o.micro_step.0);
-                for (((obs, _), l), d) in observers.iter_mut().zip(left.iter_mut()).zip(&decimation) {
-                    if *l == 0 {
-                        *l = *d;
-                        obs.observe(t1, signals).map_err(MasterError::Observer)?;
-                    }
-                }
-                Ok(())
-            };
+            // Which micro steps of an interval any observer samples (the micro outputs are read
+            // only there), and the rows the micro subsystem records at them.
+            let mut due = vec![false; per_macro];
+            let mut scratch = left.clone();
+            let mut rows = vec![0.0; per_macro * micro_width];
             for step in 0..macro_steps {
                 let t_k = Ticks(o.start.0 + step as i64 * o.macro_step.0);
                 // Two-way: save the macro at t_k and predict with the eccentricity extrapolated.
@@ -756,19 +776,12 @@ impl<'a> InterfaceMaster<'a> {
                 // subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once per
                 // macro step (as FMI input derivatives). Cubic Hermite is set at every micro step.
                 let every_micro_step = kind == Interpolation::CubicHermite;
-                for j in 0..per_macro {
+                // Inputs held as value + rate are set once and the whole interval is one call of
+                // the micro subsystem; cubic Hermite inputs are set before every micro step.
+                let batch = if every_micro_step { 1 } else { per_macro };
+                let mut j = 0;
+                while j < per_macro {
                     let s = fractions[j];
-                    if j > 0 && !every_micro_step {
-                        let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
-                        let stop = advance(micro_sub, "micro", t, o.micro_step)?;
-                        micro_count += 1;
-                        observe(j, t, &w, micro_sub, &mut micro_values, &mut signals, observers)?;
-                        if let Some(reason) = stop {
-                            stats.micro_steps = micro_count;
-                            return Err(MasterError::Stopped { subsystem: "micro", reason });
-                        }
-                        continue;
-                    }
                     let mut elements = index.elements.iter();
                     for &(values, rates) in &index.layout {
                         for e in 0..rates - values {
@@ -782,14 +795,50 @@ impl<'a> InterfaceMaster<'a> {
                         }
                     }
                     micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
+                    // The steps at which an observer is due (a dry run of the countdowns).
+                    let due = &mut due[..batch];
+                    scratch.copy_from_slice(&left);
+                    for d in due.iter_mut() {
+                        *d = false;
+                        for (l, p) in scratch.iter_mut().zip(&decimation) {
+                            *l -= 1;
+                            if *l == 0 {
+                                *d = true;
+                                *l = *p;
+                            }
+                        }
+                    }
                     let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
-                    let stop = advance(micro_sub, "micro", t, o.micro_step)?;
-                    micro_count += 1;
-                    observe(j, t, &w, micro_sub, &mut micro_values, &mut signals, observers)?;
-                    if let Some(reason) = stop {
-                        stats.micro_steps = micro_count;
+                    let (completed, outcome) =
+                        advance_steps(micro_sub, "micro", t, o.micro_step, due, &micro_outputs, &mut rows);
+                    micro_count += completed as u64;
+                    // The samples of the completed steps, in order.
+                    let mut row = 0;
+                    for i in 0..completed {
+                        let mut sampled = false;
+                        for l in left.iter_mut() {
+                            *l -= 1;
+                            sampled |= *l == 0;
+                        }
+                        if !sampled {
+                            continue;
+                        }
+                        let micro = &rows[row * micro_width..(row + 1) * micro_width];
+                        row += 1;
+                        fill_signals(&resolved, &w, fractions[j + i + 1], &micro[..loads], micro, &mut signals);
+                        let t1 = Ticks(t.0 + (i as i64 + 1) * o.micro_step.0);
+                        for (((obs, _), l), d) in observers.iter_mut().zip(left.iter_mut()).zip(&decimation) {
+                            if *l == 0 {
+                                *l = *d;
+                                obs.observe(t1, &signals).map_err(MasterError::Observer)?;
+                            }
+                        }
+                    }
+                    stats.micro_steps = micro_count;
+                    if let Some(reason) = outcome? {
                         return Err(MasterError::Stopped { subsystem: "micro", reason });
                     }
+                    j += batch;
                 }
                 drop(_span);
                 stats.micro_steps = micro_count;

@@ -360,6 +360,21 @@ impl<S: Subsystem> Subsystem for WithParameters<S> {
         self.inner.do_step(t, h)
     }
 
+    fn do_steps(
+        &mut self,
+        t: Ticks,
+        h: Ticks,
+        record: &[bool],
+        refs: &[ValueReference],
+        rows: &mut [f64],
+    ) -> lash_core::Steps {
+        if refs.iter().all(|&r| r < self.first) {
+            self.inner.do_steps(t, h, record, refs, rows)
+        } else {
+            lash_core::subsystem::steps_one_by_one(self, t, h, record, refs, rows)
+        }
+    }
+
     fn time(&self) -> Ticks {
         self.inner.time()
     }

@@ -37,7 +37,8 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     fn set_mode(&mut self, in_contact: bool, onset_velocity: f64);
     /// The state from the eccentricity `e`, its rate `e_dot` (COORDINATES each) and the journal's
     /// and bearing's angular velocities (ROTATIONS each).
-    fn evaluate(
+    /// `SERIES = false` promises that the joint has no bush in series (see [`MicroJoint::in_series`]).
+    fn evaluate<const SERIES: bool>(
         &self,
         e: &[f64],
         e_dot: &[f64],
@@ -45,6 +46,11 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
         omega_bearing: &[f64],
         onset: f64,
     ) -> Self::State;
+    /// Whether the contact is in series with a flexible bush (its evaluation then solves for the
+    /// split of the approach).
+    fn in_series(&self) -> bool {
+        false
+    }
     /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
     fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
     /// δ [m].
@@ -92,8 +98,19 @@ impl MicroJoint for ClearanceJoint {
         self.onset_velocity = onset_velocity;
     }
     #[inline(always)]
-    fn evaluate(&self, e: &[f64], e_dot: &[f64], wj: &[f64], wb: &[f64], onset: f64) -> ContactState {
-        self.evaluate_relative(Vec2::new(e[0], e[1]), Vec2::new(e_dot[0], e_dot[1]), wj[0], wb[0], onset)
+    fn evaluate<const SERIES: bool>(
+        &self,
+        e: &[f64],
+        e_dot: &[f64],
+        wj: &[f64],
+        wb: &[f64],
+        onset: f64,
+    ) -> ContactState {
+        self.evaluate_relative_as::<SERIES>(Vec2::new(e[0], e[1]), Vec2::new(e_dot[0], e_dot[1]), wj[0], wb[0], onset)
+    }
+    #[inline(always)]
+    fn in_series(&self) -> bool {
+        self.bush_stiffness.is_finite()
     }
     #[inline(always)]
     fn loads(&self, s: &ContactState, force: &mut [f64], friction: &mut [f64]) {
@@ -153,7 +170,14 @@ impl MicroJoint for SphericalClearance {
         self.onset_velocity = onset_velocity;
     }
     #[inline(always)]
-    fn evaluate(&self, e: &[f64], e_dot: &[f64], wj: &[f64], wb: &[f64], onset: f64) -> SphericalContactState {
+    fn evaluate<const SERIES: bool>(
+        &self,
+        e: &[f64],
+        e_dot: &[f64],
+        wj: &[f64],
+        wb: &[f64],
+        onset: f64,
+    ) -> SphericalContactState {
         let v = |x: &[f64]| Vec3::new(x[0], x[1], x[2]);
         self.evaluate_relative(v(e), v(e_dot), v(wj), v(wb), onset)
     }

@@ -27,7 +27,7 @@ use crate::parameters::ClearanceDefinition;
 use crate::spherical::SphericalClearance;
 pub use joint::MicroJoint;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
-use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_core::{SavedState, StepOutcome, Steps, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::AdaptiveOptions;
 pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES, PlanarInputs, PlanarInterfaceModel};
 
@@ -241,6 +241,36 @@ fn rk4_steps<J: MicroJoint, const N: usize, const K: usize, const M: usize, cons
         now = Ticks(now.0 + dh.0);
         for j in 0..K {
             m.check_penetration(j).map_err(|e| (now.seconds(), e))?;
+        }
+    }
+    Ok(())
+}
+
+/// [`rk4_steps`] of one micro step each, `record.len()` of them, reading `refs` into the next row of
+/// `rows` after each flagged step. On failure: the steps completed, the time reached and the
+/// message.
+#[allow(clippy::too_many_arguments)]
+fn rk4_recorded<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    m: &mut InterfaceModel<J, N, K, M, R>,
+    t: Ticks,
+    step: Ticks,
+    record: &[bool],
+    (micro_steps, parameters, lens): (u64, &[f64], &[usize]),
+    refs: &[ValueReference],
+    width: usize,
+    rows: &mut [f64],
+) -> Result<(), (usize, f64, String)> {
+    let h = step.seconds();
+    let mut row = 0;
+    for (i, &flag) in record.iter().enumerate() {
+        rk4_step_outlined(m, Ticks(t.0 + i as i64 * step.0).seconds(), h);
+        for j in 0..K {
+            m.check_penetration(j).map_err(|e| (i, Ticks(t.0 + (i as i64 + 1) * step.0).seconds(), e))?;
+        }
+        if flag {
+            let out = &mut rows[row * width..(row + 1) * width];
+            read(m, micro_steps + i as u64 + 1, parameters, lens, refs, out);
+            row += 1;
         }
     }
     Ok(())
@@ -761,6 +791,39 @@ impl Subsystem for InterfaceSubsystem {
         Ok(StepOutcome::Completed)
     }
 
+    /// RK4 at its own micro step: the steps are taken in one loop over the model, each flagged
+    /// one's outputs read from it directly (the same arithmetic as one `do_step` and `get_f64`
+    /// per step: results are bit-identical). Otherwise one step at a time.
+    fn do_steps(&mut self, t: Ticks, h: Ticks, record: &[bool], refs: &[ValueReference], rows: &mut [f64]) -> Steps {
+        let fast = matches!(self.integrator, MicroIntegrator::Rk4 { .. })
+            && h == self.micro_step
+            && self.phase == Phase::Stepping
+            && t == self.time;
+        if !fast {
+            return lash_core::subsystem::steps_one_by_one(self, t, h, record, refs, rows);
+        }
+        let width = match lash_core::subsystem::recorded_rows(&self.variables, record, refs, rows) {
+            Ok(w) => w,
+            Err(e) => return Steps { taken: 0, last: Err(e) },
+        };
+        let Self { core, lens, parameter_values, micro_steps, .. } = self;
+        let context = (*micro_steps, &parameter_values[..], &lens[..]);
+        let result = each_core!(core, m => rk4_recorded(m, t, h, record, context, refs, width, rows));
+        match result {
+            Ok(()) => {
+                let taken = record.len();
+                self.micro_steps += taken as u64;
+                self.time = Ticks(t.0 + taken as i64 * h.0);
+                Steps { taken, last: Ok(StepOutcome::Completed) }
+            }
+            Err((taken, t, message)) => {
+                self.micro_steps += taken as u64 + 1;
+                self.phase = Phase::Failed;
+                Steps { taken, last: Err(SubsystemError::Simulation { t, message }) }
+            }
+        }
+    }
+
     fn time(&self) -> Ticks {
         self.time
     }
@@ -915,6 +978,41 @@ mod tests {
             assert_eq!(m.inputs.effective_mass[(1, 0)], 4.5); // row 1, column 0 = element 4
             assert_eq!(m.inputs.friction_moment_force_rate[(3, 0)], 57.0); // row 3, column 0 = element 6
         });
+    }
+
+    #[test]
+    fn steps_in_one_call_equal_steps_one_at_a_time_bit_for_bit() {
+        // An impact, then a failure (a force that drives the journal through the bearing): the
+        // batched path and the provided loop of do_step + get_f64 give the same rows, the same
+        // count of completed steps and the same error.
+        let h = Ticks::from_seconds(1e-5).unwrap();
+        let refs = [vr::CONTACT_FORCE, vr::FRICTION_LOAD, vr::ECCENTRICITY_NORM, vr::MICRO_STEPS];
+        let width = 5;
+        let record: Vec<bool> = (0..300).map(|i| i % 3 != 1).collect();
+        let flagged = record.iter().filter(|&&r| r).count();
+        let run = |batched: bool, force: f64| {
+            let mut s = ready(MicroIntegrator::Rk4 { step: 1e-5 });
+            s.set_f64(&[vr::EFFECTIVE_MASS, vr::EFFECTIVE_FORCE], &[0.1, 0.0, 0.0, 0.1, force, 0.0]).unwrap();
+            let mut rows = vec![0.0; flagged * width];
+            let steps = if batched {
+                s.do_steps(Ticks::ZERO, h, &record, &refs, &mut rows)
+            } else {
+                lash_core::subsystem::steps_one_by_one(&mut s, Ticks::ZERO, h, &record, &refs, &mut rows)
+            };
+            (steps.taken, steps.last.map_err(|e| e.to_string()), rows, s.time(), s.impacts(0).len())
+        };
+        let (taken, last, rows, time, impacts) = run(true, 5000.0);
+        assert_eq!((taken, &last, time), (300, &Ok(StepOutcome::Completed), Ticks(300 * h.0)));
+        assert!(impacts >= 1);
+        assert_eq!(rows[width - 1], 1.0, "micro_steps after the first step");
+        let again = run(false, 5000.0);
+        assert_eq!((again.0, &again.1, again.3, again.4), (taken, &last, time, impacts));
+        assert!(rows.iter().zip(&again.2).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let (taken, last, rows, ..) = run(true, 5e9);
+        let again = run(false, 5e9);
+        assert!(taken < 300 && last.as_ref().is_err_and(|e| e.contains("penetration")), "{taken} {last:?}");
+        assert_eq!((again.0, &again.1), (taken, &last));
+        assert!(rows.iter().zip(&again.2).all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 
     #[test]

@@ -267,6 +267,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     /// Contact state of joint `j` at (e_j, ė_j) at time `t`, using its current mode.
     #[inline(always)]
     pub fn contact_at(&self, t: f64, j: usize, e: &[f64], ed: &[f64]) -> J::State {
+        self.contact_at_as::<true>(t, j, e, ed)
+    }
+
+    /// [`InterfaceModel::contact_at`]; `SERIES = false` only when no joint has a bush in series.
+    #[inline(always)]
+    fn contact_at_as<const SERIES: bool>(&self, t: f64, j: usize, e: &[f64], ed: &[f64]) -> J::State {
         let dt = t - self.input_time;
         let u = &self.inputs;
         let r = J::ROTATIONS;
@@ -278,12 +284,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let joint = &self.joints[j];
         if joint.in_contact() {
             // The common case on the hot path, one evaluation returned as it is.
-            return joint.evaluate(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
+            return joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
         }
-        let s = joint.evaluate(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
+        let s = joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
         if J::penetration(&s) > 0.0 {
             // A stage ahead of the onset: the local approach velocity stands in for δ̇⁻.
-            joint.evaluate(e, ed, &wj[..r], &wb[..r], J::penetration_rate(&s).max(0.0))
+            joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], J::penetration_rate(&s).max(0.0))
         } else {
             s
         }
@@ -309,13 +315,13 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     /// The loads at (t, w, ẇ): in free flight (|e_j| ≤ c_j, so F_N = F_T = 0) nothing but |e_j|²
     /// is computed for joint j.
     #[inline(always)]
-    fn loads_at(&self, t: f64, e: &SVector<f64, N>, ed: &SVector<f64, N>) -> Loads<N, M> {
+    fn loads_at<const SERIES: bool>(&self, t: f64, e: &SVector<f64, N>, ed: &SVector<f64, N>) -> Loads<N, M> {
         let mut loads = Loads::zero();
         for j in 0..self.joints.len() {
             let c = self.joints[j].radial_clearance();
             let ej = Self::part(e, j);
             if ej.iter().map(|x| x * x).sum::<f64>() > c * c {
-                let s = self.contact_at(t, j, ej, Self::part(ed, j));
+                let s = self.contact_at_as::<SERIES>(t, j, ej, Self::part(ed, j));
                 self.put(&mut loads, j, &s);
             }
         }
@@ -341,14 +347,14 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
 
     /// ẅ and the loads at (t, w, ẇ).
     #[inline(always)]
-    fn acceleration(
+    fn acceleration<const SERIES: bool>(
         &self,
         t: f64,
         mass: &MassFactor<N>,
         e: &SVector<f64, N>,
         ed: &SVector<f64, N>,
     ) -> (SVector<f64, N>, Loads<N, M>) {
-        let loads = self.loads_at(t, e, ed);
+        let loads = self.loads_at::<SERIES>(t, e, ed);
         (self.acceleration_with(t, mass, &loads), loads)
     }
 
@@ -361,7 +367,18 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     }
 
     /// One RK4 step of size `h` from `t`; the joints' states at the step end are in `states`.
+    #[inline(always)]
     pub fn rk4_step(&mut self, t: f64, h: f64) {
+        if self.joints.iter().any(J::in_series) {
+            self.rk4_step_as::<true>(t, h)
+        } else {
+            self.rk4_step_as::<false>(t, h)
+        }
+    }
+
+    /// [`InterfaceModel::rk4_step`] with the series solve in the code or not.
+    #[inline(always)]
+    fn rk4_step_as<const SERIES: bool>(&mut self, t: f64, h: f64) {
         self.located = false;
         let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
         // The last step's end (same time, same inputs) is this step's start: its factor and, for
@@ -384,15 +401,15 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let (middle, finish) = (self.mass_at(t + 0.5 * h), self.mass_at(t + h));
         let (k1v, l1) = match reused {
             Some(loads) => (self.acceleration_with(t, &start, &loads), loads),
-            None => self.acceleration(t, &start, &e0, &v0),
+            None => self.acceleration::<SERIES>(t, &start, &e0, &v0),
         };
         let k1e = v0;
         let k2e = v0 + k1v * (0.5 * h);
-        let (k2v, l2) = self.acceleration(t + 0.5 * h, &middle, &(e0 + k1e * (0.5 * h)), &k2e);
+        let (k2v, l2) = self.acceleration::<SERIES>(t + 0.5 * h, &middle, &(e0 + k1e * (0.5 * h)), &k2e);
         let k3e = v0 + k2v * (0.5 * h);
-        let (k3v, l3) = self.acceleration(t + 0.5 * h, &middle, &(e0 + k2e * (0.5 * h)), &k3e);
+        let (k3v, l3) = self.acceleration::<SERIES>(t + 0.5 * h, &middle, &(e0 + k2e * (0.5 * h)), &k3e);
         let k4e = v0 + k3v * h;
-        let (k4v, l4) = self.acceleration(t + h, &finish, &(e0 + k3e * h), &k4e);
+        let (k4v, l4) = self.acceleration::<SERIES>(t + h, &finish, &(e0 + k3e * h), &k4e);
         let e1 = e0 + (k1e + (k2e + k3e) * 2.0 + k4e) * (h / 6.0);
         let v1 = v0 + (k1v + (k2v + k3v) * 2.0 + k4v) * (h / 6.0);
         self.impulse += (l1.contact + (l2.contact + l3.contact) * 2.0 + l4.contact) * (h / 6.0);
@@ -423,7 +440,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         self.eccentricity_rate = v1;
         let mut end = Loads::zero();
         for j in 0..self.joints.len() {
-            let s = self.contact_at(t + h, j, Self::part(&e1, j), Self::part(&v1, j));
+            let s = self.contact_at_as::<SERIES>(t + h, j, Self::part(&e1, j), Self::part(&v1, j));
             self.put(&mut end, j, &s);
             if let Some(tr) = self.open[j].as_mut() {
                 tr.sample(t + h, J::normal_force(&s), J::penetration(&s));
@@ -510,7 +527,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                 self.violation = true;
             }
         }
-        let (a, loads) = self.acceleration(t, &self.mass_at(t), &e, &ed);
+        let (a, loads) = self.acceleration::<true>(t, &self.mass_at(t), &e, &ed);
         dydt[..N].copy_from_slice(ed.as_slice());
         dydt[N..2 * N].copy_from_slice(a.as_slice());
         dydt[2 * N..3 * N].copy_from_slice(loads.contact.as_slice());
