@@ -506,3 +506,61 @@ fn spatial_scenarios_get_clear_errors_where_a_command_does_not_take_them_yet() {
         assert!(e.contains(field), "{field} missing from: {e}");
     }
 }
+
+#[test]
+fn what_cannot_fit_is_refused_before_any_work() {
+    let dir = scratch("limits");
+    // A run of 1e6 s sampled every 1e-5 s: ~65 TB of CSV.
+    let out = dir.join("huge");
+    let o = lash(&["run", "A", "--horizon", "1e6", "--out", out.to_str().unwrap(), "--quiet"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("TB") && e.contains("free") && e.contains("simulation.output_interval"), "{e}");
+    assert!(!out.join("timeseries.csv").exists() && !out.join("timeseries.csv.partial").exists());
+    // A sweep of 10⁸ runs × 10 s at 100 kHz, refused at once (before its design is listed).
+    let sweep = dir.join("big.toml");
+    std::fs::write(
+        &sweep,
+        "base = \"A\"\nmodel = \"reduced\"\nsampling = \"latin_hypercube\"\nruns = 100000000\nseed = 1\nhorizon = 10.0\n\
+         [output]\nchannels = [\"slider.ax\"]\nsample_rate = 100000.0\n\
+         [[parameters]]\npath = \"drivers[0].motion.omega\"\nuniform = { low = 400.0, high = 600.0 }\n",
+    )
+    .unwrap();
+    let started = std::time::Instant::now();
+    let o = lash(&["sweep", sweep.to_str().unwrap(), "--out", dir.join("big").to_str().unwrap(), "--quiet"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("fewer runs"), "{}", stderr(&o));
+    assert!(started.elapsed().as_secs() < 30, "refused only after {:?}", started.elapsed());
+    assert!(!dir.join("big").exists());
+    // An output interval below the time resolution.
+    let text = String::from_utf8(lash(&["show", "A"]).stdout).unwrap();
+    let tiny = dir.join("tiny.toml");
+    std::fs::write(&tiny, text.replace("output_interval = 0.00001", "output_interval = 1e-16")).unwrap();
+    let o = lash(&["validate", tiny.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("simulation.output_interval") && stderr(&o).contains("time resolution"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn validate_understands_sweep_and_system_files() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let o = lash(&["validate", root.join("examples/sweep-lhs.toml").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("valid (sweep of A; 64 runs"));
+    let o = lash(&["validate", root.join("examples/systems/reduced-A.toml").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("valid (system"));
+    // A sweep whose values make one run's scenario invalid: that run is named.
+    let dir = scratch("validate-sweep");
+    let text = std::fs::read_to_string(root.join("examples/sweep-bush.toml")).unwrap();
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, text.replace("values = [110e9", "values = [-5.0, 110e9")).unwrap();
+    let o = lash(&["validate", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("run 0") && e.contains("young_modulus") && e.contains("must be > 0"), "{e}");
+}

@@ -114,3 +114,23 @@ fn vanishing_clearance_approaches_the_ideal_mechanism() {
     eprintln!("relative RMS difference of slider acceleration at c = 1 µm: {rel:e}");
     assert!(rel < 0.02, "relative RMS difference {rel}");
 }
+
+/// A fixed step of five per contact is flagged (its peaks are 20 % off, validation.md), one of
+/// ten per contact and the converged adaptive run are not; the flag names the joint and the step.
+#[test]
+fn a_fixed_step_too_coarse_for_the_contacts_is_flagged() {
+    let warnings = |method: Method| {
+        let mut s = builtin::by_name("B").unwrap();
+        s.simulation.integrator = method;
+        s.simulation.horizon = 0.01;
+        s.simulation.output_interval = 1e-4;
+        let (summary, _, _) = run(&s, false);
+        assert!(summary.clearances[0].impacts >= 3, "{:?}", summary.clearances[0].impacts);
+        summary.warnings
+    };
+    let coarse = warnings(Method::Rk4 { step: 1e-5 });
+    assert_eq!(coarse.len(), 1, "{coarse:?}");
+    assert!(coarse[0].contains("rod_slider") && coarse[0].contains("steps of 1e-5 s"), "{}", coarse[0]);
+    assert!(warnings(Method::Rk4 { step: 5e-6 }).is_empty());
+    assert!(warnings(Method::Dop853(tight(1e-9))).is_empty());
+}

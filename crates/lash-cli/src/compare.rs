@@ -71,8 +71,9 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         std::fs::remove_file(&comparison_path)
             .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
     }
-    let full_timing = crate::run::run(s, full_runner(s, false).as_mut(), &full_dir, quiet)?;
-    let reduced_timing = crate::run::run(s, reduced.as_mut(), &reduced_dir, quiet)?;
+    let full_timing =
+        crate::run::run(s, (s.simulation(), s.output()), full_runner(s, false).as_mut(), &full_dir, quiet)?;
+    let reduced_timing = crate::run::run(s, (s.simulation(), s.output()), reduced.as_mut(), &reduced_dir, quiet)?;
     // The full model at the reduced model's micro step with RK4 (the reduced-interface-model papers' setting): the speed-up
     // at equal step. It is not converged (impacts last about five such steps), so its results
     // are not compared, only its time; a blow-up is reported, not fatal.
@@ -80,14 +81,22 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
     let mut fixed = s.clone();
     fixed.simulation_mut().integrator = lash_ode::Method::Rk4 { step: options.micro_step };
     let fixed_timing = if fixed.validate().is_empty() {
-        crate::run::run(&fixed, full_runner(&fixed, false).as_mut(), &fixed_dir, true).map_err(|e| e.to_string())
+        crate::run::run(
+            &fixed,
+            (fixed.simulation(), fixed.output()),
+            full_runner(&fixed, false).as_mut(),
+            &fixed_dir,
+            true,
+        )
+        .map_err(|e| e.to_string())
     } else {
         Err(format!("{}", fixed.validate()))
     };
 
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
     let ideal_dir = out.join("ideal");
-    let ideal_ok = crate::run::run(s, full_runner(s, true).as_mut(), &ideal_dir, true).is_ok();
+    let ideal_ok =
+        crate::run::run(s, (s.simulation(), s.output()), full_runner(s, true).as_mut(), &ideal_dir, true).is_ok();
     let ideal_rows = if ideal_ok { Some(read_csv(&ideal_dir.join("timeseries.csv"))?) } else { None };
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;

@@ -22,6 +22,7 @@ mod bench;
 mod bush;
 mod compare;
 mod fmu;
+mod limits;
 mod output;
 mod plots;
 mod run;
@@ -170,9 +171,10 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
-    /// Check a scenario file and list every problem.
+    /// Check a scenario, sweep or system file and list every problem.
     Validate {
-        /// Scenario file or built-in name.
+        /// Scenario file or built-in name; or a sweep file (every run's scenario is checked); or a
+        /// system file (TOML, .ssd or .ssp: its elements are loaded, not stepped).
         scenario: String,
     },
     /// List the built-in scenarios.
@@ -380,14 +382,17 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     }
                 }
                 return match model {
-                    ModelKind::Full => run::run(&s, &mut lash_run::SpatialRun::new(&s, ideal), &out, quiet).map(|_| ()),
+                    ModelKind::Full => {
+                        run::run(&s, (&s.simulation, &s.output), &mut lash_run::SpatialRun::new(&s, ideal), &out, quiet)
+                            .map(|_| ())
+                    }
                     ModelKind::Reduced => {
                         if ideal {
                             return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
                         }
                         let mut r = lash_run::SpatialReducedRun::new(&s, reduced.options())
                             .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                        run::run(&s, &mut r, &out, quiet).map(|_| ())
+                        run::run(&s, (&s.simulation, &s.output), &mut r, &out, quiet).map(|_| ())
                     }
                 };
             }
@@ -395,7 +400,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             match model {
                 ModelKind::Full => {
                     let mut r = lash_run::FullRun::new(&s, lash_run::BuildOptions { ideal });
-                    run::run(&s, &mut r, &out, quiet).map(|_| ())
+                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, quiet).map(|_| ())
                 }
                 ModelKind::Reduced => {
                     if ideal {
@@ -403,7 +408,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     }
                     let mut r = lash_run::ReducedRun::new(&s, reduced.options())
                         .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                    run::run(&s, &mut r, &out, quiet).map(|_| ())
+                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, quiet).map(|_| ())
                 }
             }
         }
@@ -417,6 +422,14 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 }
             }
             compare::run(&s, &out, reduced.options(), quiet)
+        }
+        Command::Validate { scenario } if system::is_system(&scenario) => {
+            println!("{}", system::validate(&scenario)?);
+            Ok(())
+        }
+        Command::Validate { scenario } if sweep::is_sweep(&scenario) => {
+            println!("{}", sweep::validate(std::path::Path::new(&scenario))?);
+            Ok(())
         }
         Command::Validate { scenario } => {
             let (kind, bodies, joints, clearances) = match lash_scenario::any_by_name_or_file(&scenario)

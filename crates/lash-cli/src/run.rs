@@ -21,7 +21,32 @@ pub struct Timing {
     pub total_s: f64,
 }
 
-pub fn run<S: serde::Serialize>(s: &S, runner: &mut dyn Runner, out: &Path, quiet: bool) -> Result<Timing, CliError> {
+/// Runs `runner` (built from scenario `s`, whose simulation and output settings are given) into
+/// `out`, after checking that its output fits (limits.rs).
+pub fn run<S: serde::Serialize>(
+    s: &S,
+    (simulation, output): (&lash_scenario::schema::SimulationSpec, &lash_scenario::schema::OutputSpec),
+    runner: &mut dyn Runner,
+    out: &Path,
+    quiet: bool,
+) -> Result<Timing, CliError> {
+    let measured: usize = output.measurements.iter().map(|m| m.forces.len()).sum();
+    let estimate =
+        crate::limits::run_estimate(simulation.horizon, simulation.output_interval, runner.header().len(), measured);
+    crate::limits::check(
+        "the run",
+        &estimate,
+        out,
+        "shorten simulation.horizon (or --horizon), raise simulation.output_interval or list fewer output.channels",
+    )?;
+    if !quiet && estimate.disk_bytes > 2_000_000_000 {
+        eprintln!(
+            "note: this run writes up to {} of CSV ({} rows × {} values)",
+            crate::limits::bytes(estimate.disk_bytes),
+            estimate.rows,
+            estimate.columns
+        );
+    }
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     let summary_path = out.join("summary.json");
     let mut csv = CsvOutput::create(out, &runner.header(), &["summary.json"])?;
@@ -110,5 +135,8 @@ pub fn run<S: serde::Serialize>(s: &S, runner: &mut dyn Runner, out: &Path, quie
         impacts.join(", "),
         out.display()
     );
+    for w in &summary.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(timing)
 }

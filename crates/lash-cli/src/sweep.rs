@@ -19,7 +19,39 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
     if threads == Some(0) {
         return Err(CliError::Input("--threads must be ≥ 1".into()));
     }
-    let plan = lash_sweep::load(file).map_err(map_error)?;
+    // Sized before the runs are listed (a design of 10⁹ runs is itself gigabytes).
+    let (spec, text, base) = lash_sweep::read(file).map_err(map_error)?;
+    let listed = spec.run_count();
+    let runs = match shard {
+        Some(s) => listed.div_ceil(s.count),
+        None => listed,
+    };
+    let workers = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let o = &spec.output;
+    let horizon = spec.horizon.unwrap_or(base.simulation().horizon);
+    let simulated_interval =
+        if o.anti_alias.is_some() { base.simulation().output_interval } else { 1.0 / o.sample_rate };
+    let mut estimate = crate::limits::sweep_estimate(
+        runs,
+        workers as u64,
+        horizon,
+        simulated_interval,
+        o.sample_rate,
+        o.channels.len(),
+        o.clean,
+        o.csv,
+    );
+    // The design and the journal: each run's values and its record.
+    let per_run = 8 * spec.parameters.len() as u64 + 128;
+    estimate.memory_bytes = estimate.memory_bytes.saturating_add(listed.saturating_mul(per_run));
+    crate::limits::check(
+        &format!("lash sweep {}", file.display()),
+        &estimate,
+        out,
+        "fewer runs (or shards), a shorter horizon, a lower output.sample_rate or fewer output.channels",
+    )?;
+    let plan = lash_sweep::Plan::new(spec, text, base)
+        .map_err(|p| CliError::Input(format!("invalid sweep file {}: {p}", file.display())))?;
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {msg} failed, {per_sec}, ETA {eta}")
@@ -68,6 +100,49 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
         )));
     }
     Ok(())
+}
+
+/// True when `arg` is a sweep file: TOML with a top-level `base` (the scenario it varies).
+pub fn is_sweep(arg: &str) -> bool {
+    let path = Path::new(arg);
+    path.is_file()
+        && std::fs::read_to_string(path)
+            .ok()
+            .and_then(|t| t.parse::<toml::Table>().ok())
+            .is_some_and(|t| t.get("base").is_some_and(toml::Value::is_str))
+}
+
+/// `lash validate` of a sweep file: the file and its base scenario, then every run's scenario
+/// (the base with the run's parameter values), as `lash sweep` would build them. Lists the first
+/// ten runs whose scenario is invalid.
+pub fn validate(file: &Path) -> Result<String, CliError> {
+    let plan = lash_sweep::load(file).map_err(map_error)?;
+    let mut bad = Vec::new();
+    let mut count = 0;
+    for run in &plan.runs {
+        if let Err(e) = plan.scenario(run) {
+            count += 1;
+            if bad.len() < 10 {
+                bad.push(format!("  - run {}: {e}", run.id));
+            }
+        }
+    }
+    if count > 0 {
+        return Err(CliError::Input(format!(
+            "invalid sweep file {}: {count} of {} runs have an invalid scenario:\n{}",
+            file.display(),
+            plan.runs.len(),
+            bad.join("\n")
+        )));
+    }
+    Ok(format!(
+        "{}: valid (sweep of {}; {} runs, {} parameters, {} channels)",
+        file.display(),
+        plan.spec.base,
+        plan.runs.len(),
+        plan.spec.parameters.len(),
+        plan.spec.output.channels.len()
+    ))
 }
 
 /// Merges shard folders.

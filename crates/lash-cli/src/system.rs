@@ -31,15 +31,16 @@ pub fn run(arg: &str, out: &Path, step: Option<f64>, stop: Option<f64>, quiet: b
     result
 }
 
-fn run_in(
+/// Reads a system file (TOML, `.ssd` or `.ssp`, an archive unpacked into `scratch`) and builds the
+/// system: every element instantiated (FMUs unpacked into `cache` and loaded), every connection
+/// checked. `step` and `stop` override the file's.
+fn load(
     path: &Path,
-    out: &Path,
     cache: &Path,
     scratch: &Path,
     step: Option<f64>,
     stop: Option<f64>,
-    quiet: bool,
-) -> Result<(), CliError> {
+) -> Result<lash_system::System, CliError> {
     let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let (mut spec, base) = if path.extension().is_some_and(|e| e == "ssd" || e == "ssp") {
         lash_system::ssp::load(path, scratch, step).map_err(CliError::Input)?
@@ -54,7 +55,31 @@ fn run_in(
     if let Some(s) = stop {
         spec.stop = spec.start + s;
     }
-    let mut system = lash_system::System::new(&spec, &base, cache).map_err(|e| input(e.to_string()))?;
+    lash_system::System::new(&spec, &base, cache).map_err(|e| input(e.to_string()))
+}
+
+/// `lash validate` of a system file: loads it as `lash run` would, without stepping it.
+pub fn validate(arg: &str) -> Result<String, CliError> {
+    let path = Path::new(arg);
+    let cache = lash_fmi::import::default_cache();
+    let scratch = std::env::temp_dir().join(format!("lash-validate-{}", std::process::id()));
+    let result = load(path, &cache, &scratch, None, None);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let system = result?;
+    Ok(format!("{arg}: valid (system; {} output channels)", system.header().len().saturating_sub(1)))
+}
+
+fn run_in(
+    path: &Path,
+    out: &Path,
+    cache: &Path,
+    scratch: &Path,
+    step: Option<f64>,
+    stop: Option<f64>,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
+    let mut system = load(path, cache, scratch, step, stop)?;
     let mut csv = CsvOutput::create(out, system.header(), &["summary.json"])?;
     let result = system.run(&mut |row| csv.row(row));
     let summary = match result {

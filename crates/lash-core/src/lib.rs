@@ -14,4 +14,4 @@ pub use subsystem::{
     Causality, Coupling, Phase, SavedState, StepOutcome, Steps, StopReason, Subsystem, SubsystemError, ValueKind,
     ValueReference, Variability, Variable, VariableTable, check_variable_table,
 };
-pub use time::{Ticks, TicksError};
+pub use time::{TICKS_PER_SECOND, Ticks, TicksError};

@@ -447,13 +447,14 @@ pub(crate) fn run_reduced(
     }
     let channels = crate::record::channel_stats(&c.recording.channels, &stats, samples);
     let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
+    let integrator = match micro.integrator() {
+        MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
+        MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
+    };
     Ok(Summary {
         scenario: c.scenario.to_string(),
         model: "reduced",
-        integrator: match micro.integrator() {
-            MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
-            MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
-        },
+        integrator,
         start_time: sim.start_time,
         horizon,
         output_interval: sim.output_interval,
@@ -466,6 +467,7 @@ pub(crate) fn run_reduced(
         events,
         max_constraint_error,
         channels,
+        warnings: crate::run::resolution_warnings(&integrator, &clearances),
         clearances,
         reduced: Some(details(master_stats)),
         measurements,

@@ -345,7 +345,7 @@ impl SpatialRun {
             _ => None,
         });
         let m = samples.max(1) as f64;
-        let clearances = (0..nc)
+        let clearances: Vec<crate::run::ClearanceSummary> = (0..nc)
             .map(|k| {
                 let c = &self.model.clearances[k];
                 let mut impacts = self.model.impacts[k].clone();
@@ -378,6 +378,7 @@ impl SpatialRun {
             events: ode.events,
             max_constraint_error,
             channels,
+            warnings: crate::run::resolution_warnings(&sim.integrator, &clearances),
             clearances,
             reduced: None,
             measurements,

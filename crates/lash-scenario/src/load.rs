@@ -454,6 +454,11 @@ pub(crate) fn validate_simulation(s: &SimulationSpec) -> Problems {
     if s.output_interval.is_finite() && s.horizon.is_finite() && s.output_interval > s.horizon {
         p.push("output_interval", format!("must not exceed the horizon ({} s)", s.horizon));
     }
+    // Time runs on integer ticks: an interval below one tick would be a zero step.
+    let tick = 1.0 / lash_core::TICKS_PER_SECOND as f64;
+    if s.output_interval > 0.0 && s.output_interval < tick {
+        p.push("output_interval", format!("{} s is below lash's time resolution ({tick:e} s)", s.output_interval));
+    }
     match &s.integrator {
         lash_ode::Method::Rk4 { step } => {
             p.positive("integrator.step", *step);
@@ -485,6 +490,15 @@ pub(crate) fn validate_simulation(s: &SimulationSpec) -> Problems {
             p.positive("integrator.min_step", o.min_step);
             if o.min_step > o.max_step {
                 p.push("integrator.min_step", "must not exceed max_step");
+            }
+            if s.output_interval > 0.0 && o.min_step > 0.0 && s.output_interval < o.min_step {
+                p.push(
+                    "output_interval",
+                    format!(
+                        "{} s is below the integrator's min_step ({} s): samples closer than any step it may take",
+                        s.output_interval, o.min_step
+                    ),
+                );
             }
         }
     }
@@ -763,5 +777,22 @@ mod tests {
         assert_eq!(f.as_deref(), Some("mass"));
         assert!(m.contains("expected f64"));
         assert_eq!(split_serde_message("unknown field `mas`, expected one of `a`").0.as_deref(), Some("mas"));
+    }
+
+    #[test]
+    fn output_intervals_below_the_time_resolution_or_the_minimum_step_are_refused() {
+        let base = crate::builtin::by_name("B").unwrap().simulation;
+        let problems = |interval: f64| {
+            let mut s = base.clone();
+            s.output_interval = interval;
+            let p = validate_simulation(&s);
+            if p.is_empty() { String::new() } else { p.to_string() }
+        };
+        assert!(problems(1e-5).is_empty(), "{}", problems(1e-5));
+        let tiny = problems(1e-16);
+        assert!(tiny.contains("output_interval") && tiny.contains("time resolution"), "{tiny}");
+        let lash_ode::Method::Dop853(o) = base.integrator else { panic!("B is adaptive") };
+        let below = problems(o.min_step / 2.0);
+        assert!(below.contains("output_interval") && below.contains("min_step"), "{below}");
     }
 }

@@ -93,6 +93,13 @@ pub struct Report {
 
 /// Loads a sweep file and its base scenario into a checked [`Plan`].
 pub fn load(path: &Path) -> Result<Plan, SweepError> {
+    let (spec, text, base) = read(path)?;
+    Plan::new(spec, text, base).map_err(|p| SweepError::Input(format!("invalid sweep file {}: {p}", path.display())))
+}
+
+/// Reads a sweep file (its own fields checked) and its base scenario, without listing the runs:
+/// what a caller needs to size the job before [`Plan::new`] does the work.
+pub fn read(path: &Path) -> Result<(SweepSpec, String, lash_scenario::AnyScenario), SweepError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| SweepError::Input(format!("cannot read sweep file {}: {e}", path.display())))?;
     let spec = SweepSpec::parse(&text)
@@ -117,7 +124,7 @@ pub fn load(path: &Path) -> Result<Plan, SweepError> {
                 .map_err(|p| SweepError::Input(format!("invalid base scenario {}: {p}", file.display())))?
         }
     };
-    Plan::new(spec, text, base).map_err(|p| SweepError::Input(format!("invalid sweep file {}: {p}", path.display())))
+    Ok((spec, text, base))
 }
 
 /// Parses `i/N` (0 ≤ i < N).

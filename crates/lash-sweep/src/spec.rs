@@ -171,6 +171,23 @@ pub struct SweepSpec {
 }
 
 impl SweepSpec {
+    /// The number of runs the design lists: the product of the listed values' counts for a grid,
+    /// `runs` otherwise.
+    pub fn run_count(&self) -> u64 {
+        match self.sampling {
+            Sampling::Grid => self
+                .parameters
+                .iter()
+                .map(|p| match (&p.values, p.linspace) {
+                    (Some(v), _) => v.len() as u64,
+                    (None, Some(l)) => l.count,
+                    _ => 0,
+                })
+                .fold(1u64, u64::saturating_mul),
+            _ => self.runs.unwrap_or(0),
+        }
+    }
+
     /// Parses a sweep file, reporting every problem with its field path.
     pub fn parse(text: &str) -> Result<Self, Problems> {
         let spec: SweepSpec = toml::from_str(text).map_err(|e| {
