@@ -111,9 +111,9 @@ impl ClearanceSummary {
 
 /// Fewer fixed steps per contact than this and the contact is not resolved: on scenario B (5000
 /// rpm, 0.5 mm, impacts of ~50 µs) RK4 at 1e-5 s (5 steps per impact) puts the peak contact force
-/// 23 % above the converged one and counts 69 impacts against 39; at 5e-6 s (10 steps) the peak is
-/// within 0.05 % (docs/validation.md).
-pub const STEPS_PER_CONTACT: f64 = 10.0;
+/// 23 % above the converged one and 6 steps 2.5 % below; from 7 steps on it is within 1 %
+/// (docs/validation.md).
+pub const STEPS_PER_CONTACT: f64 = 7.0;
 
 /// Warnings of a fixed-step run whose impacts last fewer than [`STEPS_PER_CONTACT`] steps (by the
 /// median completed impact of each clearance joint); none for an adaptive integrator, which
