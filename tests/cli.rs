@@ -564,3 +564,46 @@ fn validate_understands_sweep_and_system_files() {
     let e = stderr(&o);
     assert!(e.contains("run 0") && e.contains("young_modulus") && e.contains("must be > 0"), "{e}");
 }
+
+#[test]
+fn a_run_written_as_parquet_holds_the_csv_values_bit_for_bit() {
+    let dir = scratch("parquet");
+    let (csv_dir, pq_dir) = (dir.join("csv"), dir.join("pq"));
+    for (out, format) in [(&csv_dir, "csv"), (&pq_dir, "parquet")] {
+        let o = lash(&[
+            "run",
+            "A",
+            "--model",
+            "reduced",
+            "--horizon",
+            "0.01",
+            "--format",
+            format,
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert!(!pq_dir.join("timeseries.csv").exists() && pq_dir.join("summary.json").exists());
+    let (columns, values) = lash_sweep::dataset::read_series(&pq_dir.join("timeseries.parquet")).unwrap();
+    let text = std::fs::read_to_string(csv_dir.join("timeseries.csv")).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    assert_eq!(header.len(), columns.len());
+    for (h, (name, unit)) in header.iter().zip(&columns) {
+        assert_eq!(*h, format!("{name} [{unit}]"));
+    }
+    let rows: Vec<Vec<f64>> =
+        text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 1001);
+    for (i, row) in rows.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            assert_eq!(v.to_bits(), values[c][i].to_bits(), "row {i}, {}", header[c]);
+        }
+    }
+    // Writing the other format removes the earlier one: no stale table passes for this run's.
+    let o =
+        lash(&["run", "A", "--model", "reduced", "--horizon", "0.01", "--out", pq_dir.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success());
+    assert!(pq_dir.join("timeseries.csv").exists() && !pq_dir.join("timeseries.parquet").exists());
+}

@@ -71,9 +71,22 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         std::fs::remove_file(&comparison_path)
             .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
     }
-    let full_timing =
-        crate::run::run(s, (s.simulation(), s.output()), full_runner(s, false).as_mut(), &full_dir, quiet)?;
-    let reduced_timing = crate::run::run(s, (s.simulation(), s.output()), reduced.as_mut(), &reduced_dir, quiet)?;
+    let full_timing = crate::run::run(
+        s,
+        (s.simulation(), s.output()),
+        full_runner(s, false).as_mut(),
+        &full_dir,
+        crate::output::Format::Csv,
+        quiet,
+    )?;
+    let reduced_timing = crate::run::run(
+        s,
+        (s.simulation(), s.output()),
+        reduced.as_mut(),
+        &reduced_dir,
+        crate::output::Format::Csv,
+        quiet,
+    )?;
     // The full model at the reduced model's micro step with RK4 (the reduced-interface-model papers' setting): the speed-up
     // at equal step. It is not converged (impacts last about five such steps), so its results
     // are not compared, only its time; a blow-up is reported, not fatal.
@@ -86,6 +99,7 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
             (fixed.simulation(), fixed.output()),
             full_runner(&fixed, false).as_mut(),
             &fixed_dir,
+            crate::output::Format::Csv,
             true,
         )
         .map_err(|e| e.to_string())
@@ -95,8 +109,15 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
 
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
     let ideal_dir = out.join("ideal");
-    let ideal_ok =
-        crate::run::run(s, (s.simulation(), s.output()), full_runner(s, true).as_mut(), &ideal_dir, true).is_ok();
+    let ideal_ok = crate::run::run(
+        s,
+        (s.simulation(), s.output()),
+        full_runner(s, true).as_mut(),
+        &ideal_dir,
+        crate::output::Format::Csv,
+        true,
+    )
+    .is_ok();
     let ideal_rows = if ideal_ok { Some(read_csv(&ideal_dir.join("timeseries.csv"))?) } else { None };
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;

@@ -127,7 +127,7 @@ impl ReducedArgs {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Run a scenario and write timeseries.csv, summary.json and scenario.toml to --out.
+    /// Run a scenario and write timeseries.csv (or .parquet), summary.json and scenario.toml to --out.
     Run {
         /// A scenario file (TOML) or a built-in name (see `lash scenarios`); or a system file
         /// (TOML with `[[elements]]`, an SSP `.ssd` or `.ssp`).
@@ -147,6 +147,9 @@ enum Command {
         /// System files: the communication step [s] (overrides the file's).
         #[arg(long)]
         step: Option<f64>,
+        /// File format of the time series: timeseries.csv or timeseries.parquet.
+        #[arg(long, value_enum, default_value_t = output::Format::Csv)]
+        format: output::Format,
         #[command(flatten)]
         reduced: ReducedArgs,
         /// No progress bar.
@@ -363,10 +366,10 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::S
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, step, reduced, quiet } => {
+        Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, quiet } => {
             output::catch_interrupts();
             if system::is_system(&scenario) {
-                return system::run(&scenario, &out, step, horizon, quiet);
+                return system::run(&scenario, &out, step, horizon, format, quiet);
             }
             if step.is_some() {
                 return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
@@ -382,17 +385,22 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     }
                 }
                 return match model {
-                    ModelKind::Full => {
-                        run::run(&s, (&s.simulation, &s.output), &mut lash_run::SpatialRun::new(&s, ideal), &out, quiet)
-                            .map(|_| ())
-                    }
+                    ModelKind::Full => run::run(
+                        &s,
+                        (&s.simulation, &s.output),
+                        &mut lash_run::SpatialRun::new(&s, ideal),
+                        &out,
+                        format,
+                        quiet,
+                    )
+                    .map(|_| ()),
                     ModelKind::Reduced => {
                         if ideal {
                             return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
                         }
                         let mut r = lash_run::SpatialReducedRun::new(&s, reduced.options())
                             .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                        run::run(&s, (&s.simulation, &s.output), &mut r, &out, quiet).map(|_| ())
+                        run::run(&s, (&s.simulation, &s.output), &mut r, &out, format, quiet).map(|_| ())
                     }
                 };
             }
@@ -400,7 +408,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             match model {
                 ModelKind::Full => {
                     let mut r = lash_run::FullRun::new(&s, lash_run::BuildOptions { ideal });
-                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, quiet).map(|_| ())
+                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, format, quiet).map(|_| ())
                 }
                 ModelKind::Reduced => {
                     if ideal {
@@ -408,7 +416,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                     }
                     let mut r = lash_run::ReducedRun::new(&s, reduced.options())
                         .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, quiet).map(|_| ())
+                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, format, quiet).map(|_| ())
                 }
             }
         }

@@ -31,15 +31,29 @@ pub fn samples(horizon: f64, interval: f64) -> u64 {
     if n.is_finite() && n >= 0.0 { n as u64 + 1 } else { u64::MAX }
 }
 
-/// `lash run`: CSV rows of `columns` values every `output_interval` over `horizon`; in memory, the
-/// force series of the measurement chains (`measured_forces` of them), kept whole for their
-/// filters and spectra.
-pub fn run_estimate(horizon: f64, output_interval: f64, columns: usize, measured_forces: usize) -> Estimate {
+/// Bytes a value takes on disk at most in `format` (Parquet: the double, before compression).
+pub fn bytes_per_value(format: crate::output::Format) -> u64 {
+    match format {
+        crate::output::Format::Csv => CSV_BYTES_PER_VALUE,
+        crate::output::Format::Parquet => 8,
+    }
+}
+
+/// `lash run`: rows of `columns` values every `output_interval` over `horizon`, `per_value` bytes
+/// each; in memory, the force series of the measurement chains (`measured_forces` of them), kept
+/// whole for their filters and spectra.
+pub fn run_estimate(
+    horizon: f64,
+    output_interval: f64,
+    columns: usize,
+    measured_forces: usize,
+    per_value: u64,
+) -> Estimate {
     let rows = samples(horizon, output_interval);
     Estimate {
         rows,
         columns: columns as u64,
-        disk_bytes: rows.saturating_mul(columns as u64).saturating_mul(CSV_BYTES_PER_VALUE),
+        disk_bytes: rows.saturating_mul(columns as u64).saturating_mul(per_value),
         memory_bytes: rows.saturating_mul(measured_forces as u64).saturating_mul(8),
     }
 }
@@ -159,7 +173,7 @@ mod tests {
     #[test]
     fn a_job_that_cannot_fit_is_refused_with_its_figures() {
         // 1e6 s at 1e-5 s: 1e11 rows of 28 values.
-        let e = run_estimate(1e6, 1e-5, 28, 2);
+        let e = run_estimate(1e6, 1e-5, 28, 2, CSV_BYTES_PER_VALUE);
         assert_eq!(e.rows, 100_000_000_001);
         assert_eq!(e.disk_bytes, 100_000_000_001 * 28 * CSV_BYTES_PER_VALUE);
         let out = Path::new("/data/out");
@@ -169,7 +183,7 @@ mod tests {
         let m = check_against("lash run X", &e, out, fix, Some(u64::MAX), Some(1 << 30)).unwrap_err().to_string();
         assert!(m.contains("1.6 TB in memory") && m.contains("1.1 GB available"), "{m}");
         // What fits passes, and unknown figures do not refuse anything.
-        let small = run_estimate(0.036, 1e-5, 28, 0);
+        let small = run_estimate(0.036, 1e-5, 28, 0, CSV_BYTES_PER_VALUE);
         assert_eq!(small.rows, 3601);
         assert!(check_against("run", &small, out, fix, Some(1 << 30), Some(1 << 30)).is_ok());
         assert!(check_against("run", &e, out, fix, None, None).is_ok());

@@ -1,7 +1,8 @@
-//! The one time-series writer of the command line: `timeseries.csv` streamed into
-//! `timeseries.csv.partial` and renamed only when the run finished, so a folder never holds a
-//! complete-looking result of a failed or interrupted run. Numbers are written in the shortest
-//! form that reads back to the same `f64` (plain between 1e-4 and 1e15, exponent otherwise).
+//! The one time-series writer of the command line: `timeseries.csv` (or `timeseries.parquet`)
+//! streamed into `timeseries.csv.partial` and renamed only when the run finished, so a folder
+//! never holds a complete-looking result of a failed or interrupted run. CSV numbers are written
+//! in the shortest form that reads back to the same `f64` (Ryū: plain from 1e-5 to 1e16,
+//! exponent otherwise); Parquet holds the doubles themselves, a column per channel with its unit.
 
 use crate::CliError;
 use std::io::Write;
@@ -33,9 +34,27 @@ pub fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::Relaxed)
 }
 
-/// A CSV being written into an output folder.
-pub struct CsvOutput {
-    writer: std::io::BufWriter<std::fs::File>,
+/// The file format of a run's time series.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Format {
+    /// `timeseries.csv`: text, a header with units.
+    #[default]
+    Csv,
+    /// `timeseries.parquet`: binary doubles (Snappy), the units in the columns' metadata; what
+    /// sweeps write, and read by pandas, polars, arrow.
+    Parquet,
+}
+
+/// Where the rows go.
+enum Sink {
+    Csv(std::io::BufWriter<std::fs::File>),
+    /// `None` once finished.
+    Parquet(Option<Box<lash_sweep::dataset::SeriesWriter>>),
+}
+
+/// A time series being written into an output folder.
+pub struct SeriesOutput {
+    sink: Sink,
     partial: PathBuf,
     done: PathBuf,
     line: String,
@@ -56,14 +75,37 @@ fn io(what: &str, e: std::io::Error) -> CliError {
     CliError::Failure(format!("{what}: {e}"))
 }
 
-impl CsvOutput {
-    /// Creates `out` if needed, removes an earlier run's `timeseries.csv` and `stale` files (they
-    /// must not survive as if they belonged to this run), and writes the header.
-    pub fn create(out: &Path, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
-        Self::create_named(out, "timeseries.csv", header, stale)
+impl SeriesOutput {
+    /// Creates `out` if needed, removes an earlier run's `timeseries.csv`, `timeseries.parquet` and
+    /// `stale` files (they must not survive as if they belonged to this run), and starts
+    /// `timeseries.<format>` (a CSV with its header).
+    pub fn create_as(out: &Path, header: &[String], stale: &[&str], format: Format) -> Result<Self, CliError> {
+        let other = match format {
+            Format::Csv => "timeseries.parquet",
+            Format::Parquet => "timeseries.csv",
+        };
+        let stale: Vec<&str> = stale.iter().copied().chain([other]).collect();
+        match format {
+            Format::Csv => Self::create_named(out, "timeseries.csv", header, &stale),
+            Format::Parquet => {
+                let mut s = Self::create_named(out, "timeseries.parquet", &[], &stale)?;
+                // "name [unit]" → (name, unit).
+                let columns: Vec<(String, String)> = header
+                    .iter()
+                    .map(|h| match h.split_once(" [") {
+                        Some((name, unit)) => (name.to_string(), unit.trim_end_matches(']').to_string()),
+                        None => (h.clone(), String::new()),
+                    })
+                    .collect();
+                let writer =
+                    lash_sweep::dataset::SeriesWriter::create(&s.partial, &columns).map_err(CliError::Failure)?;
+                s.sink = Sink::Parquet(Some(Box::new(writer)));
+                Ok(s)
+            }
+        }
     }
 
-    /// [`CsvOutput::create`] for a table called `name` (streamed into `name.partial`).
+    /// A CSV table called `name` (streamed into `name.partial`), header first.
     pub fn create_named(out: &Path, name: &str, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
         std::fs::create_dir_all(out).map_err(|e| io(&format!("cannot create {}", out.display()), e))?;
         let done = out.join(name);
@@ -76,9 +118,11 @@ impl CsvOutput {
         let file =
             std::fs::File::create(&partial).map_err(|e| io(&format!("cannot create {}", partial.display()), e))?;
         let mut writer = std::io::BufWriter::new(file);
-        writeln!(writer, "{}", header.join(",")).map_err(|e| io("writing the CSV header", e))?;
+        if !header.is_empty() {
+            writeln!(writer, "{}", header.join(",")).map_err(|e| io("writing the CSV header", e))?;
+        }
         Ok(Self {
-            writer,
+            sink: Sink::Csv(writer),
             partial,
             done,
             line: String::with_capacity(1024),
@@ -119,39 +163,50 @@ impl CsvOutput {
         let started = std::time::Instant::now();
         let width = self.width.max(1);
         let mut result = Ok(());
-        let mut number = ryu::Buffer::new();
-        for row in self.pending.chunks(width) {
-            self.line.clear();
-            for (k, &v) in row.iter().enumerate() {
-                if k > 0 {
-                    self.line.push(',');
-                }
-                if v.is_finite() {
-                    // The shortest text that reads back to the same double (Ryū): plain from 1e-5
-                    // to 1e16, scientific outside; whole numbers without their ".0".
-                    let text = number.format_finite(v);
-                    self.line.push_str(text.strip_suffix(".0").unwrap_or(text));
-                } else {
-                    let _ = write!(self.line, "{v}");
+        match &mut self.sink {
+            Sink::Parquet(writer) => {
+                if let Some(w) = writer {
+                    result = w.append(&self.pending).map_err(std::io::Error::other);
+                    if result.is_ok() {
+                        self.rows += (self.pending.len() / width) as u64;
+                    }
                 }
             }
-            self.line.push('\n');
-            result = self.writer.write_all(self.line.as_bytes());
-            if result.is_err() {
-                break;
+            Sink::Csv(writer) => {
+                let mut number = ryu::Buffer::new();
+                for row in self.pending.chunks(width) {
+                    self.line.clear();
+                    for (k, &v) in row.iter().enumerate() {
+                        if k > 0 {
+                            self.line.push(',');
+                        }
+                        if v.is_finite() {
+                            // The shortest text that reads back to the same double (Ryū): plain
+                            // from 1e-5 to 1e16, scientific outside; whole numbers without ".0".
+                            let text = number.format_finite(v);
+                            self.line.push_str(text.strip_suffix(".0").unwrap_or(text));
+                        } else {
+                            let _ = write!(self.line, "{v}");
+                        }
+                    }
+                    self.line.push('\n');
+                    result = writer.write_all(self.line.as_bytes());
+                    if result.is_err() {
+                        break;
+                    }
+                    self.rows += 1;
+                }
             }
-            self.rows += 1;
         }
         self.pending.clear();
         self.busy += started.elapsed();
         result
     }
 
-    /// The run finished: flushes and renames to `timeseries.csv`, which it returns.
+    /// The run finished: flushes and renames to its final name, which it returns.
     pub fn finish(mut self) -> Result<PathBuf, CliError> {
-        self.write_pending().map_err(|e| io("writing the CSV", e))?;
-        self.writer.flush().map_err(|e| io("writing the CSV", e))?;
-        drop(self.writer);
+        self.write_pending().map_err(|e| io("writing the time series", e))?;
+        self.close().map_err(|e| io("writing the time series", e))?;
         std::fs::rename(&self.partial, &self.done).map_err(|e| io("finishing the CSV", e))?;
         Ok(self.done)
     }
@@ -161,13 +216,21 @@ impl CsvOutput {
     /// when no row was written (a run refused before it started leaves nothing behind).
     pub fn abandon(mut self) -> Option<PathBuf> {
         let _ = self.write_pending();
-        let _ = self.writer.flush();
-        drop(self.writer);
+        let _ = self.close();
         if self.rows == 0 {
             let _ = std::fs::remove_file(&self.partial);
             return None;
         }
         Some(self.partial)
+    }
+
+    /// Flushes the CSV, or writes the Parquet file's last row group and footer (a partial Parquet
+    /// file is then readable too).
+    fn close(&mut self) -> std::io::Result<()> {
+        match &mut self.sink {
+            Sink::Csv(w) => w.flush(),
+            Sink::Parquet(w) => w.take().map_or(Ok(()), |w| w.finish().map_err(std::io::Error::other)),
+        }
     }
 
     /// The words for a message about what an abandoned run kept.
@@ -196,7 +259,7 @@ mod tests {
             values.push((x - 0.5) * 10f64.powi(i % 40 - 20));
         }
         let header = vec!["a".to_string(), "b".to_string()];
-        let mut csv = CsvOutput::create(&dir, &header, &[]).unwrap();
+        let mut csv = SeriesOutput::create_as(&dir, &header, &[], Format::Csv).unwrap();
         for pair in values.chunks(2) {
             csv.row(pair).unwrap();
         }

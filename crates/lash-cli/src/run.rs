@@ -3,7 +3,7 @@
 //! is split, on one clock, into simulation and output (formatting and writing the CSV rows).
 
 use crate::CliError;
-use crate::output::CsvOutput;
+use crate::output::SeriesOutput;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lash_run::Runner;
 use std::path::Path;
@@ -28,11 +28,17 @@ pub fn run<S: serde::Serialize>(
     (simulation, output): (&lash_scenario::schema::SimulationSpec, &lash_scenario::schema::OutputSpec),
     runner: &mut dyn Runner,
     out: &Path,
+    format: crate::output::Format,
     quiet: bool,
 ) -> Result<Timing, CliError> {
     let measured: usize = output.measurements.iter().map(|m| m.forces.len()).sum();
-    let estimate =
-        crate::limits::run_estimate(simulation.horizon, simulation.output_interval, runner.header().len(), measured);
+    let estimate = crate::limits::run_estimate(
+        simulation.horizon,
+        simulation.output_interval,
+        runner.header().len(),
+        measured,
+        crate::limits::bytes_per_value(format),
+    );
     crate::limits::check(
         "the run",
         &estimate,
@@ -41,7 +47,7 @@ pub fn run<S: serde::Serialize>(
     )?;
     if !quiet && estimate.disk_bytes > 2_000_000_000 {
         eprintln!(
-            "note: this run writes up to {} of CSV ({} rows × {} values)",
+            "note: this run writes up to {} ({} rows × {} values)",
             crate::limits::bytes(estimate.disk_bytes),
             estimate.rows,
             estimate.columns
@@ -49,7 +55,7 @@ pub fn run<S: serde::Serialize>(
     }
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     let summary_path = out.join("summary.json");
-    let mut csv = CsvOutput::create(out, &runner.header(), &["summary.json"])?;
+    let mut csv = SeriesOutput::create_as(out, &runner.header(), &["summary.json"], format)?;
     // An earlier run's measurement tables must not pass for this run's.
     for entry in std::fs::read_dir(out).map_err(|e| fail("reading the output folder", e))?.flatten() {
         let name = entry.file_name().to_string_lossy().to_string();
@@ -87,7 +93,7 @@ pub fn run<S: serde::Serialize>(
     let summary = match result {
         Ok(s) => s,
         Err(e) => {
-            let kept = CsvOutput::kept(csv.abandon().as_deref());
+            let kept = SeriesOutput::kept(csv.abandon().as_deref());
             if crate::output::interrupted() {
                 return Err(CliError::Interrupted(format!("{}: {kept}", crate::output::INTERRUPTED_MESSAGE)));
             }
@@ -98,7 +104,8 @@ pub fn run<S: serde::Serialize>(
     let mut output = csv.busy();
     csv.finish()?;
     for table in &summary.measured {
-        let mut logged = CsvOutput::create_named(out, &format!("measurement_{}.csv", table.name), &table.header, &[])?;
+        let mut logged =
+            SeriesOutput::create_named(out, &format!("measurement_{}.csv", table.name), &table.header, &[])?;
         for row in &table.rows {
             logged.row(row).map_err(CliError::Failure)?;
         }

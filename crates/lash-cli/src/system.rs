@@ -2,7 +2,7 @@
 //! built-in subsystems, written to `<out>/timeseries.csv` and `<out>/summary.json`.
 
 use crate::CliError;
-use crate::output::CsvOutput;
+use crate::output::SeriesOutput;
 use std::path::Path;
 
 /// True when `arg` names a system file rather than a scenario: an `.ssd`/`.ssp` file, or TOML
@@ -22,11 +22,18 @@ pub fn is_system(arg: &str) -> bool {
 /// Loads and runs a system file. FMUs are unpacked once into lash's cache (kept between runs,
 /// keyed by the archive's hash); an `.ssp` archive is unpacked into a temporary folder removed
 /// afterwards.
-pub fn run(arg: &str, out: &Path, step: Option<f64>, stop: Option<f64>, quiet: bool) -> Result<(), CliError> {
+pub fn run(
+    arg: &str,
+    out: &Path,
+    step: Option<f64>,
+    stop: Option<f64>,
+    format: crate::output::Format,
+    quiet: bool,
+) -> Result<(), CliError> {
     let path = Path::new(arg);
     let cache = lash_fmi::import::default_cache();
     let scratch = std::env::temp_dir().join(format!("lash-system-{}", std::process::id()));
-    let result = run_in(path, out, &cache, &scratch, step, stop, quiet);
+    let result = run_in(path, out, &cache, &scratch, (step, stop), format, quiet);
     let _ = std::fs::remove_dir_all(&scratch);
     result
 }
@@ -74,18 +81,18 @@ fn run_in(
     out: &Path,
     cache: &Path,
     scratch: &Path,
-    step: Option<f64>,
-    stop: Option<f64>,
+    (step, stop): (Option<f64>, Option<f64>),
+    format: crate::output::Format,
     quiet: bool,
 ) -> Result<(), CliError> {
     let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let mut system = load(path, cache, scratch, step, stop)?;
-    let mut csv = CsvOutput::create(out, system.header(), &["summary.json"])?;
+    let mut csv = SeriesOutput::create_as(out, system.header(), &["summary.json"], format)?;
     let result = system.run(&mut |row| csv.row(row));
     let summary = match result {
         Ok(s) => s,
         Err(e) => {
-            let kept = CsvOutput::kept(csv.abandon().as_deref());
+            let kept = SeriesOutput::kept(csv.abandon().as_deref());
             return Err(match e {
                 _ if crate::output::interrupted() => {
                     CliError::Interrupted(format!("{}: {kept}", crate::output::INTERRUPTED_MESSAGE))
@@ -97,7 +104,7 @@ fn run_in(
     };
     if let Some(stop) = summary.stopped.as_ref().filter(|s| !s.requested) {
         // Nobody asked for this end: the run failed to reach its stop time.
-        let kept = CsvOutput::kept(csv.abandon().as_deref());
+        let kept = SeriesOutput::kept(csv.abandon().as_deref());
         return Err(CliError::Failure(format!(
             "{}: element {:?} {} (lash instantiates FMUs with earlyReturnAllowed = false)\n(rows up to t = {} s: {kept})",
             path.display(),
