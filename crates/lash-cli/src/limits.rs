@@ -58,24 +58,21 @@ pub fn run_estimate(
     }
 }
 
-/// `lash sweep`: `runs` runs whose simulation samples every `simulated_interval` over `horizon`
-/// (held whole per run, `threads` runs at once, `channels` values each, doubled with the clean
-/// copies) and whose dataset rows come every `1/sample_rate`; on disk the per-run parts and the
-/// assembled data.parquet (8 bytes a value, uncompressed: an upper bound), and the CSV copy if
-/// asked for.
-#[allow(clippy::too_many_arguments)]
+/// `lash sweep`: `runs` runs whose dataset rows come every `1/sample_rate` over `horizon`, each
+/// run's rows held until its part is written (`threads` runs at once, `channels` values each,
+/// doubled with the clean copies; an anti-alias filter streams the simulation's samples, so only
+/// the logged rows are held); on disk the per-run parts and the assembled data.parquet (8 bytes a
+/// value, uncompressed: an upper bound), and the CSV copy if asked for.
 pub fn sweep_estimate(
     runs: u64,
     threads: u64,
     horizon: f64,
-    simulated_interval: f64,
     sample_rate: f64,
     channels: usize,
     clean: bool,
     csv: bool,
 ) -> Estimate {
     let copies = if clean { 2 } else { 1 };
-    let simulated = samples(horizon, simulated_interval);
     let per_run = samples(horizon, 1.0 / sample_rate);
     let columns = (channels * copies) as u64 + 2;
     let rows = runs.saturating_mul(per_run);
@@ -88,7 +85,7 @@ pub fn sweep_estimate(
         rows,
         columns,
         disk_bytes: disk,
-        memory_bytes: simulated
+        memory_bytes: per_run
             .saturating_mul((channels * copies) as u64 + 1)
             .saturating_mul(8)
             .saturating_mul(threads.min(runs).max(1)),

@@ -29,18 +29,8 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
     let workers = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let o = &spec.output;
     let horizon = spec.horizon.unwrap_or(base.simulation().horizon);
-    let simulated_interval =
-        if o.anti_alias.is_some() { base.simulation().output_interval } else { 1.0 / o.sample_rate };
-    let mut estimate = crate::limits::sweep_estimate(
-        runs,
-        workers as u64,
-        horizon,
-        simulated_interval,
-        o.sample_rate,
-        o.channels.len(),
-        o.clean,
-        o.csv,
-    );
+    let mut estimate =
+        crate::limits::sweep_estimate(runs, workers as u64, horizon, o.sample_rate, o.channels.len(), o.clean, o.csv);
     // The design and the journal: each run's values and its record.
     let per_run = 8 * spec.parameters.len() as u64 + 128;
     estimate.memory_bytes = estimate.memory_bytes.saturating_add(listed.saturating_mul(per_run));

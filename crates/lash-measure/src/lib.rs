@@ -119,6 +119,18 @@ impl Acquisition {
     /// decimated, those from `t0 + settle` on, minus `baseline_mean` (None: minus their own mean,
     /// as an AC-coupled accelerometer). Errors name the setting that does not fit.
     pub fn acquire(&self, signal: &[f64], dt: f64, baseline_mean: Option<f64>) -> Result<Vec<f64>, String> {
+        let mut logger = self.logger(dt)?;
+        let mut kept = Vec::with_capacity(signal.len() / logger.every + 1);
+        kept.extend(signal.iter().filter_map(|&x| logger.push(x)));
+        let mean = baseline_mean.unwrap_or_else(|| kept.iter().sum::<f64>() / kept.len().max(1) as f64);
+        kept.iter_mut().for_each(|x| *x -= mean);
+        Ok(kept)
+    }
+
+    /// The chain as a stream for samples every `dt`: [`Logger::push`] one sample at a time, and it
+    /// returns the logged ones (what [`Acquisition::acquire`] keeps, before the mean is removed),
+    /// holding nothing but the filter's state.
+    pub fn logger(&self, dt: f64) -> Result<Logger, String> {
         let ratio = 1.0 / (self.sample_rate * dt);
         let every = ratio.round();
         if !(every >= 1.0 && (ratio - every).abs() <= 1e-9 * ratio) {
@@ -128,7 +140,6 @@ impl Acquisition {
                 1.0 / self.sample_rate
             ));
         }
-        let every = every as usize;
         let fs = (1.0 / dt).hz();
         let mut sections = Vec::with_capacity(self.order / 2);
         for k in 0..self.order / 2 {
@@ -138,28 +149,49 @@ impl Acquisition {
                 .map_err(|e| format!("anti-alias filter at {} Hz for samples every {dt} s: {e:?}", self.cutoff))?;
             sections.push(DirectForm2Transposed::<f64>::new(coefficients));
         }
-        let first = (self.settle / dt).ceil() as usize;
-        let mut kept = Vec::with_capacity(signal.len() / every + 1);
-        // Start the filter settled on the first value (no step transient from zero).
-        let initial = signal.first().copied().unwrap_or(0.0);
-        for _ in 0..(4.0 / (self.cutoff * dt)).ceil() as usize {
-            let mut y = initial;
-            for s in sections.iter_mut() {
-                y = s.run(y);
+        Ok(Logger {
+            sections,
+            every: every as usize,
+            first: (self.settle / dt).ceil() as usize,
+            settling: (4.0 / (self.cutoff * dt)).ceil() as usize,
+            index: 0,
+        })
+    }
+}
+
+/// An acquisition chain running sample by sample ([`Acquisition::logger`]).
+#[derive(Debug, Clone)]
+pub struct Logger {
+    sections: Vec<DirectForm2Transposed<f64>>,
+    /// Decimation factor.
+    every: usize,
+    /// First kept sample index (the settle time).
+    first: usize,
+    /// Filter steps run on the first sample before it (no step transient from zero).
+    settling: usize,
+    /// Samples pushed so far.
+    index: usize,
+}
+
+impl Logger {
+    /// Filters the next sample; returns the logged value when this sample is one the logger keeps.
+    pub fn push(&mut self, x: f64) -> Option<f64> {
+        if self.index == 0 {
+            // Start the filter settled on the first value.
+            for _ in 0..self.settling {
+                let mut y = x;
+                for s in self.sections.iter_mut() {
+                    y = s.run(y);
+                }
             }
         }
-        for (i, &x) in signal.iter().enumerate() {
-            let mut y = x;
-            for s in sections.iter_mut() {
-                y = s.run(y);
-            }
-            if i.is_multiple_of(every) && i >= first {
-                kept.push(y);
-            }
+        let mut y = x;
+        for s in self.sections.iter_mut() {
+            y = s.run(y);
         }
-        let mean = baseline_mean.unwrap_or_else(|| kept.iter().sum::<f64>() / kept.len().max(1) as f64);
-        kept.iter_mut().for_each(|x| *x -= mean);
-        Ok(kept)
+        let i = self.index;
+        self.index += 1;
+        (i.is_multiple_of(self.every) && i >= self.first).then_some(y)
     }
 }
 

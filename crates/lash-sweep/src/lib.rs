@@ -200,36 +200,50 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
         })
         .collect::<Result<_, _>>()?;
     let mut data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); simulated.len()] };
+    // With an anti-alias filter the samples stream through the logger of each channel (low-pass,
+    // decimation to the sample rate) as the run produces them: only the logged rows are held.
+    let mut loggers = match plan.spec.output.anti_alias {
+        Some(a) => {
+            let logger = lash_measure::Acquisition {
+                sample_rate: plan.spec.output.sample_rate,
+                cutoff: a.cutoff,
+                order: a.order,
+                settle: 0.0,
+            };
+            let dt = match &scenario {
+                lash_scenario::AnyScenario::Planar(s) => s.simulation.output_interval,
+                lash_scenario::AnyScenario::Spatial(s) => s.simulation.output_interval,
+            };
+            let one = logger.logger(dt)?;
+            vec![one; index.len()]
+        }
+        None => Vec::new(),
+    };
     runner
         .execute(
             &mut |row| {
-                data.time.push(row[0]);
-                for (col, &i) in data.columns.iter_mut().zip(&index) {
-                    col.push(row[i]);
+                if loggers.is_empty() {
+                    data.time.push(row[0]);
+                    for (col, &i) in data.columns.iter_mut().zip(&index) {
+                        col.push(row[i]);
+                    }
+                } else {
+                    let mut logged = false;
+                    for ((col, &i), logger) in data.columns.iter_mut().zip(&index).zip(loggers.iter_mut()) {
+                        if let Some(y) = logger.push(row[i]) {
+                            col.push(y);
+                            logged = true;
+                        }
+                    }
+                    if logged {
+                        data.time.push(row[0]);
+                    }
                 }
                 Ok(())
             },
             &mut |_| {},
         )
         .map_err(|e| e.to_string())?;
-    // The logger's anti-alias filter and decimation to the sample rate.
-    if let Some(a) = plan.spec.output.anti_alias {
-        let logger = lash_measure::Acquisition {
-            sample_rate: plan.spec.output.sample_rate,
-            cutoff: a.cutoff,
-            order: a.order,
-            settle: 0.0,
-        };
-        let dt = match &scenario {
-            lash_scenario::AnyScenario::Planar(s) => s.simulation.output_interval,
-            lash_scenario::AnyScenario::Spatial(s) => s.simulation.output_interval,
-        };
-        let every = (1.0 / (logger.sample_rate * dt)).round() as usize;
-        for col in data.columns.iter_mut() {
-            *col = logger.acquire(col, dt, Some(0.0))?;
-        }
-        data.time = data.time.iter().step_by(every.max(1)).copied().collect();
-    }
     // Clean copies (before the noise), after their channels.
     if plan.spec.output.clean {
         let clean: Vec<Vec<f64>> = data.columns.clone();
