@@ -22,7 +22,9 @@ def check(folder):
     for c in manifest["channels"]:
         unit = data.schema.field(c["name"]).metadata[b"unit"].decode()
         assert unit == c["unit"], (c, unit)
-    assert params.column_names == ["run_id", "seed", "status"] + manifest["parameters"], params.column_names
+    assert params.column_names == ["run_id", "seed", "status"] + manifest["parameters"] + ["error"], params.column_names
+    for path in manifest["parameters"]:
+        assert b"unit" in (params.schema.field(path).metadata or {}), f"{path} has no unit"
     df = pd.read_parquet(os.path.join(folder, "data.parquet"))
     rows = df.groupby("run_id").size().to_dict()
     for r in manifest["runs"]:
@@ -32,6 +34,10 @@ def check(folder):
     assert list(df["run_id"]) == sorted(df["run_id"]), "data not in run order"
     ok = set(p.loc[p["status"] == "ok", "run_id"])
     assert ok == set(rows), (ok, set(rows))
+    failed = p[p["status"] == "failed"]
+    assert (failed["error"] != "").all() and (p.loc[p["status"] == "ok", "error"] == "").all(), "errors"
+    errors = {r["run_id"]: r.get("error") or "" for r in manifest["runs"]}
+    assert all(errors[i] == e for i, e in zip(p["run_id"], p["error"])), "params errors differ from the manifest's"
     assert df[channels].notna().all().all(), "NaN in the data"
     return data, params, df
 

@@ -411,6 +411,8 @@ pub struct ParamsRow {
     pub status: String,
     /// Parameter values.
     pub values: Vec<f64>,
+    /// Why the run failed ("" for a run that did not).
+    pub error: String,
 }
 
 /// Writes `params.parquet`.
@@ -420,7 +422,11 @@ pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Re
         Field::new("seed", DataType::UInt64, false),
         Field::new("status", DataType::Utf8, false),
     ];
-    fields.extend(parameters.iter().map(|p| Field::new(p, DataType::Float64, false)));
+    fields.extend(parameters.iter().map(|p| {
+        Field::new(p, DataType::Float64, false)
+            .with_metadata(HashMap::from([("unit".to_string(), parameter_unit(p).to_string())]))
+    }));
+    fields.push(Field::new("error", DataType::Utf8, false));
     let schema = Arc::new(Schema::new(fields));
     let mut arrays: Vec<ArrayRef> = vec![
         Arc::new(UInt64Array::from(rows.iter().map(|r| r.run_id).collect::<Vec<_>>())),
@@ -430,6 +436,7 @@ pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Re
     for k in 0..parameters.len() {
         arrays.push(Arc::new(Float64Array::from(rows.iter().map(|r| r.values[k]).collect::<Vec<_>>())));
     }
+    arrays.push(Arc::new(StringArray::from(rows.iter().map(|r| r.error.as_str()).collect::<Vec<_>>())));
     let batch = RecordBatch::try_new(schema.clone(), arrays).map_err(|e| e.to_string())?;
     let tmp = dir.join("params.parquet.tmp");
     let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
@@ -437,6 +444,15 @@ pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Re
     w.write(&batch).map_err(|e| e.to_string())?;
     w.close().map_err(|e| e.to_string())?;
     std::fs::rename(&tmp, dir.join("params.parquet")).map_err(|e| e.to_string())
+}
+
+/// The SI unit of a varied parameter, from the last key of its scenario path (`drivers[0].motion.omega`
+/// → `rad/s`, `bodies[1].point1[0]` → `m`) in lash's one table of field units; empty where the
+/// table does not know the key.
+pub fn parameter_unit(path: &str) -> &'static str {
+    let last = path.rsplit('.').next().unwrap_or(path);
+    let key = last.split('[').next().unwrap_or(last);
+    lash_core::units::field_unit(key)
 }
 
 /// Reads `params.parquet`.
@@ -456,12 +472,17 @@ pub fn read_params(dir: &Path, parameters: usize) -> Result<Vec<ParamsRow>, Stri
         let vals: Vec<&Float64Array> = (0..parameters)
             .map(|k| batch.column(3 + k).as_any().downcast_ref::<Float64Array>().ok_or("params: value column"))
             .collect::<Result<_, _>>()?;
+        // The error column follows the parameters (datasets of earlier versions have none).
+        let errors = (batch.num_columns() > 3 + parameters)
+            .then(|| batch.column(3 + parameters).as_any().downcast_ref::<StringArray>().cloned())
+            .flatten();
         for r in 0..batch.num_rows() {
             rows.push(ParamsRow {
                 run_id: ids.value(r),
                 seed: seeds.value(r),
                 status: status.value(r).to_string(),
                 values: vals.iter().map(|v| v.value(r)).collect(),
+                error: errors.as_ref().map(|e| e.value(r).to_string()).unwrap_or_default(),
             });
         }
     }
@@ -471,6 +492,31 @@ pub fn read_params(dir: &Path, parameters: usize) -> Result<Vec<ParamsRow>, Stri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn params_parquet_carries_each_parameters_unit() {
+        assert_eq!(parameter_unit("drivers[0].motion.omega"), "rad/s");
+        assert_eq!(parameter_unit("joints[1].point1[0]"), "m");
+        assert_eq!(parameter_unit("clearances[0].bush.material.young_modulus"), "Pa");
+        let dir = std::env::temp_dir().join(format!("lash-params-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let parameters = vec!["clearances[0].bearing_radius".to_string(), "drivers[0].motion.omega".to_string()];
+        let rows = vec![ParamsRow {
+            run_id: 0,
+            seed: 1,
+            status: "failed".into(),
+            values: vec![0.01, 500.0],
+            error: "penetration exceeds 0.1 × the journal radius".into(),
+        }];
+        write_params(&dir, &parameters, &rows).unwrap();
+        let file = File::open(dir.join("params.parquet")).unwrap();
+        let schema = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().schema().clone();
+        let unit = |name: &str| schema.field_with_name(name).unwrap().metadata().get("unit").cloned();
+        assert_eq!(unit("clearances[0].bearing_radius").as_deref(), Some("m"));
+        assert_eq!(unit("drivers[0].motion.omega").as_deref(), Some("rad/s"));
+        assert_eq!(read_params(&dir, 2).unwrap(), rows);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn a_series_of_several_row_groups_reads_back_bit_for_bit() {

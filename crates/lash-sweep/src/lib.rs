@@ -495,6 +495,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             seed: r.seed,
             status: shared.records.get(&r.id).map(|x| x.status.clone()).unwrap_or_default(),
             values: r.values.clone(),
+            error: shared.records.get(&r.id).and_then(|x| x.error.clone()).unwrap_or_default(),
         })
         .collect();
     dataset::write_params(out, &manifest.parameters, &params).map_err(io)?;
