@@ -260,11 +260,11 @@ impl NormalForce {
         }
         // The exponent-1.5 laws (Hertz and the hysteresis family) in closed polynomial form.
         match *self {
-            NormalForce::Power { stiffness, exponent } if exponent == 1.5 => {
+            NormalForce::Power { stiffness, exponent: 1.5 } => {
                 let y = series_root_three_halves(delta, series, stiffness, None);
                 return stiffness * y * y * y;
             }
-            NormalForce::Hysteresis { stiffness, exponent, chi, floor } if exponent == 1.5 => {
+            NormalForce::Hysteresis { stiffness, exponent: 1.5, chi, floor } => {
                 let y = series_root_three_halves(delta, series, stiffness, None);
                 let tangent = 1.5 * stiffness * y;
                 let rate = delta_dot * series / (series + tangent);
