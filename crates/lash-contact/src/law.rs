@@ -212,41 +212,26 @@ impl NormalForce {
 }
 
 impl NormalForce {
-    /// The force and its slope ∂F/∂δ at (δ, δ̇) (both 0 where the force is clipped to 0).
+    /// The force and its slope ∂F/∂δ at (δ, δ̇) (both 0 where the force is clipped to 0): the
+    /// force as [`NormalForce::force`] gives it, the slope differentiated from its formulas.
     #[inline(always)]
     pub fn force_and_slope(&self, delta: f64, delta_dot: f64, onset: f64) -> (f64, f64) {
-        if delta <= 0.0 {
+        let f = self.force(delta, delta_dot, onset);
+        if f <= 0.0 {
             return (0.0, 0.0);
         }
-        let (f, slope) = match *self {
-            NormalForce::Power { stiffness, exponent } => {
-                let f = stiffness * pow(delta, exponent);
-                (f, exponent * f / delta)
-            }
-            NormalForce::KelvinVoigt { stiffness, damping } => (stiffness * delta + damping * delta_dot, stiffness),
-            NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
-                let f = stiffness * pow(delta, exponent) * (1.0 + chi * delta_dot / onset.max(floor));
-                (f, exponent * f / delta)
-            }
+        let slope = match *self {
+            NormalForce::Power { exponent, .. } | NormalForce::Hysteresis { exponent, .. } => exponent * f / delta,
+            NormalForce::KelvinVoigt { stiffness, .. } => stiffness,
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
-                let elastic = stiffness * pow(delta, exponent);
-                let (c, dc) = if delta >= damping_depth {
-                    (max_damping, 0.0)
-                } else {
-                    let d = delta / damping_depth;
-                    (max_damping * d * d * (3.0 - 2.0 * d), max_damping * 6.0 * d * (1.0 - d) / damping_depth)
-                };
-                (elastic + c * delta_dot, exponent * elastic / delta + dc * delta_dot)
+                // d/dδ of K δⁿ and of the STEP's cubic blend (flat beyond d_max).
+                let d = delta / damping_depth;
+                let blend = if d >= 1.0 { 0.0 } else { max_damping * 6.0 * d * (1.0 - d) / damping_depth };
+                exponent * (stiffness * pow(delta, exponent)) / delta + blend * delta_dot
             }
-            NormalForce::Liu { factor, clearance, chi, floor } => {
-                let f = factor
-                    * delta
-                    * (delta / (2.0 * (clearance + delta))).sqrt()
-                    * (1.0 + chi * delta_dot / onset.max(floor));
-                (f, f * (1.5 / delta - 0.5 / (clearance + delta)))
-            }
+            NormalForce::Liu { clearance, .. } => f * (1.5 / delta - 0.5 / (clearance + delta)),
         };
-        if f > 0.0 { (f, slope) } else { (0.0, 0.0) }
+        (f, slope)
     }
 
     /// The normal force of this contact in series with a spring of stiffness `series` [N/m] (a
