@@ -16,7 +16,7 @@ static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 pub const INTERRUPTED_MESSAGE: &str = "interrupted (SIGINT/SIGTERM)";
 
 /// Installs the SIGINT/SIGTERM handler (once; later calls do nothing). A run writing through a
-/// [`CsvOutput`] then stops at its next row, keeps the rows so far and exits with a message.
+/// [`SeriesOutput`] then stops at its next row, keeps the rows so far and exits with a message.
 pub fn catch_interrupts() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
@@ -80,49 +80,53 @@ impl SeriesOutput {
     /// `stale` files (they must not survive as if they belonged to this run), and starts
     /// `timeseries.<format>` (a CSV with its header).
     pub fn create_as(out: &Path, header: &[String], stale: &[&str], format: Format) -> Result<Self, CliError> {
-        let other = match format {
-            Format::Csv => "timeseries.parquet",
-            Format::Parquet => "timeseries.csv",
+        let (name, other) = match format {
+            Format::Csv => ("timeseries.csv", "timeseries.parquet"),
+            Format::Parquet => ("timeseries.parquet", "timeseries.csv"),
         };
         let stale: Vec<&str> = stale.iter().copied().chain([other]).collect();
-        match format {
-            Format::Csv => Self::create_named(out, "timeseries.csv", header, &stale),
-            Format::Parquet => {
-                let mut s = Self::create_named(out, "timeseries.parquet", &[], &stale)?;
-                // "name [unit]" → (name, unit).
-                let columns: Vec<(String, String)> = header
-                    .iter()
-                    .map(|h| match h.split_once(" [") {
-                        Some((name, unit)) => (name.to_string(), unit.trim_end_matches(']').to_string()),
-                        None => (h.clone(), String::new()),
-                    })
-                    .collect();
-                let writer =
-                    lash_sweep::dataset::SeriesWriter::create(&s.partial, &columns).map_err(CliError::Failure)?;
-                s.sink = Sink::Parquet(Some(Box::new(writer)));
-                Ok(s)
-            }
+        if format == Format::Csv {
+            return Self::create_named(out, name, header, &stale);
         }
+        let (partial, done) = Self::prepare(out, name, &stale)?;
+        // "name [unit]" → (name, unit).
+        let columns: Vec<(String, String)> = header
+            .iter()
+            .map(|h| match h.split_once(" [") {
+                Some((name, unit)) => (name.to_string(), unit.trim_end_matches(']').to_string()),
+                None => (h.clone(), String::new()),
+            })
+            .collect();
+        let writer = lash_sweep::dataset::SeriesWriter::create(&partial, &columns).map_err(CliError::Failure)?;
+        Ok(Self::with_sink(Sink::Parquet(Some(Box::new(writer))), partial, done))
     }
 
-    /// A CSV table called `name` (streamed into `name.partial`), header first.
-    pub fn create_named(out: &Path, name: &str, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
+    /// Creates `out` if needed and removes `name` and `stale` there; returns the paths of the
+    /// table while it is written and once it is complete.
+    fn prepare(out: &Path, name: &str, stale: &[&str]) -> Result<(PathBuf, PathBuf), CliError> {
         std::fs::create_dir_all(out).map_err(|e| io(&format!("cannot create {}", out.display()), e))?;
         let done = out.join(name);
-        let partial = out.join(format!("{name}.partial"));
         for p in std::iter::once(done.clone()).chain(stale.iter().map(|s| out.join(s))) {
             if p.exists() {
                 std::fs::remove_file(&p).map_err(|e| io(&format!("cannot remove old {}", p.display()), e))?;
             }
         }
+        Ok((out.join(format!("{name}.partial")), done))
+    }
+
+    /// A CSV table called `name` (streamed into `name.partial`), header first.
+    pub fn create_named(out: &Path, name: &str, header: &[String], stale: &[&str]) -> Result<Self, CliError> {
+        let (partial, done) = Self::prepare(out, name, stale)?;
         let file =
             std::fs::File::create(&partial).map_err(|e| io(&format!("cannot create {}", partial.display()), e))?;
         let mut writer = std::io::BufWriter::new(file);
-        if !header.is_empty() {
-            writeln!(writer, "{}", header.join(",")).map_err(|e| io("writing the CSV header", e))?;
-        }
-        Ok(Self {
-            sink: Sink::Csv(writer),
+        writeln!(writer, "{}", header.join(",")).map_err(|e| io("writing the CSV header", e))?;
+        Ok(Self::with_sink(Sink::Csv(writer), partial, done))
+    }
+
+    fn with_sink(sink: Sink, partial: PathBuf, done: PathBuf) -> Self {
+        Self {
+            sink,
             partial,
             done,
             line: String::with_capacity(1024),
@@ -130,10 +134,10 @@ impl SeriesOutput {
             pending: Vec::new(),
             width: 0,
             busy: std::time::Duration::ZERO,
-        })
+        }
     }
 
-    /// Takes one row (written in batches; [`CsvOutput::finish`] and [`CsvOutput::abandon`] write
+    /// Takes one row (written in batches; [`SeriesOutput::finish`] and [`SeriesOutput::abandon`] write
     /// what is pending). Every row of a file has the width of the first.
     pub fn row(&mut self, row: &[f64]) -> Result<(), String> {
         if interrupted() {
