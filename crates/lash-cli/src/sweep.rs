@@ -40,8 +40,7 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
         out,
         "fewer runs (or shards), a shorter horizon, a lower output.sample_rate or fewer output.channels",
     )?;
-    let plan = lash_sweep::Plan::new(spec, text, base)
-        .map_err(|p| CliError::Input(format!("invalid sweep file {}: {p}", file.display())))?;
+    let plan = lash_sweep::plan(file, (spec, text, base)).map_err(map_error)?;
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {msg} failed, {per_sec}, ETA {eta}")

@@ -812,13 +812,11 @@ impl<'a> InterfaceMaster<'a> {
                     let (completed, outcome) =
                         advance_steps(micro_sub, "micro", t, o.micro_step, due, &micro_outputs, &mut rows);
                     micro_count += completed as u64;
-                    // The samples of the completed steps, in order.
+                    // The samples of the completed steps, in order (the countdowns run for real).
                     let mut row = 0;
-                    for i in 0..completed {
-                        let mut sampled = false;
+                    for (i, &sampled) in due[..completed].iter().enumerate() {
                         for l in left.iter_mut() {
                             *l -= 1;
-                            sampled |= *l == 0;
                         }
                         if !sampled {
                             continue;
@@ -841,7 +839,6 @@ impl<'a> InterfaceMaster<'a> {
                     j += batch;
                 }
                 drop(_span);
-                stats.micro_steps = micro_count;
                 stats.micro_seconds += started.elapsed().as_secs_f64();
                 if let Some((state, vrs)) = saved {
                     // Corrector: the macro steps again with the micro's eccentricities at t_k+1 and

@@ -93,7 +93,14 @@ pub struct Report {
 
 /// Loads a sweep file and its base scenario into a checked [`Plan`].
 pub fn load(path: &Path) -> Result<Plan, SweepError> {
-    let (spec, text, base) = read(path)?;
+    plan(path, read(path)?)
+}
+
+/// The checked [`Plan`] of what [`read`] returned for `path` (named in the errors).
+pub fn plan(
+    path: &Path,
+    (spec, text, base): (SweepSpec, String, lash_scenario::AnyScenario),
+) -> Result<Plan, SweepError> {
     Plan::new(spec, text, base).map_err(|p| SweepError::Input(format!("invalid sweep file {}: {p}", path.display())))
 }
 
