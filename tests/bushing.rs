@@ -224,4 +224,16 @@ fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
         eprintln!("{what}: {:.1} % (bound {:.0} %)", 100.0 * difference, 100.0 * bound);
         assert!(difference <= bound, "{what}: {difference} > {bound}");
     }
+    // The bronze bush's viscosities are not in series with the contact: both models say so.
+    for summary in [&full_summary, &reduced_summary] {
+        assert!(
+            summary.warnings.iter().any(|w| w.contains("rod_slider") && w.contains("does not apply in series")),
+            "{:?}",
+            summary.warnings
+        );
+    }
+    assert!(
+        rows(&mut FullRun::new(&builtin::by_name("F").unwrap(), BuildOptions::default())).0.warnings.is_empty(),
+        "a rigid bearing has no bush to warn about"
+    );
 }

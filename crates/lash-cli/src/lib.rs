@@ -22,11 +22,11 @@ mod bench;
 mod bush;
 mod compare;
 mod fmu;
-mod limits;
+pub mod limits;
 mod output;
 mod plots;
 mod run;
-mod sweep;
+pub mod sweep;
 mod system;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -351,19 +351,6 @@ pub fn main() -> ExitCode {
     }
 }
 
-/// Loads a scenario and applies a `--horizon` override, validating the result.
-fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::Scenario, CliError> {
-    let mut s = load_scenario(arg)?;
-    if let Some(h) = horizon {
-        s.simulation.horizon = h;
-        let p = lash_scenario::validate(&s);
-        if !p.is_empty() {
-            return Err(CliError::Input(format!("--horizon {h}: {p}")));
-        }
-    }
-    Ok(s)
-}
-
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
         Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, quiet } => {
@@ -374,51 +361,23 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             if step.is_some() {
                 return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
             }
-            if let lash_scenario::AnyScenario::Spatial(mut s) =
-                lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?
-            {
-                if let Some(h) = horizon {
-                    s.simulation.horizon = h;
-                    let p = lash_scenario::validate_spatial(&s);
-                    if !p.is_empty() {
-                        return Err(CliError::Input(format!("--horizon {h}: {p}")));
-                    }
-                }
-                return match model {
-                    ModelKind::Full => run::run(
-                        &s,
-                        (&s.simulation, &s.output),
-                        &mut lash_run::SpatialRun::new(&s, ideal),
-                        &out,
-                        format,
-                        quiet,
-                    )
-                    .map(|_| ()),
-                    ModelKind::Reduced => {
-                        if ideal {
-                            return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
-                        }
-                        let mut r = lash_run::SpatialReducedRun::new(&s, reduced.options())
-                            .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                        run::run(&s, (&s.simulation, &s.output), &mut r, &out, format, quiet).map(|_| ())
-                    }
-                };
-            }
-            let s = load_with_horizon(&scenario, horizon)?;
-            match model {
-                ModelKind::Full => {
-                    let mut r = lash_run::FullRun::new(&s, lash_run::BuildOptions { ideal });
-                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, format, quiet).map(|_| ())
-                }
-                ModelKind::Reduced => {
-                    if ideal {
-                        return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
-                    }
-                    let mut r = lash_run::ReducedRun::new(&s, reduced.options())
-                        .map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-                    run::run(&s, (&s.simulation, &s.output), &mut r, &out, format, quiet).map(|_| ())
+            let mut s = lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?;
+            if let Some(h) = horizon {
+                s.simulation_mut().horizon = h;
+                let p = s.validate();
+                if !p.is_empty() {
+                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
                 }
             }
+            let model = match model {
+                ModelKind::Full => lash_run::Model::Full { ideal },
+                ModelKind::Reduced if ideal => {
+                    return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
+                }
+                ModelKind::Reduced => lash_run::Model::Reduced(reduced.options()),
+            };
+            let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
+            run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ())
         }
         Command::Compare { scenario, out, horizon, reduced, quiet } => {
             let mut s = lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?;

@@ -13,11 +13,20 @@ fn map_error(e: SweepError) -> CliError {
     }
 }
 
-/// Runs a sweep file (or one shard) into `out`.
-pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>, quiet: bool) -> Result<(), CliError> {
+/// Runs a sweep file (or one shard, `shard` as `i/N`) into `out` on `threads` workers (None: one
+/// per core), after its limits are checked (limits.rs): the path every front end takes (the
+/// command line, the Python package). `on_event` sees the start and each finished run. Runs that
+/// fail are in the report and the dataset; the caller decides what a failure means to it.
+pub fn execute(
+    file: &Path,
+    out: &Path,
+    shard: Option<&str>,
+    threads: Option<usize>,
+    on_event: &(dyn Fn(Event) + Sync),
+) -> Result<lash_sweep::Report, CliError> {
     let shard = shard.map(lash_sweep::parse_shard).transpose().map_err(CliError::Input)?;
     if threads == Some(0) {
-        return Err(CliError::Input("--threads must be ≥ 1".into()));
+        return Err(CliError::Input("threads must be ≥ 1".into()));
     }
     // Sized before the runs are listed (a design of 10⁹ runs is itself gigabytes).
     let (spec, text, base) = lash_sweep::read(file).map_err(map_error)?;
@@ -41,6 +50,14 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
         "fewer runs (or shards), a shorter horizon, a lower output.sample_rate or fewer output.channels",
     )?;
     let plan = lash_sweep::plan(file, (spec, text, base)).map_err(map_error)?;
+    lash_sweep::execute(&plan, &ExecuteOptions { out: out.to_path_buf(), shard, threads }, on_event).map_err(map_error)
+}
+
+/// `lash sweep`: [`execute`] with a progress bar; exit 1 when runs failed.
+pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>, quiet: bool) -> Result<(), CliError> {
+    if threads == Some(0) {
+        return Err(CliError::Input("--threads must be ≥ 1".into()));
+    }
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {msg} failed, {per_sec}, ETA {eta}")
@@ -62,11 +79,10 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
             bar.inc(1);
         }
     };
-    let report = lash_sweep::execute(&plan, &ExecuteOptions { out: out.to_path_buf(), shard, threads }, &on_event)
-        .map_err(map_error)?;
+    let report = execute(file, out, shard, threads, &on_event)?;
     bar.finish_and_clear();
     let what = match shard {
-        Some(s) => format!("shard {}/{} of {}", s.index, s.count, file.display()),
+        Some(s) => format!("shard {s} of {}", file.display()),
         None => file.display().to_string(),
     };
     eprintln!(

@@ -22,3 +22,28 @@ pub use full_subsystem::FullSubsystem;
 pub use reduced::{ReducedOptions, ReducedRun};
 pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Summary};
 pub use spatial::{SpatialReducedRun, SpatialRun, build_spatial};
+
+/// Which model of a scenario to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Model {
+    /// The full model, integrated to convergence (`ideal`: its clearance joints as ideal joints).
+    Full {
+        /// Clearance joints as ideal joints.
+        ideal: bool,
+    },
+    /// The reduced interface model with these options.
+    Reduced(ReducedOptions),
+}
+
+/// The runner of `model` for a planar or spatial scenario: the one place that picks it (the
+/// command line, sweeps and the Python package all come here). The error says why the model
+/// cannot be built (a reduced model asked of an ideal run, an unsupported option).
+pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Box<dyn Runner>, String> {
+    use lash_scenario::AnyScenario::{Planar, Spatial};
+    Ok(match (scenario, model) {
+        (Planar(s), Model::Full { ideal }) => Box::new(FullRun::new(s, BuildOptions { ideal })),
+        (Planar(s), Model::Reduced(o)) => Box::new(ReducedRun::new(s, o).map_err(|e| e.to_string())?),
+        (Spatial(s), Model::Full { ideal }) => Box::new(SpatialRun::new(s, ideal)),
+        (Spatial(s), Model::Reduced(o)) => Box::new(SpatialReducedRun::new(s, o).map_err(|e| e.to_string())?),
+    })
+}

@@ -243,7 +243,7 @@ impl ReducedRun {
         };
         let kinematic_macro = self.macro_sub.is_kinematic();
         let options = self.options;
-        run_reduced(
+        let summary = run_reduced(
             Coupled {
                 macro_sub: &mut self.macro_sub,
                 micro_sub: &mut self.micro_sub,
@@ -257,7 +257,11 @@ impl ReducedRun {
             |master| ReducedDetails { options, kinematic_macro, master },
             sink,
             progress,
-        )
+        )?;
+        Ok(Summary {
+            warnings: [summary.warnings, crate::run::series_bush_warnings(&self.scenario)].concat(),
+            ..summary
+        })
     }
 
     /// The micro subsystem (impacts, final state) after a run.

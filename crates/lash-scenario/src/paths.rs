@@ -41,6 +41,27 @@ pub fn edited_any<'a>(
 /// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
 /// table. The field must exist and be a number.
 pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {
+    match walk(table, path)? {
+        toml::Value::Float(f) => *f = value,
+        toml::Value::Integer(i) if value.fract() == 0.0 && value.abs() < 9.0e15 => *i = value as i64,
+        toml::Value::Integer(_) => return Err(format!("{path:?} is a whole number; {value} is not")),
+        other => return Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
+    }
+    Ok(())
+}
+
+/// The number at a dotted path with indices of a TOML table (the paths of [`set_path`]).
+pub fn get_path(table: &toml::Table, path: &str) -> Result<f64, String> {
+    let mut table = table.clone();
+    match walk(&mut table, path)? {
+        toml::Value::Float(f) => Ok(*f),
+        toml::Value::Integer(i) => Ok(*i as f64),
+        other => Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
+    }
+}
+
+/// The value at `path`, or why the path names nothing.
+fn walk<'t>(table: &'t mut toml::Table, path: &str) -> Result<&'t mut toml::Value, String> {
     let mut segments = Vec::new();
     for part in path.split('.') {
         let (name, rest) = part.split_once('[').unwrap_or((part, ""));
@@ -58,8 +79,8 @@ pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), S
     let Some(Segment::Key(first)) = segments.first() else {
         return Err(format!("{path:?}: empty path"));
     };
+    let keys: Vec<String> = table.keys().cloned().collect();
     let Some(mut here) = table.get_mut(first) else {
-        let keys: Vec<&String> = table.keys().collect();
         return Err(format!("{path:?}: no field {first:?} in the scenario (fields: {keys:?})"));
     };
     let mut walked = first.clone();
@@ -85,13 +106,7 @@ pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), S
             (Segment::Index(i), _) => return Err(format!("{path:?}: {walked} is not a list (looking for [{i}])")),
         };
     }
-    match here {
-        toml::Value::Float(f) => *f = value,
-        toml::Value::Integer(i) if value.fract() == 0.0 && value.abs() < 9.0e15 => *i = value as i64,
-        toml::Value::Integer(_) => return Err(format!("{path:?} is a whole number; {value} is not")),
-        other => return Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
-    }
-    Ok(())
+    Ok(here)
 }
 
 enum Segment {

@@ -489,6 +489,123 @@ pub fn read_params(dir: &Path, parameters: usize) -> Result<Vec<ParamsRow>, Stri
     Ok(rows)
 }
 
+/// The parameters table of a dataset: each varied parameter's path and unit, and one row per run
+/// (failed runs included, with their error).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamsTable {
+    /// (path, SI unit) of each parameter, in column order.
+    pub parameters: Vec<(String, String)>,
+    /// One row per run.
+    pub rows: Vec<ParamsRow>,
+}
+
+/// Reads `params.parquet` with its parameter names and units (from the file's own schema).
+pub fn read_params_table(dir: &Path) -> Result<ParamsTable, String> {
+    let path = dir.join("params.parquet");
+    let f = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+    let schema =
+        ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| format!("{}: {e}", path.display()))?.schema().clone();
+    let fields = schema.fields();
+    let has_error = fields.last().is_some_and(|f| f.name() == "error");
+    let end = fields.len() - usize::from(has_error);
+    if end < 3 {
+        return Err(format!("{} is not a lash params table (columns: {})", path.display(), fields.len()));
+    }
+    let parameters: Vec<(String, String)> = fields[3..end]
+        .iter()
+        .map(|f| (f.name().clone(), f.metadata().get("unit").cloned().unwrap_or_default()))
+        .collect();
+    let rows = read_params(dir, parameters.len())?;
+    Ok(ParamsTable { parameters, rows })
+}
+
+/// A dataset's samples as one array: the runs that completed, each with the same sample times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetArrays {
+    /// Run ids, in the order of `values`.
+    pub run_ids: Vec<u64>,
+    /// Sample times of every run [s].
+    pub time: Vec<f64>,
+    /// (name, SI unit) of each channel, in the order of `values`' last axis.
+    pub channels: Vec<(String, String)>,
+    /// Samples, runs × samples × channels, row-major (channels fastest).
+    pub values: Vec<f64>,
+}
+
+/// Reads `data.parquet` of a sweep's output folder into one runs × samples × channels array,
+/// filled in place from the Parquet column chunks (each sample is written once). Every run must
+/// have the same sample times, as a sweep writes them (one horizon, one sample rate); a failed run
+/// has no rows and is not in the array (it is in [`read_params_table`] with its error).
+pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, String> {
+    let path = dir.join("data.parquet");
+    let file = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| format!("{}: {e}", path.display()))?;
+    let schema = builder.schema().clone();
+    if schema.fields().len() < 2 || schema.field(0).name() != "run_id" || schema.field(1).name() != "t" {
+        return Err(format!("{} is not a lash dataset (its first columns must be run_id, t)", path.display()));
+    }
+    let channels: Vec<(String, String)> = schema.fields()[2..]
+        .iter()
+        .map(|f| (f.name().clone(), f.metadata().get("unit").cloned().unwrap_or_default()))
+        .collect();
+    let rows: i64 = builder.metadata().row_groups().iter().map(|g| g.num_rows()).sum();
+    let width = channels.len();
+    let mut values = Vec::with_capacity(rows.max(0) as usize * width);
+    let (mut run_ids, mut time, mut this_run) = (Vec::new(), Vec::new(), 0usize);
+    let reader = builder.build().map_err(|e| format!("{}: {e}", path.display()))?;
+    for batch in reader {
+        let batch = batch.map_err(|e| format!("{}: {e}", path.display()))?;
+        let ids = batch.column(0).as_any().downcast_ref::<UInt64Array>().ok_or("data.parquet: run_id is not UInt64")?;
+        let f64s = |i: usize| {
+            batch
+                .column(i)
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .map(|a| a.values())
+                .ok_or_else(|| format!("data.parquet: column {} is not Float64", schema.field(i).name()))
+        };
+        let t = f64s(1)?;
+        let columns: Vec<&[f64]> = (2..2 + width).map(|i| f64s(i).map(|v| &v[..])).collect::<Result<_, _>>()?;
+        for r in 0..batch.num_rows() {
+            let id = ids.value(r);
+            if run_ids.last() != Some(&id) {
+                // The first run's times are every run's: each later run is checked against them.
+                if run_ids.len() > 1 && this_run != time.len() {
+                    return Err(format!(
+                        "data.parquet: run {} has {this_run} samples, run {} has {}: runs of one array need the same sample times",
+                        run_ids[run_ids.len() - 1],
+                        run_ids[0],
+                        time.len()
+                    ));
+                }
+                run_ids.push(id);
+                this_run = 0;
+            }
+            if run_ids.len() == 1 {
+                time.push(t[r]);
+            } else if this_run >= time.len() || time[this_run].to_bits() != t[r].to_bits() {
+                return Err(format!(
+                    "data.parquet: run {id}'s sample {this_run} is at t = {} s, run {}'s at {}: runs of one array need the same sample times",
+                    t[r],
+                    run_ids[0],
+                    time.get(this_run).map_or("(none)".to_string(), |v| format!("{v} s"))
+                ));
+            }
+            this_run += 1;
+            values.extend(columns.iter().map(|c| c[r]));
+        }
+    }
+    if run_ids.len() > 1 && this_run != time.len() {
+        return Err(format!(
+            "data.parquet: run {} has {this_run} samples, run {} has {}: runs of one array need the same sample times",
+            run_ids[run_ids.len() - 1],
+            run_ids[0],
+            time.len()
+        ));
+    }
+    Ok(DatasetArrays { run_ids, time, channels, values })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

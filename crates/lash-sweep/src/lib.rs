@@ -184,18 +184,11 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
         lash_scenario::AnyScenario::Planar(s) => s.simulation.horizon,
         lash_scenario::AnyScenario::Spatial(s) => s.simulation.horizon,
     };
-    let mut runner: Box<dyn lash_run::Runner> = match (&scenario, plan.spec.model) {
-        (lash_scenario::AnyScenario::Planar(s), ModelKind::Reduced) => {
-            Box::new(lash_run::ReducedRun::new(s, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?)
-        }
-        (lash_scenario::AnyScenario::Planar(s), ModelKind::Full) => {
-            Box::new(lash_run::FullRun::new(s, lash_run::BuildOptions::default()))
-        }
-        (lash_scenario::AnyScenario::Spatial(s), ModelKind::Full) => Box::new(lash_run::SpatialRun::new(s, false)),
-        (lash_scenario::AnyScenario::Spatial(s), ModelKind::Reduced) => {
-            Box::new(lash_run::SpatialReducedRun::new(s, plan::reduced_options(&plan.spec)).map_err(|e| e.to_string())?)
-        }
+    let model = match plan.spec.model {
+        ModelKind::Full => lash_run::Model::Full { ideal: false },
+        ModelKind::Reduced => lash_run::Model::Reduced(plan::reduced_options(&plan.spec)),
     };
+    let mut runner = lash_run::runner(&scenario, model)?;
     let header = runner.header();
     let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();
     // The simulated channels (the clean copies, if any, follow them in `channels`).

@@ -111,10 +111,7 @@ impl Plan {
         if p.is_empty() && spec.model == ModelKind::Reduced {
             // Step sizes, sampling and horizon must fit the reduced model's integer time grid:
             // building its runner for the base checks them once, before any run.
-            let refused = match &base {
-                AnyScenario::Planar(b) => lash_run::ReducedRun::new(b, reduced_options(&spec)).err(),
-                AnyScenario::Spatial(b) => lash_run::SpatialReducedRun::new(b, reduced_options(&spec)).err(),
-            };
+            let refused = lash_run::runner(&base, lash_run::Model::Reduced(reduced_options(&spec))).err();
             if let Some(e) = refused {
                 let field = if e.to_string().contains("output_interval") { "output.sample_rate" } else { "model" };
                 p.push(field, format!("the reduced model refuses the base scenario: {e}"));

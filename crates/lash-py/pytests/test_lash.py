@@ -1,0 +1,187 @@
+"""lash's Python package against the command line and against itself.
+
+Run by tests/python.rs (the test command): a venv in target/py-venv, `pip install` of
+crates/lash-py, then pytest here. LASH_BIN is the `lash` binary of the same build, LASH_ROOT the
+repository.
+"""
+
+import csv
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import lash
+
+ROOT = os.environ.get("LASH_ROOT", os.path.join(os.path.dirname(__file__), "..", "..", ".."))
+LASH = os.environ.get("LASH_BIN", "lash")
+
+
+def cli(*args):
+    return subprocess.run([LASH, *args], capture_output=True, text=True)
+
+
+# Scenarios: load, edit, validate.
+
+
+def test_builtins_and_files_load_and_round_trip():
+    a = lash.load("A")
+    assert a.name == "A" and a.space == "planar"
+    assert lash.load("E-0.5mm-250rpm").space == "spatial"
+    from_file = lash.load(os.path.join(ROOT, "examples", "A.toml"))
+    assert from_file.to_dict() == lash.Scenario.from_toml(from_file.to_toml()).to_dict()
+    assert lash.Scenario.from_dict(a.to_dict()).to_dict() == a.to_dict()
+    assert ("slider.ax", "m/s^2") in a.channels()
+
+
+def test_edits_by_path_and_by_dict_are_validated_and_name_the_field():
+    a = lash.load("A")
+    b = a.with_values({"clearances[0].bearing_radius": 0.0100, "simulation.horizon": 0.02})
+    assert b.get("clearances[0].bearing_radius") == 0.0100 and b.get("simulation.horizon") == 0.02
+    assert a.get("simulation.horizon") != 0.02  # a copy: the original is unchanged
+    with pytest.raises(lash.ScenarioError) as e:
+        a.with_values({"clearances[0].bearing_radius": -1.0})
+    fields = [f for f, _ in e.value.problems]
+    assert "clearances[0].bearing_radius" in fields and "must be > 0" in str(e.value)
+    with pytest.raises(lash.ScenarioError) as e:
+        a.with_values({"clearances[0].journal_radiuz": 0.01})
+    assert e.value.problems[0][0] == "clearances[0].journal_radiuz" and "journal_radius" in str(e.value)
+    d = a.to_dict()
+    del next(j for j in d["joints"] if j["name"] == d["clearances"][0]["joint"])["point1"]
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.Scenario.from_dict(d)
+    assert any("point1" in f for f, _ in e.value.problems)
+    with pytest.raises(lash.ScenarioError, match="nor a built-in scenario"):
+        lash.load("Z")
+    assert isinstance(e.value, ValueError)
+
+
+def test_validate_takes_scenario_and_sweep_files(tmp_path):
+    assert "valid" in lash.validate(os.path.join(ROOT, "examples", "B.toml"))
+    assert "valid" in lash.validate(os.path.join(ROOT, "examples", "sweep-grid.toml"))
+    bad = tmp_path / "bad.toml"
+    with open(os.path.join(ROOT, "examples", "A.toml")) as f:
+        bad.write_text(f.read().replace("[simulation]", "[simulation]\nbogus = 1", 1))
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.validate(bad)
+    assert any("bogus" in f or "bogus" in m for f, m in e.value.problems)
+
+
+# Runs: the same numbers as the command line.
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array([[float(v) for v in r] for r in rows[1:]])
+
+
+@pytest.mark.parametrize("model", ["full", "reduced"])
+def test_a_run_equals_the_command_lines_bit_for_bit(tmp_path, model):
+    r = lash.run("A", model, horizon=0.01)
+    out = tmp_path / model
+    done = cli("run", "A", "--model", model, "--horizon", "0.01", "--out", str(out), "--quiet")
+    assert done.returncode == 0, done.stderr
+    header, table = read_csv(out / "timeseries.csv")
+    assert [h.split(" [")[0] for h in header] == ["time", *r.channels]
+    assert r.samples.shape == table.shape
+    assert np.array_equal(r.samples, table)  # CSV written with shortest round-trip floats
+    assert r.units["slider.ax"] == "m/s^2" and r.summary["model"] == model
+    assert np.shares_memory(r["slider.ax"], r.samples) and np.shares_memory(r.values, r.samples)
+    df = r.to_pandas()
+    assert df.attrs["units"]["slider.ax"] == "m/s^2" and df.index.name == "time"
+    assert np.array_equal(df["slider.ax"].to_numpy(), r["slider.ax"])
+
+
+def test_a_spatial_run_and_its_summary():
+    r = lash.run("E-0.5mm-250rpm", "reduced", horizon=0.01)
+    assert r.summary["model"] == "reduced" and len(r.summary["clearances"]) == 2
+    assert np.all(np.isfinite(r.values))
+
+
+def test_bad_options_and_failing_runs_raise_the_right_errors():
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.run("A", "medium")
+    assert e.value.problems[0][0] == "model"
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.run("A", "reduced", micro_step=-1e-5)
+    assert e.value.problems[0][0] == "micro_step"
+    with pytest.raises(lash.ScenarioError, match="memory"):
+        lash.run(lash.load("A").with_values({"simulation.horizon": 1.0e6}))
+    # A contact far too soft for the load: the journal goes through the bearing, and the run
+    # says so instead of returning numbers.
+    soft = lash.load("A").with_values({"materials.steel.young_modulus": 1e5, "simulation.horizon": 0.05})
+    with pytest.raises(lash.SimulationError, match="penetration"):
+        lash.run(soft, "reduced")
+
+
+# Sweeps and datasets.
+
+SWEEP = """
+base = "A"
+model = "reduced"
+sampling = "grid"
+seed = 11
+horizon = 0.01
+
+[output]
+channels = ["slider.ax", "crank_pivot.force"]
+sample_rate = 20000.0
+
+[[parameters]]
+path = "clearances[0].bearing_radius"
+values = [0.00992, 0.0100, 0.00980]
+
+[[parameters]]
+path = "clearances[0].friction.coefficient"
+values = [0.0, 0.1]
+"""
+
+
+def test_a_sweep_gives_a_dataset_whose_runs_equal_single_runs(tmp_path):
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(SWEEP)
+    out = tmp_path / "data"
+    # R_B = 9.80 mm is smaller than the journal: those two runs fail, the others are kept.
+    with pytest.raises(lash.RunsFailed) as e:
+        lash.sweep(spec, out, threads=2)
+    assert e.value.report["failed"] == 2 and e.value.report["runs"] == 6
+    data = lash.Dataset(out)
+    assert data.values.shape == (4, 201, 2) and data.channels == ["slider.ax", "crank_pivot.force"]
+    assert data.units == {"slider.ax": "m/s^2", "crank_pivot.force": "N"}
+    assert data.parameter_units == {"clearances[0].bearing_radius": "m", "clearances[0].friction.coefficient": "1"}
+    assert sorted(r for r, _ in data.failed) == [4, 5] and all("bearing_radius" in m for _, m in data.failed)
+    params = data.params
+    assert list(params["status"]) == ["ok"] * 4 + ["failed"] * 2
+    assert params.attrs["units"]["clearances[0].bearing_radius"] == "m"
+    np.testing.assert_array_equal(data.time, np.arange(201) / 20000.0)
+    # Each run of the dataset is the single run of its parameters (no noise: bit for bit).
+    for k, run_id in enumerate(data.run_ids):
+        values = dict(zip(data.parameters, data.inputs[k]))
+        values["simulation.output_interval"] = 1 / 20000.0
+        r = lash.run(lash.load("A").with_values(values), "reduced", horizon=0.01)
+        np.testing.assert_array_equal(data.values[k, :, 0], r["slider.ax"])
+        np.testing.assert_array_equal(data.values[k, :, 1], r["crank_pivot.force"])
+    # Batches: every run once per pass, inputs and values of the same runs.
+    seen = []
+    for x, y in data.batches(3, seed=5, channels=["crank_pivot.force"]):
+        assert x.shape[0] == y.shape[0] and y.shape[1:] == (201, 1)
+        for row, series in zip(x, y):
+            k = int(np.flatnonzero((data.inputs == row).all(axis=1))[0])
+            np.testing.assert_array_equal(series[:, 0], data.values[k, :, 1])
+            seen.append(k)
+    assert sorted(seen) == [0, 1, 2, 3]
+    assert [list(x[:, 0]) for x, _ in data.batches(3, seed=5)] == [list(x[:, 0]) for x, _ in data.batches(3, seed=5)]
+    # Run again: everything is complete, nothing runs; the failures are still reported.
+    report = lash.sweep(spec, out, allow_failures=True)
+    assert report["ran"] == 0 and report["skipped"] == 6 and report["failed"] == 2
+
+
+def test_the_example_generates_a_dataset_and_fits_a_model(tmp_path):
+    env = dict(os.environ, LASH_EXAMPLE_RUNS="16")
+    script = os.path.join(ROOT, "examples", "python", "train_surrogate.py")
+    done = subprocess.run([sys.executable, script, str(tmp_path)], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    assert "16 runs" in done.stdout and "R² =" in done.stdout

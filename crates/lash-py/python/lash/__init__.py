@@ -1,0 +1,322 @@
+"""lash from Python: co-simulation of mechanisms with joint clearances.
+
+Load and edit scenarios, run the full or the reduced interface model, run sweeps into datasets
+and read those datasets back as arrays for training::
+
+    import lash
+
+    a = lash.load("A").with_values({"simulation.horizon": 0.1})
+    run = lash.run(a, model="reduced")
+    run["slider.ax"]             # numpy array, one value per sample
+    run.to_pandas()              # DataFrame indexed by time, units in .attrs["units"]
+
+    lash.sweep("examples/sweep-grid.toml", "out/grid")
+    data = lash.Dataset("out/grid")
+    data.values.shape            # (runs, samples, channels)
+    for x, y in data.batches(32):
+        ...                      # x: parameters (batch, parameters), y: (batch, samples, channels)
+
+Everything goes through the same Rust code as the ``lash`` command: the same validation (errors
+are :class:`ScenarioError` naming each field), the same models, the same limits before work.
+Samples are written once, into the memory numpy then owns; the GIL is released while lash
+simulates.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _lash
+from ._lash import Scenario, ScenarioError, SimulationError, builtin_names
+
+__version__: str = _lash.__version__
+
+__all__ = [
+    "Dataset",
+    "Run",
+    "RunsFailed",
+    "Scenario",
+    "ScenarioError",
+    "SimulationError",
+    "builtin_names",
+    "load",
+    "run",
+    "sweep",
+    "validate",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class RunsFailed(SimulationError):
+    """A sweep finished but some of its runs failed.
+
+    The dataset is complete otherwise: the failed runs are listed in it with their errors
+    (:attr:`Dataset.failed`). ``report`` is the sweep's report (a dict).
+    """
+
+    def __init__(self, message: str, report: Dict[str, Any]):
+        super().__init__(message)
+        self.report = report
+
+
+def load(source: PathLike) -> Scenario:
+    """A built-in scenario by name (``"A"``, ``"E-0.5mm-250rpm"``, ...) or a scenario file."""
+    text = os.fspath(source)
+    if text in builtin_names():
+        return Scenario.builtin(text)
+    if not os.path.exists(text):
+        message = f"{text!r} is neither a file nor a built-in scenario (built-ins: {', '.join(builtin_names())})"
+        error = ScenarioError(f"scenario: {message}")
+        error.problems = [("scenario", message)]
+        raise error
+    return Scenario.load(text)
+
+
+def validate(path: PathLike) -> str:
+    """Checks a scenario or sweep file as ``lash validate`` does; returns a one-line summary.
+
+    Raises :class:`ScenarioError` naming every bad field (for a sweep: the runs whose scenario
+    is invalid).
+    """
+    text = os.fspath(path)
+    if _is_sweep(text):
+        return _lash.validate_sweep(text)
+    s = load(text)
+    return f"{text}: valid ({s.space} scenario {s.name!r})"
+
+
+def _is_sweep(path: str) -> bool:
+    if not os.path.isfile(path):
+        return False
+    try:
+        import tomllib  # Python 3.11+
+    except ImportError:  # pragma: no cover - older Pythons read the key by hand
+        with open(path, encoding="utf-8") as f:
+            return any(line.strip().startswith("base") and "=" in line for line in f)
+    with open(path, "rb") as f:
+        try:
+            return isinstance(tomllib.load(f).get("base"), str)
+        except tomllib.TOMLDecodeError:
+            return False
+
+
+class Run:
+    """The samples and summary of one run.
+
+    ``samples`` holds time in column 0 and the channels after it; :attr:`time`, :attr:`values`
+    and each channel (``run["slider.ax"]``) are views of it, not copies.
+    """
+
+    def __init__(self, names: List[str], units: List[str], samples: np.ndarray, summary: str):
+        self.samples: np.ndarray = samples
+        """All samples, samples × (1 + channels), time first."""
+        self.channels: List[str] = names[1:]
+        """Channel names, in column order of :attr:`values`."""
+        self.units: Dict[str, str] = dict(zip(names, units))
+        """SI unit of each channel (and of ``time``)."""
+        self._summary_json = summary
+        self._summary: Optional[Dict[str, Any]] = None
+        self._index = {n: i for i, n in enumerate(names)}
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """What ``summary.json`` holds: statistics per channel, impacts per clearance joint,
+        steps, warnings (parsed on first use)."""
+        if self._summary is None:
+            self._summary = json.loads(self._summary_json)
+        return self._summary
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times [s]."""
+        return self.samples[:, 0]
+
+    @property
+    def values(self) -> np.ndarray:
+        """Samples × channels (a view)."""
+        return self.samples[:, 1:]
+
+    def __getitem__(self, channel: str) -> np.ndarray:
+        try:
+            return self.samples[:, self._index[channel]]
+        except KeyError:
+            raise KeyError(f"no channel {channel!r} in this run (channels: {', '.join(self.channels)})") from None
+
+    def __len__(self) -> int:
+        return self.samples.shape[0]
+
+    def to_pandas(self) -> "Any":
+        """The channels as a pandas DataFrame indexed by ``time`` [s]; units in ``.attrs["units"]``.
+
+        The DataFrame is built on the same memory (pandas may copy if you write to it).
+        """
+        import pandas as pd
+
+        df = pd.DataFrame(self.values, columns=self.channels, index=pd.Index(self.time, name="time"), copy=False)
+        df.attrs["units"] = {c: self.units[c] for c in self.channels}
+        return df
+
+    def __repr__(self) -> str:
+        return f"<lash.Run {self.summary.get('scenario')!r} ({self.summary.get('model')}): {len(self)} samples × {len(self.channels)} channels>"
+
+
+def run(
+    scenario: Union[Scenario, PathLike],
+    model: str = "full",
+    *,
+    ideal: bool = False,
+    macro_step: float = 1e-3,
+    micro_step: float = 1e-5,
+    horizon: Optional[float] = None,
+) -> Run:
+    """Runs a scenario (a :class:`Scenario`, a built-in name or a file).
+
+    ``model`` is ``"full"`` (the monolithic model integrated to convergence; ``ideal=True``
+    makes its clearance joints ideal) or ``"reduced"`` (the reduced interface model with macro
+    step ``macro_step`` and micro step ``micro_step`` [s]). ``horizon`` [s] overrides the
+    scenario's. Raises :class:`ScenarioError` for invalid input (before any work, including a
+    run whose samples would not fit in memory) and :class:`SimulationError` when the simulation
+    fails.
+    """
+    s = scenario if isinstance(scenario, Scenario) else load(scenario)
+    if horizon is not None:
+        s = s.with_values({"simulation.horizon": horizon})
+    return Run(*_lash.run(s, model, ideal, macro_step, micro_step))
+
+
+def sweep(
+    file: PathLike,
+    out: PathLike,
+    *,
+    threads: Optional[int] = None,
+    shard: Optional[str] = None,
+    allow_failures: bool = False,
+) -> Dict[str, Any]:
+    """Runs a sweep file into the folder ``out`` (``lash sweep``), resuming what an earlier call
+    left there; returns its report.
+
+    ``threads``: worker threads (default one per core); ``shard``: ``"i/N"`` runs only that
+    shard. When runs fail the dataset still holds the others and lists the failed runs with
+    their errors; unless ``allow_failures``, :class:`RunsFailed` is raised then.
+    """
+    report = json.loads(_lash.sweep(os.fspath(file), os.fspath(out), threads, shard))
+    if report["failed"] and not allow_failures:
+        raise RunsFailed(
+            f"{report['failed']} of {report['runs']} runs failed; the dataset in {os.fspath(out)} holds the "
+            "others and lists the failed runs with their errors",
+            report,
+        )
+    return report
+
+
+class Dataset:
+    """A sweep's dataset (its output folder) as arrays.
+
+    * :attr:`values` — runs × samples × channels (the runs that completed, in run order);
+    * :attr:`time` — the sample times [s], the same for every run;
+    * :attr:`inputs` — runs × parameters, the varied parameters of each run of :attr:`values`;
+    * :attr:`params` — every run (failed ones too) with seed, status, parameters and error,
+      as a pandas DataFrame (a dict of arrays without pandas).
+    """
+
+    def __init__(self, path: PathLike):
+        self.path: str = os.fspath(path)
+        run_ids, time, names, units, values, params = _lash.read_dataset(self.path)
+        p_names, p_units, p_ids, p_seeds, p_status, p_values, p_errors = params
+        self.run_ids: np.ndarray = run_ids
+        """Run id of each run of :attr:`values`."""
+        self.time: np.ndarray = time
+        """Sample times [s]."""
+        self.channels: List[str] = names
+        """Channel names, in the order of the last axis of :attr:`values`."""
+        self.units: Dict[str, str] = dict(zip(names, units))
+        """SI unit of each channel."""
+        self.values: np.ndarray = values
+        """Samples, runs × samples × channels."""
+        self.parameters: List[str] = p_names
+        """Varied parameters (scenario field paths), in column order."""
+        self.parameter_units: Dict[str, str] = dict(zip(p_names, p_units))
+        """SI unit of each parameter."""
+        self._params = {
+            "run_id": p_ids,
+            "seed": p_seeds,
+            "status": np.asarray(p_status, dtype=object),
+            **{n: p_values[:, k] for k, n in enumerate(p_names)},
+            "error": np.asarray(p_errors, dtype=object),
+        }
+        row_of = {int(r): i for i, r in enumerate(p_ids)}
+        missing = [int(r) for r in run_ids if int(r) not in row_of]
+        if missing:
+            raise ScenarioError(f"{self.path}: runs {missing[:5]} have data but no row in params.parquet")
+        self.inputs: np.ndarray = p_values[[row_of[int(r)] for r in run_ids]]
+        """Parameters of each run of :attr:`values`, runs × parameters."""
+
+    @property
+    def params(self) -> "Any":
+        """Every run's id, seed, status, parameter values and error (a DataFrame; units of the
+        parameters in ``.attrs["units"]``), or a dict of arrays when pandas is not installed."""
+        try:
+            import pandas as pd
+        except ImportError:
+            return dict(self._params)
+        df = pd.DataFrame(self._params)
+        df.attrs["units"] = dict(self.parameter_units)
+        return df
+
+    @property
+    def failed(self) -> List[Tuple[int, str]]:
+        """(run id, error) of each failed run."""
+        status, errors, ids = self._params["status"], self._params["error"], self._params["run_id"]
+        return [(int(ids[i]), str(errors[i])) for i in range(len(ids)) if status[i] != "ok"]
+
+    def channel(self, name: str) -> np.ndarray:
+        """One channel of every run, runs × samples (a view)."""
+        try:
+            return self.values[:, :, self.channels.index(name)]
+        except ValueError:
+            raise KeyError(f"no channel {name!r} in {self.path} (channels: {', '.join(self.channels)})") from None
+
+    def __len__(self) -> int:
+        return self.values.shape[0]
+
+    def batches(
+        self,
+        batch_size: int,
+        *,
+        shuffle: bool = True,
+        seed: int = 0,
+        channels: Optional[Sequence[str]] = None,
+        drop_last: bool = False,
+    ) -> Iterator[Tuple[np.ndarray, np.ndarray]]:
+        """Iterates over the runs in batches of ``batch_size``: (inputs, values) with inputs
+        batch × parameters and values batch × samples × channels (``channels`` selects and orders
+        them). ``shuffle`` draws a new order from ``seed`` (the same seed, the same order)."""
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be ≥ 1, got {batch_size}")
+        columns = None
+        if channels is not None:
+            columns = []
+            for c in channels:
+                if c not in self.channels:
+                    raise KeyError(f"no channel {c!r} in {self.path} (channels: {', '.join(self.channels)})")
+                columns.append(self.channels.index(c))
+        order = np.arange(len(self))
+        if shuffle:
+            np.random.default_rng(seed).shuffle(order)
+        end = len(order) - (len(order) % batch_size if drop_last else 0)
+        for start in range(0, end, batch_size):
+            pick = np.sort(order[start : start + batch_size]) if not shuffle else order[start : start + batch_size]
+            y = self.values[pick]
+            if columns is not None:
+                y = y[:, :, columns]
+            yield self.inputs[pick], y
+
+    def __repr__(self) -> str:
+        runs, samples, channels = self.values.shape
+        return f"<lash.Dataset {self.path!r}: {runs} runs × {samples} samples × {channels} channels, {len(self.failed)} failed>"
+

@@ -1,0 +1,381 @@
+//! `lash._lash`: the compiled half of lash's Python package (the Python half, `lash/__init__.py`,
+//! wraps it in classes with pandas and batching). Everything here goes through the same Rust
+//! paths as the command line: scenarios are parsed and validated by lash-scenario, runs are
+//! built by [`lash_run::runner`], sweeps run through [`lash_cli::sweep::execute`] (limits
+//! checked first), datasets are read by lash-sweep.
+//!
+//! Samples cross into Python once: a run's rows are appended to one `Vec<f64>` by the runner's
+//! sink, and that vector becomes the numpy array's memory (no copy); a dataset's Parquet columns
+//! are written once into the runs × samples × channels vector that numpy then owns. The GIL is
+//! released while a run or a sweep simulates.
+
+use lash_core::Problems;
+use lash_scenario::AnyScenario;
+use numpy::{IntoPyArray, PyArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::PathBuf;
+
+pyo3::create_exception!(
+    _lash,
+    ScenarioError,
+    PyValueError,
+    "Invalid input: a scenario, sweep file, parameter path or option that lash refuses. The message \
+     names each field and its problem; `problems` lists them as (field, message) pairs."
+);
+pyo3::create_exception!(
+    _lash,
+    SimulationError,
+    PyRuntimeError,
+    "A run or a sweep failed while simulating or writing its output."
+);
+
+/// A ScenarioError whose `problems` attribute holds (field, message) pairs.
+fn input_error(py: Python<'_>, message: String, problems: &[(String, String)]) -> PyErr {
+    let err = ScenarioError::new_err(message);
+    let list = PyList::new(py, problems.iter().map(|(f, m)| (f.as_str(), m.as_str())));
+    if let Ok(list) = list {
+        let _ = err.value(py).setattr("problems", list);
+    }
+    err
+}
+
+/// A ScenarioError listing every problem of a scenario.
+fn problems_error(py: Python<'_>, what: &str, p: &Problems) -> PyErr {
+    let pairs: Vec<(String, String)> = p.0.iter().map(|p| (p.field.clone(), p.message.clone())).collect();
+    input_error(py, format!("{what}: {p}"), &pairs)
+}
+
+/// A ScenarioError about one field.
+fn field_error(py: Python<'_>, field: &str, message: String) -> PyErr {
+    input_error(py, format!("{field}: {message}"), &[(field.to_string(), message)])
+}
+
+/// A CliError as the matching Python exception.
+fn cli_error(py: Python<'_>, e: lash_cli::CliError) -> PyErr {
+    match e {
+        lash_cli::CliError::Input(m) => input_error(py, m, &[]),
+        lash_cli::CliError::Failure(m) | lash_cli::CliError::Interrupted(m) => SimulationError::new_err(m),
+    }
+}
+
+/// A planar or spatial mechanism with its clearance joints, simulation and output settings,
+/// always valid: every constructor and every edit parses and validates it as `lash validate`
+/// does, and raises ScenarioError naming each bad field.
+#[pyclass(name = "Scenario", module = "lash._lash", from_py_object)]
+#[derive(Clone)]
+pub struct Scenario {
+    inner: AnyScenario,
+}
+
+impl Scenario {
+    fn from_text(py: Python<'_>, what: &str, text: &str) -> PyResult<Self> {
+        lash_scenario::parse_any(text).map(|inner| Self { inner }).map_err(|p| problems_error(py, what, &p))
+    }
+
+    fn table(&self, py: Python<'_>) -> PyResult<toml::Table> {
+        self.inner.to_table().map_err(|e| input_error(py, e, &[]))
+    }
+}
+
+#[pymethods]
+impl Scenario {
+    /// A built-in scenario by name (A, B, C, E-0.5mm-250rpm, F-…; see `builtin_names()`).
+    #[staticmethod]
+    fn builtin(py: Python<'_>, name: &str) -> PyResult<Self> {
+        if let Some(s) = lash_scenario::builtin::by_name(name) {
+            return Ok(Self { inner: AnyScenario::Planar(s) });
+        }
+        if let Some(s) = lash_scenario::builtin_spatial::spatial_by_name(name) {
+            return Ok(Self { inner: AnyScenario::Spatial(s) });
+        }
+        Err(field_error(py, "name", format!("{name:?} is not a built-in scenario (built-ins: {})", names().join(", "))))
+    }
+
+    /// A scenario file (TOML, planar or spatial).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| input_error(py, format!("cannot read {}: {e}", path.display()), &[]))?;
+        Self::from_text(py, &format!("invalid scenario {}", path.display()), &text)
+    }
+
+    /// A scenario from the text of a scenario file.
+    #[staticmethod]
+    fn from_toml(py: Python<'_>, text: &str) -> PyResult<Self> {
+        Self::from_text(py, "invalid scenario", text)
+    }
+
+    /// A scenario from the JSON form of a scenario file (what `to_json` gives).
+    #[staticmethod]
+    fn from_json(py: Python<'_>, text: &str) -> PyResult<Self> {
+        let value: toml::Value =
+            serde_json::from_str(text).map_err(|e| input_error(py, format!("not a scenario as JSON: {e}"), &[]))?;
+        let text = toml::to_string(&value).map_err(|e| input_error(py, format!("not a scenario table: {e}"), &[]))?;
+        Self::from_text(py, "invalid scenario", &text)
+    }
+
+    /// The scenario as the text of a scenario file.
+    fn to_toml(&self, py: Python<'_>) -> PyResult<String> {
+        toml::to_string(&self.table(py)?).map_err(|e| input_error(py, e.to_string(), &[]))
+    }
+
+    /// The scenario as JSON (the same fields as the file).
+    fn to_json(&self, py: Python<'_>) -> PyResult<String> {
+        serde_json::to_string(&self.table(py)?).map_err(|e| input_error(py, e.to_string(), &[]))
+    }
+
+    /// The scenario as a dict of the file's fields (edit it and make a Scenario with `from_dict`).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        py.import("json")?.call_method1("loads", (self.to_json(py)?,))
+    }
+
+    /// A scenario from a dict of the file's fields, validated like a file.
+    #[staticmethod]
+    fn from_dict(py: Python<'_>, fields: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let text: String = py.import("json")?.call_method1("dumps", (fields,))?.extract()?;
+        Self::from_json(py, &text)
+    }
+
+    /// The scenario's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name().to_string()
+    }
+
+    /// "planar" or "spatial".
+    #[getter]
+    fn space(&self) -> &'static str {
+        match self.inner {
+            AnyScenario::Planar(_) => "planar",
+            AnyScenario::Spatial(_) => "spatial",
+        }
+    }
+
+    /// The number at a field path (`clearances[0].bearing_radius`, `simulation.horizon`).
+    fn get(&self, py: Python<'_>, path: &str) -> PyResult<f64> {
+        lash_scenario::paths::get_path(&self.table(py)?, path).map_err(|m| field_error(py, path, m))
+    }
+
+    /// A copy with the numbers at the given field paths changed, validated like a file (the
+    /// paths and validation of sweeps).
+    fn with_values(&self, py: Python<'_>, values: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let values: Vec<(String, f64)> = values
+            .iter()
+            .map(|(k, v)| {
+                let path: String =
+                    k.extract().map_err(|_| field_error(py, "values", "paths must be strings".into()))?;
+                let value: f64 = v.extract().map_err(|_| field_error(py, &path, format!("{v} is not a number")))?;
+                Ok((path, value))
+            })
+            .collect::<PyResult<_>>()?;
+        let table = self.table(py)?;
+        let edits = values.iter().map(|(p, v)| (p.as_str(), *v));
+        match lash_scenario::paths::edited_any(&table, edits) {
+            Ok(inner) => Ok(Self { inner }),
+            Err(lash_scenario::paths::EditError::Path(m)) => {
+                let field = values.iter().map(|(p, _)| p.as_str()).find(|p| m.contains(&format!("{p:?}")));
+                Err(field_error(py, field.unwrap_or("path"), m))
+            }
+            Err(lash_scenario::paths::EditError::Invalid(p)) => Err(problems_error(py, "invalid scenario", &p)),
+        }
+    }
+
+    /// Every problem of the scenario (always none: a Scenario is validated when made and when
+    /// edited); kept so that code written against files reads the same.
+    fn validate(&self, py: Python<'_>) -> PyResult<()> {
+        let p = self.inner.validate();
+        if p.is_empty() { Ok(()) } else { Err(problems_error(py, "invalid scenario", &p)) }
+    }
+
+    /// (name, SI unit) of each output channel a run of this scenario can give.
+    #[pyo3(signature = (ideal = false))]
+    fn channels(&self, ideal: bool) -> Vec<(String, String)> {
+        self.inner.channels(ideal).into_iter().map(|c| (c.name, c.unit.to_string())).collect()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<lash.Scenario {:?} ({})>", self.inner.name(), self.space())
+    }
+}
+
+/// The built-in scenarios' names.
+fn names() -> Vec<&'static str> {
+    lash_scenario::builtin::NAMES.iter().chain(lash_scenario::builtin_spatial::SPATIAL_NAMES.iter()).copied().collect()
+}
+
+/// The names of the built-in scenarios.
+#[pyfunction]
+fn builtin_names() -> Vec<&'static str> {
+    names()
+}
+
+/// What a run returns to Python: the column names and units (time first), the samples as a
+/// numpy array (samples × columns, time in column 0) and the summary as JSON.
+type RunResult<'py> = (Vec<String>, Vec<String>, Bound<'py, PyAny>, String);
+
+/// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
+#[pyfunction]
+#[pyo3(signature = (scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = 1e-5))]
+fn run<'py>(
+    py: Python<'py>,
+    scenario: &Scenario,
+    model: &str,
+    ideal: bool,
+    macro_step: f64,
+    micro_step: f64,
+) -> PyResult<RunResult<'py>> {
+    let model = match (model, ideal) {
+        ("full", _) => lash_run::Model::Full { ideal },
+        ("reduced", false) => {
+            lash_run::Model::Reduced(lash_run::ReducedOptions { macro_step, micro_step, ..Default::default() })
+        }
+        ("reduced", true) => {
+            return Err(field_error(py, "ideal", "an ideal run has no clearance interface to reduce".into()));
+        }
+        (other, _) => return Err(field_error(py, "model", format!("{other:?} is neither \"full\" nor \"reduced\""))),
+    };
+    for (field, v) in [("macro_step", macro_step), ("micro_step", micro_step)] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(field_error(py, field, format!("must be a positive step in seconds, got {v}")));
+        }
+    }
+    let scenario = scenario.inner.clone();
+    // Built, checked and run without the GIL (the runner stays on this thread).
+    let outcome = py.detach(move || -> Result<_, (&'static str, String)> {
+        let mut runner = lash_run::runner(&scenario, model).map_err(|m| ("model", m))?;
+        let header = runner.header();
+        // Held in memory: refused before any work when it cannot fit (as `lash run` refuses).
+        let sim = scenario.simulation();
+        let rows = lash_cli::limits::samples(sim.horizon, sim.output_interval);
+        let estimate = lash_cli::limits::Estimate {
+            rows,
+            columns: header.len() as u64,
+            disk_bytes: 0,
+            memory_bytes: rows.saturating_mul(header.len() as u64).saturating_mul(8),
+        };
+        lash_cli::limits::check(
+            "the run",
+            &estimate,
+            std::path::Path::new("."),
+            "shorten simulation.horizon, raise simulation.output_interval or list fewer output.channels",
+        )
+        .map_err(|e| ("limits", e.to_string()))?;
+        let mut values: Vec<f64> = Vec::with_capacity((rows as usize + 1) * header.len());
+        let mut sink = |row: &[f64]| {
+            values.extend_from_slice(row);
+            Ok(())
+        };
+        let summary = runner.execute(&mut sink, &mut |_| {}).map_err(|e| ("run", e.to_string()))?;
+        Ok((header, values, summary))
+    });
+    let (header, values, summary) = outcome.map_err(|(what, m)| match what {
+        "run" => SimulationError::new_err(m),
+        "limits" => input_error(py, m, &[]),
+        field => field_error(py, field, m),
+    })?;
+    let width = header.len();
+    let summary = serde_json::to_string(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
+    let samples = values.len() / width.max(1);
+    let array = values.into_pyarray(py).reshape([samples, width])?.into_any();
+    let (names, units): (Vec<String>, Vec<String>) = header.iter().map(|h| split_header(h)).unzip();
+    Ok((names, units, array, summary))
+}
+
+/// `name [unit]` → (name, unit).
+fn split_header(h: &str) -> (String, String) {
+    match h.split_once(" [") {
+        Some((name, unit)) => (name.to_string(), unit.trim_end_matches(']').to_string()),
+        None => (h.to_string(), String::new()),
+    }
+}
+
+/// Checks a sweep file and every run's scenario (as `lash validate` does); returns the summary
+/// line.
+#[pyfunction]
+fn validate_sweep(py: Python<'_>, file: PathBuf) -> PyResult<String> {
+    lash_cli::sweep::validate(&file).map_err(|e| cli_error(py, e))
+}
+
+/// Runs a sweep file (or one shard `"i/N"`) into `out`, resuming what an earlier call left
+/// there; returns the report as JSON (failed runs are counted in it and listed in the dataset).
+#[pyfunction]
+#[pyo3(signature = (file, out, threads = None, shard = None))]
+fn sweep(
+    py: Python<'_>,
+    file: PathBuf,
+    out: PathBuf,
+    threads: Option<usize>,
+    shard: Option<String>,
+) -> PyResult<String> {
+    let report = py.detach(|| lash_cli::sweep::execute(&file, &out, shard.as_deref(), threads, &|_| {}));
+    let report = report.map_err(|e| cli_error(py, e))?;
+    serde_json::to_string(&report).map_err(|e| SimulationError::new_err(e.to_string()))
+}
+
+/// What `read_dataset` returns: the data's run ids, times, channel names and units and values
+/// (runs × samples × channels), then the parameters' names and units, and the params table's run
+/// ids, seeds, statuses, values (runs × parameters) and errors.
+type DatasetResult<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Vec<String>,
+    Vec<String>,
+    Bound<'py, PyAny>,
+    (Vec<String>, Vec<String>, Bound<'py, PyAny>, Bound<'py, PyAny>, Vec<String>, Bound<'py, PyAny>, Vec<String>),
+);
+
+/// Reads a sweep's output folder: its data as one array and its params table.
+#[pyfunction]
+fn read_dataset(py: Python<'_>, dir: PathBuf) -> PyResult<DatasetResult<'_>> {
+    let bad = |m: String| input_error(py, format!("{}: {m}", dir.display()), &[]);
+    let (data, params) = py.detach(|| {
+        let data = lash_sweep::dataset::read_dataset(&dir);
+        let params = lash_sweep::dataset::read_params_table(&dir);
+        (data, params)
+    });
+    let (data, params) = (data.map_err(bad)?, params.map_err(bad)?);
+    let (runs, samples, width) = (data.run_ids.len(), data.time.len(), data.channels.len());
+    let values = data.values.into_pyarray(py).reshape([runs, samples, width])?.into_any();
+    let (names, units): (Vec<String>, Vec<String>) = data.channels.into_iter().unzip();
+    let (p_names, p_units): (Vec<String>, Vec<String>) = params.parameters.into_iter().unzip();
+    let n = p_names.len();
+    let rows = &params.rows;
+    let mut table = Vec::with_capacity(rows.len() * n);
+    for r in rows {
+        table.extend_from_slice(&r.values);
+    }
+    let table = table.into_pyarray(py).reshape([rows.len(), n])?.into_any();
+    Ok((
+        data.run_ids.into_pyarray(py).into_any(),
+        data.time.into_pyarray(py).into_any(),
+        names,
+        units,
+        values,
+        (
+            p_names,
+            p_units,
+            rows.iter().map(|r| r.run_id).collect::<Vec<_>>().into_pyarray(py).into_any(),
+            rows.iter().map(|r| r.seed).collect::<Vec<_>>().into_pyarray(py).into_any(),
+            rows.iter().map(|r| r.status.clone()).collect(),
+            table,
+            rows.iter().map(|r| r.error.clone()).collect(),
+        ),
+    ))
+}
+
+/// The module `lash._lash`.
+#[pymodule]
+fn _lash(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Scenario>()?;
+    m.add_function(wrap_pyfunction!(builtin_names, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(validate_sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(read_dataset, m)?)?;
+    m.add("ScenarioError", m.py().get_type::<ScenarioError>())?;
+    m.add("SimulationError", m.py().get_type::<SimulationError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
