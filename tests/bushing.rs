@@ -237,3 +237,66 @@ fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
         "a rigid bearing has no bush to warn about"
     );
 }
+
+/// A bushing whose radial force follows a curve (power laws between its points): a block hanging
+/// from it whose weight is one of the curve's forces starts and stays at that point's deflection,
+/// and the bush carries the weight; between points the static deflection is the power law's.
+#[test]
+fn a_body_on_a_curved_bushing_rests_at_the_curves_deflection() {
+    let text = |mass: f64| {
+        format!(
+            r#"
+name = "hanging on a curve"
+gravity = [0.0, -9.81]
+[[bodies]]
+name = "block"
+mass = {mass}
+inertia = 0.01
+position = [0.0, 0.0]
+[[joints]]
+name = "pin"
+type = "revolute"
+body1 = "block"
+point1 = [0.0, 0.0]
+body2 = "ground"
+point2 = [0.0, 0.0]
+[[bushings]]
+joint = "pin"
+damping = 50.0
+curve = {{ deflections = [1e-6, 3e-6, 8e-6], forces = [5.0, 19.62, 80.0] }}
+[[sensors]]
+name = "block"
+body = "block"
+[simulation]
+horizon = 0.02
+output_interval = 1e-3
+[simulation.integrator]
+method = "dop853"
+rtol = 1e-10
+atol = 1e-14
+initial_step = 1e-6
+max_step = 1e-3
+min_step = 1e-14
+"#
+        )
+    };
+    // 2 kg: m g = 19.62 N, the curve's second point (3 µm). 5 kg: m g = 49.05 N, on the power law
+    // between 3 and 8 µm: u = 3e-6 (49.05/19.62)^(1/p), p = ln(80/19.62)/ln(8/3).
+    let p = (80.0f64 / 19.62).ln() / (8.0f64 / 3.0).ln();
+    for (mass, expected) in [(2.0, 3e-6), (5.0, 3e-6 * (5.0f64 * 9.81 / 19.62).powf(1.0 / p))] {
+        let s = lash_scenario::parse(&text(mass)).unwrap();
+        let (_, header, rows) = rows(&mut FullRun::new(&s, BuildOptions::default()));
+        let (y, force, deflection) =
+            (column(&header, "block.y"), column(&header, "pin.force"), column(&header, "pin.deflection"));
+        for r in &rows {
+            assert!((r[y] + expected).abs() < 1e-9 * expected, "{mass} kg, t = {}: y = {}", r[0], r[y]);
+            assert!((r[deflection] / expected - 1.0).abs() < 1e-9, "{mass} kg: {}", r[deflection]);
+            assert!((r[force] / (mass * 9.81) - 1.0).abs() < 1e-9, "{mass} kg, t = {}: {}", r[0], r[force]);
+        }
+    }
+    // A curve with a stiffness too, or decreasing points: the field is named.
+    let bad = text(2.0).replace("damping = 50.0", "stiffness = 1e6").replace("80.0]", "10.0]");
+    let e = lash_scenario::parse(&bad).unwrap_err().to_string();
+    assert!(e.contains("bushings[0].curve") && e.contains("give one of stiffness, bush or curve"), "{e}");
+    assert!(e.contains("bushings[0].curve.forces") && e.contains("increasing"), "{e}");
+}

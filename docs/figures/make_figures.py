@@ -142,4 +142,53 @@ for ax in axes:
     ax.grid(alpha=0.3)
 fig.tight_layout()
 fig.savefig("docs/figures/F_configurations.png", dpi=110)
+# The bush-modulus sweep (examples/sweep-bush.toml, written to out/sweep-bush): crank torque peaks
+# and RMS over revolutions 2 and 3 against the bush's Young's modulus, and the torque of a few
+# moduli over time. Read with pandas/pyarrow (`lash.Dataset` reads it as arrays as well).
+import pandas as pd
+
+data = pd.read_parquet("out/sweep-bush/data.parquet")
+params = pd.read_parquet("out/sweep-bush/params.parquet")
+rigid = load("out/F/timeseries.csv")
+modulus = "clearances[0].bush.material.young_modulus"
+rows = []
+for _, p in params.iterrows():
+    if p["status"] != "ok":
+        rows.append((p[modulus] / 1e9, np.nan, np.nan))
+        continue
+    d = data[(data["run_id"] == p["run_id"]) & (data["t"] >= 0.02)]
+    torque = d["motor.torque"].to_numpy()
+    rows.append((p[modulus] / 1e9, np.abs(torque).max(), np.sqrt((torque**2).mean())))
+rows = np.array(sorted(rows))
+m = rigid["time"] >= 0.02
+# The rigid bearing sampled like the sweep (every 10th sample of its 100 kHz series: 10 kHz).
+rt = rigid["motor.torque"][m][::10]
+fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+ax = axes[0]
+ax.plot(rows[:, 0], rows[:, 1] / 1e3, "o-", label="peak, bush in series")
+ax.plot(rows[:, 0], rows[:, 2] / 1e3, "s-", label="RMS, bush in series")
+ax.axhline(np.abs(rt).max() / 1e3, color="C0", ls=":", label="peak, rigid bearing")
+ax.axhline(np.sqrt((rt**2).mean()) / 1e3, color="C1", ls=":", label="RMS, rigid bearing")
+ax.axhline(0.5 * np.abs(rt).max() / 1e3, color="k", ls="--", lw=0.8, label="half the rigid peak")
+failed = rows[np.isnan(rows[:, 1]), 0]
+for x in failed:
+    ax.axvline(x, color="r", lw=0.8, alpha=0.6)
+ax.set_xscale("log")
+ax.set_xlabel("bush Young's modulus [GPa] (bronze: 110)")
+ax.set_ylabel("crank torque [kN m]")
+ax.set_title("F, 1 mm: torque over revolutions 2–3 (10 kHz)" + (" — red: run failed" if len(failed) else ""), fontsize=9)
+ax.legend(fontsize=7)
+ax.grid(alpha=0.3, which="both")
+ax = axes[1]
+ax.plot(rigid["time"][m][::10] * 1e3, rt / 1e3, lw=0.7, color="k", label="rigid bearing")
+for target in [110e9, 30e9, rows[~np.isnan(rows[:, 1]), 0].min() * 1e9]:
+    p = params.loc[(params[modulus] - target).abs().idxmin()]
+    d = data[(data["run_id"] == p["run_id"]) & (data["t"] >= 0.02)]
+    ax.plot(d["t"] * 1e3, d["motor.torque"] / 1e3, lw=0.7, label=f"bush {p[modulus] / 1e9:.0f} GPa")
+ax.set_xlabel("time [ms]")
+ax.set_ylabel("crank torque [kN m]")
+ax.legend(fontsize=7)
+ax.grid(alpha=0.3)
+fig.tight_layout()
+fig.savefig("docs/figures/F_bush_modulus.png", dpi=110)
 print("figures written to docs/figures/")

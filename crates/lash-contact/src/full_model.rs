@@ -115,26 +115,31 @@ impl FullModel {
         let (mut q, mut qd) = kinematics::initial_guess(&ideal);
         assemble(&ideal, t0, &mut q, &mut solver, 1e-13)?;
         velocity_analysis(&ideal, t0, &q, &mut qd, &mut solver)?;
-        let stiffness: Vec<f64> = self
+        let springs: Vec<(f64, Option<lash_mech::RadialCurve>)> = self
             .mechanism
             .loads
             .iter()
-            .filter_map(|l| match *l {
-                lash_mech::Load::Bushing { stiffness, .. } => Some(stiffness),
+            .filter_map(|l| match l {
+                lash_mech::Load::Bushing { stiffness, curve, .. } => Some((*stiffness, curve.clone())),
                 _ => None,
             })
             .collect();
-        if !stiffness.is_empty() {
+        if !springs.is_empty() {
             // The bushings' joints are the ideal mechanism's last ones (see ideal_mechanism).
             solver.set_state(&ideal, t0, &q, &qd);
             solver.factor()?;
             solver.solve(&ideal, &qd);
-            let first = ideal.joints.len() - stiffness.len();
-            for (k, &stiff) in stiffness.iter().enumerate() {
-                // The bush carries the joint's force f on body i: −k d = f, d = p_i − p_j = −f / k.
-                // The joint then holds body i's point shifted by −A_iᵀ d on body j's point, which
-                // leaves the bush's own two points apart by d.
-                let deflection = -kinematics::joint_reaction(&ideal, &solver, first + k) / stiff;
+            let first = ideal.joints.len() - springs.len();
+            for (k, (stiff, curve)) in springs.iter().enumerate() {
+                // The bush carries the joint's force f on body i: −k d = f, d = p_i − p_j = −f / k
+                // (along a curve: d = −f/|f| u(|f|)). The joint then holds body i's point shifted
+                // by −A_iᵀ d on body j's point, which leaves the bush's own two points apart by d.
+                let reaction = kinematics::joint_reaction(&ideal, &solver, first + k);
+                let deflection = match curve {
+                    None => -reaction / *stiff,
+                    Some(c) if reaction.norm() > 0.0 => -reaction * (c.deflection(reaction.norm()) / reaction.norm()),
+                    Some(_) => lash_mech::Vec2::zeros(),
+                };
                 let joint = &mut ideal.joints[first + k];
                 let pose = lash_mech::Pose::of(joint.body_i, &q, &qd);
                 let local = lash_mech::Vec2::new(

@@ -9,7 +9,7 @@ pub fn field_unit(key: &str) -> &'static str {
         "mass" => "kg",
         "inertia" => "kg.m2",
         "point1" | "point2" | "point" | "position" | "journal_radius" | "bearing_radius" | "length"
-        | "damping_depth" => "m",
+        | "damping_depth" | "deflections" => "m",
         "angle" | "angle0" | "angle_offset" | "phase" | "amplitude" => "rad",
         "omega" | "angular_velocity" => "rad/s",
         "frequency" => "Hz",
@@ -21,7 +21,7 @@ pub fn field_unit(key: &str) -> &'static str {
         | "transition_velocity"
         | "stiction_velocity"
         | "friction_velocity" => "m/s",
-        "force" => "N",
+        "force" | "forces" => "N",
         "torque" => "N.m",
         "young_modulus" => "Pa",
         "stiffness" => "N/m^n",

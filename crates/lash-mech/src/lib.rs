@@ -34,7 +34,8 @@ pub use kinematics::{
 };
 pub use lash_core::Coupling;
 pub use model::{
-    Baumgarte, Body, BodyId, BushingState, Driver, Joint, JointKind, Load, Mechanism, Motion, bushing_state,
+    Baumgarte, Body, BodyId, BushingState, Driver, Joint, JointKind, Load, Mechanism, Motion, RadialCurve,
+    bushing_state,
 };
 pub use solver::{MechError, Solver};
 pub use subsystem::{MechanismSubsystem, Probe};

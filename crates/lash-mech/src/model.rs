@@ -206,9 +206,10 @@ pub enum Load {
         /// Speed at which the torque vanishes [rad/s] (> 0).
         no_load_speed: f64,
     },
-    /// A bushing: a linear isotropic spring–damper joining a point of body i to a point of body
-    /// j (a revolute joint made flexible). The force on i is −k d − c ḋ with d = p_i − p_j the
-    /// separation of the two points; j takes the opposite force at its point.
+    /// A bushing: an isotropic spring–damper joining a point of body i to a point of body j (a
+    /// revolute joint made flexible). The force on i is −F(|d|) d/|d| − c ḋ with d = p_i − p_j the
+    /// separation of the two points, F(u) = k u (linear) or the radial `curve`; j takes the
+    /// opposite force at its point.
     Bushing {
         /// Body carrying the first point (the journal's).
         body_i: BodyId,
@@ -222,7 +223,77 @@ pub enum Load {
         stiffness: f64,
         /// Radial damping c [N s/m].
         damping: f64,
+        /// The radial force as a curve of the deflection (`stiffness` then is its secant at the
+        /// first point); None: linear.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        curve: Option<RadialCurve>,
     },
+}
+
+/// A bushing's radial force as a function of its deflection, through points (u_i, F_i) that both
+/// increase from the origin: a power law between neighbouring points (linear in ln u and ln F, the
+/// shape of a contact whose width grows with its load), the secant F₀/u₀ below the first point and
+/// the last segment's power law beyond the last.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RadialCurve {
+    /// Deflections u_i [m], increasing, > 0.
+    pub deflections: Vec<f64>,
+    /// Forces F_i [N], increasing, > 0.
+    pub forces: Vec<f64>,
+}
+
+impl RadialCurve {
+    /// The segment (its first point k and exponent p) that holds deflection `u` ≥ u₀ (force
+    /// `f` ≥ F₀ when `by_force`).
+    fn segment(&self, value: f64, by_force: bool) -> (usize, f64) {
+        let (x, y) = (&self.deflections, &self.forces);
+        let n = x.len();
+        if n < 2 {
+            return (0, 1.0);
+        }
+        let axis = if by_force { y } else { x };
+        let k = axis.partition_point(|v| *v <= value).clamp(1, n - 1) - 1;
+        (k, (y[k + 1] / y[k]).ln() / (x[k + 1] / x[k]).ln())
+    }
+
+    /// F(u) [N] at deflection `u` ≥ 0 [m].
+    pub fn force(&self, u: f64) -> f64 {
+        let (x, y) = (&self.deflections, &self.forces);
+        if u <= x[0] {
+            return y[0] * (u / x[0]);
+        }
+        let (k, p) = self.segment(u, false);
+        y[k] * (u / x[k]).powf(p)
+    }
+
+    /// The deflection u [m] at which the force is `force` ≥ 0 [N] (the inverse of [`RadialCurve::force`]).
+    pub fn deflection(&self, force: f64) -> f64 {
+        let (x, y) = (&self.deflections, &self.forces);
+        if force <= y[0] {
+            return x[0] * (force / y[0]);
+        }
+        let (k, p) = self.segment(force, true);
+        x[k] * (force / y[k]).powf(1.0 / p)
+    }
+
+    /// Problems of the points, under `field`.
+    pub fn check(&self, field: &str) -> Problems {
+        let mut p = Problems::new();
+        let (x, y) = (&self.deflections, &self.forces);
+        if x.is_empty() || x.len() != y.len() {
+            p.push(
+                field,
+                format!("needs as many deflections as forces, at least one (got {} and {})", x.len(), y.len()),
+            );
+            return p;
+        }
+        for (name, v) in [("deflections", x), ("forces", y)] {
+            if !v.iter().all(|a| *a > 0.0 && a.is_finite()) || !v.windows(2).all(|w| w[1] > w[0]) {
+                p.push(format!("{field}.{name}"), format!("must be positive, finite and increasing, got {v:?}"));
+            }
+        }
+        p
+    }
 }
 
 /// The state of a bushing: separation d = p_i − p_j, its rate, and the force on body i.
@@ -236,20 +307,28 @@ pub struct BushingState {
     pub force: Vec2,
 }
 
-/// A bushing's state from the two bodies' poses (`pose_i`, `pose_j`).
+/// A bushing's state from the two bodies' poses (`pose_i`, `pose_j`): linear with `stiffness`, or
+/// along `curve`.
 pub fn bushing_state(
     pose_i: &crate::Pose,
     point_i: Vec2,
     pose_j: &crate::Pose,
     point_j: Vec2,
-    stiffness: f64,
+    (stiffness, curve): (f64, Option<&RadialCurve>),
     damping: f64,
 ) -> (BushingState, Vec2, Vec2) {
     let (ai, aj) = (pose_i.rotate(point_i), pose_j.rotate(point_j));
     let deflection = pose_i.position + ai - pose_j.position - aj;
     let velocity = |p: &crate::Pose, a: Vec2| p.velocity + Vec2::new(-a.y, a.x) * p.angular_velocity;
     let deflection_rate = velocity(pose_i, ai) - velocity(pose_j, aj);
-    let force = -(deflection * stiffness + deflection_rate * damping);
+    let spring = match curve {
+        None => deflection * stiffness,
+        Some(c) => {
+            let u = deflection.norm();
+            if u > 0.0 { deflection * (c.force(u) / u) } else { Vec2::zeros() }
+        }
+    };
+    let force = -(spring + deflection_rate * damping);
     (BushingState { deflection, deflection_rate, force }, ai, aj)
 }
 
@@ -388,7 +467,7 @@ impl Mechanism {
                     p.finite(format!("loads[{k}].stall_torque"), *stall_torque);
                     p.positive(format!("loads[{k}].no_load_speed"), *no_load_speed);
                 }
-                Load::Bushing { body_i, body_j, stiffness, damping, .. } => {
+                Load::Bushing { body_i, body_j, stiffness, damping, curve, .. } => {
                     check_body(&mut p, format!("loads[{k}].body_i"), *body_i);
                     check_body(&mut p, format!("loads[{k}].body_j"), *body_j);
                     if body_i == body_j {
@@ -396,6 +475,9 @@ impl Mechanism {
                     }
                     p.positive(format!("loads[{k}].stiffness"), *stiffness);
                     p.non_negative(format!("loads[{k}].damping"), *damping);
+                    if let Some(c) = curve {
+                        p.0.extend(c.check(&format!("loads[{k}].curve")).0);
+                    }
                 }
             }
         }
@@ -414,5 +496,38 @@ impl Mechanism {
             );
         }
         p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RadialCurve;
+
+    #[test]
+    fn a_radial_curve_passes_through_its_points_and_inverts() {
+        let c = RadialCurve { deflections: vec![1e-6, 3e-6, 8e-6], forces: vec![5.0, 19.62, 80.0] };
+        for (u, f) in c.deflections.iter().zip(&c.forces) {
+            assert!((c.force(*u) / f - 1.0).abs() < 1e-14, "F({u}) = {} ≠ {f}", c.force(*u));
+            assert!((c.deflection(*f) / u - 1.0).abs() < 1e-14);
+        }
+        // Linear through the origin below the first point, a power law between points and beyond.
+        assert_eq!(c.force(0.0), 0.0);
+        assert!((c.force(0.5e-6) - 2.5).abs() < 1e-14);
+        let p = (80.0f64 / 19.62).ln() / (8.0f64 / 3.0).ln();
+        for u in [4e-6, 7.9e-6, 2e-5] {
+            let expected = 19.62 * (u / 3e-6f64).powf(p);
+            assert!((c.force(u) / expected - 1.0).abs() < 1e-13, "F({u})");
+            assert!((c.deflection(expected) / u - 1.0).abs() < 1e-13, "u({expected})");
+        }
+        // Increasing everywhere (checked on a fine grid across the points).
+        let mut last = 0.0;
+        for i in 1..2000 {
+            let f = c.force(i as f64 * 1e-8);
+            assert!(f > last, "not increasing at {} m", i as f64 * 1e-8);
+            last = f;
+        }
+        assert!(c.check("curve").is_empty());
+        let bad = RadialCurve { deflections: vec![1e-6, 1e-6], forces: vec![1.0] };
+        assert!(!bad.check("curve").is_empty());
     }
 }

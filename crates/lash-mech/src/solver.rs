@@ -224,10 +224,11 @@ impl Solver {
                     let omega = self.poses[*body].angular_velocity;
                     self.forces[3 * body + 2] += stall_torque * (1.0 - omega / no_load_speed);
                 }
-                Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping } => {
+                Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping, curve } => {
                     let (pi, pj) =
                         (constraints::pose_of(&self.poses, *body_i), constraints::pose_of(&self.poses, *body_j));
-                    let (s, ai, aj) = crate::model::bushing_state(&pi, *point_i, &pj, *point_j, *stiffness, *damping);
+                    let spring = (*stiffness, curve.as_ref());
+                    let (s, ai, aj) = crate::model::bushing_state(&pi, *point_i, &pj, *point_j, spring, *damping);
                     self.add_force(*body_i, ai, s.force);
                     self.add_force(*body_j, aj, -s.force);
                 }

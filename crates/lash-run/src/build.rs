@@ -116,6 +116,7 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
             point_j: v2(j.point2),
             stiffness,
             damping,
+            curve: b.curve.clone(),
         }
     });
     let loads = s

@@ -10,15 +10,15 @@ use std::collections::BTreeMap;
 
 /// Quantity `quantity` (fx, fy, |f|, |d|) of the `k`-th bushing among the mechanism's loads.
 fn bushing_value(mech: &Mechanism, q: &[f64], qd: &[f64], k: usize, quantity: u8) -> f64 {
-    let mut bushings = mech.loads.iter().filter_map(|l| match *l {
-        lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping } => {
-            Some((body_i, point_i, body_j, point_j, stiffness, damping))
+    let mut bushings = mech.loads.iter().filter_map(|l| match l {
+        lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping, curve } => {
+            Some((*body_i, *point_i, *body_j, *point_j, (*stiffness, curve.as_ref()), *damping))
         }
         _ => None,
     });
-    let Some((bi, pi, bj, pj, k_, c)) = bushings.nth(k) else { return f64::NAN };
+    let Some((bi, pi, bj, pj, spring, c)) = bushings.nth(k) else { return f64::NAN };
     let (pose_i, pose_j) = (lash_mech::Pose::of(bi, q, qd), lash_mech::Pose::of(bj, q, qd));
-    let (s, _, _) = lash_mech::bushing_state(&pose_i, pi, &pose_j, pj, k_, c);
+    let (s, _, _) = lash_mech::bushing_state(&pose_i, pi, &pose_j, pj, spring, c);
     [s.force.x, s.force.y, s.force.norm(), s.deflection.norm()][quantity as usize]
 }
 

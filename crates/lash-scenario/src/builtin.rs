@@ -313,6 +313,7 @@ pub fn scenario_f(joint: FJoint) -> Scenario {
             stiffness: None,
             damping: None,
             bush: Some(scenario_f_bush(0.010)),
+            curve: None,
         }),
     }
     s

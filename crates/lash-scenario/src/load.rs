@@ -641,7 +641,14 @@ fn cross_check(s: &Scenario) -> Problems {
         if !bushing_joints.insert(b.joint.as_str()) {
             p.push(f("joint"), format!("joint {:?} already has a bushing", b.joint));
         }
+        if let Some(curve) = &b.curve {
+            if b.stiffness.is_some() || b.bush.is_some() {
+                p.push(f("curve"), "give one of stiffness, bush or curve");
+            }
+            p.0.extend(curve.check(&f("curve")).0);
+        }
         match (&b.bush, b.stiffness) {
+            _ if b.curve.is_some() => {}
             (Some(_), Some(_)) => p.push(f("stiffness"), "give either stiffness or bush, not both"),
             (None, None) => p.push(f("stiffness"), "missing: give stiffness [N/m] (and damping) or a bush"),
             (None, Some(k)) => {
@@ -668,7 +675,7 @@ fn cross_check(s: &Scenario) -> Problems {
                     );
                 }
                 if b.damping.is_some() {
-                    p.push(f("damping"), "comes from the bush's viscosities: give it only with stiffness");
+                    p.push(f("damping"), "comes from the bush's viscosities: give it only with stiffness or curve");
                 }
             }
         }

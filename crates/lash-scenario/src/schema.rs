@@ -189,10 +189,11 @@ pub struct ClearanceSpec {
     pub bush: Option<lash_bush::BushSpec>,
 }
 
-/// Makes the revolute joint `joint` flexible: its two points are joined by a linear isotropic
+/// Makes the revolute joint `joint` flexible: its two points are joined by an isotropic
 /// spring–damper (a bush pressed in one body around a pin of the other, without clearance) instead
 /// of the ideal constraint. The stiffness and damping are given, or computed from the bush by
-/// finite elements (the bonded-pin case of `lash bush`).
+/// finite elements (the bonded-pin case of `lash bush`); or the radial force follows a given
+/// curve of the deflection (a measured characteristic, say), with a given damping.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BushingSpec {
@@ -208,12 +209,21 @@ pub struct BushingSpec {
     /// pin (inner_radius = pin_radius).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bush: Option<lash_bush::BushSpec>,
+    /// The radial force as a curve of the deflection (instead of `stiffness` and `bush`): points
+    /// `deflections` [m] and `forces` [N], both increasing from the origin, joined by power laws.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve: Option<lash_mech::RadialCurve>,
 }
 
 impl BushingSpec {
     /// (stiffness [N/m], damping [N s/m]): as given, or the bush's bonded-pin values by finite
     /// elements (computed once per bush in a process).
     pub fn stiffness_damping(&self) -> Result<(f64, f64), String> {
+        if let Some(c) = &self.curve {
+            // The secant at the first point stands for the stiffness (its small-deflection value).
+            let secant = c.forces.first().zip(c.deflections.first()).map_or(f64::NAN, |(f, u)| f / u);
+            return Ok((secant, self.damping.unwrap_or(0.0)));
+        }
         match (&self.bush, self.stiffness) {
             (Some(bush), _) => {
                 let b = lash_bush::bonded_pin(bush).map_err(|e| format!("bushing {:?}: {e}", self.joint))?;
