@@ -594,7 +594,7 @@ uniform = {{ low = 400.0, high = 600.0 }}
     let mut walls = Vec::new();
     for threads in [1usize, 2] {
         let out = dir.join(format!("out-{threads}"));
-        let options = lash_sweep::ExecuteOptions { out, shard: None, threads: Some(threads) };
+        let options = lash_sweep::ExecuteOptions { out, shard: None, threads: Some(threads), cancel: None };
         let r = lash_sweep::execute(&plan, &options, &|_| {}).map_err(|e| CliError::Failure(e.to_string()))?;
         let throughput = r.simulated_s / r.wall_s;
         println!(

@@ -10,18 +10,20 @@ fn map_error(e: SweepError) -> CliError {
     match e {
         SweepError::Input(m) => CliError::Input(m),
         SweepError::Output(m) => CliError::Failure(m),
+        SweepError::Interrupted(m) => CliError::Interrupted(m),
     }
 }
 
 /// Runs a sweep file (or one shard, `shard` as `i/N`) into `out` on `threads` workers (None: one
 /// per core), after its limits are checked (limits.rs): the path every front end takes (the
-/// command line, the Python package). `on_event` sees the start and each finished run. Runs that
-/// fail are in the report and the dataset; the caller decides what a failure means to it.
+/// command line, the Python package). `on_event` sees the start and each finished run; setting
+/// `cancel` stops the sweep resumably. Runs that fail are in the report and the dataset; the
+/// caller decides what a failure means to it.
 pub fn execute(
     file: &Path,
     out: &Path,
-    shard: Option<&str>,
-    threads: Option<usize>,
+    (shard, threads): (Option<&str>, Option<usize>),
+    cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
     on_event: &(dyn Fn(Event) + Sync),
 ) -> Result<lash_sweep::Report, CliError> {
     let shard = shard.map(lash_sweep::parse_shard).transpose().map_err(CliError::Input)?;
@@ -50,7 +52,8 @@ pub fn execute(
         "fewer runs (or shards), a shorter horizon, a lower output.sample_rate or fewer output.channels",
     )?;
     let plan = lash_sweep::plan(file, (spec, text, base)).map_err(map_error)?;
-    lash_sweep::execute(&plan, &ExecuteOptions { out: out.to_path_buf(), shard, threads }, on_event).map_err(map_error)
+    lash_sweep::execute(&plan, &ExecuteOptions { out: out.to_path_buf(), shard, threads, cancel }, on_event)
+        .map_err(map_error)
 }
 
 /// `lash sweep`: [`execute`] with a progress bar; exit 1 when runs failed.
@@ -79,7 +82,7 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
             bar.inc(1);
         }
     };
-    let report = execute(file, out, shard, threads, &on_event)?;
+    let report = execute(file, out, (shard, threads), None, &on_event)?;
     bar.finish_and_clear();
     let what = match shard {
         Some(s) => format!("shard {s} of {}", file.display()),

@@ -185,3 +185,43 @@ def test_the_example_generates_a_dataset_and_fits_a_model(tmp_path):
     done = subprocess.run([sys.executable, script, str(tmp_path)], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
     assert "16 runs" in done.stdout and "R² =" in done.stdout
+
+
+# Ctrl-C: a long run or sweep stops soon after, and a sweep resumes.
+
+
+def interrupt_after(seconds):
+    import _thread
+    import threading
+
+    timer = threading.Timer(seconds, _thread.interrupt_main)
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_stops_a_long_run():
+    import time
+
+    # About 2 s of work, 60 001 rows; the signals are checked every 4096 rows (~0.1 s here).
+    long = lash.load("A").with_values({"simulation.horizon": 60.0, "simulation.output_interval": 1e-3})
+    interrupt_after(0.1)
+    started = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        lash.run(long, "reduced")
+    assert time.perf_counter() - started < 1.0
+
+
+def test_ctrl_c_stops_a_sweep_which_then_resumes(tmp_path):
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(
+        SWEEP.replace("horizon = 0.01", "horizon = 1.0").replace("values = [0.00992, 0.0100, 0.00980]",
+                                                                 "linspace = { start = 0.00992, stop = 0.0101, count = 12 }")
+    )
+    out = tmp_path / "data"
+    interrupt_after(0.1)
+    with pytest.raises(KeyboardInterrupt):
+        lash.sweep(spec, out, threads=1)
+    assert not (out / "data.parquet").exists()  # an interrupted folder never looks complete
+    report = lash.sweep(spec, out, threads=2)
+    assert report["skipped"] > 0 and report["skipped"] + report["ran"] == 24 and report["failed"] == 0
+    assert lash.Dataset(out).values.shape[0] == 24

@@ -242,8 +242,12 @@ fn run<'py>(
         }
     }
     let scenario = scenario.inner.clone();
+    // Ctrl-C (or any signal handler that raises) stops the run: the sink takes the GIL back every
+    // 4096 rows to let Python check its signals (on this, the main, thread), which costs ~0.1 µs
+    // per row-block.
+    let mut interrupted: Option<PyErr> = None;
     // Built, checked and run without the GIL (the runner stays on this thread).
-    let outcome = py.detach(move || -> Result<_, (&'static str, String)> {
+    let outcome = py.detach(|| -> Result<_, (&'static str, String)> {
         let mut runner = lash_run::runner(&scenario, model).map_err(|m| ("model", m))?;
         let header = runner.header();
         // Held in memory: refused before any work when it cannot fit (as `lash run` refuses).
@@ -263,13 +267,24 @@ fn run<'py>(
         )
         .map_err(|e| ("limits", e.to_string()))?;
         let mut values: Vec<f64> = Vec::with_capacity((rows as usize + 1) * header.len());
+        let mut count = 0u32;
         let mut sink = |row: &[f64]| {
             values.extend_from_slice(row);
+            count = count.wrapping_add(1);
+            if count & 4095 == 0
+                && let Err(e) = Python::attach(|py| py.check_signals())
+            {
+                interrupted = Some(e);
+                return Err("interrupted".to_string());
+            }
             Ok(())
         };
         let summary = runner.execute(&mut sink, &mut |_| {}).map_err(|e| ("run", e.to_string()))?;
         Ok((header, values, summary))
     });
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
     let (header, values, summary) = outcome.map_err(|(what, m)| match what {
         "run" => SimulationError::new_err(m),
         "limits" => input_error(py, m, &[]),
@@ -300,6 +315,9 @@ fn validate_sweep(py: Python<'_>, file: PathBuf) -> PyResult<String> {
 
 /// Runs a sweep file (or one shard `"i/N"`) into `out`, resuming what an earlier call left
 /// there; returns the report as JSON (failed runs are counted in it and listed in the dataset).
+/// The sweep runs on a thread of its own while this (the main) thread checks Python's signals
+/// every 50 ms: Ctrl-C stops it — runs in flight finish, the folder stays resumable — and
+/// raises KeyboardInterrupt.
 #[pyfunction]
 #[pyo3(signature = (file, out, threads = None, shard = None))]
 fn sweep(
@@ -309,7 +327,38 @@ fn sweep(
     threads: Option<usize>,
     shard: Option<String>,
 ) -> PyResult<String> {
-    let report = py.detach(|| lash_cli::sweep::execute(&file, &out, shard.as_deref(), threads, &|_| {}));
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let (done_tx, done_rx) = crossbeam_channel::bounded::<()>(1);
+    let (report, interrupted) = std::thread::scope(|scope| {
+        let worker = scope.spawn({
+            let cancel = cancel.clone();
+            let (file, out, shard) = (&file, &out, shard.as_deref());
+            move || {
+                let report = lash_cli::sweep::execute(file, out, (shard, threads), Some(cancel), &|_| {});
+                let _ = done_tx.send(());
+                report
+            }
+        });
+        let mut interrupted = None;
+        loop {
+            let finished = py.detach(|| done_rx.recv_timeout(std::time::Duration::from_millis(50)));
+            if !matches!(finished, Err(crossbeam_channel::RecvTimeoutError::Timeout)) {
+                break;
+            }
+            if interrupted.is_none()
+                && let Err(e) = py.check_signals()
+            {
+                cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                interrupted = Some(e);
+            }
+        }
+        let report = py.detach(|| worker.join());
+        (report, interrupted)
+    });
+    let report = report.map_err(|_| SimulationError::new_err("the sweep's thread panicked"))?;
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
     let report = report.map_err(|e| cli_error(py, e))?;
     serde_json::to_string(&report).map_err(|e| SimulationError::new_err(e.to_string()))
 }

@@ -36,6 +36,10 @@ pub enum SweepError {
     /// Reading or writing the dataset failed.
     #[error("{0}")]
     Output(String),
+    /// Cancelled through [`ExecuteOptions::cancel`]: the finished runs are kept (journal and parts),
+    /// and running the sweep again into the same folder resumes it.
+    #[error("{0}")]
+    Interrupted(String),
 }
 
 /// How to run a sweep.
@@ -47,6 +51,9 @@ pub struct ExecuteOptions {
     pub shard: Option<Shard>,
     /// Worker threads (None: rayon's default, one per core).
     pub threads: Option<usize>,
+    /// Set it to stop the sweep: runs in flight finish, no new run starts, and the execution
+    /// returns [`SweepError::Interrupted`] with the folder resumable.
+    pub cancel: Option<std::sync::Arc<AtomicBool>>,
 }
 
 /// What happened to runs, for progress display.
@@ -350,6 +357,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     }
     let shared = Mutex::new(Shared { journal, records: done, simulated_s: 0.0 });
     let stop: AtomicBool = AtomicBool::new(false);
+    let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
     let write_error: Mutex<Option<String>> = Mutex::new(None);
     let threads = options.threads.unwrap_or_else(rayon::current_num_threads).max(1);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -370,7 +378,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         scope.spawn(move || {
             pool.install(|| {
                 pending.par_iter().for_each_with(sender, |sender, run| {
-                    if stop.load(Ordering::Relaxed) {
+                    if stop.load(Ordering::Relaxed) || cancelled() {
                         return;
                     }
                     let t0 = Instant::now();
@@ -470,6 +478,15 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     }
     assembled.map_err(io)?;
     let shared = shared.into_inner().expect("lock");
+    if cancelled() {
+        let finished = shared.records.len();
+        return Err(SweepError::Interrupted(format!(
+            "interrupted: {finished} of {} runs of the shard are finished and kept in {}; run the sweep again into \
+             that folder to resume",
+            shard_runs.len(),
+            out.display()
+        )));
+    }
     let t_assemble = Instant::now();
     let records: Vec<RunRecord> = shard_runs.iter().filter_map(|r| shared.records.get(&r.id).cloned()).collect();
     if records.len() != shard_runs.len() {
