@@ -702,6 +702,24 @@ impl<'a> InterfaceMaster<'a> {
         let h_m = o.macro_step.seconds();
         let mut stats = MasterStats::default();
         let mut signals = vec![0.0; resolved.len()];
+        // The micro inputs at the start (the first frame's values, no rate) before anything is
+        // read: a micro joint that starts where it holds its load (a bushing) settles there, so
+        // the first sample is already the settled one. (Each macro step sets them again.)
+        {
+            let w = Window { prev: None, a: &first, b: &first, next: None, h: h_m };
+            let mut inputs = vec![0.0; width_in];
+            let mut elements = index.elements.iter();
+            for &(values, rates) in &index.layout {
+                for e in 0..rates - values {
+                    let &(value, derivative) = elements.next().expect("one element per input value");
+                    inputs[values + e] = match derivative {
+                        Some(d) => w.with_derivative(Interpolation::Linear, value, d, 0.0).0,
+                        None => w.coupling(Interpolation::Linear, value, 0.0).0,
+                    };
+                }
+            }
+            self.micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
+        }
         let mut micro_values = vec![0.0; micro_width];
         self.micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
         let mut coupling_values = vec![0.0; 2 * n + k];

@@ -85,17 +85,26 @@ fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
 impl ReducedRun {
     /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
-        if let Some(b) = scenario.bushings.first() {
+        // The interface is either the clearance joints or the bushings (each a micro model of
+        // its own kind); both at once is not there yet.
+        let bushed = !scenario.bushings.is_empty();
+        if bushed && !scenario.clearances.is_empty() {
             return Err(RunError::Unsupported(format!(
-                "the reduced model does not take bushings yet (joint {:?}); run the full model",
-                b.joint
+                "the reduced model takes clearance joints or bushings, not both yet (clearance joint {:?}, bushing {:?}); \
+                 run the full model",
+                scenario.clearances[0].joint, scenario.bushings[0].joint
             )));
         }
-        let max_joints = lash_contact::micro::MAX_COORDINATES / lash_contact::micro::PLANAR_JOINT_COORDINATES;
-        if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
+        let max_joints = if bushed {
+            3
+        } else {
+            lash_contact::micro::MAX_COORDINATES / lash_contact::micro::PLANAR_JOINT_COORDINATES
+        };
+        let count = scenario.clearances.len() + scenario.bushings.len();
+        if count == 0 || count > max_joints {
             return Err(RunError::Unsupported(format!(
-                "the reduced model couples 1 to {max_joints} clearance joints; the scenario has {}",
-                scenario.clearances.len()
+                "the reduced model couples 1 to {max_joints} {}; the scenario has {count}",
+                if bushed { "bushings" } else { "clearance joints" }
             )));
         }
         let master_options = master_options(&scenario.simulation, options)?;
@@ -106,9 +115,9 @@ impl ReducedRun {
         }
         let full = build_model(scenario, BuildOptions { ideal: false });
         let ideal = full.ideal_mechanism();
-        let cut = full.mechanism.clone();
+        let mut cut = full.mechanism.clone();
         let joints = full.clearances.clone();
-        let interfaces: Vec<ClearanceInterface> = joints
+        let mut interfaces: Vec<ClearanceInterface> = joints
             .iter()
             .map(|j| ClearanceInterface {
                 interface: Interface {
@@ -121,15 +130,45 @@ impl ReducedRun {
                 bearing_radius: j.bearing_radius,
             })
             .collect();
+        // A bushing's two points are the interface (its force is the micro side's): the cut
+        // mechanism loses the bushing load as it lost the joint, and the bushing becomes a
+        // micro joint with the same law.
+        let mut bushings = Vec::new();
+        cut.loads.retain(|l| match l {
+            lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping, curve } => {
+                interfaces.push(ClearanceInterface {
+                    interface: Interface {
+                        journal_body: *body_i,
+                        journal_point: *point_i,
+                        bearing_body: *body_j,
+                        bearing_point: *point_j,
+                    },
+                    journal_radius: 0.0,
+                    bearing_radius: 0.0,
+                });
+                bushings.push(lash_contact::micro::BushingJoint {
+                    name: scenario.bushings[bushings.len()].joint.clone(),
+                    stiffness: *stiffness,
+                    damping: *damping,
+                    curve: curve.clone(),
+                });
+                false
+            }
+            _ => true,
+        });
+        let k = interfaces.len();
         // Loads per propagated value: the contact forces (n = 2k), then the friction forces (k).
-        let loads = joints.len() * (lash_contact::micro::PLANAR_JOINT_COORDINATES + 1);
+        let loads = k * (lash_contact::micro::PLANAR_JOINT_COORDINATES + 1);
 
         let sources = channel_sources(scenario, false);
         let selected = lash_scenario::channels::selected_channels(scenario, &sources);
         let joint_names: Vec<&str> = scenario
             .joints
             .iter()
-            .filter(|j| !scenario.clearances.iter().any(|c| c.joint == j.name))
+            .filter(|j| {
+                !scenario.clearances.iter().any(|c| c.joint == j.name)
+                    && !scenario.bushings.iter().any(|b| b.joint == j.name)
+            })
             .map(|j| j.name.as_str())
             .collect();
         // One signal per recorded channel; every joint's eccentricity and force magnitude always
@@ -190,8 +229,12 @@ impl ReducedRun {
         // The joints' definitions as written, so that their radii and law coefficients are
         // parameters of the micro subsystem (and of its FMU).
         let definitions = scenario.clearances.iter().map(|c| crate::build::clearance_definition(scenario, c)).collect();
-        let micro_sub = InterfaceSubsystem::with_definitions(joints, integrator, definitions)
-            .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        let micro_sub = if bushed {
+            InterfaceSubsystem::new(bushings, integrator)
+        } else {
+            InterfaceSubsystem::with_definitions(joints, integrator, definitions)
+        }
+        .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self {
             scenario: scenario.clone(),
             options,
@@ -223,7 +266,8 @@ impl ReducedRun {
                 .position(|(_, s)| matches!(s, Source::Clearance(c, q) if *c == j && CLEARANCE_QUANTITIES[*q as usize].0 == name))
                 .expect("recorded")
         };
-        let joints = self.micro_sub.joint_count();
+        // The clearance summary is the clearance joints' (a bushing has no impacts to count).
+        let joints = self.scenario.clearances.len();
         let recording = Recording {
             channels: self.sources.iter().map(|(c, _)| c.clone()).collect(),
             written: self.selected.len(),
@@ -434,7 +478,7 @@ pub(crate) fn run_reduced(
     let m = samples.max(1) as f64;
     let mut events = 0;
     let mut clearances = Vec::with_capacity(joints);
-    for (j, name) in micro.joint_names().into_iter().enumerate() {
+    for (j, name) in micro.joint_names().into_iter().enumerate().take(joints) {
         let mut impacts = micro.impacts(j).to_vec();
         let open = micro.open_impacts(j, t_end);
         events += 2 * impacts.len() as u64 + open.len() as u64;
@@ -535,7 +579,17 @@ fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: So
         Source::ConstraintError => {
             Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None }
         }
-        Source::Bushing(..) => unreachable!("ReducedRun::new refuses scenarios with bushings"),
+        // A bushing is micro joint k (the interface is the bushings alone): its force on body1 is
+        // the micro side's force on the journal, its deflection the eccentricity's norm.
+        Source::Bushing(k, q) => {
+            let (variable, element) = match q {
+                0 => ("contact_force", 2 * k),
+                1 => ("contact_force", 2 * k + 1),
+                2 => ("contact_force_magnitude", k),
+                _ => ("eccentricity_norm", k),
+            };
+            Signal::Micro { name, variable: variable.into(), element }
+        }
         // The micro side's normal force, turned into the stress when recorded (Recording::stresses).
         Source::InterfaceStress(k) => Signal::Micro { name, variable: "normal_force".into(), element: k },
     }

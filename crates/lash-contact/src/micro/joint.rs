@@ -51,6 +51,12 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     fn in_series(&self) -> bool {
         false
     }
+    /// For joints that start at rest where they hold the interface force (bushings): writes that
+    /// eccentricity (COORDINATES) for the interface force `force` on the journal and returns true.
+    /// Clearance joints start centred (false).
+    fn rest_under(&self, _force: &[f64], _e: &mut [f64]) -> bool {
+        false
+    }
     /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
     fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
     /// δ [m].

@@ -19,12 +19,14 @@
 //! vectors have n elements, matrices are row-major; joint parameters are named as in the scenario
 //! file, prefixed with the joint's name when there are several joints.
 
+pub mod bushing;
 pub mod joint;
 pub mod model;
 
 use crate::clearance::{ClearanceJoint, Impact};
 use crate::parameters::ClearanceDefinition;
 use crate::spherical::SphericalClearance;
+pub use bushing::BushingJoint;
 pub use joint::MicroJoint;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{SavedState, StepOutcome, Steps, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
@@ -128,6 +130,9 @@ enum Core {
     S6(Box<InterfaceModel<SphericalClearance, 6, 2, 12, 6>>),
     S9(Box<InterfaceModel<SphericalClearance, 9, 3, 18, 9>>),
     S12(Box<InterfaceModel<SphericalClearance, 12, 4, 24, 12>>),
+    B2(Box<InterfaceModel<BushingJoint, 2, 1, 1, 1>>),
+    B4(Box<InterfaceModel<BushingJoint, 4, 2, 2, 2>>),
+    B6(Box<InterfaceModel<BushingJoint, 6, 3, 3, 3>>),
 }
 
 /// Runs `$body` with `$m` bound to the model of whichever kind and size `$core` holds.
@@ -144,6 +149,9 @@ macro_rules! each_core {
             Core::S6($m) => $body,
             Core::S9($m) => $body,
             Core::S12($m) => $body,
+            Core::B2($m) => $body,
+            Core::B4($m) => $body,
+            Core::B6($m) => $body,
         }
     };
 }
@@ -197,6 +205,19 @@ impl CoreJoint for SphericalClearance {
         self.law = d.normal_force();
         self.friction = d.friction;
     }
+}
+
+impl CoreJoint for BushingJoint {
+    fn core(joints: Vec<Self>) -> Option<CoreBox> {
+        Some(CoreBox(match joints.len() {
+            1 => Core::B2(Box::new(InterfaceModel::new(joints))),
+            2 => Core::B4(Box::new(InterfaceModel::new(joints))),
+            3 => Core::B6(Box::new(InterfaceModel::new(joints))),
+            _ => return None,
+        }))
+    }
+    /// A bushing has no clearance definition (its stiffness and damping are its own).
+    fn apply(&mut self, _d: &ClearanceDefinition) {}
 }
 
 /// Applies resolved definitions to a model's joints, resets the contacts, and returns the first
@@ -727,11 +748,17 @@ impl Subsystem for InterfaceSubsystem {
             return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), at)));
         }
         let t = self.time.seconds();
+        let first = self.phase == Phase::Stepping && self.micro_steps == 0;
         each_core!(&mut self.core, m => {
             for &(r, from, len) in &inputs[..input_count] {
                 set_input(&mut m.inputs, r, &values[from..from + len]);
             }
             m.input_time = t;
+            // Bushings start at rest where they hold the first interface force (as the full
+            // model starts deflected by its quasi-static load): no ringing from an unloaded start.
+            if first {
+                m.settle(t);
+            }
         });
         for (r, v) in parameters {
             self.parameter_values[(r - vr::FIRST_PARAMETER) as usize] = v;

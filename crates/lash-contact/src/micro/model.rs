@@ -358,6 +358,27 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         (self.acceleration_with(t, mass, &loads), loads)
     }
 
+    /// Puts each joint that starts where it holds the interface force ([`MicroJoint::rest_under`]:
+    /// bushings) at that eccentricity, at rest, for the current inputs; the others are left as
+    /// they are.
+    pub fn settle(&mut self, t: f64) {
+        let d = J::COORDINATES;
+        let mut moved = false;
+        for j in 0..self.joints.len() {
+            let force = &self.inputs.effective_force.as_slice()[d * j..d * (j + 1)];
+            let mut e = [0.0; 3];
+            if self.joints[j].rest_under(force, &mut e[..d]) {
+                self.eccentricity.as_mut_slice()[d * j..d * (j + 1)].copy_from_slice(&e[..d]);
+                self.eccentricity_rate.as_mut_slice()[d * j..d * (j + 1)].fill(0.0);
+                moved = true;
+            }
+        }
+        if moved {
+            self.end = None;
+            self.refresh_states(t);
+        }
+    }
+
     /// Recomputes every joint's contact state at the current (w, ẇ) and time `t`.
     pub fn refresh_states(&mut self, t: f64) {
         for j in 0..self.joints.len() {
