@@ -7,16 +7,16 @@ use common::{column, rows};
 use lash_run::{BuildOptions, FullRun};
 use lash_scenario::builtin;
 
-/// A 2 kg body hanging in gravity from a bushing (k = 1e6 N/m) at its centroid: it starts and
-/// stays at the static deflection m g / k, and the bush carries m g.
-#[test]
-fn a_body_on_a_bushing_rests_at_its_static_deflection() {
-    let text = r#"
+/// A block of `mass` hanging in gravity from a bushing (the `[[bushings]]` lines given) at its
+/// centroid, the block's y and the bush's channels sampled every 1 ms.
+fn hanging(mass: f64, bushing: &str) -> String {
+    format!(
+        r#"
 name = "hanging"
 gravity = [0.0, -9.81]
 [[bodies]]
 name = "block"
-mass = 2.0
+mass = {mass}
 inertia = 0.01
 position = [0.0, 0.0]
 [[joints]]
@@ -28,13 +28,12 @@ body2 = "ground"
 point2 = [0.0, 0.0]
 [[bushings]]
 joint = "pin"
-stiffness = 1e6
-damping = 10.0
+{bushing}
 [[sensors]]
 name = "block"
 body = "block"
 [simulation]
-horizon = 0.05
+horizon = 0.02
 output_interval = 1e-3
 [simulation.integrator]
 method = "dop853"
@@ -43,8 +42,16 @@ atol = 1e-14
 initial_step = 1e-6
 max_step = 1e-3
 min_step = 1e-14
-"#;
-    let s = lash_scenario::parse(text).unwrap();
+"#
+    )
+}
+
+/// A 2 kg body hanging in gravity from a bushing (k = 1e6 N/m) at its centroid: it starts and
+/// stays at the static deflection m g / k, and the bush carries m g.
+#[test]
+fn a_body_on_a_bushing_rests_at_its_static_deflection() {
+    let text = hanging(2.0, "stiffness = 1e6\ndamping = 10.0");
+    let s = lash_scenario::parse(&text).unwrap();
     let (_, header, rows) = rows(&mut FullRun::new(&s, BuildOptions::default()));
     let (y, force, deflection) =
         (column(&header, "block.y"), column(&header, "pin.force"), column(&header, "pin.deflection"));
@@ -301,43 +308,8 @@ fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
 /// and the bush carries the weight; between points the static deflection is the power law's.
 #[test]
 fn a_body_on_a_curved_bushing_rests_at_the_curves_deflection() {
-    let text = |mass: f64| {
-        format!(
-            r#"
-name = "hanging on a curve"
-gravity = [0.0, -9.81]
-[[bodies]]
-name = "block"
-mass = {mass}
-inertia = 0.01
-position = [0.0, 0.0]
-[[joints]]
-name = "pin"
-type = "revolute"
-body1 = "block"
-point1 = [0.0, 0.0]
-body2 = "ground"
-point2 = [0.0, 0.0]
-[[bushings]]
-joint = "pin"
-damping = 50.0
-curve = {{ deflections = [1e-6, 3e-6, 8e-6], forces = [5.0, 19.62, 80.0] }}
-[[sensors]]
-name = "block"
-body = "block"
-[simulation]
-horizon = 0.02
-output_interval = 1e-3
-[simulation.integrator]
-method = "dop853"
-rtol = 1e-10
-atol = 1e-14
-initial_step = 1e-6
-max_step = 1e-3
-min_step = 1e-14
-"#
-        )
-    };
+    let curve = "damping = 50.0\ncurve = { deflections = [1e-6, 3e-6, 8e-6], forces = [5.0, 19.62, 80.0] }";
+    let text = |mass: f64| hanging(mass, curve);
     // 2 kg: m g = 19.62 N, the curve's second point (3 µm). 5 kg: m g = 49.05 N, on the power law
     // between 3 and 8 µm: u = 3e-6 (49.05/19.62)^(1/p), p = ln(80/19.62)/ln(8/3).
     let p = (80.0f64 / 19.62).ln() / (8.0f64 / 3.0).ln();

@@ -351,6 +351,19 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// A scenario (built-in or file, planar or spatial) with a `--horizon` override, validated again.
+fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::AnyScenario, CliError> {
+    let mut s = lash_scenario::any_by_name_or_file(arg).map_err(CliError::Input)?;
+    if let Some(h) = horizon {
+        s.simulation_mut().horizon = h;
+        let p = s.validate();
+        if !p.is_empty() {
+            return Err(CliError::Input(format!("--horizon {h}: {p}")));
+        }
+    }
+    Ok(s)
+}
+
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
         Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, quiet } => {
@@ -361,14 +374,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             if step.is_some() {
                 return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
             }
-            let mut s = lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?;
-            if let Some(h) = horizon {
-                s.simulation_mut().horizon = h;
-                let p = s.validate();
-                if !p.is_empty() {
-                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
-                }
-            }
+            let s = load_with_horizon(&scenario, horizon)?;
             let model = match model {
                 ModelKind::Full => lash_run::Model::Full { ideal },
                 ModelKind::Reduced if ideal => {
@@ -380,14 +386,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ())
         }
         Command::Compare { scenario, out, horizon, reduced, quiet } => {
-            let mut s = lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)?;
-            if let Some(h) = horizon {
-                s.simulation_mut().horizon = h;
-                let p = s.validate();
-                if !p.is_empty() {
-                    return Err(CliError::Input(format!("--horizon {h}: {p}")));
-                }
-            }
+            let s = load_with_horizon(&scenario, horizon)?;
             compare::run(&s, &out, reduced.options(), quiet)
         }
         Command::Validate { scenario } if system::is_system(&scenario) => {

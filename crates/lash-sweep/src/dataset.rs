@@ -532,6 +532,15 @@ pub struct DatasetArrays {
     pub values: Vec<f64>,
 }
 
+/// The error of a run (the last of `run_ids`) whose sample count differs from the first run's.
+fn short(run_ids: &[u64], samples: usize, first: usize) -> String {
+    format!(
+        "data.parquet: run {} has {samples} samples, run {} has {first}: runs of one array need the same sample times",
+        run_ids[run_ids.len() - 1],
+        run_ids[0]
+    )
+}
+
 /// Reads `data.parquet` of a sweep's output folder into one runs × samples × channels array,
 /// filled in place from the Parquet column chunks (each sample is written once). Every run must
 /// have the same sample times, as a sweep writes them (one horizon, one sample rate); a failed run
@@ -571,12 +580,7 @@ pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, String> {
             if run_ids.last() != Some(&id) {
                 // The first run's times are every run's: each later run is checked against them.
                 if run_ids.len() > 1 && this_run != time.len() {
-                    return Err(format!(
-                        "data.parquet: run {} has {this_run} samples, run {} has {}: runs of one array need the same sample times",
-                        run_ids[run_ids.len() - 1],
-                        run_ids[0],
-                        time.len()
-                    ));
+                    return Err(short(&run_ids, this_run, time.len()));
                 }
                 run_ids.push(id);
                 this_run = 0;
@@ -596,12 +600,7 @@ pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, String> {
         }
     }
     if run_ids.len() > 1 && this_run != time.len() {
-        return Err(format!(
-            "data.parquet: run {} has {this_run} samples, run {} has {}: runs of one array need the same sample times",
-            run_ids[run_ids.len() - 1],
-            run_ids[0],
-            time.len()
-        ));
+        return Err(short(&run_ids, this_run, time.len()));
     }
     Ok(DatasetArrays { run_ids, time, channels, values })
 }

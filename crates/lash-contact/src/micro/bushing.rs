@@ -110,25 +110,5 @@ impl MicroJoint for BushingJoint {
         e[1] = d.y;
         true
     }
-    fn penetration(s: &ContactState) -> f64 {
-        s.penetration
-    }
-    fn penetration_rate(s: &ContactState) -> f64 {
-        s.penetration_rate
-    }
-    fn normal_force(s: &ContactState) -> f64 {
-        s.normal_force
-    }
-    fn friction_force(s: &ContactState) -> f64 {
-        s.friction_force
-    }
-    fn eccentricity_norm(s: &ContactState) -> f64 {
-        s.eccentricity_norm
-    }
-    fn slip(s: &ContactState) -> f64 {
-        s.slip_velocity
-    }
-    fn force_component(s: &ContactState, i: usize) -> f64 {
-        s.force_on_journal[i]
-    }
+    super::joint::planar_state_accessors!();
 }

@@ -75,6 +75,35 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     fn force_component(s: &Self::State, i: usize) -> f64;
 }
 
+/// The accessors of a joint whose state is the planar [`ContactState`] (the revolute clearance
+/// joint and the bushing).
+macro_rules! planar_state_accessors {
+    () => {
+        fn penetration(s: &ContactState) -> f64 {
+            s.penetration
+        }
+        fn penetration_rate(s: &ContactState) -> f64 {
+            s.penetration_rate
+        }
+        fn normal_force(s: &ContactState) -> f64 {
+            s.normal_force
+        }
+        fn friction_force(s: &ContactState) -> f64 {
+            s.friction_force
+        }
+        fn eccentricity_norm(s: &ContactState) -> f64 {
+            s.eccentricity_norm
+        }
+        fn slip(s: &ContactState) -> f64 {
+            s.slip_velocity
+        }
+        fn force_component(s: &ContactState, i: usize) -> f64 {
+            s.force_on_journal[i]
+        }
+    };
+}
+pub(crate) use planar_state_accessors;
+
 impl MicroJoint for ClearanceJoint {
     const COORDINATES: usize = 2;
     const FRICTION_LOADS: usize = 1;
@@ -124,27 +153,7 @@ impl MicroJoint for ClearanceJoint {
         force[1] = s.force_on_journal.y;
         friction[0] = s.friction_force;
     }
-    fn penetration(s: &ContactState) -> f64 {
-        s.penetration
-    }
-    fn penetration_rate(s: &ContactState) -> f64 {
-        s.penetration_rate
-    }
-    fn normal_force(s: &ContactState) -> f64 {
-        s.normal_force
-    }
-    fn friction_force(s: &ContactState) -> f64 {
-        s.friction_force
-    }
-    fn eccentricity_norm(s: &ContactState) -> f64 {
-        s.eccentricity_norm
-    }
-    fn slip(s: &ContactState) -> f64 {
-        s.slip_velocity
-    }
-    fn force_component(s: &ContactState, i: usize) -> f64 {
-        s.force_on_journal[i]
-    }
+    planar_state_accessors!();
 }
 
 impl MicroJoint for SphericalClearance {
