@@ -174,6 +174,14 @@ def test_a_sweep_gives_a_dataset_whose_runs_equal_single_runs(tmp_path):
             seen.append(k)
     assert sorted(seen) == [0, 1, 2, 3]
     assert [list(x[:, 0]) for x, _ in data.batches(3, seed=5)] == [list(x[:, 0]) for x, _ in data.batches(3, seed=5)]
+    # Lazily: the same batches, each read from the file (one row group per run), and the same
+    # arrays when asked for all of them.
+    lazy = lash.Dataset(out, lazy=True)
+    assert list(lazy.run_ids) == list(data.run_ids) and np.array_equal(lazy.inputs, data.inputs)
+    for (xa, ya), (xb, yb) in zip(data.batches(3, seed=9), lazy.batches(3, seed=9)):
+        assert np.array_equal(xa, xb) and np.array_equal(ya, yb)
+    assert lazy._values is None  # nothing but the batches was read
+    assert np.array_equal(lazy.values, data.values) and np.array_equal(lazy.time, data.time)
     # Run again: everything is complete, nothing runs; the failures are still reported.
     report = lash.sweep(spec, out, allow_failures=True)
     assert report["ran"] == 0 and report["skipped"] == 6 and report["failed"] == 2

@@ -363,31 +363,32 @@ fn sweep(
     serde_json::to_string(&report).map_err(|e| SimulationError::new_err(e.to_string()))
 }
 
-/// What `read_dataset` returns: the data's run ids, times, channel names and units and values
-/// (runs × samples × channels), then the parameters' names and units, and the params table's run
-/// ids, seeds, statuses, values (runs × parameters) and errors.
-type DatasetResult<'py> = (
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-    Vec<String>,
-    Vec<String>,
-    Bound<'py, PyAny>,
-    (Vec<String>, Vec<String>, Bound<'py, PyAny>, Bound<'py, PyAny>, Vec<String>, Bound<'py, PyAny>, Vec<String>),
-);
+/// What `read_params` returns: the parameters' names and units, and the params table's run ids,
+/// seeds, statuses, values (runs × parameters) and errors.
+type ParamsResult<'py> =
+    (Vec<String>, Vec<String>, Bound<'py, PyAny>, Bound<'py, PyAny>, Vec<String>, Bound<'py, PyAny>, Vec<String>);
 
-/// Reads a sweep's output folder: its data as one array and its params table.
+/// Reads a sweep's output folder: all its samples as one array (see `read_runs` for the tuple).
 #[pyfunction]
-fn read_dataset(py: Python<'_>, dir: PathBuf) -> PyResult<DatasetResult<'_>> {
-    let bad = |m: String| input_error(py, format!("{}: {m}", dir.display()), &[]);
-    let (data, params) = py.detach(|| {
-        let data = lash_sweep::dataset::read_dataset(&dir);
-        let params = lash_sweep::dataset::read_params_table(&dir);
-        (data, params)
-    });
-    let (data, params) = (data.map_err(bad)?, params.map_err(bad)?);
+fn read_dataset(py: Python<'_>, dir: PathBuf) -> PyResult<RunsResult<'_>> {
+    let data = py.detach(|| lash_sweep::dataset::read_dataset(&dir));
+    let data = data.map_err(|m| input_error(py, format!("{}: {m}", dir.display()), &[]))?;
+    runs_result(py, data)
+}
+
+/// A dataset's arrays handed to numpy (no copy).
+fn runs_result(py: Python<'_>, data: lash_sweep::dataset::DatasetArrays) -> PyResult<RunsResult<'_>> {
     let (runs, samples, width) = (data.run_ids.len(), data.time.len(), data.channels.len());
     let values = data.values.into_pyarray(py).reshape([runs, samples, width])?.into_any();
     let (names, units): (Vec<String>, Vec<String>) = data.channels.into_iter().unzip();
+    Ok((data.run_ids.into_pyarray(py).into_any(), data.time.into_pyarray(py).into_any(), names, units, values))
+}
+
+/// Reads a sweep's params table (every run, failed ones too).
+#[pyfunction]
+fn read_params(py: Python<'_>, dir: PathBuf) -> PyResult<ParamsResult<'_>> {
+    let params = py.detach(|| lash_sweep::dataset::read_params_table(&dir));
+    let params = params.map_err(|m| input_error(py, format!("{}: {m}", dir.display()), &[]))?;
     let (p_names, p_units): (Vec<String>, Vec<String>) = params.parameters.into_iter().unzip();
     let n = p_names.len();
     let rows = &params.rows;
@@ -397,21 +398,36 @@ fn read_dataset(py: Python<'_>, dir: PathBuf) -> PyResult<DatasetResult<'_>> {
     }
     let table = table.into_pyarray(py).reshape([rows.len(), n])?.into_any();
     Ok((
-        data.run_ids.into_pyarray(py).into_any(),
-        data.time.into_pyarray(py).into_any(),
-        names,
-        units,
-        values,
-        (
-            p_names,
-            p_units,
-            rows.iter().map(|r| r.run_id).collect::<Vec<_>>().into_pyarray(py).into_any(),
-            rows.iter().map(|r| r.seed).collect::<Vec<_>>().into_pyarray(py).into_any(),
-            rows.iter().map(|r| r.status.clone()).collect(),
-            table,
-            rows.iter().map(|r| r.error.clone()).collect(),
-        ),
+        p_names,
+        p_units,
+        rows.iter().map(|r| r.run_id).collect::<Vec<_>>().into_pyarray(py).into_any(),
+        rows.iter().map(|r| r.seed).collect::<Vec<_>>().into_pyarray(py).into_any(),
+        rows.iter().map(|r| r.status.clone()).collect(),
+        table,
+        rows.iter().map(|r| r.error.clone()).collect(),
     ))
+}
+
+/// What `read_runs` returns: run ids, sample times, channel names and units, and the values
+/// (runs × samples × channels).
+type RunsResult<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Vec<String>, Vec<String>, Bound<'py, PyAny>);
+
+/// Reads the runs in row groups `groups` of a dataset (sorted; one row group per completed run)
+/// without the rest of its samples.
+#[pyfunction]
+fn read_runs(py: Python<'_>, dir: PathBuf, mut groups: Vec<usize>) -> PyResult<RunsResult<'_>> {
+    groups.sort_unstable();
+    let data = py.detach(|| lash_sweep::dataset::read_runs(&dir, Some(&groups)));
+    let data = data.map_err(|m| input_error(py, format!("{}: {m}", dir.display()), &[]))?;
+    runs_result(py, data)
+}
+
+/// The run id of each row group of a dataset (one per completed run), from its manifest and
+/// the file's footer.
+#[pyfunction]
+fn read_layout(py: Python<'_>, dir: PathBuf) -> PyResult<Vec<u64>> {
+    let layout = lash_sweep::dataset::read_layout(&dir).map_err(|m| input_error(py, m, &[]))?;
+    Ok(layout.into_iter().map(|(id, _)| id).collect())
 }
 
 /// The module `lash._lash`.
@@ -423,6 +439,9 @@ fn _lash(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(read_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(read_params, m)?)?;
+    m.add_function(wrap_pyfunction!(read_runs, m)?)?;
+    m.add_function(wrap_pyfunction!(read_layout, m)?)?;
     m.add("ScenarioError", m.py().get_type::<ScenarioError>())?;
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

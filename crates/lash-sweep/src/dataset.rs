@@ -546,9 +546,47 @@ fn short(run_ids: &[u64], samples: usize, first: usize) -> String {
 /// have the same sample times, as a sweep writes them (one horizon, one sample rate); a failed run
 /// has no rows and is not in the array (it is in [`read_params_table`] with its error).
 pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, String> {
+    read_runs(dir, None)
+}
+
+/// The row groups of `data.parquet` (one per completed run, in run order), each with its run id
+/// and row count, from the manifest and the file's footer (no sample is read).
+pub fn read_layout(dir: &Path) -> Result<Vec<(u64, usize)>, String> {
+    let manifest =
+        Manifest::read(dir)?.ok_or_else(|| format!("{}: no manifest.json (not a lash dataset)", dir.display()))?;
     let path = dir.join("data.parquet");
     let file = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| format!("{}: {e}", path.display()))?;
+    let groups: Vec<usize> = builder.metadata().row_groups().iter().map(|g| g.num_rows().max(0) as usize).collect();
+    let ok: Vec<(u64, usize)> =
+        manifest.runs.iter().filter(|r| r.status == "ok" && r.rows > 0).map(|r| (r.run_id, r.rows as usize)).collect();
+    if ok.len() != groups.len() || ok.iter().zip(&groups).any(|((_, rows), g)| rows != g) {
+        return Err(format!(
+            "{}: the manifest's {} completed runs do not match data.parquet's {} row groups",
+            dir.display(),
+            ok.len(),
+            groups.len()
+        ));
+    }
+    Ok(ok)
+}
+
+/// [`read_dataset`] of the row groups `groups` only (None: all), in the order given — the runs of
+/// one training batch, read without the rest of the file.
+pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, String> {
+    let path = dir.join("data.parquet");
+    let file = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+    let mut builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| format!("{}: {e}", path.display()))?;
+    let count = builder.metadata().num_row_groups();
+    if let Some(groups) = groups {
+        if let Some(bad) = groups.iter().find(|g| **g >= count) {
+            return Err(format!(
+                "{}: no row group {bad} (the file has {count}: one per completed run)",
+                path.display()
+            ));
+        }
+        builder = builder.with_row_groups(groups.to_vec());
+    }
     let schema = builder.schema().clone();
     if schema.fields().len() < 2 || schema.field(0).name() != "run_id" || schema.field(1).name() != "t" {
         return Err(format!("{} is not a lash dataset (its first columns must be run_id, t)", path.display()));
@@ -557,7 +595,10 @@ pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, String> {
         .iter()
         .map(|f| (f.name().clone(), f.metadata().get("unit").cloned().unwrap_or_default()))
         .collect();
-    let rows: i64 = builder.metadata().row_groups().iter().map(|g| g.num_rows()).sum();
+    let rows: i64 = match groups {
+        Some(groups) => groups.iter().map(|&g| builder.metadata().row_group(g).num_rows()).sum(),
+        None => builder.metadata().row_groups().iter().map(|g| g.num_rows()).sum(),
+    };
     let width = channels.len();
     let mut values = Vec::with_capacity(rows.max(0) as usize * width);
     let (mut run_ids, mut time, mut this_run) = (Vec::new(), Vec::new(), 0usize);

@@ -222,22 +222,35 @@ class Dataset:
     * :attr:`inputs` — runs × parameters, the varied parameters of each run of :attr:`values`;
     * :attr:`params` — every run (failed ones too) with seed, status, parameters and error,
       as a pandas DataFrame (a dict of arrays without pandas).
+
+    ``lazy=True`` reads no samples up front (only the parameters, the layout and the first run):
+    :meth:`batches` then reads each batch's runs from the file (one Parquet row group per run),
+    so a dataset larger than memory can be trained on; :attr:`values` reads everything when
+    first used.
     """
 
-    def __init__(self, path: PathLike):
+    def __init__(self, path: PathLike, *, lazy: bool = False):
         self.path: str = os.fspath(path)
-        run_ids, time, names, units, values, params = _lash.read_dataset(self.path)
+        self.lazy: bool = lazy
+        self._values: Optional[np.ndarray] = None
+        if lazy:
+            run_ids = np.asarray(_lash.read_layout(self.path), dtype=np.uint64)
+            if len(run_ids) == 0:
+                raise ScenarioError(f"{self.path}: the dataset has no completed run")
+            _, time, names, units, _ = _lash.read_runs(self.path, [0])
+        else:
+            run_ids, time, names, units, values = _lash.read_dataset(self.path)
+            self._values = values
+        params = _lash.read_params(self.path)
         p_names, p_units, p_ids, p_seeds, p_status, p_values, p_errors = params
         self.run_ids: np.ndarray = run_ids
-        """Run id of each run of :attr:`values`."""
+        """Run id of each run of :attr:`values` (and each row group of data.parquet)."""
         self.time: np.ndarray = time
         """Sample times [s]."""
         self.channels: List[str] = names
         """Channel names, in the order of the last axis of :attr:`values`."""
         self.units: Dict[str, str] = dict(zip(names, units))
         """SI unit of each channel."""
-        self.values: np.ndarray = values
-        """Samples, runs × samples × channels."""
         self.parameters: List[str] = p_names
         """Varied parameters (scenario field paths), in column order."""
         self.parameter_units: Dict[str, str] = dict(zip(p_names, p_units))
@@ -255,6 +268,13 @@ class Dataset:
             raise ScenarioError(f"{self.path}: runs {missing[:5]} have data but no row in params.parquet")
         self.inputs: np.ndarray = p_values[[row_of[int(r)] for r in run_ids]]
         """Parameters of each run of :attr:`values`, runs × parameters."""
+
+    @property
+    def values(self) -> np.ndarray:
+        """Samples, runs × samples × channels (read on first use when the dataset is lazy)."""
+        if self._values is None:
+            self._values = _lash.read_dataset(self.path)[4]
+        return self._values
 
     @property
     def params(self) -> "Any":
@@ -282,7 +302,7 @@ class Dataset:
             raise KeyError(f"no channel {name!r} in {self.path} (channels: {', '.join(self.channels)})") from None
 
     def __len__(self) -> int:
-        return self.values.shape[0]
+        return len(self.run_ids)
 
     def batches(
         self,
@@ -295,7 +315,8 @@ class Dataset:
     ) -> Iterator[Tuple[np.ndarray, np.ndarray]]:
         """Iterates over the runs in batches of ``batch_size``: (inputs, values) with inputs
         batch × parameters and values batch × samples × channels (``channels`` selects and orders
-        them). ``shuffle`` draws a new order from ``seed`` (the same seed, the same order)."""
+        them). ``shuffle`` draws the batches' runs from ``seed`` (the same seed, the same batches);
+        within a batch the runs are in run order. A lazy dataset reads each batch from the file."""
         if batch_size < 1:
             raise ValueError(f"batch_size must be ≥ 1, got {batch_size}")
         columns = None
@@ -310,13 +331,17 @@ class Dataset:
             np.random.default_rng(seed).shuffle(order)
         end = len(order) - (len(order) % batch_size if drop_last else 0)
         for start in range(0, end, batch_size):
-            pick = np.sort(order[start : start + batch_size]) if not shuffle else order[start : start + batch_size]
-            y = self.values[pick]
+            # Within a batch the runs come in file order (one sequential read when lazy).
+            pick = np.sort(order[start : start + batch_size])
+            if self._values is not None:
+                y = self._values[pick]
+            else:
+                y = _lash.read_runs(self.path, [int(k) for k in pick])[4]
             if columns is not None:
                 y = y[:, :, columns]
             yield self.inputs[pick], y
 
     def __repr__(self) -> str:
-        runs, samples, channels = self.values.shape
+        runs, samples, channels = len(self), len(self.time), len(self.channels)
         return f"<lash.Dataset {self.path!r}: {runs} runs × {samples} samples × {channels} channels, {len(self.failed)} failed>"
 

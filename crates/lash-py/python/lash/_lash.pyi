@@ -50,11 +50,11 @@ def sweep(
 ) -> str: ...
 def read_dataset(
     dir: Union[str, PathLike[str]],
-) -> Tuple[
-    np.ndarray,
-    np.ndarray,
-    List[str],
-    List[str],
-    np.ndarray,
-    Tuple[List[str], List[str], np.ndarray, np.ndarray, List[str], np.ndarray, List[str]],
-]: ...
+) -> Tuple[np.ndarray, np.ndarray, List[str], List[str], np.ndarray]: ...
+def read_params(
+    dir: Union[str, PathLike[str]],
+) -> Tuple[List[str], List[str], np.ndarray, np.ndarray, List[str], np.ndarray, List[str]]: ...
+def read_runs(
+    dir: Union[str, PathLike[str]], groups: List[int]
+) -> Tuple[np.ndarray, np.ndarray, List[str], List[str], np.ndarray]: ...
+def read_layout(dir: Union[str, PathLike[str]]) -> List[int]: ...
