@@ -95,6 +95,16 @@ def test_a_run_equals_the_command_lines_bit_for_bit(tmp_path, model):
     assert np.array_equal(df["slider.ax"].to_numpy(), r["slider.ax"])
 
 
+def test_a_run_records_the_channels_asked_for():
+    r = lash.run("A", "reduced", horizon=0.01, channels=["slider.ax", "crank_pivot.force"])
+    assert r.channels == ["slider.ax", "crank_pivot.force"] and r.samples.shape[1] == 3
+    full = lash.run("A", "reduced", horizon=0.01)
+    assert np.array_equal(r["slider.ax"], full["slider.ax"])
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.run("A", channels=["slider.az"])
+    assert any("output.channels" in f for f, _ in e.value.problems)
+
+
 def test_a_spatial_run_and_its_summary():
     r = lash.run("E-0.5mm-250rpm", "reduced", horizon=0.01)
     assert r.summary["model"] == "reduced" and len(r.summary["clearances"]) == 2
