@@ -317,29 +317,61 @@ fn validate_sweep(py: Python<'_>, file: PathBuf) -> PyResult<String> {
 /// there; returns the report as JSON (failed runs are counted in it and listed in the dataset).
 /// The sweep runs on a thread of its own while this (the main) thread checks Python's signals
 /// every 50 ms: Ctrl-C stops it — runs in flight finish, the folder stays resumable — and
-/// raises KeyboardInterrupt.
+/// raises KeyboardInterrupt. `progress(done, total, failed)` is called from this thread when the
+/// counts move (at most every 50 ms, and once at the end); an exception it raises stops the
+/// sweep the same way.
 #[pyfunction]
-#[pyo3(signature = (file, out, threads = None, shard = None))]
+#[pyo3(signature = (file, out, threads = None, shard = None, progress = None))]
 fn sweep(
     py: Python<'_>,
     file: PathBuf,
     out: PathBuf,
     threads: Option<usize>,
     shard: Option<String>,
+    progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<String> {
-    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+    let cancel = std::sync::Arc::new(AtomicBool::new(false));
+    // Runs of the shard, runs done (with those done before), runs failed now: for `progress`.
+    let (total, done, failed) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
+    let on_event = |e: lash_sweep::Event| match e {
+        lash_sweep::Event::Start { total: t, done: d } => {
+            total.store(t, Relaxed);
+            done.store(d, Relaxed);
+        }
+        lash_sweep::Event::Finished { ok } => {
+            done.fetch_add(1, Relaxed);
+            if !ok {
+                failed.fetch_add(1, Relaxed);
+            }
+        }
+    };
     let (done_tx, done_rx) = crossbeam_channel::bounded::<()>(1);
     let (report, interrupted) = std::thread::scope(|scope| {
         let worker = scope.spawn({
             let cancel = cancel.clone();
-            let (file, out, shard) = (&file, &out, shard.as_deref());
+            let (file, out, shard, on_event) = (&file, &out, shard.as_deref(), &on_event);
             move || {
-                let report = lash_cli::sweep::execute(file, out, (shard, threads), Some(cancel), &|_| {});
+                let report = lash_cli::sweep::execute(file, out, (shard, threads), Some(cancel), on_event);
                 let _ = done_tx.send(());
                 report
             }
         });
-        let mut interrupted = None;
+        let mut interrupted: Option<PyErr> = None;
+        let mut shown = (u64::MAX, u64::MAX);
+        let mut show = |interrupted: &mut Option<PyErr>| {
+            let now = (done.load(Relaxed), failed.load(Relaxed));
+            if let Some(callback) = &progress
+                && now != shown
+                && interrupted.is_none()
+            {
+                shown = now;
+                if let Err(e) = callback.call1((now.0, total.load(Relaxed), now.1)) {
+                    cancel.store(true, Relaxed);
+                    *interrupted = Some(e);
+                }
+            }
+        };
         loop {
             let finished = py.detach(|| done_rx.recv_timeout(std::time::Duration::from_millis(50)));
             if !matches!(finished, Err(crossbeam_channel::RecvTimeoutError::Timeout)) {
@@ -348,17 +380,20 @@ fn sweep(
             if interrupted.is_none()
                 && let Err(e) = py.check_signals()
             {
-                cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                cancel.store(true, Relaxed);
                 interrupted = Some(e);
             }
+            show(&mut interrupted);
         }
         let report = py.detach(|| worker.join());
+        show(&mut interrupted);
         (report, interrupted)
     });
     let report = report.map_err(|_| SimulationError::new_err("the sweep's thread panicked"))?;
     if let Some(e) = interrupted {
         return Err(e);
     }
+
     let report = report.map_err(|e| cli_error(py, e))?;
     serde_json::to_string(&report).map_err(|e| SimulationError::new_err(e.to_string()))
 }

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -202,6 +202,7 @@ def sweep(
     threads: Optional[int] = None,
     shard: Optional[str] = None,
     allow_failures: bool = False,
+    progress: Optional[Callable[[int, int, int], Any]] = None,
 ) -> Dict[str, Any]:
     """Runs a sweep file into the folder ``out`` (``lash sweep``), resuming what an earlier call
     left there; returns its report.
@@ -209,8 +210,11 @@ def sweep(
     ``threads``: worker threads (default one per core); ``shard``: ``"i/N"`` runs only that
     shard. When runs fail the dataset still holds the others and lists the failed runs with
     their errors; unless ``allow_failures``, :class:`RunsFailed` is raised then.
+    ``progress(done, total, failed)`` is called as runs finish (at most every 50 ms, and at the
+    end): a progress bar's hook. Ctrl-C (or an exception from ``progress``) stops the sweep;
+    the runs in flight finish and calling ``sweep`` again resumes it.
     """
-    report = json.loads(_lash.sweep(os.fspath(file), os.fspath(out), threads, shard))
+    report = json.loads(_lash.sweep(os.fspath(file), os.fspath(out), threads, shard, progress))
     if report["failed"] and not allow_failures:
         raise RunsFailed(
             f"{report['failed']} of {report['runs']} runs failed; the dataset in {os.fspath(out)} holds the "

@@ -1,7 +1,7 @@
 """Type stubs of lash's compiled module (see the Rust crate lash-py)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -46,7 +46,11 @@ def run(
 ) -> Tuple[List[str], List[str], np.ndarray, str]: ...
 def validate_sweep(file: Union[str, PathLike[str]]) -> str: ...
 def sweep(
-    file: Union[str, PathLike[str]], out: Union[str, PathLike[str]], threads: Optional[int] = None, shard: Optional[str] = None
+    file: Union[str, PathLike[str]],
+    out: Union[str, PathLike[str]],
+    threads: Optional[int] = None,
+    shard: Optional[str] = None,
+    progress: Optional[Callable[[int, int, int], Any]] = None,
 ) -> str: ...
 def read_dataset(
     dir: Union[str, PathLike[str]],
