@@ -324,6 +324,17 @@ fn a_body_on_a_curved_bushing_rests_at_the_curves_deflection() {
             assert!((r[force] / (mass * 9.81) - 1.0).abs() < 1e-9, "{mass} kg, t = {}: {}", r[0], r[force]);
         }
     }
+    // The reduced model (the bushing as its micro joint, the same curve): it starts settled on the
+    // curve and stays there.
+    for (mass, expected) in [(2.0, 3e-6), (5.0, 3e-6 * (5.0f64 * 9.81 / 19.62).powf(1.0 / p))] {
+        let s = lash_scenario::parse(&text(mass)).unwrap();
+        let (_, header, rows) = rows(&mut lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).unwrap());
+        let (force, deflection) = (column(&header, "pin.force"), column(&header, "pin.deflection"));
+        for r in &rows {
+            assert!((r[deflection] / expected - 1.0).abs() < 1e-9, "reduced, {mass} kg: {}", r[deflection]);
+            assert!((r[force] / (mass * 9.81) - 1.0).abs() < 1e-9, "reduced, {mass} kg, t = {}: {}", r[0], r[force]);
+        }
+    }
     // A curve with a stiffness too, or decreasing points: the field is named.
     let bad = text(2.0).replace("damping = 50.0", "stiffness = 1e6").replace("80.0]", "10.0]");
     let e = lash_scenario::parse(&bad).unwrap_err().to_string();
