@@ -1,9 +1,11 @@
 //! The full (monolithic) model: the mechanism's equations of motion with the clearance joints'
 //! contact forces, as an [`OdeSystem`] with one event function per clearance joint.
 //!
-//! State y = [q; q̇]. Event function k is δ_k in free flight and −δ_k in contact, so the adaptive
-//! integrator locates every onset and exit; the approach velocity δ̇⁻ of the hysteresis laws is
-//! captured at the located onset.
+//! State y = [q; q̇; s], s the deflections of the bushes whose damping is in series with their
+//! contact (one per such clearance joint, in joint order; none for rigid bearings and quasi-static
+//! bushes). Event function k is the contact's own indentation δ_k − s_k in free flight and its
+//! negative in contact, so the adaptive integrator locates every onset and exit; the approach
+//! velocity δ̇⁻ of the hysteresis laws is captured at the located onset.
 
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
 use lash_mech::constraints::pose_of;
@@ -39,6 +41,10 @@ pub struct FullModel {
     error: Option<String>,
     dense_buffer: Vec<f64>,
     n: usize,
+    /// Per clearance joint, the index in y of its bush's deflection (a bush damped in series).
+    bush_states: Vec<Option<usize>>,
+    /// ṡ of each clearance joint's damped bush at the last evaluation (0 for the others).
+    bush_rates: Vec<f64>,
 }
 
 /// The evolving part of a [`FullModel`] (see [`FullModel::snapshot`]).
@@ -58,6 +64,16 @@ impl FullModel {
         let solver = Solver::new(&mechanism);
         let n = mechanism.coordinate_count();
         let k = clearances.len();
+        let mut next = 2 * n;
+        let bush_states = clearances
+            .iter()
+            .map(|c| {
+                (c.bush_damping > 0.0 && c.bush_stiffness.is_finite()).then(|| {
+                    next += 1;
+                    next - 1
+                })
+            })
+            .collect();
         Self {
             mechanism,
             clearances,
@@ -70,8 +86,10 @@ impl FullModel {
             violation: false,
             strict_modes: false,
             error: None,
-            dense_buffer: vec![0.0; 2 * n],
+            dense_buffer: vec![0.0; next],
             n,
+            bush_states,
+            bush_rates: vec![0.0; k],
         }
     }
 
@@ -152,11 +170,13 @@ impl FullModel {
             velocity_analysis(&ideal, t0, &q, &mut qd, &mut solver)?;
         }
         q.extend_from_slice(&qd);
+        // Damped bushes start undeflected (the journals are centred, their contacts open).
+        q.resize(self.dim(), 0.0);
         self.reset(t0, &q);
         Ok(q)
     }
 
-    /// Prepares a run from a state `y = [q; q̇]` chosen by the caller: clears impact records and
+    /// Prepares a run from a state `y = [q; q̇; s]` chosen by the caller: clears impact records and
     /// sets each contact mode from the state (a journal already penetrating starts in contact,
     /// with its current approach velocity as onset velocity).
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
@@ -169,8 +189,7 @@ impl FullModel {
         self.error = None;
         self.violation = false;
         for k in 0..self.clearances.len() {
-            let delta = self.contact_state(k, y, 0.0).penetration;
-            if delta > 0.0 {
+            if self.indentation(k, y) > 0.0 {
                 self.on_event(k, t0, y);
             }
         }
@@ -199,30 +218,44 @@ impl FullModel {
         self.error.clone_from(&state.error);
     }
 
-    /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts`.
+    /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts` (and the
+    /// damped bushes' deflection rates).
     pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
-        let (q, qd) = y.split_at(self.n);
-        let FullModel { mechanism, clearances, solver, contacts, violation, strict_modes, .. } = self;
+        let n = self.n;
+        let (q, qd) = (&y[..n], &y[n..2 * n]);
+        let FullModel {
+            mechanism, clearances, solver, contacts, violation, strict_modes, bush_states, bush_rates, ..
+        } = self;
         solver.set_state(mechanism, t, q, qd);
-        for (c, state) in clearances.iter().zip(contacts.iter_mut()) {
+        for (k, (c, state)) in clearances.iter().zip(contacts.iter_mut()).enumerate() {
             let pj = pose_of(&solver.poses, c.journal_body);
             let pb = pose_of(&solver.poses, c.bearing_body);
+            let deflection = bush_states[k].map(|i| y[i]);
+            let evaluate = |onset: f64| match deflection {
+                Some(d) => c.evaluate_damped(&pj, &pb, onset, d),
+                None => (c.evaluate(&pj, &pb, onset), 0.0),
+            };
             // Probe geometry first. A stage outside the current mode is flagged (the integrator
             // then cuts or rejects the step). A free-flight stage that penetrates gets no force
             // when the integrator locates events (the right side stays smooth in its mode, so the
             // error control is not fooled by the switching surface); under fixed-step RK4 it
             // gets the contact force with the local approach velocity as onset velocity.
             let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
-            let mut s = c.evaluate(&pj, &pb, onset);
-            if (s.penetration > 0.0) != c.in_contact {
+            let (mut s, mut rate) = evaluate(onset);
+            let indentation = s.penetration - deflection.unwrap_or(0.0);
+            if (indentation > 0.0) != c.in_contact {
                 *violation = true;
-                if !c.in_contact && s.penetration > 0.0 {
+                if !c.in_contact && indentation > 0.0 {
                     if *strict_modes {
                         s.normal_force = 0.0;
                         s.friction_force = 0.0;
                         s.force_on_journal = lash_mech::Vec2::zeros();
+                        if let Some(d) = deflection {
+                            rate = -c.bush_stiffness * d / c.bush_damping;
+                        }
                     } else {
-                        s = c.evaluate(&pj, &pb, s.penetration_rate.max(0.0));
+                        // The contact's own approach rate δ̇ − ṡ (ṡ of the relaxing bush).
+                        (s, rate) = evaluate((s.penetration_rate - rate).max(0.0));
                     }
                 }
             }
@@ -232,6 +265,7 @@ impl FullModel {
                 solver.add_force(c.bearing_body, arm_b, -s.force_on_journal);
             }
             *state = s;
+            bush_rates[k] = rate;
         }
         solver.factor()?;
         solver.solve(mechanism, qd);
@@ -253,26 +287,52 @@ impl FullModel {
         self.error.take()
     }
 
-    fn contact_state(&self, k: usize, y: &[f64], onset: f64) -> ContactState {
-        let (q, qd) = y.split_at(self.n);
+    /// Clearance joint `k`'s state at `y` (and its damped bush's deflection rate, 0 without).
+    fn contact_state_and_rate(&self, k: usize, y: &[f64], onset: f64) -> (ContactState, f64) {
+        let n = self.n;
+        let (q, qd) = (&y[..n], &y[n..2 * n]);
         let c = &self.clearances[k];
         let pj = lash_mech::Pose::of(c.journal_body, q, qd);
         let pb = lash_mech::Pose::of(c.bearing_body, q, qd);
-        c.evaluate(&pj, &pb, onset)
+        match self.bush_states[k] {
+            Some(i) => c.evaluate_damped(&pj, &pb, onset, y[i]),
+            None => (c.evaluate(&pj, &pb, onset), 0.0),
+        }
+    }
+
+    fn contact_state(&self, k: usize, y: &[f64], onset: f64) -> ContactState {
+        self.contact_state_and_rate(k, y, onset).0
+    }
+
+    /// The contact's own indentation δ − s of clearance joint `k` at `y` (δ for a joint without a
+    /// damped bush): positive in contact.
+    fn indentation(&self, k: usize, y: &[f64]) -> f64 {
+        self.contact_state(k, y, 0.0).penetration - self.bush_states[k].map_or(0.0, |i| y[i])
+    }
+
+    /// The deflection of clearance joint `k`'s bush in series at `y` when it is a state (a bush
+    /// damped in series), None otherwise.
+    pub fn bush_deflection(&self, k: usize, y: &[f64]) -> Option<f64> {
+        self.bush_states[k].map(|i| y[i])
     }
 }
 
 impl OdeSystem for FullModel {
     fn dim(&self) -> usize {
-        2 * self.n
+        2 * self.n + self.bush_states.iter().flatten().count()
     }
 
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
         let n = self.n;
         match self.evaluate(t, y) {
             Ok(()) => {
-                dydt[..n].copy_from_slice(&y[n..]);
-                dydt[n..].copy_from_slice(&self.solver.accelerations);
+                dydt[..n].copy_from_slice(&y[n..2 * n]);
+                dydt[n..2 * n].copy_from_slice(&self.solver.accelerations);
+                for (state, rate) in self.bush_states.iter().zip(&self.bush_rates) {
+                    if let Some(i) = *state {
+                        dydt[i] = *rate;
+                    }
+                }
             }
             Err(e) => {
                 if self.error.is_none() {
@@ -293,13 +353,15 @@ impl OdeSystem for FullModel {
 
     fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
         for k in 0..self.clearances.len() {
-            let delta = self.contact_state(k, y, 0.0).penetration;
-            g[k] = if self.clearances[k].in_contact { -delta } else { delta };
+            let indentation = self.indentation(k, y);
+            g[k] = if self.clearances[k].in_contact { -indentation } else { indentation };
         }
     }
 
     fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
-        let s = self.contact_state(k, y, 0.0);
+        // The contact's own approach rate δ̇ − ṡ (ṡ = 0 without a damped bush).
+        let (mut s, rate) = self.contact_state_and_rate(k, y, f64::INFINITY);
+        s.penetration_rate -= rate;
         let c = &mut self.clearances[k];
         if c.in_contact {
             c.in_contact = false;
@@ -328,7 +390,7 @@ impl OdeSystem for FullModel {
         // Search each open contact's force along the step's continuous extension (samples θ = k/8,
         // refined where the step holds the peak); the samples also update the largest penetration.
         let mut y = std::mem::take(&mut self.dense_buffer);
-        y.resize(2 * self.n, 0.0);
+        y.resize(self.dim(), 0.0);
         for k in 0..self.clearances.len() {
             if self.open[k].is_none() {
                 continue;

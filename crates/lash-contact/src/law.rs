@@ -234,6 +234,60 @@ impl NormalForce {
         (f, slope)
     }
 
+    /// The law split as F = max(0, P + D δ̇) at penetration `delta` > 0: its elastic part P ≥ 0 and
+    /// the coefficient D ≥ 0 of the rate (every law here is affine in δ̇); (0, 0) for δ ≤ 0.
+    #[inline]
+    pub fn elastic_and_damping(&self, delta: f64, onset: f64) -> (f64, f64) {
+        if delta <= 0.0 {
+            return (0.0, 0.0);
+        }
+        match *self {
+            NormalForce::Power { stiffness, exponent } => (stiffness * pow(delta, exponent), 0.0),
+            NormalForce::KelvinVoigt { stiffness, damping } => (stiffness * delta, damping),
+            NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
+                let p = stiffness * pow(delta, exponent);
+                (p, p * chi / onset.max(floor))
+            }
+            NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
+                (stiffness * pow(delta, exponent), step(delta, 0.0, 0.0, damping_depth, max_damping))
+            }
+            NormalForce::Liu { factor, clearance, chi, floor } => {
+                let p = factor * delta * (delta / (2.0 * (clearance + delta))).sqrt();
+                (p, p * chi / onset.max(floor))
+            }
+        }
+    }
+
+    /// The normal force of this contact in series with a Kelvin–Voigt bush (stiffness
+    /// `bush_stiffness` k_b [N/m], damping `bush_damping` c_b > 0 [N s/m], both massless) whose
+    /// deflection along the normal `deflection` s [m] is a state: the contact indents by
+    /// δ_c = δ − s at the rate δ̇_c = δ̇ − ṡ, and the bush carries what the contact carries,
+    /// k_b s + c_b ṡ = F(δ_c, δ̇_c). With F = P + D δ̇_c (see
+    /// [`NormalForce::elastic_and_damping`]) the balance is linear in ṡ:
+    /// ṡ = (P + D δ̇ − k_b s) / (c_b + D). Where that would leave F < 0 (the law clips at 0), and
+    /// wherever δ_c ≤ 0, the contact carries nothing and the bush relaxes, ṡ = −k_b s / c_b.
+    /// Returns (F, ṡ). As c_b → 0 the bush follows its load quasi-statically, which is
+    /// [`NormalForce::force_in_series`].
+    #[inline]
+    pub fn force_in_series_damped(
+        &self,
+        delta: f64,
+        delta_dot: f64,
+        onset: f64,
+        deflection: f64,
+        bush_stiffness: f64,
+        bush_damping: f64,
+    ) -> (f64, f64) {
+        let relaxing = -bush_stiffness * deflection / bush_damping;
+        let (p, d) = self.elastic_and_damping(delta - deflection, onset);
+        if p <= 0.0 && d <= 0.0 {
+            return (0.0, relaxing);
+        }
+        let rate = (p + d * delta_dot - bush_stiffness * deflection) / (bush_damping + d);
+        let force = bush_stiffness * deflection + bush_damping * rate;
+        if force > 0.0 { (force, rate) } else { (0.0, relaxing) }
+    }
+
     /// The normal force of this contact in series with a spring of stiffness `series` [N/m] (a
     /// flexible bush behind the bearing surface): the approach δ splits into the contact's own
     /// indentation δ_c and the bush's deflection F/k, F = force(δ_c, δ̇_c) with δ_c = δ − F/k. The
@@ -539,6 +593,37 @@ mod tests {
         assert_eq!(law.force_in_series(delta, rate, onset, f64::INFINITY), alone);
         assert!((law.force_in_series(delta, rate, onset, 1.0) / delta - 1.0).abs() < 1e-3);
         assert_eq!(law.force_in_series(-1e-6, rate, onset, 1e9), 0.0);
+    }
+
+    /// The damped series: the bush carries what the contact carries, k s + c ṡ = F(δ − s, δ̇ − ṡ),
+    /// checked with the law's own `force` at the returned rate for every law; a relaxing bush where
+    /// the contact opens or would pull.
+    #[test]
+    fn a_bush_damped_in_series_carries_what_the_contact_carries() {
+        let laws = [
+            NormalForce::Power { stiffness: 5e9, exponent: 1.5 },
+            NormalForce::KelvinVoigt { stiffness: 1e8, damping: 1e3 },
+            NormalForce::Hysteresis { stiffness: 5e9, exponent: 1.5, chi: 0.3, floor: 1e-5 },
+            NormalForce::AdamsImpact { stiffness: 5e9, exponent: 1.5, max_damping: 1e4, damping_depth: 1e-5 },
+            NormalForce::Liu { factor: 1e10, clearance: 1e-4, chi: 0.2, floor: 1e-4 },
+        ];
+        let (k, c) = (1e9, 1e4);
+        for law in laws {
+            for (delta, rate, s) in [(3e-6, 0.05, 1e-6), (3e-6, -0.05, 2e-6), (2e-5, 0.3, 0.0), (1e-6, 0.0, 5e-7)] {
+                let (f, s_dot) = law.force_in_series_damped(delta, rate, 0.2, s, k, c);
+                let carried = law.force(delta - s, rate - s_dot, 0.2);
+                assert!((f - carried).abs() <= 1e-9 * f.max(1.0), "{law:?} at {delta}, {rate}: {f} {carried}");
+                assert!((f - (k * s + c * s_dot)).abs() <= 1e-9 * f.max(1.0), "{law:?}: the bush's balance");
+                assert!(f >= 0.0);
+            }
+            // Open contact (δ ≤ s): nothing carried, the bush relaxes.
+            assert_eq!(law.force_in_series_damped(1e-6, 0.1, 0.2, 2e-6, k, c), (0.0, -k * 2e-6 / c));
+            // Pulling apart faster than the bush relaxes: a damped contact would pull, so it carries
+            // nothing (an elastic one still pushes).
+            if law.elastic_and_damping(5e-7, 0.2).1 > 0.0 {
+                assert_eq!(law.force_in_series_damped(1e-6, -10.0, 0.2, 5e-7, k, c), (0.0, -k * 5e-7 / c));
+            }
+        }
     }
 
     #[test]

@@ -147,6 +147,8 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                 } else {
                     (&j.body2, j.point2, &j.body1, j.point1)
                 };
+                // Validation computed (and kept) the bush's numbers: they cannot fail here.
+                let bush = c.bush.as_ref().map(|b| lash_bush::bonded_pin(b).expect("validated bush"));
                 ClearanceJoint {
                     name: c.joint.clone(),
                     journal_body: id(jb),
@@ -157,11 +159,8 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
                     bearing_radius: c.bearing_radius,
                     law: clearance_definition(s, c).normal_force(),
                     friction: c.friction,
-                    // Validation computed (and kept) the bush's numbers: they cannot fail here.
-                    bush_stiffness: c
-                        .bush
-                        .as_ref()
-                        .map_or(f64::INFINITY, |b| lash_bush::bonded_pin(b).expect("validated bush").stiffness),
+                    bush_stiffness: bush.map_or(f64::INFINITY, |b| b.stiffness),
+                    bush_damping: bush.map_or(0.0, |b| if damped_in_series(&b) { b.damping } else { 0.0 }),
                     in_contact: false,
                     onset_velocity: 0.0,
                 }
@@ -169,4 +168,11 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
             .collect()
     };
     FullModel::new(mechanism, clearances)
+}
+
+/// Whether a bush in series with a contact carries its damping as a state (its relaxation time
+/// c/k at least [`lash_contact::clearance::SERIES_DAMPING_MIN_RELAXATION`]) rather than follow
+/// its load quasi-statically.
+pub fn damped_in_series(bush: &lash_bush::BondedPin) -> bool {
+    bush.damping > 0.0 && bush.damping / bush.stiffness >= lash_contact::clearance::SERIES_DAMPING_MIN_RELAXATION
 }

@@ -83,7 +83,7 @@ impl FullEngine for PlanarEngine {
         let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), self.model.clearances.len())
             .with_stresses(&self.stresses);
         self.model.evaluate(t, y).map_err(|e| e.to_string())?;
-        let (q, qd) = y.split_at(n);
+        let (q, qd) = (&y[..n], &y[n..2 * n]);
         let mut sink = |row: &[f64]| {
             outputs.copy_from_slice(&row[1..]);
             Ok(())

@@ -109,10 +109,12 @@ impl ClearanceSummary {
     }
 }
 
-/// Warnings of clearance joints whose contact is in series with a bush that has viscosities: the
-/// bush's stiffness is in series with the contact, its Kelvin–Voigt damping is not (it needs the
-/// bush's deflection as a state of its own); the contact law's damping acts alone. Said in the
-/// summary rather than passed over, so that a sweep of the viscosities is not a silent no-op.
+/// Warnings of clearance joints whose contact is in series with a bush whose viscosities give a
+/// damping too fast to carry as a state (c/k below
+/// [`lash_contact::clearance::SERIES_DAMPING_MIN_RELAXATION`]): the bush then follows its load
+/// quasi-statically, its stiffness in series with the contact and its damping left out; the
+/// contact law's damping acts alone. Said in the summary rather than passed over, so that a sweep
+/// of small viscosities is not a silent no-op.
 pub fn series_bush_warnings(scenario: &Scenario) -> Vec<String> {
     scenario
         .clearances
@@ -120,14 +122,15 @@ pub fn series_bush_warnings(scenario: &Scenario) -> Vec<String> {
         .filter_map(|c| {
             let bush = c.bush.as_ref()?;
             let b = lash_bush::bonded_pin(bush).ok()?;
-            (b.damping > 0.0).then(|| {
+            (b.damping > 0.0 && !crate::build::damped_in_series(&b)).then(|| {
                 format!(
-                    "clearance joint {}: its bush's viscosities give a damping of {:.3e} N s/m (c/k = {:.1e} s) that \
-                     lash does not apply in series with the contact (only the bush's stiffness is in series; the \
-                     contact law's damping acts alone)",
+                    "clearance joint {}: its bush's viscosities give a damping of {:.3e} N s/m (c/k = {:.1e} s, below \
+                     {:.0e} s) that lash leaves out of the series with the contact (the bush follows its load \
+                     quasi-statically; the contact law's damping acts alone)",
                     c.joint,
                     b.damping,
-                    b.damping / b.stiffness
+                    b.damping / b.stiffness,
+                    lash_contact::clearance::SERIES_DAMPING_MIN_RELAXATION
                 )
             })
         })
@@ -268,7 +271,7 @@ impl FullRun {
         let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), String> {
             model.evaluate(t, y).map_err(|e| e.to_string())?;
-            let (q, qd) = y.split_at(n);
+            let (q, qd) = (&y[..n], &y[n..2 * n]);
             recorder.record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, sink)?;
             measurements.record(recorder.values());
             progress(((t - t0) / horizon).clamp(0.0, 1.0));

@@ -891,6 +891,7 @@ mod tests {
             law: NormalForce::Hysteresis { stiffness: 1e10, exponent: 1.5, chi: 0.2, floor: 1e-5 },
             friction: FrictionLaw::None,
             bush_stiffness: f64::INFINITY,
+            bush_damping: 0.0,
             in_contact: false,
             onset_velocity: 0.0,
         }
