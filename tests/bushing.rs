@@ -260,9 +260,53 @@ fn the_interface_stress_channel_follows_the_normal_force() {
 #[test]
 fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
     let s = builtin::by_name("F-flexible-imperfect").unwrap();
-    let (full_summary, hf, rf) = rows(&mut FullRun::new(&s, BuildOptions::default()));
+    let Compared { full: full_summary, reduced: reduced_summary, peak_force: (full, reduced) } =
+        reduced_meets_its_bounds(&s);
+    assert!((reduced / full - 1.0).abs() <= 0.15, "peak joint force {reduced} against {full}");
+    // The bronze bush's viscosities (c/k = 8 ns) are too fast for a state: both models say so.
+    for summary in [&full_summary, &reduced_summary] {
+        assert!(
+            summary.warnings.iter().any(|w| w.contains("rod_slider") && w.contains("leaves out of the series")),
+            "{:?}",
+            summary.warnings
+        );
+    }
+    assert!(
+        rows(&mut FullRun::new(&builtin::by_name("F").unwrap(), BuildOptions::default())).0.warnings.is_empty(),
+        "a rigid bearing has no bush to warn about"
+    );
+}
+
+/// The same with a bush damped in series (20 GPa, its deflection a state of both models,
+/// integrated by the micro RK4 with the eccentricity), over five relaxation times c/k from 15 to
+/// 100 µs: each run within the bounds above, and the peak joint force — which scatters by ±15 %
+/// from run to run in either model (full 66–92 kN here, across relaxation times that hardly move
+/// the statistics) — compared as the mean over the five runs, within 10 %. Measured: means of the
+/// peaks 82.3 kN (full) and 84.3 kN (reduced), +2.4 %.
+#[test]
+fn the_reduced_model_of_a_bush_damped_in_series_meets_the_same_bounds() {
+    let (mut full, mut reduced) = (0.0, 0.0);
+    let relaxation_times = [1.5e-5, 2e-5, 3e-5, 5e-5, 1e-4];
+    for tau in relaxation_times {
+        let c = reduced_meets_its_bounds(&damped_bush(20e9, tau, 0.06));
+        for summary in [&c.full, &c.reduced] {
+            assert!(summary.warnings.is_empty(), "{:?}", summary.warnings);
+        }
+        full += c.peak_force.0 / relaxation_times.len() as f64;
+        reduced += c.peak_force.1 / relaxation_times.len() as f64;
+    }
+    eprintln!("mean peak joint force: full {full:.0} N, reduced {reduced:.0} N");
+    assert!((reduced / full - 1.0).abs() <= 0.10, "mean peak joint force {reduced} against {full}");
+}
+
+/// Scenario `s` in the reduced and the converged full model, compared over revolutions 2 and 3:
+/// the mean joint force within 5 %, the RMS crank torque and slider acceleration within 10 %, the
+/// contact fraction within 5 %. The peak joint force, a single sample of a chaotic impact train,
+/// is returned for the caller to judge.
+fn reduced_meets_its_bounds(s: &lash_scenario::Scenario) -> Compared {
+    let (full_summary, hf, rf) = rows(&mut FullRun::new(s, BuildOptions::default()));
     let (reduced_summary, hr, rr) =
-        rows(&mut lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).unwrap());
+        rows(&mut lash_run::ReducedRun::new(s, lash_run::ReducedOptions::default()).unwrap());
     let window = |h: &[String], r: &[Vec<f64>], name: &str| -> Vec<f64> {
         let k = column(h, name);
         r.iter().filter(|row| row[0] >= 0.02).map(|row| row[k]).collect()
@@ -276,7 +320,6 @@ fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
     let (af, ar) = (window(&hf, &rf, "slider.ax"), window(&hr, &rr, "slider.ax"));
     let checks = [
         ("mean joint force", relative(mean(&ff), mean(&fr)), 0.05),
-        ("peak joint force", relative(peak(&ff), peak(&fr)), 0.15),
         ("RMS crank torque", relative(rms(&tf), rms(&tr)), 0.10),
         ("RMS slider a_x", relative(rms(&af), rms(&ar)), 0.10),
         (
@@ -289,18 +332,15 @@ fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
         eprintln!("{what}: {:.1} % (bound {:.0} %)", 100.0 * difference, 100.0 * bound);
         assert!(difference <= bound, "{what}: {difference} > {bound}");
     }
-    // The bronze bush's viscosities (c/k = 8 ns) are too fast for a state: both models say so.
-    for summary in [&full_summary, &reduced_summary] {
-        assert!(
-            summary.warnings.iter().any(|w| w.contains("rod_slider") && w.contains("leaves out of the series")),
-            "{:?}",
-            summary.warnings
-        );
-    }
-    assert!(
-        rows(&mut FullRun::new(&builtin::by_name("F").unwrap(), BuildOptions::default())).0.warnings.is_empty(),
-        "a rigid bearing has no bush to warn about"
-    );
+    Compared { full: full_summary, reduced: reduced_summary, peak_force: (peak(&ff), peak(&fr)) }
+}
+
+/// Both models' summaries and their peak joint forces over revolutions 2 and 3.
+struct Compared {
+    full: lash_run::Summary,
+    reduced: lash_run::Summary,
+    /// (full, reduced) [N].
+    peak_force: (f64, f64),
 }
 
 /// A bushing whose radial force follows a curve (power laws between its points): a block hanging
@@ -357,7 +397,7 @@ fn damped_bush(modulus: f64, relaxation: f64, horizon: f64) -> lash_scenario::Sc
 }
 
 /// A bush whose relaxation time c/k reaches 1e-7 s carries its damping in series with the contact
-/// as a state of the full model (no warning), and the reduced model refuses it by name. Across
+/// as a state (no warning), and the reduced model refuses one faster than its micro step. Across
 /// that threshold the first impact of a 20 GPa bush hardly changes (the loss factor the
 /// quasi-static bush leaves out is under 2 %); a slow bush (c/k = 20 µs) changes it several times
 /// more (by under 1 %: damping in series does not soften an impact much; docs/validation.md).
@@ -377,8 +417,9 @@ fn a_bush_damped_in_series_is_a_state_of_the_full_model() {
     let across = (above / below - 1.0).abs();
     assert!(across < 0.01, "first impact's peak across the threshold: {below} → {above}");
     assert!((slow / below - 1.0).abs() > 3.0 * across, "a slow bush changes the first impact: {slow} against {below}");
-    let e =
-        lash_run::ReducedRun::new(&damped_bush(110e9, 1e-5, 0.06), lash_run::ReducedOptions::default()).err().unwrap();
-    let e = e.to_string();
-    assert!(e.contains("rod_slider") && e.contains("full model only"), "{e}");
+    // The reduced model integrates the deflection with its micro RK4: a bush relaxing faster than
+    // the micro step is refused by name.
+    let e = lash_run::ReducedRun::new(&damped_bush(110e9, 5e-6, 0.06), lash_run::ReducedOptions::default()).err();
+    let e = e.expect("refused").to_string();
+    assert!(e.contains("rod_slider") && e.contains("micro_step") && e.contains("5.00e-6"), "{e}");
 }

@@ -106,8 +106,30 @@ impl ClearanceJoint {
         let e_dot = journal.velocity + perp(aj) * journal.angular_velocity
             - bearing.velocity
             - perp(ab) * bearing.angular_velocity;
-        let (n, t, norm, delta, delta_dot, slip) =
-            self.relative_kinematics(rj - rb, e_dot, journal.angular_velocity, bearing.angular_velocity);
+        let (mut s, rate) = self.evaluate_relative_damped(
+            rj - rb,
+            e_dot,
+            journal.angular_velocity,
+            bearing.angular_velocity,
+            onset,
+            deflection,
+        );
+        s.journal_centre = rj;
+        (s, rate)
+    }
+
+    /// [`ClearanceJoint::evaluate_damped`] from the relative kinematics (the micro model's view).
+    #[inline(always)]
+    pub fn evaluate_relative_damped(
+        &self,
+        e: Vec2,
+        e_dot: Vec2,
+        omega_journal: f64,
+        omega_bearing: f64,
+        onset: f64,
+        deflection: f64,
+    ) -> (ContactState, f64) {
+        let (n, t, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
         let (fn_, rate) = self.law.force_in_series_damped(
             delta,
             delta_dot,
@@ -116,9 +138,13 @@ impl ClearanceJoint {
             self.bush_stiffness,
             self.bush_damping,
         );
-        let mut s = self.state(rj - rb, n, t, norm, delta, delta_dot, slip, fn_);
-        s.journal_centre = rj;
-        (s, rate)
+        (self.state(e, n, t, norm, delta, delta_dot, slip, fn_), rate)
+    }
+
+    /// Whether the bush in series carries its damping as a state ([`ClearanceJoint::bush_damping`]).
+    #[inline(always)]
+    pub fn damped_in_series(&self) -> bool {
+        self.bush_damping > 0.0 && self.bush_stiffness.is_finite()
     }
 
     /// n, t, |e|, δ, δ̇ and the slip from the relative kinematics.

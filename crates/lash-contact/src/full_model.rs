@@ -68,7 +68,7 @@ impl FullModel {
         let bush_states = clearances
             .iter()
             .map(|c| {
-                (c.bush_damping > 0.0 && c.bush_stiffness.is_finite()).then(|| {
+                c.damped_in_series().then(|| {
                     next += 1;
                     next - 1
                 })

@@ -95,20 +95,6 @@ impl ReducedRun {
                 scenario.clearances[0].joint, scenario.bushings[0].joint
             )));
         }
-        // A bush damped in series is a state of the full model only.
-        if let Some(c) = scenario.clearances.iter().find(|c| {
-            c.bush
-                .as_ref()
-                .and_then(|b| lash_bush::bonded_pin(b).ok())
-                .is_some_and(|b| crate::build::damped_in_series(&b))
-        }) {
-            return Err(RunError::Unsupported(format!(
-                "clearance joint {:?}: its bush's damping in series with the contact (c/k at least {:.0e} s) is a \
-                 state of the full model only, not of the reduced model yet; run the full model",
-                c.joint,
-                lash_contact::clearance::SERIES_DAMPING_MIN_RELAXATION
-            )));
-        }
         let max_joints = if bushed {
             3
         } else {

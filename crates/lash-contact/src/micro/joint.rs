@@ -51,6 +51,32 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     fn in_series(&self) -> bool {
         false
     }
+    /// Whether the joint's bush in series carries its damping as a state of its own: the bush's
+    /// deflection s along the normal ([`ClearanceJoint::bush_damping`]).
+    fn damped_in_series(&self) -> bool {
+        false
+    }
+    /// [`MicroJoint::evaluate`] of a joint damped in series, its bush deflected by `deflection`:
+    /// the state and the deflection's rate ṡ (the joints without such a bush: ṡ = 0).
+    fn evaluate_damped(
+        &self,
+        e: &[f64],
+        e_dot: &[f64],
+        omega_journal: &[f64],
+        omega_bearing: &[f64],
+        onset: f64,
+        _deflection: f64,
+    ) -> (Self::State, f64) {
+        (self.evaluate::<true>(e, e_dot, omega_journal, omega_bearing, onset), 0.0)
+    }
+    /// The relaxation time c/k of a bush damped in series [s] (infinite without one).
+    fn relaxation_time(&self) -> f64 {
+        f64::INFINITY
+    }
+    /// ṡ of a bush damped in series whose contact is open: it relaxes, −k s / c (0 without).
+    fn relaxation_rate(&self, _deflection: f64) -> f64 {
+        0.0
+    }
     /// For joints that start at rest where they hold the interface force (bushings): writes that
     /// eccentricity (COORDINATES) for the interface force `force` on the journal and returns true.
     /// Clearance joints start centred (false).
@@ -146,6 +172,36 @@ impl MicroJoint for ClearanceJoint {
     #[inline(always)]
     fn in_series(&self) -> bool {
         self.bush_stiffness.is_finite()
+    }
+    #[inline(always)]
+    fn damped_in_series(&self) -> bool {
+        ClearanceJoint::damped_in_series(self)
+    }
+    #[inline(always)]
+    fn evaluate_damped(
+        &self,
+        e: &[f64],
+        e_dot: &[f64],
+        wj: &[f64],
+        wb: &[f64],
+        onset: f64,
+        deflection: f64,
+    ) -> (ContactState, f64) {
+        self.evaluate_relative_damped(
+            Vec2::new(e[0], e[1]),
+            Vec2::new(e_dot[0], e_dot[1]),
+            wj[0],
+            wb[0],
+            onset,
+            deflection,
+        )
+    }
+    fn relaxation_time(&self) -> f64 {
+        if self.damped_in_series() { self.bush_damping / self.bush_stiffness } else { f64::INFINITY }
+    }
+    #[inline(always)]
+    fn relaxation_rate(&self, deflection: f64) -> f64 {
+        if self.damped_in_series() { -self.bush_stiffness * deflection / self.bush_damping } else { 0.0 }
     }
     #[inline(always)]
     fn loads(&self, s: &ContactState, force: &mut [f64], friction: &mut [f64]) {

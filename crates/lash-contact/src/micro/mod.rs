@@ -448,6 +448,36 @@ impl InterfaceSubsystem {
         if matches!(integrator, MicroIntegrator::Rk4 { .. }) && micro_step.0 <= 0 {
             return Err(SubsystemError::BadValue { name: "micro_step".into(), problem: "must be > 0".into() });
         }
+        // A bush damped in series is a state integrated by the micro RK4 with the eccentricities:
+        // its relaxation time c/k must not be shorter than the step (RK4 is stable for steps up
+        // to 2.8 times the fastest time constant, (c + D)/(k + k_c) ≥ c/(k + k_c); with a contact
+        // as stiff as the bush, c/k ≥ h keeps h under 2 of them).
+        if let Some(j) = joints.iter().find(|j| j.damped_in_series()) {
+            let tau = j.relaxation_time();
+            match integrator {
+                MicroIntegrator::Dopri5(_) => {
+                    return Err(SubsystemError::BadValue {
+                        name: "micro integrator".into(),
+                        problem: format!(
+                            "clearance joint {:?} has a bush damped in series (c/k = {tau:.2e} s), a state the DOPRI5 \
+                             micro integrator does not carry yet; use RK4",
+                            j.name()
+                        ),
+                    });
+                }
+                MicroIntegrator::Rk4 { step } if step > tau => {
+                    return Err(SubsystemError::BadValue {
+                        name: "micro_step".into(),
+                        problem: format!(
+                            "{step:e} s is longer than the relaxation time c/k = {tau:.2e} s of the bush damped in series \
+                             of clearance joint {:?}: RK4 would not be stable; give a micro step of at most {tau:.2e} s",
+                            j.name()
+                        ),
+                    });
+                }
+                MicroIntegrator::Rk4 { .. } => {}
+            }
+        }
         if !definitions.is_empty() && definitions.len() != joints.len() {
             return Err(SubsystemError::BadArguments(format!(
                 "{} definitions for {} clearance joints",

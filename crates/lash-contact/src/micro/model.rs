@@ -198,6 +198,9 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
     pub eccentricity: SVector<f64, N>,
     /// Their rates ẇ [m/s].
     pub eccentricity_rate: SVector<f64, N>,
+    /// The deflection s of each joint's bush damped in series, along its normal [m] (0 for the
+    /// other joints; [`MicroJoint::damped_in_series`]).
+    pub bush_deflection: SVector<f64, K>,
     /// ∫ f_c dt on each journal since the start [N s].
     pub impulse: SVector<f64, N>,
     /// ∫ L dt of the friction loads since the start.
@@ -244,6 +247,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             joints,
             eccentricity: SVector::zeros(),
             eccentricity_rate: SVector::zeros(),
+            bush_deflection: SVector::zeros(),
             impulse: SVector::zeros(),
             friction_impulse: SVector::zeros(),
             impacts: (0..K).map(|_| Vec::with_capacity(1024)).collect(),
@@ -264,15 +268,25 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         self.joints.len()
     }
 
-    /// Contact state of joint `j` at (e_j, ė_j) at time `t`, using its current mode.
+    /// Contact state of joint `j` at (e_j, ė_j) at time `t`, using its current mode (and its
+    /// bush's current deflection).
     #[inline(always)]
     pub fn contact_at(&self, t: f64, j: usize, e: &[f64], ed: &[f64]) -> J::State {
-        self.contact_at_as::<true>(t, j, e, ed)
+        self.contact_at_as::<true, true>(t, j, e, ed, self.bush_deflection[j]).0
     }
 
-    /// [`InterfaceModel::contact_at`]; `SERIES = false` only when no joint has a bush in series.
+    /// [`InterfaceModel::contact_at`] with the bush deflected by `deflection`, and the
+    /// deflection's rate; `SERIES = false` only when no joint has a bush in series, `DAMPED =
+    /// false` only when none is damped in series (the rate is then 0).
     #[inline(always)]
-    fn contact_at_as<const SERIES: bool>(&self, t: f64, j: usize, e: &[f64], ed: &[f64]) -> J::State {
+    fn contact_at_as<const SERIES: bool, const DAMPED: bool>(
+        &self,
+        t: f64,
+        j: usize,
+        e: &[f64],
+        ed: &[f64],
+        deflection: f64,
+    ) -> (J::State, f64) {
         let dt = t - self.input_time;
         let u = &self.inputs;
         let r = J::ROTATIONS;
@@ -282,16 +296,26 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             wb[i] = u.bearing_angular_velocity[r * j + i] + u.bearing_angular_acceleration[r * j + i] * dt;
         }
         let joint = &self.joints[j];
+        let damped = DAMPED && joint.damped_in_series();
+        let evaluate = |onset: f64| {
+            if damped {
+                joint.evaluate_damped(e, ed, &wj[..r], &wb[..r], onset, deflection)
+            } else {
+                (joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], onset), 0.0)
+            }
+        };
         if joint.in_contact() {
             // The common case on the hot path, one evaluation returned as it is.
-            return joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
+            return evaluate(joint.onset_velocity());
         }
-        let s = joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], joint.onset_velocity());
-        if J::penetration(&s) > 0.0 {
-            // A stage ahead of the onset: the local approach velocity stands in for δ̇⁻.
-            joint.evaluate::<SERIES>(e, ed, &wj[..r], &wb[..r], J::penetration_rate(&s).max(0.0))
+        let (s, rate) = evaluate(joint.onset_velocity());
+        let indentation = J::penetration(&s) - if damped { deflection } else { 0.0 };
+        if indentation > 0.0 {
+            // A stage ahead of the onset: the local approach velocity (the contact's own, δ̇ − ṡ)
+            // stands in for δ̇⁻.
+            evaluate((J::penetration_rate(&s) - rate).max(0.0))
         } else {
-            s
+            (s, rate)
         }
     }
 
@@ -312,17 +336,30 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         );
     }
 
-    /// The loads at (t, w, ẇ): in free flight (|e_j| ≤ c_j, so F_N = F_T = 0) nothing but |e_j|²
-    /// is computed for joint j.
+    /// The loads at (t, w, ẇ) with the bushes deflected by `deflection`, and the deflections'
+    /// rates into `rates` (when `DAMPED`): in free flight (|e_j| ≤ c_j, so F_N = F_T = 0) nothing
+    /// but |e_j|² (and a damped bush's relaxation) is computed for joint j.
     #[inline(always)]
-    fn loads_at<const SERIES: bool>(&self, t: f64, e: &SVector<f64, N>, ed: &SVector<f64, N>) -> Loads<N, M> {
+    fn loads_at<const SERIES: bool, const DAMPED: bool>(
+        &self,
+        t: f64,
+        e: &SVector<f64, N>,
+        ed: &SVector<f64, N>,
+        deflection: &SVector<f64, K>,
+        rates: &mut SVector<f64, K>,
+    ) -> Loads<N, M> {
         let mut loads = Loads::zero();
         for j in 0..self.joints.len() {
             let c = self.joints[j].radial_clearance();
             let ej = Self::part(e, j);
             if ej.iter().map(|x| x * x).sum::<f64>() > c * c {
-                let s = self.contact_at_as::<SERIES>(t, j, ej, Self::part(ed, j));
+                let (s, rate) = self.contact_at_as::<SERIES, DAMPED>(t, j, ej, Self::part(ed, j), deflection[j]);
                 self.put(&mut loads, j, &s);
+                if DAMPED {
+                    rates[j] = rate;
+                }
+            } else if DAMPED {
+                rates[j] = self.joints[j].relaxation_rate(deflection[j]);
             }
         }
         loads
@@ -345,16 +382,18 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         mass.solve(&(f + loads.contact + h * loads.friction))
     }
 
-    /// ẅ and the loads at (t, w, ẇ).
+    /// ẅ and the loads at (t, w, ẇ) (and the bushes' deflection rates, see
+    /// [`InterfaceModel::loads_at`]).
     #[inline(always)]
-    fn acceleration<const SERIES: bool>(
+    fn acceleration<const SERIES: bool, const DAMPED: bool>(
         &self,
         t: f64,
         mass: &MassFactor<N>,
-        e: &SVector<f64, N>,
-        ed: &SVector<f64, N>,
+        (e, ed): (&SVector<f64, N>, &SVector<f64, N>),
+        deflection: &SVector<f64, K>,
+        rates: &mut SVector<f64, K>,
     ) -> (SVector<f64, N>, Loads<N, M>) {
-        let loads = self.loads_at::<SERIES>(t, e, ed);
+        let loads = self.loads_at::<SERIES, DAMPED>(t, e, ed, deflection, rates);
         (self.acceleration_with(t, mass, &loads), loads)
     }
 
@@ -390,18 +429,23 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     /// One RK4 step of size `h` from `t`; the joints' states at the step end are in `states`.
     #[inline(always)]
     pub fn rk4_step(&mut self, t: f64, h: f64) {
-        if self.joints.iter().any(J::in_series) {
-            self.rk4_step_as::<true>(t, h)
+        if self.joints.iter().any(J::damped_in_series) {
+            self.rk4_step_as::<true, true>(t, h)
+        } else if self.joints.iter().any(J::in_series) {
+            self.rk4_step_as::<true, false>(t, h)
         } else {
-            self.rk4_step_as::<false>(t, h)
+            self.rk4_step_as::<false, false>(t, h)
         }
     }
 
-    /// [`InterfaceModel::rk4_step`] with the series solve in the code or not.
+    /// [`InterfaceModel::rk4_step`] with the series solve in the code or not, and the damped
+    /// bushes' deflections as states or not.
     #[inline(always)]
-    fn rk4_step_as<const SERIES: bool>(&mut self, t: f64, h: f64) {
+    fn rk4_step_as<const SERIES: bool, const DAMPED: bool>(&mut self, t: f64, h: f64) {
         self.located = false;
-        let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
+        let (e0, v0, s0) = (self.eccentricity, self.eccentricity_rate, self.bush_deflection);
+        let (mut r1, mut r2, mut r3, mut r4) =
+            (SVector::<f64, K>::zeros(), SVector::zeros(), SVector::zeros(), SVector::zeros());
         // The last step's end (same time, same inputs) is this step's start: its factor and, for
         // the same state, its loads are reused.
         // (Loads for the same instant and state; the factor only if the inputs were not set since.)
@@ -409,7 +453,8 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         if let Some(end) = &self.end
             && (end.time - t).abs() < 1e-12
         {
-            if end.eccentricity == e0 && end.eccentricity_rate == v0 {
+            // (Not with damped bushes: the deflections' rates would have to be kept too.)
+            if !DAMPED && end.eccentricity == e0 && end.eccentricity_rate == v0 {
                 reused = Some(end.loads);
             }
             // The same instant up to rounding (t from integer ticks, the end as t + h): M̃ differs
@@ -422,17 +467,33 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let (middle, finish) = (self.mass_at(t + 0.5 * h), self.mass_at(t + h));
         let (k1v, l1) = match reused {
             Some(loads) => (self.acceleration_with(t, &start, &loads), loads),
-            None => self.acceleration::<SERIES>(t, &start, &e0, &v0),
+            None => self.acceleration::<SERIES, DAMPED>(t, &start, (&e0, &v0), &s0, &mut r1),
         };
+        // The deflections of the stages (unused, and compiled out, without damped bushes).
+        let stage = |r: &SVector<f64, K>, f: f64| if DAMPED { s0 + r * f } else { s0 };
         let k1e = v0;
         let k2e = v0 + k1v * (0.5 * h);
-        let (k2v, l2) = self.acceleration::<SERIES>(t + 0.5 * h, &middle, &(e0 + k1e * (0.5 * h)), &k2e);
+        let (k2v, l2) = self.acceleration::<SERIES, DAMPED>(
+            t + 0.5 * h,
+            &middle,
+            (&(e0 + k1e * (0.5 * h)), &k2e),
+            &stage(&r1, 0.5 * h),
+            &mut r2,
+        );
         let k3e = v0 + k2v * (0.5 * h);
-        let (k3v, l3) = self.acceleration::<SERIES>(t + 0.5 * h, &middle, &(e0 + k2e * (0.5 * h)), &k3e);
+        let (k3v, l3) = self.acceleration::<SERIES, DAMPED>(
+            t + 0.5 * h,
+            &middle,
+            (&(e0 + k2e * (0.5 * h)), &k3e),
+            &stage(&r2, 0.5 * h),
+            &mut r3,
+        );
         let k4e = v0 + k3v * h;
-        let (k4v, l4) = self.acceleration::<SERIES>(t + h, &finish, &(e0 + k3e * h), &k4e);
+        let (k4v, l4) =
+            self.acceleration::<SERIES, DAMPED>(t + h, &finish, (&(e0 + k3e * h), &k4e), &stage(&r3, h), &mut r4);
         let e1 = e0 + (k1e + (k2e + k3e) * 2.0 + k4e) * (h / 6.0);
         let v1 = v0 + (k1v + (k2v + k3v) * 2.0 + k4v) * (h / 6.0);
+        let s1 = if DAMPED { s0 + (r1 + (r2 + r3) * 2.0 + r4) * (h / 6.0) } else { s0 };
         self.impulse += (l1.contact + (l2.contact + l3.contact) * 2.0 + l4.contact) * (h / 6.0);
         self.friction_impulse += (l1.friction + (l2.friction + l3.friction) * 2.0 + l4.friction) * (h / 6.0);
         // Mode switches at the step end; the onset is placed by linear interpolation.
@@ -440,7 +501,8 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         for j in 0..self.joints.len() {
             let c = self.joints[j].radial_clearance();
             let (a0, a1) = (Self::part(&e0, j), Self::part(&e1, j));
-            let (d0, d1) = (norm(a0) - c, norm(a1) - c);
+            // The contact's own indentation δ − s (s = 0 without a damped bush).
+            let (d0, d1) = (norm(a0) - c - s0[j], norm(a1) - c - s1[j]);
             if !self.joints[j].in_contact() && d1 > 0.0 {
                 let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
                 let (b0, b1) = (Self::part(&v0, j), Self::part(&v1, j));
@@ -450,7 +512,11 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                     vc[i] = b0[i] + (b1[i] - b0[i]) * frac;
                 }
                 let length = norm(&ec[..d]).max(f64::MIN_POSITIVE);
-                let rate = (0..d).map(|i| vc[i] * ec[i]).sum::<f64>() / length;
+                let mut rate = (0..d).map(|i| vc[i] * ec[i]).sum::<f64>() / length;
+                if DAMPED {
+                    // δ̇ − ṡ, the bush relaxing until the contact closes.
+                    rate -= self.joints[j].relaxation_rate(s0[j] + (s1[j] - s0[j]) * frac);
+                }
                 self.open_contact(j, t + frac * h, rate);
             } else if self.joints[j].in_contact() && d1 <= 0.0 {
                 let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
@@ -459,9 +525,10 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         }
         self.eccentricity = e1;
         self.eccentricity_rate = v1;
+        self.bush_deflection = s1;
         let mut end = Loads::zero();
         for j in 0..self.joints.len() {
-            let s = self.contact_at_as::<SERIES>(t + h, j, Self::part(&e1, j), Self::part(&v1, j));
+            let (s, _) = self.contact_at_as::<SERIES, DAMPED>(t + h, j, Self::part(&e1, j), Self::part(&v1, j), s1[j]);
             self.put(&mut end, j, &s);
             if let Some(tr) = self.open[j].as_mut() {
                 tr.sample(t + h, J::normal_force(&s), J::penetration(&s));
@@ -496,6 +563,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         for joint in &mut self.joints {
             joint.set_mode(false, 0.0);
         }
+        self.bush_deflection = SVector::zeros();
         self.end = None;
         self.refresh_states(t);
     }
@@ -548,7 +616,14 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                 self.violation = true;
             }
         }
-        let (a, loads) = self.acceleration::<true>(t, &self.mass_at(t), &e, &ed);
+        // (Bushes damped in series are refused with this integrator: see InterfaceSubsystem.)
+        let (a, loads) = self.acceleration::<true, false>(
+            t,
+            &self.mass_at(t),
+            (&e, &ed),
+            &self.bush_deflection,
+            &mut SVector::zeros(),
+        );
         dydt[..N].copy_from_slice(ed.as_slice());
         dydt[N..2 * N].copy_from_slice(a.as_slice());
         dydt[2 * N..3 * N].copy_from_slice(loads.contact.as_slice());
