@@ -178,7 +178,7 @@ m = rigid["time"] >= 0.02
 rt, rax = rigid["motor.torque"][m], rigid["slider.ax"][m]
 print("rigid bearing: peak torque %.0f, RMS %.0f, torque >1 kHz %.0f, peak force %.0f, a_x >1 kHz %.0f" % (
     np.abs(rt).max(), np.sqrt((rt**2).mean()), above(rt), np.abs(rigid["rod_slider.force"][m]).max(), above(rax)))
-print(sweep.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+print(sweep.to_string(index=False, float_format=lambda x: f"{x:.6g}"))
 fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
 for k, (eta, g) in enumerate(sweep.groupby("eta")):
     label = "η_s = %g Pa s (c/k %.0e–%.0e s)" % (eta, g["c_over_k"].min(), g["c_over_k"].max())

@@ -208,7 +208,9 @@ fn bush_section(reps: usize) -> Result<(), CliError> {
             summary.steps, summary.rejected_steps
         );
     }
-    if let [rigid, flexible] = micro_ns[..] {
+    // The first two: the rigid clearance (F) and the same clearance in the bush (the third, the
+    // bushing without clearance, is another kind of joint).
+    if let [rigid, flexible, ..] = micro_ns[..] {
         println!(
             "  flexible-imperfect micro step against the rigid one: {:.2}× (target ≤ 1.5×; the series solve)",
             flexible / rigid
