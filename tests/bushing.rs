@@ -255,16 +255,21 @@ fn the_interface_stress_channel_follows_the_normal_force() {
 /// The reduced interface model of F's flexible imperfect joint (the micro subsystem evaluates the
 /// contact in series with the bush) against the converged full model, over revolutions 2 and 3:
 /// robust statistics within stated bounds (the rattling is chaotic: pointwise comparison is
-/// meaningless). Measured: mean joint force −1.4 %, peak +5.7 %, RMS torque −3.3 %, RMS slider a_x
-/// +0.6 %, contact fraction −0.1 %.
+/// meaningless), spectra, and the peaks of this one run within 15 %. Measured: mean joint force
+/// −1.4 %, peak +5.8 %, peak torque +1.6 %, RMS torque −3.3 %, RMS slider a_x +0.6 %, contact
+/// fraction −0.1 %; power below 500 Hz −6.5 % (torque), −2.2 % (a_x); torque spectral distance 0.17.
 #[test]
 fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
     let s = builtin::by_name("F-flexible-imperfect").unwrap();
-    let Compared { full: full_summary, reduced: reduced_summary, peak_force: (full, reduced) } =
-        reduced_meets_its_bounds(&s);
-    assert!((reduced / full - 1.0).abs() <= 0.15, "peak joint force {reduced} against {full}");
+    let c = reduced_meets_its_bounds(&s);
+    let (full_summary, reduced_summary) = (&c.full, &c.reduced);
+    for (what, (full, reduced)) in [("joint force", c.peak_force), ("crank torque", c.peak_torque)] {
+        eprintln!("peak {what}: full {full:.0}, reduced {reduced:.0}");
+        assert!((reduced / full - 1.0).abs() <= 0.15, "peak {what} {reduced} against {full}");
+    }
+    assert!(c.torque_spectral_distance <= 0.3, "crank torque's spectral distance {}", c.torque_spectral_distance);
     // The bronze bush's viscosities (c/k = 8 ns) are too fast for a state: both models say so.
-    for summary in [&full_summary, &reduced_summary] {
+    for summary in [full_summary, reduced_summary] {
         assert!(
             summary.warnings.iter().any(|w| w.contains("rod_slider") && w.contains("leaves out of the series")),
             "{:?}",
@@ -281,22 +286,28 @@ fn the_reduced_model_of_the_flexible_imperfect_joint_meets_its_bounds() {
 /// integrated by the micro RK4 with the eccentricity), over five relaxation times c/k from 15 to
 /// 100 µs: each run within the bounds above, and the peak joint force — which scatters by ±15 %
 /// from run to run in either model (full 66–92 kN here, across relaxation times that hardly move
-/// the statistics) — compared as the mean over the five runs, within 10 %. Measured: means of the
-/// peaks 82.3 kN (full) and 84.3 kN (reduced), +2.4 %.
+/// the statistics) — and the peak crank torque compared as means over the five runs, within 10 %.
+/// Measured: joint force 82.3 kN (full) and 84.3 kN (reduced), +2.4 %; torque 10 899 and
+/// 10 948 N m, +0.4 %.
 #[test]
 fn the_reduced_model_of_a_bush_damped_in_series_meets_the_same_bounds() {
-    let (mut full, mut reduced) = (0.0, 0.0);
     let relaxation_times = [1.5e-5, 2e-5, 3e-5, 5e-5, 1e-4];
+    let mut means = [[0.0; 2]; 2]; // [force, torque] × [full, reduced]
     for tau in relaxation_times {
         let c = reduced_meets_its_bounds(&damped_bush(20e9, tau, 0.06));
         for summary in [&c.full, &c.reduced] {
             assert!(summary.warnings.is_empty(), "{:?}", summary.warnings);
         }
-        full += c.peak_force.0 / relaxation_times.len() as f64;
-        reduced += c.peak_force.1 / relaxation_times.len() as f64;
+        assert!(c.torque_spectral_distance <= 0.3, "crank torque's spectral distance {}", c.torque_spectral_distance);
+        for (mean, peaks) in means.iter_mut().zip([c.peak_force, c.peak_torque]) {
+            mean[0] += peaks.0 / relaxation_times.len() as f64;
+            mean[1] += peaks.1 / relaxation_times.len() as f64;
+        }
     }
-    eprintln!("mean peak joint force: full {full:.0} N, reduced {reduced:.0} N");
-    assert!((reduced / full - 1.0).abs() <= 0.10, "mean peak joint force {reduced} against {full}");
+    for (what, [full, reduced]) in ["joint force", "crank torque"].iter().zip(means) {
+        eprintln!("mean peak {what}: full {full:.0}, reduced {reduced:.0}");
+        assert!((reduced / full - 1.0).abs() <= 0.10, "mean peak {what} {reduced} against {full}");
+    }
 }
 
 /// Scenario `s` in the reduced and the converged full model, compared over revolutions 2 and 3:
@@ -332,7 +343,25 @@ fn reduced_meets_its_bounds(s: &lash_scenario::Scenario) -> Compared {
         eprintln!("{what}: {:.1} % (bound {:.0} %)", 100.0 * difference, 100.0 * bound);
         assert!(difference <= bound, "{what}: {difference} > {bound}");
     }
-    Compared { full: full_summary, reduced: reduced_summary, peak_force: (peak(&ff), peak(&fr)) }
+    // Spectra (Hann-windowed amplitude spectra of revolutions 2 and 3): the power below 500 Hz
+    // (the crank's first ten harmonics) within 10 %, and the spectral distance.
+    let rows_after = |r: &[Vec<f64>]| r.iter().filter(|row| row[0] >= 0.02).cloned().collect::<Vec<_>>();
+    let channels: Vec<String> = ["motor.torque", "slider.ax", "rod_slider.force"].map(String::from).to_vec();
+    let spectra = lash_metrics::compare_series(&hf, &rows_after(&rf), &hr, &rows_after(&rr), &channels, 0.01).unwrap();
+    let mut distances = Vec::new();
+    for (name, c) in &spectra {
+        let low = c.band_powers_reduced[0] / c.band_powers_full[0];
+        eprintln!("{name}: power below 500 Hz ratio {low:.3}, spectral distance {:.3}", c.spectral_distance);
+        assert!((low - 1.0).abs() <= 0.10, "{name}: power below 500 Hz, ratio {low:.3}");
+        distances.push(c.spectral_distance);
+    }
+    Compared {
+        full: full_summary,
+        reduced: reduced_summary,
+        peak_force: (peak(&ff), peak(&fr)),
+        peak_torque: (peak(&tf), peak(&tr)),
+        torque_spectral_distance: spectra["motor.torque"].spectral_distance,
+    }
 }
 
 /// Both models' summaries and their peak joint forces over revolutions 2 and 3.
@@ -341,6 +370,11 @@ struct Compared {
     reduced: lash_run::Summary,
     /// (full, reduced) [N].
     peak_force: (f64, f64),
+    /// Peak crank torques (full, reduced) [N m].
+    peak_torque: (f64, f64),
+    /// The spectral distance of the crank torque (relative RMS difference of the amplitude
+    /// spectra).
+    torque_spectral_distance: f64,
 }
 
 /// A bushing whose radial force follows a curve (power laws between its points): a block hanging
