@@ -95,8 +95,9 @@ impl SphericalClearance {
     }
 
     /// Geometry and forces from the eccentricity, its rate and the bodies' angular velocities
-    /// (world frame). `journal_centre` is left at zero.
-    #[inline]
+    /// (world frame). `journal_centre` is left at zero. Always inlined: it is the micro step's
+    /// contact evaluation, and a call there makes the step keep its values in memory.
+    #[inline(always)]
     pub fn evaluate_relative(
         &self,
         e: Vec3,

@@ -385,14 +385,24 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         MassFactor::new(u.effective_mass + u.effective_mass_rate * (t - self.input_time))
     }
 
-    /// ẅ at t for given loads: M̃(t)⁻¹ (f̃(t) + f_c + H(t) L).
+    /// ẅ at t for given loads: M̃(t)⁻¹ (f̃(t) + f_c + H(t) L), H(t) L formed column by column
+    /// and only for the loads that act (no friction load in free flight); written out rather
+    /// than as nalgebra's product of the interpolated matrix, which for the spatial joints'
+    /// 6 × 12 map was a call of its own on the micro step's path.
     #[inline(always)]
     fn acceleration_with(&self, t: f64, mass: &MassFactor<N>, loads: &Loads<N, M>) -> SVector<f64, N> {
         let dt = t - self.input_time;
         let u = &self.inputs;
-        let f = u.effective_force + u.effective_force_rate * dt;
-        let h = u.friction_moment_force + u.friction_moment_force_rate * dt;
-        mass.solve(&(f + loads.contact + h * loads.friction))
+        let mut r = u.effective_force + u.effective_force_rate * dt + loads.contact;
+        for j in 0..M {
+            let l = loads.friction[j];
+            if l != 0.0 {
+                for i in 0..N {
+                    r[i] += (u.friction_moment_force[(i, j)] + u.friction_moment_force_rate[(i, j)] * dt) * l;
+                }
+            }
+        }
+        mass.solve(&r)
     }
 
     /// ẅ and the loads at (t, w, ẇ) (and the bushes' deflection rates, see
@@ -470,7 +480,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         // The last step's end (same time, same inputs) is this step's start: its factor and, for
         // the same state, its loads are reused.
         // (Loads for the same instant and state; the factor only if the inputs were not set since.)
-        let (mut start, mut reused) = (None, None);
+        let (mut start_kept, mut reused) = (false, None);
         if let Some(end) = &self.end
             && (end.time - t).abs() < 1e-12
         {
@@ -480,15 +490,20 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             }
             // The same instant up to rounding (t from integer ticks, the end as t + h): M̃ differs
             // by Ṁ times a few ulps of t, far below the precision of M̃ itself.
-            if end.input_time == self.input_time {
-                start = Some(end.mass);
-            }
+            start_kept = end.input_time == self.input_time;
         }
-        let start = start.unwrap_or_else(|| self.mass_at(t));
+        // The kept factor is read where it lies (a copy of the spatial joints' 6 × 6 factor was a
+        // memmove per step).
+        let computed = if start_kept { None } else { Some(self.mass_at(t)) };
+        let start = match (&computed, &self.end) {
+            (Some(m), _) => m,
+            (None, Some(end)) => &end.mass,
+            (None, None) => unreachable!("a kept factor comes from a step end"),
+        };
         let (middle, finish) = (self.mass_at(t + 0.5 * h), self.mass_at(t + h));
         let (k1v, l1) = match reused {
-            Some(loads) => (self.acceleration_with(t, &start, &loads), loads),
-            None => self.acceleration::<SERIES, DAMPED>(t, &start, (&e0, &v0), &s0, &mut r1),
+            Some(loads) => (self.acceleration_with(t, start, &loads), loads),
+            None => self.acceleration::<SERIES, DAMPED>(t, start, (&e0, &v0), &s0, &mut r1),
         };
         // The deflections of the stages (unused, and compiled out, without damped bushes).
         let stage = |r: &SVector<f64, K>, f: f64| if DAMPED { s0 + r * f } else { s0 };
@@ -559,14 +574,28 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             }
             self.states[j] = s;
         }
-        self.end = Some(StepEnd {
-            time: t + h,
-            input_time: self.input_time,
-            eccentricity: e1,
-            eccentricity_rate: v1,
-            loads: end,
-            mass: finish,
-        });
+        // Written in place (the step end is several hundred bytes for the spatial joints).
+        let input_time = self.input_time;
+        match &mut self.end {
+            Some(e) => {
+                e.time = t + h;
+                e.input_time = input_time;
+                e.eccentricity = e1;
+                e.eccentricity_rate = v1;
+                e.loads = end;
+                e.mass = finish;
+            }
+            None => {
+                self.end = Some(StepEnd {
+                    time: t + h,
+                    input_time,
+                    eccentricity: e1,
+                    eccentricity_rate: v1,
+                    loads: end,
+                    mass: finish,
+                })
+            }
+        }
     }
 
     fn open_contact(&mut self, j: usize, t: f64, rate: f64) {
