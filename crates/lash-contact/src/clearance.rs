@@ -78,10 +78,9 @@ impl ClearanceJoint {
         self.bearing_radius - self.journal_radius
     }
 
-    /// Geometry and forces for the given body poses. `onset` is the approach velocity of the
-    /// current contact (used by hysteresis-damped laws).
-    #[inline]
-    pub fn evaluate(&self, journal: &Pose, bearing: &Pose, onset: f64) -> ContactState {
+    /// The journal centre r_J, the eccentricity e = r_J − r_B and its rate ė for the body poses.
+    #[inline(always)]
+    fn centres(&self, journal: &Pose, bearing: &Pose) -> (Vec2, Vec2, Vec2) {
         let aj = journal.rotate(self.journal_point);
         let ab = bearing.rotate(self.bearing_point);
         let rj = journal.position + aj;
@@ -89,7 +88,15 @@ impl ClearanceJoint {
         let e_dot = journal.velocity + perp(aj) * journal.angular_velocity
             - bearing.velocity
             - perp(ab) * bearing.angular_velocity;
-        let mut s = self.evaluate_relative(rj - rb, e_dot, journal.angular_velocity, bearing.angular_velocity, onset);
+        (rj, rj - rb, e_dot)
+    }
+
+    /// Geometry and forces for the given body poses. `onset` is the approach velocity of the
+    /// current contact (used by hysteresis-damped laws).
+    #[inline]
+    pub fn evaluate(&self, journal: &Pose, bearing: &Pose, onset: f64) -> ContactState {
+        let (rj, e, e_dot) = self.centres(journal, bearing);
+        let mut s = self.evaluate_relative(e, e_dot, journal.angular_velocity, bearing.angular_velocity, onset);
         s.journal_centre = rj;
         s
     }
@@ -99,15 +106,9 @@ impl ClearanceJoint {
     /// state and the deflection's rate ṡ. `penetration` and `penetration_rate` stay the approach
     /// δ, δ̇ of the journal to the undeflected bore; the contact's own indentation is δ − s.
     pub fn evaluate_damped(&self, journal: &Pose, bearing: &Pose, onset: f64, deflection: f64) -> (ContactState, f64) {
-        let aj = journal.rotate(self.journal_point);
-        let ab = bearing.rotate(self.bearing_point);
-        let rj = journal.position + aj;
-        let rb = bearing.position + ab;
-        let e_dot = journal.velocity + perp(aj) * journal.angular_velocity
-            - bearing.velocity
-            - perp(ab) * bearing.angular_velocity;
+        let (rj, e, e_dot) = self.centres(journal, bearing);
         let (mut s, rate) = self.evaluate_relative_damped(
-            rj - rb,
+            e,
             e_dot,
             journal.angular_velocity,
             bearing.angular_velocity,
