@@ -142,6 +142,29 @@ impl ClearanceJoint {
         (self.state(e, n, t, norm, delta, delta_dot, slip, fn_), rate)
     }
 
+    /// [`ClearanceJoint::evaluate`], or [`ClearanceJoint::evaluate_damped`] when the bush's
+    /// deflection is a state (`deflection` given): the state and ṡ (0 without).
+    #[inline]
+    pub fn evaluate_with_bush(
+        &self,
+        journal: &Pose,
+        bearing: &Pose,
+        onset: f64,
+        deflection: Option<f64>,
+    ) -> (ContactState, f64) {
+        match deflection {
+            Some(d) => self.evaluate_damped(journal, bearing, onset, d),
+            None => (self.evaluate(journal, bearing, onset), 0.0),
+        }
+    }
+
+    /// ṡ of a bush damped in series whose contact carries nothing: it relaxes, −k s / c (0 for a
+    /// joint without such a bush).
+    #[inline(always)]
+    pub fn bush_relaxation_rate(&self, deflection: f64) -> f64 {
+        if self.damped_in_series() { -self.bush_stiffness * deflection / self.bush_damping } else { 0.0 }
+    }
+
     /// Whether the bush in series carries its damping as a state ([`ClearanceJoint::bush_damping`]).
     #[inline(always)]
     pub fn damped_in_series(&self) -> bool {

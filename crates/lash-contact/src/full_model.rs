@@ -231,10 +231,7 @@ impl FullModel {
             let pj = pose_of(&solver.poses, c.journal_body);
             let pb = pose_of(&solver.poses, c.bearing_body);
             let deflection = bush_states[k].map(|i| y[i]);
-            let evaluate = |onset: f64| match deflection {
-                Some(d) => c.evaluate_damped(&pj, &pb, onset, d),
-                None => (c.evaluate(&pj, &pb, onset), 0.0),
-            };
+            let evaluate = |onset: f64| c.evaluate_with_bush(&pj, &pb, onset, deflection);
             // Probe geometry first. A stage outside the current mode is flagged (the integrator
             // then cuts or rejects the step). A free-flight stage that penetrates gets no force
             // when the integrator locates events (the right side stays smooth in its mode, so the
@@ -250,9 +247,7 @@ impl FullModel {
                         s.normal_force = 0.0;
                         s.friction_force = 0.0;
                         s.force_on_journal = lash_mech::Vec2::zeros();
-                        if let Some(d) = deflection {
-                            rate = -c.bush_stiffness * d / c.bush_damping;
-                        }
+                        rate = c.bush_relaxation_rate(deflection.unwrap_or(0.0));
                     } else {
                         // The contact's own approach rate δ̇ − ṡ (ṡ of the relaxing bush).
                         (s, rate) = evaluate((s.penetration_rate - rate).max(0.0));
@@ -294,10 +289,7 @@ impl FullModel {
         let c = &self.clearances[k];
         let pj = lash_mech::Pose::of(c.journal_body, q, qd);
         let pb = lash_mech::Pose::of(c.bearing_body, q, qd);
-        match self.bush_states[k] {
-            Some(i) => c.evaluate_damped(&pj, &pb, onset, y[i]),
-            None => (c.evaluate(&pj, &pb, onset), 0.0),
-        }
+        c.evaluate_with_bush(&pj, &pb, onset, self.bush_states[k].map(|i| y[i]))
     }
 
     fn contact_state(&self, k: usize, y: &[f64], onset: f64) -> ContactState {

@@ -201,7 +201,7 @@ impl MicroJoint for ClearanceJoint {
     }
     #[inline(always)]
     fn relaxation_rate(&self, deflection: f64) -> f64 {
-        if self.damped_in_series() { -self.bush_stiffness * deflection / self.bush_damping } else { 0.0 }
+        self.bush_relaxation_rate(deflection)
     }
     #[inline(always)]
     fn loads(&self, s: &ContactState, force: &mut [f64], friction: &mut [f64]) {
