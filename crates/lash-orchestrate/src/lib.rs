@@ -586,7 +586,7 @@ impl<'a> InterfaceMaster<'a> {
         let out = Causality::Output;
         // Sizes: n interface coordinates, r angular velocity components per side (planar: one
         // per joint; spherical: three), m friction loads (planar: one per joint, F_T; spherical:
-        // six, the friction force's torques on both bodies).
+        // three, n × F_T).
         let size = |name: &str| -> Result<usize, MasterError> {
             Ok(mac_vars[lookup(&mac_vars, &mac_name, name, out, None)? as usize].len())
         };

@@ -444,10 +444,12 @@ impl SpatialReducedRun {
                 journal_point: c.journal_point,
                 bearing_body: c.bearing_body,
                 bearing_point: c.bearing_point,
+                journal_radius: c.journal_radius,
+                bearing_radius: c.bearing_radius,
             })
             .collect();
         let k = joints.len();
-        let loads = 3 * k + 6 * k;
+        let loads = 3 * k + 3 * k;
         // Every channel, in file order, as in the full model.
         let sources = spatial_channels(scenario, false);
         let written: Vec<usize> = (0..sources.len())

@@ -11,8 +11,10 @@
 //! ```
 //!
 //! with a_free = J v̇_free + ω_J × (ω_J × s_J) − ω_B × (ω_B × s_B). The torques carry the friction
-//! force's moments (R_J n × f on the ball's body, R_B n × (−f) on the socket's), which depend on the
-//! contact normal: the micro model forms them, the macro side gives their columns.
+//! force's moments, R_J n × f on the ball's body and −R_B n × f on the socket's: both are fixed
+//! multiples of one vector m = n × f, which depends on the contact normal. The micro model forms
+//! m (three loads per joint), and the macro side gives one column per component of m: the
+//! response to the torque pair (R_J e, −R_B e), so W_τ is n × 3k.
 
 use crate::Vec3;
 use crate::constraints::BodyFrame;
@@ -32,6 +34,10 @@ pub struct SphericalInterface {
     pub bearing_body: BodyId,
     /// Socket centre [m].
     pub bearing_point: Vec3,
+    /// Ball radius R_J [m]: the arm of the friction force's torque on the ball's body.
+    pub journal_radius: f64,
+    /// Socket radius R_B [m]: the arm of its torque on the socket's body.
+    pub bearing_radius: f64,
 }
 
 /// Effective terms of k spherical interfaces at one state.
@@ -45,13 +51,14 @@ pub struct SpatialCoupledTerms {
     pub free_acceleration: DVector<f64>,
     /// Effective forces f̃ = M̃ a_free (n) [N] (zero when W is singular).
     pub effective_force: DVector<f64>,
-    /// W_τ (n × 6k): interface accelerations per unit torque (world x, y, z) on joint j's ball body
-    /// (columns 6j…6j+2) and on its socket body (6j+3…6j+5) [1/(kg m)].
+    /// W_τ (n × 3k): interface accelerations per unit friction load m = n × f of joint j (world
+    /// x, y, z; columns 3j…3j+2), i.e. per torque pair R_J m on its ball body and −R_B m on its
+    /// socket body [1/kg].
     pub moment_mobility: DMatrix<f64>,
     /// Generalized accelerations v̇ with no interface loads.
     pub free_accelerations: Vec<f64>,
-    /// Columns of G (n + 6k): v̇ per unit force on each ball (3j + axis), then per unit torque in
-    /// the order of `moment_mobility`.
+    /// Columns of G (n + 3k): v̇ per unit force on each ball (3j + axis), then per unit friction
+    /// load in the order of `moment_mobility`.
     pub gain: Vec<Vec<f64>>,
     /// Multipliers with no interface loads.
     pub free_lambda: Vec<f64>,
@@ -82,7 +89,7 @@ fn interface_rate(iface: &SphericalInterface, frames: &[BodyFrame], x: &[f64]) -
 }
 
 /// Effective terms of the interfaces `joints` of the cut mechanism `cut` (every one of them
-/// removed) at `(t, q, v)`. One factorisation serves the 1 + 3k + 6k solves.
+/// removed) at `(t, q, v)`. One factorisation serves the 1 + 3k + 3k solves.
 pub fn spatial_effective_terms(
     cut: &SpatialMechanism,
     solver: &mut SpatialSolver,
@@ -100,8 +107,8 @@ pub fn spatial_effective_terms(
     let free_accelerations = solver.accelerations.clone();
     let free_lambda = solver.lambda.clone();
     let frames = solver.frames.clone();
-    let mut gain = vec![vec![0.0; nv]; n + 6 * k];
-    let mut lambda_gain = vec![vec![0.0; m]; n + 6 * k];
+    let mut gain = vec![vec![0.0; nv]; 2 * n];
+    let mut lambda_gain = vec![vec![0.0; m]; 2 * n];
     let mut load = vec![0.0; nv];
     let put = |load: &mut [f64], body: BodyId, force: Vec3, torque: Vec3| {
         if let BodyId::Body(b) = body {
@@ -122,17 +129,16 @@ pub fn spatial_effective_terms(
             put(&mut load, iface.bearing_body, -e, sb.cross(&-e));
             let column = 3 * j + axis;
             solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
-            // Torques on the ball's body, then on the socket's.
-            for (side, body) in [(0, iface.journal_body), (1, iface.bearing_body)] {
-                load.fill(0.0);
-                put(&mut load, body, Vec3::zeros(), e);
-                let column = n + 6 * j + 3 * side + axis;
-                solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
-            }
+            // A unit friction load m = e: the torque pair on the ball's body and the socket's.
+            load.fill(0.0);
+            put(&mut load, iface.journal_body, Vec3::zeros(), e * iface.journal_radius);
+            put(&mut load, iface.bearing_body, Vec3::zeros(), e * -iface.bearing_radius);
+            let column = n + column;
+            solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
         }
     }
     let mut mobility = DMatrix::zeros(n, n);
-    let mut moment_mobility = DMatrix::zeros(n, 6 * k);
+    let mut moment_mobility = DMatrix::zeros(n, n);
     let mut free_acceleration = DVector::zeros(n);
     let centripetal = |f: &BodyFrame, s: Vec3| f.angular_velocity.cross(&f.angular_velocity.cross(&s));
     for (row, iface) in joints.iter().enumerate() {
@@ -140,7 +146,7 @@ pub fn spatial_effective_terms(
             let w = interface_rate(iface, &frames, &gain[c]);
             mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
         }
-        for c in 0..6 * k {
+        for c in 0..n {
             let w = interface_rate(iface, &frames, &gain[n + c]);
             moment_mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
         }

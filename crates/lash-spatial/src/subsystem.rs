@@ -5,8 +5,9 @@
 //!
 //! One-way coupling: the ideal mechanism (balls centred) is integrated (DOPRI5, tight tolerances)
 //! over each communication step; at each communication point the subsystem exports the cut
-//! system's effective terms (M̃, f̃, W, a_free), H = M̃ W_τ for the friction loads (the friction
-//! force's torques on each joint's ball body and socket body, world frame), the journal and
+//! system's effective terms (M̃, f̃, W, a_free), H = M̃ W_τ for the friction loads (each joint's
+//! n × F_T, world frame, whose torques are R_J n × F_T on the ball's body and −R_B n × F_T on the
+//! socket's), the journal and
 //! bearing bodies' world angular velocities and accelerations, and for every probe its propagation
 //! map (`…_free` at no interface load, `…_gain` per unit load: the contact forces, then the
 //! friction loads).
@@ -71,7 +72,7 @@ pub mod vr {
         MOBILITY,
         /// Output a_free (n) [m/s²].
         FREE_ACCELERATION,
-        /// Output H = M̃ W_τ (n × 6k).
+        /// Output H = M̃ W_τ (n × 3k).
         FRICTION_MOMENT_FORCE,
         /// Output ω of each journal body (3k, world frame).
         JOURNAL_ANGULAR_VELOCITY,
@@ -127,7 +128,7 @@ impl SpatialMechanismSubsystem {
         use Causality::Output;
         use Variability::Continuous as C;
         let k = joints.len();
-        let (n, m) = (3 * k, 6 * k);
+        let (n, m) = (3 * k, 3 * k);
         let g = n + m;
         let rotations = per_joint_shape(3 * k, &[]);
         let mut t = VariableTable::new();
@@ -167,8 +168,8 @@ impl SpatialMechanismSubsystem {
             "friction_moment_force",
             Output,
             C,
-            "1/m",
-            "force on the balls equivalent to a unit torque on each joint's ball body, then socket body (M~ W_tau)",
+            "1",
+            "force on the balls equivalent to a unit friction load n x F_T of each joint (M~ W_tau)",
             &[n, m],
             &[0.0],
         );
@@ -184,7 +185,7 @@ impl SpatialMechanismSubsystem {
             &rotations,
         );
         t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
-        let gain = "per unit contact force (f_c), then per unit friction load (torques)";
+        let gain = "per unit contact force (f_c), then per unit friction load (n x F_T)";
         for p in &probes {
             match p {
                 SpatialProbe::Point { name, .. } => {
@@ -286,7 +287,7 @@ impl SpatialMechanismSubsystem {
             ));
         };
         let k = self.joints.len();
-        let g = 9 * k; // loads: 3k contact forces, then 6k friction torques
+        let g = 6 * k; // loads: 3k contact forces, then 3k friction loads n × F_T
         let moment_force = &mass * &terms.moment_mobility;
         // One-way: the macro's own motion has ẅ = 0, so its interface load is −f̃ (no friction).
         let mut own_load = vec![0.0; g];

@@ -27,6 +27,8 @@ fn e_state() -> (SpatialMechanism, SpatialMechanism, Vec<SphericalInterface>, Ve
                     journal_point: j.i.point,
                     bearing_body: j.j.body,
                     bearing_point: j.j.point,
+                    journal_radius: 0.00575,
+                    bearing_radius: 0.006,
                 }
             } else {
                 SphericalInterface {
@@ -34,6 +36,8 @@ fn e_state() -> (SpatialMechanism, SpatialMechanism, Vec<SphericalInterface>, Ve
                     journal_point: j.j.point,
                     bearing_body: j.i.body,
                     bearing_point: j.i.point,
+                    journal_radius: 0.0055,
+                    bearing_radius: 0.006,
                 }
             }
         })
@@ -131,23 +135,26 @@ fn the_mobilities_equal_the_null_space_projection_of_the_cut_mechanism() {
     let mobility = &j * &projector * j.transpose();
     let scale = mobility.abs().max();
     assert!((&mobility - &terms.mobility).abs().max() < 1e-9 * scale, "W: {mobility} vs {}", terms.mobility);
-    // Torque columns: a unit world torque e on body k is the load (0, Aᵀe) in (ṙ, ω') space.
+    // Friction-load columns: a unit load m = e is the torque R_J e on the ball's body and −R_B e
+    // on the socket's; a world torque τ on body k is the load (0, Aᵀτ) in (ṙ, ω') space.
+    assert_eq!(terms.moment_mobility.ncols(), 3 * interfaces.len());
     for (r, iface) in interfaces.iter().enumerate() {
-        for (side, body) in [(0, iface.journal_body), (1, iface.bearing_body)] {
-            let BodyId::Body(k) = body else { continue };
-            for axis in 0..3 {
-                let local = frames[k].rotation.transpose() * Vec3::ith(axis, 1.0);
-                let mut load = DVector::<f64>::zeros(nv);
+        for axis in 0..3 {
+            let mut load = DVector::<f64>::zeros(nv);
+            for (body, arm) in [(iface.journal_body, iface.journal_radius), (iface.bearing_body, -iface.bearing_radius)]
+            {
+                let BodyId::Body(k) = body else { continue };
+                let local = frames[k].rotation.transpose() * (Vec3::ith(axis, 1.0) * arm);
                 for i in 0..3 {
-                    load[6 * k + 3 + i] = local[i];
+                    load[6 * k + 3 + i] += local[i];
                 }
-                let expected = &j * (&projector * load);
-                let column = terms.moment_mobility.column(6 * r + 3 * side + axis);
-                assert!(
-                    (expected - column).abs().max() < 1e-9 * terms.moment_mobility.abs().max(),
-                    "torque column {r} {side} {axis}"
-                );
             }
+            let expected = &j * (&projector * load);
+            let column = terms.moment_mobility.column(3 * r + axis);
+            assert!(
+                (expected - column).abs().max() < 1e-9 * terms.moment_mobility.abs().max(),
+                "friction-load column {r} {axis}"
+            );
         }
     }
 }

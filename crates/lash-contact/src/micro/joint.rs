@@ -3,8 +3,9 @@
 //! micro model ([`super::InterfaceModel`]) integrates any of them: the planar revolute clearance
 //! joint (2 coordinates, the bodies' scalar angular velocities, the friction force F_T as the one
 //! friction load whose moments the macro side's map H carries) and the spherical one
-//! (3 coordinates, world angular velocity vectors, the friction force's two torques — on the
-//! ball's body and on the socket's — as six friction loads).
+//! (3 coordinates, world angular velocity vectors, n × F_T as three friction loads: the friction
+//! force's torques are R_J n × F_T on the ball's body and −R_B n × F_T on the socket's, which the
+//! macro side's map carries with the radii).
 
 use crate::clearance::{ClearanceJoint, ContactState};
 use crate::spherical::{SphericalClearance, SphericalContactState};
@@ -15,8 +16,7 @@ use lash_spatial::Vec3;
 pub trait MicroJoint: Clone + std::fmt::Debug {
     /// Interface coordinates of one joint (its eccentricity): 2 planar, 3 spherical.
     const COORDINATES: usize;
-    /// Friction loads of one joint: planar 1 (F_T), spherical 6 (the friction force's torques on
-    /// the ball's body and on the socket's, world frame).
+    /// Friction loads of one joint: planar 1 (F_T), spherical 3 (n × F_T, world frame).
     const FRICTION_LOADS: usize;
     /// Angular velocity components of one body: planar 1, spherical 3 (world frame).
     const ROTATIONS: usize;
@@ -214,7 +214,7 @@ impl MicroJoint for ClearanceJoint {
 
 impl MicroJoint for SphericalClearance {
     const COORDINATES: usize = 3;
-    const FRICTION_LOADS: usize = 6;
+    const FRICTION_LOADS: usize = 3;
     const ROTATIONS: usize = 3;
     type State = SphericalContactState;
 
@@ -252,17 +252,15 @@ impl MicroJoint for SphericalClearance {
         let v = |x: &[f64]| Vec3::new(x[0], x[1], x[2]);
         self.evaluate_relative(v(e), v(e_dot), v(wj), v(wb), onset)
     }
-    /// The force through the ball's centre, and the friction force's torques about the two
-    /// centres: R_J n × f on the ball's body, R_B n × (−f) on the socket's (the normal part of f
-    /// has no moment about either centre).
+    /// The force through the ball's centre, and the friction load m = n × f: the friction
+    /// force's torques about the two centres are R_J m on the ball's body and −R_B m on the
+    /// socket's (the normal part of f has no moment about either centre), so one vector carries
+    /// both and the macro side's map applies the radii.
     #[inline(always)]
     fn loads(&self, s: &SphericalContactState, force: &mut [f64], friction: &mut [f64]) {
         let f = s.force_on_journal;
         force.copy_from_slice(f.as_slice());
-        let ball = (s.normal * self.journal_radius).cross(&f);
-        let socket = (s.normal * self.bearing_radius).cross(&-f);
-        friction[..3].copy_from_slice(ball.as_slice());
-        friction[3..].copy_from_slice(socket.as_slice());
+        friction.copy_from_slice(s.normal.cross(&f).as_slice());
     }
     fn penetration(s: &SphericalContactState) -> f64 {
         s.penetration

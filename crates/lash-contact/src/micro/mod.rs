@@ -37,8 +37,8 @@ pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES
 /// spherical clearance joints).
 pub const MAX_COORDINATES: usize = 12;
 
-/// Largest number of friction loads (four spherical joints, six each).
-pub const MAX_FRICTION_LOADS: usize = 24;
+/// Largest number of friction loads (four spherical joints, three each; six planar, one each).
+pub const MAX_FRICTION_LOADS: usize = 12;
 
 /// Which integrator the micro model uses.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -85,7 +85,7 @@ pub mod vr {
         NORMAL_FORCE,
         /// Output F_T (k).
         FRICTION_FORCE,
-        /// Output: the friction loads L (m; planar F_T, spherical the two torques of each joint).
+        /// Output: the friction loads L (m; planar F_T, spherical n × F_T of each joint).
         FRICTION_LOAD,
         /// Output ∫L dt (m).
         FRICTION_IMPULSE,
@@ -126,10 +126,10 @@ enum Core {
     C8(Box<PlanarInterfaceModel<8, 4>>),
     C10(Box<PlanarInterfaceModel<10, 5>>),
     C12(Box<PlanarInterfaceModel<12, 6>>),
-    S3(Box<InterfaceModel<SphericalClearance, 3, 1, 6, 3>>),
-    S6(Box<InterfaceModel<SphericalClearance, 6, 2, 12, 6>>),
-    S9(Box<InterfaceModel<SphericalClearance, 9, 3, 18, 9>>),
-    S12(Box<InterfaceModel<SphericalClearance, 12, 4, 24, 12>>),
+    S3(Box<InterfaceModel<SphericalClearance, 3, 1, 3, 3>>),
+    S6(Box<InterfaceModel<SphericalClearance, 6, 2, 6, 6>>),
+    S9(Box<InterfaceModel<SphericalClearance, 9, 3, 9, 9>>),
+    S12(Box<InterfaceModel<SphericalClearance, 12, 4, 12, 12>>),
     B2(Box<InterfaceModel<BushingJoint, 2, 1, 1, 1>>),
     B4(Box<InterfaceModel<BushingJoint, 4, 2, 2, 2>>),
     B6(Box<InterfaceModel<BushingJoint, 6, 3, 3, 3>>),
@@ -571,18 +571,20 @@ impl InterfaceSubsystem {
         );
         t.add_at(vr::NORMAL_FORCE, "normal_force", Output, C, "N", "normal contact force F_N", &pj, &[0.0]);
         t.add_at(vr::FRICTION_FORCE, "friction_force", Output, C, "N", "friction force F_T", &pj, &[0.0]);
-        let (load_unit, load_description) = if J::FRICTION_LOADS == 1 {
-            ("N", "friction loads: each joint's friction force F_T")
+        let load_description = if J::FRICTION_LOADS == 1 {
+            "friction loads: each joint's friction force F_T"
         } else {
-            ("N.m", "friction loads: each joint's friction torques on the journal's and the bearing's body (world)")
+            "friction loads: each joint's n x F_T (world; the torques are R_J n x F_T on the journal's body and \
+             -R_B n x F_T on the bearing's)"
         };
+        let load_unit = "N";
         t.add_at(vr::FRICTION_LOAD, "friction_load", Output, C, load_unit, load_description, &per_load, &[0.0]);
         t.add_at(
             vr::FRICTION_IMPULSE,
             "friction_impulse",
             Output,
             C,
-            if J::FRICTION_LOADS == 1 { "N.s" } else { "N.m.s" },
+            "N.s",
             "integral of the friction loads since the start",
             &per_load,
             &[0.0],

@@ -9,8 +9,8 @@
 //! centres), L the joints' friction loads and H the interface force equivalent to them per unit
 //! load (built by the macro side). For planar revolute clearance joints (N = 2k) L holds each
 //! joint's friction force F_T, whose moments are R_J F_T on the journal body and R_B F_T on the
-//! bearing body; for spherical ones (N = 3k) L holds the friction force's torques on the ball's
-//! body and on the socket's (6 per joint), which depend on the contact normal. The off-diagonal
+//! bearing body; for spherical ones (N = 3k) L holds each joint's n × F_T (3 per joint), whose
+//! moments are R_J n × F_T on the ball's body and −R_B n × F_T on the socket's. The off-diagonal
 //! blocks of M̃ and H couple the joints.
 //!
 //! One model serves every joint kind ([`MicroJoint`]); the dimensions are const generics: the
@@ -78,7 +78,7 @@ pub type PlanarInputs<const N: usize, const K: usize> = InterfaceInputs<N, K, K>
 pub struct Loads<const N: usize, const M: usize> {
     /// Contact forces on the journals, stacked [N].
     pub contact: SVector<f64, N>,
-    /// Friction loads (planar: F_T [N]; spherical: torques [N m]).
+    /// Friction loads (planar: F_T [N]; spherical: n × F_T [N]).
     pub friction: SVector<f64, M>,
 }
 
