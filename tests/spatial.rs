@@ -198,6 +198,27 @@ fn the_ideal_spatial_slider_crank_of_e_follows_its_closed_form_through_the_runne
     assert!(fy < -0.6 * 9.81 && fy > -(0.6 + 0.25) * 9.81, "guide reaction on the ground {fy} N");
 }
 
+/// The reduced model's macro side integrates the ideal mechanism (DOPRI5 at rtol 1e-7 over each
+/// 1 ms communication step): at the communication points, where its slider position is the
+/// node itself (no interpolation), it follows the closed form as the converged ideal run does.
+#[test]
+fn the_reduced_model_of_e_moves_its_macro_side_along_the_closed_form() {
+    let mut e = spatial_by_name("E-0.5mm-250rpm").expect("built-in");
+    e.simulation.horizon = 0.24; // one revolution
+    let mut reduced = lash_run::SpatialReducedRun::new(&e, lash_run::ReducedOptions::default()).expect("reduced");
+    let (_, header, rows) = rows(&mut reduced);
+    let (x, theta0, omega) = (
+        column(&header, "slider.x"),
+        lash_scenario::builtin_spatial::e_initial_angle(),
+        250.0 * std::f64::consts::PI / 30.0,
+    );
+    let nodes: Vec<&Vec<f64>> = rows.iter().step_by(100).collect();
+    assert_eq!(nodes.len(), 241, "one row per 1e-5 s, a node every 1e-3 s");
+    let worst = nodes.iter().map(|r| (r[x] - e_slider_position(theta0 + omega * r[0])).abs()).fold(0.0, f64::max);
+    eprintln!("E reduced, macro nodes: slider x error {worst:e} m");
+    assert!(worst < 1e-10, "slider position error {worst:e} m at the macro nodes");
+}
+
 #[test]
 fn the_housing_response_of_e_equals_an_independent_integration_of_its_mount() {
     // The runner's housing (exact discretisation of the mount, force linear between samples)

@@ -772,7 +772,11 @@ mod tests {
             let adams = if x >= x1 { 0.0 } else { (k * (x1 - x).powf(e) - adams_step(x, x1 - d, c_max, x1, 0.0) * x_dot).max(0.0) };
             let law = NormalForce::AdamsImpact { stiffness: k, exponent: e, max_damping: c_max, damping_depth: d };
             let lash = law.force(x1 - x, -x_dot, 0.0);
-            prop_assert!((lash - adams).abs() <= 1e-9 * adams.abs().max(1e-6), "lash {} vs ADAMS {}", lash, adams);
+            // The force is a difference of its elastic and damping terms, which may nearly cancel
+            // (and x1 − x carries x1's rounding into δ): the agreement is bounded relative to the
+            // terms, not to their difference.
+            let terms = k * (x1 - x).powf(e) + (adams_step(x, x1 - d, c_max, x1, 0.0) * x_dot).abs();
+            prop_assert!((lash - adams).abs() <= 1e-9 * terms.max(1e-6), "lash {} vs ADAMS {}", lash, adams);
         }
     }
 

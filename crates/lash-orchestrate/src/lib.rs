@@ -942,9 +942,12 @@ fn fill_signals(resolved: &[Resolved], w: &Window<'_>, s: f64, loads: &[f64], mi
             Resolved::Micro(i) => micro[i],
             Resolved::Macro { value, derivative: Some(d) } => hermite(w.a[value], w.a[d], w.b[value], w.b[d], s, w.h).0,
             Resolved::Macro { value, derivative: None } => w.lerp(value, s),
-            Resolved::Propagated { free, gain } => {
-                loads.iter().enumerate().fold(w.lerp(free, s), |v, (c, load)| v + w.lerp(gain + c, s) * load)
-            }
+            // Loads that do not act (a joint in free flight) add nothing and are skipped.
+            Resolved::Propagated { free, gain } => loads
+                .iter()
+                .enumerate()
+                .filter(|(_, load)| **load != 0.0)
+                .fold(w.lerp(free, s), |v, (c, load)| v + w.lerp(gain + c, s) * load),
         };
     }
 }
