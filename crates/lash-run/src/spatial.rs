@@ -449,7 +449,7 @@ impl SpatialReducedRun {
             })
             .collect();
         let k = joints.len();
-        let loads = 3 * k + 3 * k;
+        let loads = 6 * k; // 3k contact forces, then 3k friction loads n × F_T
         // Every channel, in file order, as in the full model.
         let sources = spatial_channels(scenario, false);
         let written: Vec<usize> = (0..sources.len())

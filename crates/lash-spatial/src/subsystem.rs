@@ -7,9 +7,8 @@
 //! over each communication step; at each communication point the subsystem exports the cut
 //! system's effective terms (M̃, f̃, W, a_free), H = M̃ W_τ for the friction loads (each joint's
 //! n × F_T, world frame, whose torques are R_J n × F_T on the ball's body and −R_B n × F_T on the
-//! socket's), the journal and
-//! bearing bodies' world angular velocities and accelerations, and for every probe its propagation
-//! map (`…_free` at no interface load, `…_gain` per unit load: the contact forces, then the
+//! socket's), the journal and bearing bodies' world angular velocities and accelerations, and for
+//! every probe its propagation map (`…_free` at no interface load, `…_gain` per unit load: the contact forces, then the
 //! friction loads).
 
 use crate::interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms};
@@ -230,8 +229,8 @@ impl SpatialMechanismSubsystem {
         let dim = ideal.coordinate_count() + ideal.velocity_count();
         // The ideal motion is smooth: integrated with steps up to the communication step, it
         // needs no stiffer stabilisation than a 10 ms time constant. (E's α = β = 1000 1/s, chosen
-        // for the full model's contact phases, held DOP853 to 0.17 ms steps here: 123 right-hand
-        // sides per 1 ms step against 16 at 100 1/s, for the same motion.)
+        // for the full model's contact phases, held the macro's integrator — then DOP853 at 1e-10 — to
+        // 0.17 ms steps here: 123 right-hand sides per 1 ms step against 16 at 100 1/s.)
         let mut ideal = ideal;
         ideal.baumgarte = lash_mech::Baumgarte {
             alpha: ideal.baumgarte.alpha.min(MACRO_STABILISATION),

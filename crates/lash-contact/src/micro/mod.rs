@@ -577,8 +577,7 @@ impl InterfaceSubsystem {
             "friction loads: each joint's n x F_T (world; the torques are R_J n x F_T on the journal's body and \
              -R_B n x F_T on the bearing's)"
         };
-        let load_unit = "N";
-        t.add_at(vr::FRICTION_LOAD, "friction_load", Output, C, load_unit, load_description, &per_load, &[0.0]);
+        t.add_at(vr::FRICTION_LOAD, "friction_load", Output, C, "N", load_description, &per_load, &[0.0]);
         t.add_at(
             vr::FRICTION_IMPULSE,
             "friction_impulse",
