@@ -447,11 +447,6 @@ impl Window<'_> {
             _ => self.coupling(kind, i, s),
         }
     }
-
-    #[inline]
-    fn lerp(&self, i: usize, s: f64) -> f64 {
-        self.a[i] + (self.b[i] - self.a[i]) * s
-    }
 }
 
 /// Where the macro frames come from: the macro stepped in place, or a producer thread.
@@ -702,6 +697,7 @@ impl<'a> InterfaceMaster<'a> {
         let h_m = o.macro_step.seconds();
         let mut stats = MasterStats::default();
         let mut signals = vec![0.0; resolved.len()];
+        let mut table = SignalTable::new(&resolved, loads, h_m);
         // The micro inputs at the start (the first frame's values, no rate) before anything is
         // read: a micro joint that starts where it holds its load (a bushing) settles there, so
         // the first sample is already the settled one. (Each macro step sets them again.)
@@ -736,7 +732,8 @@ impl<'a> InterfaceMaster<'a> {
             // Observers at the start.
             {
                 let w = Window { prev: None, a: &window[0], b: &window[0], next: None, h: h_m };
-                fill_signals(&resolved, &w, 0.0, &micro_values[..loads], &micro_values, &mut signals);
+                table.prepare(&w);
+                table.fill(0.0, &micro_values[..loads], &micro_values, &mut signals);
                 for (obs, _) in observers.iter_mut() {
                     obs.observe(o.start, &signals).map_err(MasterError::Observer)?;
                 }
@@ -789,6 +786,7 @@ impl<'a> InterfaceMaster<'a> {
                     next: window.get(2).map(|v| v.as_slice()),
                     h: h_m,
                 };
+                table.prepare(&w);
                 let kind = o.interpolation;
                 // Linear and held inputs are exact as value + rate from the macro node: the micro
                 // subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once per
@@ -841,7 +839,7 @@ impl<'a> InterfaceMaster<'a> {
                         }
                         let micro = &rows[row * micro_width..(row + 1) * micro_width];
                         row += 1;
-                        fill_signals(&resolved, &w, fractions[j + i + 1], &micro[..loads], micro, &mut signals);
+                        table.fill(fractions[j + i + 1], &micro[..loads], micro, &mut signals);
                         let t1 = Ticks(t.0 + (i as i64 + 1) * o.micro_step.0);
                         for (((obs, _), l), d) in observers.iter_mut().zip(left.iter_mut()).zip(&decimation) {
                             if *l == 0 {
@@ -933,21 +931,132 @@ impl Algorithm for InterfaceMaster<'_> {
     }
 }
 
-/// Computes every signal at fraction `s` of the macro step from the window, the loads (contact
-/// forces, then friction forces) and the micro outputs.
-#[inline]
-fn fill_signals(resolved: &[Resolved], w: &Window<'_>, s: f64, loads: &[f64], micro: &[f64], out: &mut [f64]) {
-    for (o, r) in out.iter_mut().zip(resolved) {
-        *o = match *r {
-            Resolved::Micro(i) => micro[i],
-            Resolved::Macro { value, derivative: Some(d) } => hermite(w.a[value], w.a[d], w.b[value], w.b[d], s, w.h).0,
-            Resolved::Macro { value, derivative: None } => w.lerp(value, s),
-            // Loads that do not act (a joint in free flight) add nothing and are skipped.
-            Resolved::Propagated { free, gain } => loads
-                .iter()
-                .enumerate()
-                .filter(|(_, load)| **load != 0.0)
-                .fold(w.lerp(free, s), |v, (c, load)| v + w.lerp(gain + c, s) * load),
+/// The signals grouped by kind, with the node values of the current macro step laid out for the
+/// evaluation at every sample ([`SignalTable::prepare`] once per macro step, then
+/// [`SignalTable::fill`] per sample). Each value is computed with the same operations in the same
+/// order as from the frames directly — a value at fraction s is `a + (b − a) s`, a propagated
+/// signal `free(s) + Σ gain_c(s) L_c` over the loads that act, in load order — so the results are
+/// bit for bit those of reading the frames; the layout only puts the propagated signals' gains of
+/// one load side by side (one pass over the signals per acting load, which the compiler
+/// vectorises) and takes the differences b − a once per macro step instead of once per sample.
+struct SignalTable {
+    /// (output position, micro output index).
+    micro: Vec<(usize, usize)>,
+    /// (output position, frame element of the value, frame element of its derivative).
+    hermite: Vec<(usize, usize, usize)>,
+    /// (output position, frame element).
+    linear: Vec<(usize, usize)>,
+    /// (output position, frame element of the free value, frame element of the first gain).
+    propagated: Vec<(usize, usize, usize)>,
+    /// Number of loads (contact forces, then friction loads).
+    loads: usize,
+    /// Macro step [s].
+    step: f64,
+    /// Per `hermite` entry: a, ȧ, b, ḃ of the current step.
+    hermite_nodes: Vec<[f64; 4]>,
+    /// Per `linear` entry: a, b − a.
+    linear_nodes: Vec<[f64; 2]>,
+    /// Free values at a and their differences b − a, per propagated signal.
+    free: Vec<f64>,
+    free_change: Vec<f64>,
+    /// Gains at a and their differences, load-major: entry c P + p is load c of signal p.
+    gain: Vec<f64>,
+    gain_change: Vec<f64>,
+    /// The propagated values being summed (one per propagated signal).
+    sums: Vec<f64>,
+}
+
+impl SignalTable {
+    fn new(resolved: &[Resolved], loads: usize, step: f64) -> Self {
+        let mut t = Self {
+            micro: Vec::new(),
+            hermite: Vec::new(),
+            linear: Vec::new(),
+            propagated: Vec::new(),
+            loads,
+            step,
+            hermite_nodes: Vec::new(),
+            linear_nodes: Vec::new(),
+            free: Vec::new(),
+            free_change: Vec::new(),
+            gain: Vec::new(),
+            gain_change: Vec::new(),
+            sums: Vec::new(),
         };
+        for (at, r) in resolved.iter().enumerate() {
+            match *r {
+                Resolved::Micro(i) => t.micro.push((at, i)),
+                Resolved::Macro { value, derivative: Some(d) } => t.hermite.push((at, value, d)),
+                Resolved::Macro { value, derivative: None } => t.linear.push((at, value)),
+                Resolved::Propagated { free, gain } => t.propagated.push((at, free, gain)),
+            }
+        }
+        let p = t.propagated.len();
+        t.hermite_nodes = vec![[0.0; 4]; t.hermite.len()];
+        t.linear_nodes = vec![[0.0; 2]; t.linear.len()];
+        t.free = vec![0.0; p];
+        t.free_change = vec![0.0; p];
+        t.gain = vec![0.0; p * loads];
+        t.gain_change = vec![0.0; p * loads];
+        t.sums = vec![0.0; p];
+        t
+    }
+
+    /// Takes the node values of the macro step `w`.
+    fn prepare(&mut self, w: &Window<'_>) {
+        self.step = w.h;
+        for (n, &(_, value, d)) in self.hermite_nodes.iter_mut().zip(&self.hermite) {
+            *n = [w.a[value], w.a[d], w.b[value], w.b[d]];
+        }
+        for (n, &(_, value)) in self.linear_nodes.iter_mut().zip(&self.linear) {
+            *n = [w.a[value], w.b[value] - w.a[value]];
+        }
+        let count = self.propagated.len();
+        for (p, &(_, free, gain)) in self.propagated.iter().enumerate() {
+            self.free[p] = w.a[free];
+            self.free_change[p] = w.b[free] - w.a[free];
+            for c in 0..self.loads {
+                self.gain[c * count + p] = w.a[gain + c];
+                self.gain_change[c * count + p] = w.b[gain + c] - w.a[gain + c];
+            }
+        }
+    }
+
+    /// Every signal at fraction `s` of the prepared macro step, from the loads (contact forces,
+    /// then friction loads) and the micro outputs.
+    #[inline]
+    fn fill(&mut self, s: f64, loads: &[f64], micro: &[f64], out: &mut [f64]) {
+        for &(at, i) in &self.micro {
+            out[at] = micro[i];
+        }
+        for (&(at, _, _), n) in self.hermite.iter().zip(&self.hermite_nodes) {
+            out[at] = hermite(n[0], n[1], n[2], n[3], s, self.step).0;
+        }
+        for (&(at, _), n) in self.linear.iter().zip(&self.linear_nodes) {
+            out[at] = n[0] + n[1] * s;
+        }
+        let count = self.propagated.len();
+        if count == 0 {
+            return;
+        }
+        // Equal lengths, written out: the loops then compile to straight vector code.
+        let sums = &mut self.sums[..count];
+        let (free, free_change) = (&self.free[..count], &self.free_change[..count]);
+        for p in 0..count {
+            sums[p] = free[p] + free_change[p] * s;
+        }
+        // Loads that do not act (a joint in free flight) add nothing and are skipped.
+        for (c, &load) in loads[..self.loads].iter().enumerate() {
+            if load == 0.0 {
+                continue;
+            }
+            let (a, d) = (&self.gain[c * count..(c + 1) * count], &self.gain_change[c * count..(c + 1) * count]);
+            for p in 0..count {
+                sums[p] += (a[p] + d[p] * s) * load;
+            }
+        }
+        for (&(at, _, _), v) in self.propagated.iter().zip(&self.sums) {
+            out[at] = *v;
+        }
     }
 }

@@ -30,7 +30,7 @@ pub(crate) struct Recorder<'a> {
     sensor_values: Vec<[f64; 6]>,
     values: Vec<f64>,
     row: Vec<f64>,
-    stats: Vec<(f64, f64, f64, f64)>,
+    stats: RunningStats,
     pub samples: u64,
     pub max_constraint_error: f64,
     max_eccentricity: Vec<f64>,
@@ -52,7 +52,7 @@ impl<'a> Recorder<'a> {
             sensors,
             values: vec![0.0; sources.len()],
             row: vec![0.0; selected.len() + 1],
-            stats: vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); sources.len()],
+            stats: RunningStats::new(sources.len()),
             samples: 0,
             max_constraint_error: 0.0,
             max_eccentricity: vec![0.0; clearances],
@@ -123,12 +123,7 @@ impl<'a> Recorder<'a> {
             self.sum_force[k] += c.force_on_journal.norm();
         }
         self.max_constraint_error = self.max_constraint_error.max(solver.constraint_error());
-        for (s, &v) in self.stats.iter_mut().zip(self.values.iter()) {
-            s.0 = s.0.min(v);
-            s.1 = s.1.max(v);
-            s.2 += v;
-            s.3 += v * v;
-        }
+        self.stats.add(&self.values);
         self.samples += 1;
         self.row[0] = t;
         for (r, &k) in self.row[1..].iter_mut().zip(self.selected) {
@@ -144,7 +139,7 @@ impl<'a> Recorder<'a> {
 
     /// Per-channel statistics.
     pub fn channel_stats(&self) -> BTreeMap<String, ChannelStats> {
-        channel_stats(self.sources.iter().map(|(c, _)| c), &self.stats, self.samples)
+        self.stats.channel_stats(self.sources.iter().map(|(c, _)| c))
     }
 
     /// Summary of clearance joint `k` from its impacts (open ones included).
@@ -169,29 +164,72 @@ impl<'a> Recorder<'a> {
     }
 }
 
-/// Channel statistics from running sums (min, max, Σv, Σv²) over `samples` samples, one per
-/// channel (the planar and spatial runners, full and reduced).
-pub(crate) fn channel_stats<'a>(
-    channels: impl IntoIterator<Item = &'a Channel>,
-    sums: &[(f64, f64, f64, f64)],
+/// Running statistics of every channel (min, max, Σv, Σv², sample count): the planar and spatial
+/// runners' one accumulator, full and reduced. Kept as one array per statistic, so that adding a
+/// sample is four passes the compiler vectorises (52 channels at every micro step of the spatial
+/// reduced model: a tuple per channel cost ~22 instructions per channel and sample).
+#[derive(Debug, Clone)]
+pub(crate) struct RunningStats {
+    min: Vec<f64>,
+    max: Vec<f64>,
+    sum: Vec<f64>,
+    squares: Vec<f64>,
     samples: u64,
-) -> BTreeMap<String, ChannelStats> {
-    let m = samples.max(1) as f64;
-    channels
-        .into_iter()
-        .zip(sums)
-        .map(|(c, s)| {
-            (
-                c.name.clone(),
-                ChannelStats {
-                    unit: c.unit,
-                    min: s.0,
-                    max: s.1,
-                    max_abs: s.0.abs().max(s.1.abs()),
-                    mean: s.2 / m,
-                    rms: (s.3 / m).sqrt(),
-                },
-            )
-        })
-        .collect()
+}
+
+impl RunningStats {
+    /// No sample yet, `channels` channels.
+    pub(crate) fn new(channels: usize) -> Self {
+        Self {
+            min: vec![f64::INFINITY; channels],
+            max: vec![f64::NEG_INFINITY; channels],
+            sum: vec![0.0; channels],
+            squares: vec![0.0; channels],
+            samples: 0,
+        }
+    }
+
+    /// Adds one sample (one value per channel).
+    #[inline]
+    pub(crate) fn add(&mut self, values: &[f64]) {
+        let n = self.min.len();
+        let values = &values[..n];
+        let (min, max) = (&mut self.min[..n], &mut self.max[..n]);
+        for i in 0..n {
+            min[i] = min[i].min(values[i]);
+            max[i] = max[i].max(values[i]);
+        }
+        let (sum, squares) = (&mut self.sum[..n], &mut self.squares[..n]);
+        for i in 0..n {
+            sum[i] += values[i];
+            squares[i] += values[i] * values[i];
+        }
+        self.samples += 1;
+    }
+
+    /// The statistics, by channel name.
+    pub(crate) fn channel_stats<'a>(
+        &self,
+        channels: impl IntoIterator<Item = &'a Channel>,
+    ) -> BTreeMap<String, ChannelStats> {
+        let m = self.samples.max(1) as f64;
+        channels
+            .into_iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let (min, max) = (self.min[i], self.max[i]);
+                (
+                    c.name.clone(),
+                    ChannelStats {
+                        unit: c.unit,
+                        min,
+                        max,
+                        max_abs: min.abs().max(max.abs()),
+                        mean: self.sum[i] / m,
+                        rms: (self.squares[i] / m).sqrt(),
+                    },
+                )
+            })
+            .collect()
+    }
 }

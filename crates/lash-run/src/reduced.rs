@@ -404,7 +404,7 @@ pub(crate) fn run_reduced(
         .setup(start, Some(o.stop))
         .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
     let n_sel = c.recording.written;
-    let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0); c.signals.len()];
+    let mut stats = crate::record::RunningStats::new(c.signals.len());
     let mut row = vec![0.0; n_sel + 1];
     let mut samples = 0u64;
     let summary_of = &c.recording.summary;
@@ -428,12 +428,7 @@ pub(crate) fn run_reduced(
             &mapped[..]
         };
         measurements.record(values);
-        for (s, &v) in stats.iter_mut().zip(values) {
-            s.0 = s.0.min(v);
-            s.1 = s.1.max(v);
-            s.2 += v;
-            s.3 += v * v;
-        }
+        stats.add(values);
         for (j, &(ecc, force)) in summary_of.iter().enumerate() {
             max_ecc[j] = max_ecc[j].max(values[ecc]);
             sum_force[j] += values[force];
@@ -493,7 +488,7 @@ pub(crate) fn run_reduced(
             sum_force[j] / m,
         ));
     }
-    let channels = crate::record::channel_stats(&c.recording.channels, &stats, samples);
+    let channels = stats.channel_stats(&c.recording.channels);
     let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
     let integrator = match micro.integrator() {
         MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },

@@ -283,7 +283,7 @@ impl SpatialRun {
         let (sources, selected) = (&self.sources, &self.selected);
         let mut values = vec![0.0; sources.len()];
         let mut row = vec![0.0; selected.len() + 1];
-        let mut stats = vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64); sources.len()];
+        let mut stats = crate::record::RunningStats::new(sources.len());
         let (mut samples, mut max_constraint_error) = (0u64, 0.0f64);
         let (mut max_eccentricity, mut sum_force) = (vec![0.0f64; nc], vec![0.0f64; nc]);
         let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
@@ -298,12 +298,7 @@ impl SpatialRun {
                 sum_force[k] += c.force_on_journal.norm();
             }
             max_constraint_error = max_constraint_error.max(solver.constraint_error());
-            for (s, &v) in stats.iter_mut().zip(values.iter()) {
-                s.0 = s.0.min(v);
-                s.1 = s.1.max(v);
-                s.2 += v;
-                s.3 += v * v;
-            }
+            stats.add(&values);
             measurements.record(&values);
             samples += 1;
             row[0] = t;
@@ -361,7 +356,7 @@ impl SpatialRun {
                 )
             })
             .collect();
-        let channels = crate::record::channel_stats(sources.iter().map(|(c, _)| c), &stats, samples);
+        let channels = stats.channel_stats(sources.iter().map(|(c, _)| c));
         Ok(Summary {
             scenario: self.scenario.name.clone(),
             model: if self.ideal { "ideal" } else { "full" },

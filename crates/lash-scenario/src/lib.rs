@@ -19,7 +19,10 @@ pub mod schema;
 pub mod spatial;
 
 pub use channels::{Channel, channel_names, channels};
-pub use load::{AnyScenario, any_by_name_or_file, by_name_or_file, parse, parse_any, read_any, read_file, validate};
+pub use load::{
+    AnyScenario, any_by_name_or_file, by_name_or_file, parse, parse_any, parse_any_table, parse_table, read_any,
+    read_file, validate,
+};
 pub use parameters::WithParameters;
 pub use schema::Scenario;
-pub use spatial::{SpatialScenario, parse_spatial, validate_spatial};
+pub use spatial::{SpatialScenario, parse_spatial, parse_spatial_table, validate_spatial};

@@ -146,10 +146,16 @@ impl AnyScenario {
 
 /// Parses a planar or spatial scenario (by its `space` key) from TOML text.
 pub fn parse_any(text: &str) -> Result<AnyScenario, Problems> {
-    let space = toml::from_str::<toml::Table>(text).ok().and_then(|t| t.get("space").cloned());
-    match space {
-        None => parse(text).map(AnyScenario::Planar),
-        Some(toml::Value::String(s)) if s == "spatial" => crate::spatial::parse_spatial(text).map(AnyScenario::Spatial),
+    parse_any_table(toml_table(text)?)
+}
+
+/// [`parse_any`] of a parsed TOML table (a sweep's edited base: no round trip through text).
+pub fn parse_any_table(table: toml::Table) -> Result<AnyScenario, Problems> {
+    match table.get("space").cloned() {
+        None => parse_table(table).map(AnyScenario::Planar),
+        Some(toml::Value::String(s)) if s == "spatial" => {
+            crate::spatial::parse_spatial_table(table).map(AnyScenario::Spatial)
+        }
         Some(other) => {
             let mut p = Problems::new();
             p.push("space", format!("must be \"spatial\" (or left out for a planar mechanism), got {other}"));
@@ -185,11 +191,20 @@ pub fn any_by_name_or_file(arg: &str) -> Result<AnyScenario, String> {
 
 /// Parses and validates a scenario from TOML text. On failure, returns every problem found.
 pub fn parse(text: &str) -> Result<Scenario, Problems> {
-    let table: toml::Table = toml::from_str(text).map_err(|e| {
+    parse_table(toml_table(text)?)
+}
+
+/// The TOML table of a scenario text, or the syntax error as the file's problem.
+pub(crate) fn toml_table(text: &str) -> Result<toml::Table, Problems> {
+    toml::from_str(text).map_err(|e| {
         let mut p = Problems::new();
         p.push("(file)", format!("not valid TOML: {}", e.to_string().trim_end()));
         p
-    })?;
+    })
+}
+
+/// [`parse`] of a parsed TOML table.
+pub fn parse_table(table: toml::Table) -> Result<Scenario, Problems> {
     let mut problems = Problems::new();
     for key in table.keys() {
         if !TOP_KEYS.contains(&key.as_str()) {

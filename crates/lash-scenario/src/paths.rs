@@ -21,8 +21,7 @@ pub fn edited<'a>(
     for (path, value) in edits {
         set_path(&mut table, path, value).map_err(EditError::Path)?;
     }
-    let text = toml::to_string(&table).map_err(|e| EditError::Path(e.to_string()))?;
-    crate::parse(&text).map_err(EditError::Invalid)
+    crate::load::parse_table(table).map_err(EditError::Invalid)
 }
 
 /// [`edited`] for a planar or spatial base (its `space` key decides).
@@ -34,8 +33,7 @@ pub fn edited_any<'a>(
     for (path, value) in edits {
         set_path(&mut table, path, value).map_err(EditError::Path)?;
     }
-    let text = toml::to_string(&table).map_err(|e| EditError::Path(e.to_string()))?;
-    crate::parse_any(&text).map_err(EditError::Invalid)
+    crate::load::parse_any_table(table).map_err(EditError::Invalid)
 }
 
 /// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
@@ -112,4 +110,53 @@ fn walk<'t>(table: &'t mut toml::Table, path: &str) -> Result<&'t mut toml::Valu
 enum Segment {
     Key(String),
     Index(usize),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table_of(name: &str) -> toml::Table {
+        let text = match crate::any_by_name_or_file(name).expect("built-in") {
+            crate::AnyScenario::Planar(s) => toml::to_string(&s).expect("serialises"),
+            crate::AnyScenario::Spatial(s) => toml::to_string(&s).expect("serialises"),
+        };
+        toml::from_str(&text).expect("parses")
+    }
+
+    /// An edited table is read as the table itself (no text in between): the same scenario as
+    /// writing the edited table out and parsing the text, for a planar and a spatial base.
+    #[test]
+    fn an_edited_scenario_equals_the_parse_of_its_text() {
+        for (name, path) in [("A", "clearances[0].bearing_radius"), ("E-0.5mm-250rpm", "clearances[1].bearing_radius")]
+        {
+            let base = table_of(name);
+            let value = get_path(&base, path).expect("path exists") + 1.25e-5;
+            let edited = edited_any(&base, [(path, value)]).expect("valid edit");
+            let mut table = base.clone();
+            set_path(&mut table, path, value).expect("path exists");
+            let text = toml::to_string(&table).expect("serialises");
+            let parsed = crate::parse_any(&text).expect("valid");
+            let json = |s: &crate::AnyScenario| match s {
+                crate::AnyScenario::Planar(s) => serde_json::to_string(s).expect("json"),
+                crate::AnyScenario::Spatial(s) => serde_json::to_string(s).expect("json"),
+            };
+            assert_eq!(json(&edited), json(&parsed), "{name}");
+            assert_ne!(json(&edited), json(&crate::parse_any(&toml::to_string(&base).expect("text")).expect("valid")));
+        }
+    }
+
+    /// A path that names nothing, and an edit that makes the scenario invalid, say so.
+    #[test]
+    fn bad_edits_name_the_path_or_the_problem() {
+        let base = table_of("A");
+        match edited_any(&base, [("clearances[0].no_such_field", 1.0)]) {
+            Err(EditError::Path(m)) => assert!(m.contains("no_such_field"), "{m}"),
+            other => panic!("expected a path error, got {:?}", other.map(|_| ())),
+        }
+        match edited_any(&base, [("clearances[0].bearing_radius", -1.0)]) {
+            Err(EditError::Invalid(p)) => assert!(p.to_string().contains("bearing_radius"), "{p}"),
+            other => panic!("expected an invalid scenario, got {:?}", other.map(|_| ())),
+        }
+    }
 }

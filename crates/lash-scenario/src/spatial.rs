@@ -338,11 +338,11 @@ pub fn inertia_tensor(b: &SpatialBodySpec) -> lash_spatial::Mat3 {
 
 /// Parses and validates a spatial scenario from TOML text; on failure, every problem found.
 pub fn parse_spatial(text: &str) -> Result<SpatialScenario, Problems> {
-    let table: toml::Table = toml::from_str(text).map_err(|e| {
-        let mut p = Problems::new();
-        p.push("(file)", format!("not valid TOML: {}", e.to_string().trim_end()));
-        p
-    })?;
+    parse_spatial_table(crate::load::toml_table(text)?)
+}
+
+/// [`parse_spatial`] of a parsed TOML table.
+pub fn parse_spatial_table(table: toml::Table) -> Result<SpatialScenario, Problems> {
     let mut problems = Problems::new();
     for key in table.keys() {
         if !TOP_KEYS.contains(&key.as_str()) {

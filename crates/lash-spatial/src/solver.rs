@@ -99,6 +99,13 @@ impl SpatialSolver {
                 }
             }
         }
+        // The profile of S: row a's first structural non-zero (S is zero where no body is shared).
+        let mut first: Vec<usize> = (0..m).collect();
+        for &(a, _, b, _) in &pairs {
+            first[a] = first[a].min(b);
+        }
+        let mut schur = SmallCholesky::new(m);
+        schur.set_profile(&first);
         let rows = row_bodies.iter().map(|&bodies| Row { bodies, ..Row::default() }).collect();
         Self {
             frames: vec![BodyFrame::ground(); mech.bodies.len()],
@@ -118,7 +125,7 @@ impl SpatialSolver {
             weighted: vec![[[0.0; 6]; 2]; m],
             free_acceleration: vec![0.0; n],
             velocities: vec![0.0; n],
-            schur: SmallCholesky::new(m),
+            schur,
             time: 0.0,
         }
     }
@@ -209,8 +216,12 @@ impl SpatialSolver {
             }
         }
         let m = self.rows.len();
+        // Only the profile is read when the factor uses one (left of it S is zero and stays so).
+        for a in 0..m {
+            let f = self.schur.first_column(a);
+            self.schur.matrix_mut()[a * m + f..=a * m + a].fill(0.0);
+        }
         let s = self.schur.matrix_mut();
-        s.fill(0.0);
         for &(a, ba, b, bb) in &self.pairs {
             s[a * m + b] += dot6(&self.rows[a].blocks[ba], &self.weighted[b][bb]);
         }
