@@ -412,7 +412,7 @@ impl SpatialReducedRun {
     /// Prepares a run; refuses what the spatial reduced model does not cover (two-way coupling,
     /// the threaded pipeline, more than four joints).
     pub fn new(scenario: &SpatialScenario, options: crate::ReducedOptions) -> Result<Self, RunError> {
-        use lash_orchestrate::{Execution, Signal};
+        use lash_orchestrate::Signal;
         let unsupported = |m: &str| Err(RunError::Unsupported(m.to_string()));
         let max_joints = lash_contact::micro::MAX_COORDINATES / 3;
         if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
@@ -423,9 +423,6 @@ impl SpatialReducedRun {
         }
         if options.coupling == lash_core::Coupling::TwoWay {
             return unsupported("two-way coupling of spherical clearance joints is not there yet (use one-way)");
-        }
-        if options.execution == Execution::Threaded {
-            return unsupported("the spatial reduced model runs sequentially");
         }
         let master_options = crate::reduced::master_options(&scenario.simulation, options)?;
         let full = build_spatial(scenario, false);
