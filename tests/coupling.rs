@@ -10,6 +10,16 @@ use lash_orchestrate::{Execution, Interpolation};
 use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun};
 use lash_scenario::builtin;
 
+/// The same header and the same rows, bit for bit.
+fn assert_same_rows(a: (&[String], &[Vec<f64>]), b: (&[String], &[Vec<f64>]), label: &str) {
+    assert_eq!(a.0, b.0, "{label}: headers");
+    assert_eq!(a.1.len(), b.1.len(), "{label}: row counts");
+    for (x, y) in a.1.iter().zip(b.1) {
+        let same = x.iter().zip(y).all(|(u, v)| u.to_bits() == v.to_bits());
+        assert!(same, "{label}: rows differ at t = {}", x[0]);
+    }
+}
+
 #[test]
 fn threaded_pipeline_is_bit_identical_to_sequential() {
     let s = builtin::by_name("A").unwrap();
@@ -20,12 +30,7 @@ fn threaded_pipeline_is_bit_identical_to_sequential() {
         };
         let (ss, hs, seq) = run(Execution::Sequential);
         let (st, ht, thr) = run(Execution::Threaded);
-        assert_eq!(hs, ht);
-        assert_eq!(seq.len(), thr.len());
-        for (a, b) in seq.iter().zip(&thr) {
-            let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-            assert!(same, "{interpolation:?}: rows differ at t = {}", a[0]);
-        }
+        assert_same_rows((&hs, &seq), (&ht, &thr), &format!("{interpolation:?}"));
         assert_eq!(ss.clearances[0].impacts, st.clearances[0].impacts);
         assert!(ss.clearances[0].impacts > 0, "the comparison must cover impacts");
     }
@@ -43,12 +48,7 @@ fn the_spatial_threaded_pipeline_is_bit_identical_to_sequential() {
     };
     let (ss, hs, seq) = run(Execution::Sequential);
     let (st, ht, thr) = run(Execution::Threaded);
-    assert_eq!(hs, ht);
-    assert_eq!(seq.len(), thr.len());
-    for (a, b) in seq.iter().zip(&thr) {
-        let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-        assert!(same, "rows differ at t = {}", a[0]);
-    }
+    assert_same_rows((&hs, &seq), (&ht, &thr), "E");
     let impacts = |s: &lash_run::Summary| s.clearances.iter().map(|c| c.impacts).collect::<Vec<_>>();
     assert_eq!(impacts(&ss), impacts(&st));
     assert!(

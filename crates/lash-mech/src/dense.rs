@@ -119,65 +119,56 @@ fn solve_n<const N: usize>(a: &[f64], inv: &[f64], b: &mut [f64]) {
     solve_dyn(N, a, inv, b)
 }
 
+/// Where each row's structural non-zeros start: nowhere but column 0 for a dense matrix (known at
+/// compile time, so the dense kernels carry no profile look-ups), or a profile per row.
+trait Profile: Copy {
+    /// First column of row `i` that can be non-zero.
+    fn first(self, i: usize) -> usize;
+}
+
+#[derive(Clone, Copy)]
+struct Dense;
+
+impl Profile for Dense {
+    #[inline(always)]
+    fn first(self, _: usize) -> usize {
+        0
+    }
+}
+
+impl Profile for &[usize] {
+    #[inline(always)]
+    fn first(self, i: usize) -> usize {
+        self[i]
+    }
+}
+
 #[inline(always)]
 fn factor_dyn(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
-    let a = &mut a[..n * n];
-    let inv = &mut inv[..n];
-    let mut scale = 0.0f64;
-    for i in 0..n {
-        scale = scale.max(a[i * n + i].abs());
-    }
-    let tiny = 1e-14 * scale;
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if !(d > tiny) {
-            return false;
-        }
-        let d = d.sqrt();
-        let r = 1.0 / d;
-        a[j * n + j] = d;
-        inv[j] = r;
-        for i in (j + 1)..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s * r;
-        }
-    }
-    true
+    factor_with(n, a, inv, Dense)
 }
 
 #[inline(always)]
 fn solve_dyn(n: usize, a: &[f64], inv: &[f64], b: &mut [f64]) {
-    let a = &a[..n * n];
-    let inv = &inv[..n];
-    let b = &mut b[..n];
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= a[i * n + k] * b[k];
-        }
-        b[i] = s * inv[i];
-    }
-    for i in (0..n).rev() {
-        let xi = b[i] * inv[i];
-        b[i] = xi;
-        for k in 0..i {
-            b[k] -= a[i * n + k] * xi;
-        }
-    }
+    solve_with(n, a, inv, Dense, b)
 }
 
 /// [`factor_dyn`] skipping the zeros left of each row's profile `first` (L(i, k) = 0 for
 /// k < first[i]): a product with such a k is exactly zero, so nothing else changes.
 fn factor_profile(n: usize, a: &mut [f64], inv: &mut [f64], first: &[usize]) -> bool {
+    factor_with(n, a, inv, &first[..n])
+}
+
+/// [`solve_dyn`] over the profile.
+fn solve_profile(n: usize, a: &[f64], inv: &[f64], first: &[usize], b: &mut [f64]) {
+    solve_with(n, a, inv, &first[..n], b)
+}
+
+/// L Lᵀ = A in place (lower triangle, row-major), over the profile `p`.
+#[inline(always)]
+fn factor_with<P: Profile>(n: usize, a: &mut [f64], inv: &mut [f64], p: P) -> bool {
     let a = &mut a[..n * n];
     let inv = &mut inv[..n];
-    let first = &first[..n];
     let mut scale = 0.0f64;
     for i in 0..n {
         scale = scale.max(a[i * n + i].abs());
@@ -185,7 +176,7 @@ fn factor_profile(n: usize, a: &mut [f64], inv: &mut [f64], first: &[usize]) -> 
     let tiny = 1e-14 * scale;
     for j in 0..n {
         let mut d = a[j * n + j];
-        for k in first[j]..j {
+        for k in p.first(j)..j {
             d -= a[j * n + k] * a[j * n + k];
         }
         if !(d > tiny) {
@@ -196,11 +187,11 @@ fn factor_profile(n: usize, a: &mut [f64], inv: &mut [f64], first: &[usize]) -> 
         a[j * n + j] = d;
         inv[j] = r;
         for i in (j + 1)..n {
-            if first[i] > j {
+            if p.first(i) > j {
                 continue;
             }
             let mut s = a[i * n + j];
-            for k in first[i].max(first[j])..j {
+            for k in p.first(i).max(p.first(j))..j {
                 s -= a[i * n + k] * a[j * n + k];
             }
             a[i * n + j] = s * r;
@@ -209,14 +200,15 @@ fn factor_profile(n: usize, a: &mut [f64], inv: &mut [f64], first: &[usize]) -> 
     true
 }
 
-/// [`solve_dyn`] over the profile.
-fn solve_profile(n: usize, a: &[f64], inv: &[f64], first: &[usize], b: &mut [f64]) {
+/// (L Lᵀ) x = b in place, over the profile `p`.
+#[inline(always)]
+fn solve_with<P: Profile>(n: usize, a: &[f64], inv: &[f64], p: P, b: &mut [f64]) {
     let a = &a[..n * n];
     let inv = &inv[..n];
     let b = &mut b[..n];
     for i in 0..n {
         let mut s = b[i];
-        for k in first[i]..i {
+        for k in p.first(i)..i {
             s -= a[i * n + k] * b[k];
         }
         b[i] = s * inv[i];
@@ -224,7 +216,7 @@ fn solve_profile(n: usize, a: &[f64], inv: &[f64], first: &[usize], b: &mut [f64
     for i in (0..n).rev() {
         let xi = b[i] * inv[i];
         b[i] = xi;
-        for k in first[i]..i {
+        for k in p.first(i)..i {
             b[k] -= a[i * n + k] * xi;
         }
     }
