@@ -243,7 +243,13 @@ impl SpatialMechanismSubsystem {
             values: vec![0.0; at],
             cut_solver: SpatialSolver::new(&cut),
             cut,
-            ideal: SpatialSystem::new(ideal),
+            ideal: {
+                // Each communication step's integration starts where the last one stopped: its
+                // first right-hand side is the last one's final stage.
+                let mut system = SpatialSystem::new(ideal);
+                system.remember_last_evaluation();
+                system
+            },
             joints,
             probes,
             // DOPRI5 at 1e-7: for E 1.4 steps and 9.6 right-hand sides per 1 ms communication

@@ -247,3 +247,44 @@ fn a_bad_mechanism_is_reported_field_by_field() {
         assert!(fields.iter().any(|x| x == f), "{f} missing from {fields:?}");
     }
 }
+
+/// Integrated one communication step after the other (as the reduced model's macro side does),
+/// a system that remembers its last evaluation gives the same states bit for bit with one solve
+/// fewer per restart (the restart's first stage is the last step's final one).
+#[test]
+fn remembering_the_last_evaluation_changes_nothing_but_the_solves() {
+    let omega = 250.0 * std::f64::consts::PI / 30.0;
+    let method =
+        Method::Dopri5(AdaptiveOptions { rtol: 1e-7, atol: 1e-9, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 });
+    let steps = 50;
+    let pieces = |remember: bool| {
+        let (mech, mut y) = slider_crank(omega);
+        let mut system = SpatialSystem::new(mech);
+        if remember {
+            system.remember_last_evaluation();
+        }
+        let mut states = Vec::new();
+        for k in 0..steps {
+            let (t0, t1) = (k as f64 * 1e-3, (k + 1) as f64 * 1e-3);
+            lash_ode::integrate_from(
+                &method,
+                &mut system,
+                t0,
+                &mut y,
+                t1,
+                t1 - t0,
+                &mut |_: &mut SpatialSystem, _: f64, _: &[f64]| Ok(()),
+                None,
+            )
+            .expect("integration");
+            states.push(y.clone());
+        }
+        (states, system.evaluations)
+    };
+    let ((plain, solves), (kept, fewer)) = (pieces(false), pieces(true));
+    for (a, b) in plain.iter().zip(&kept) {
+        assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "states differ");
+    }
+    eprintln!("{solves} solves without, {fewer} with the last evaluation kept");
+    assert!(solves - fewer >= steps as u64 - 1, "{solves} vs {fewer}: a restart should reuse the final stage");
+}
