@@ -81,7 +81,7 @@ impl SmallCholesky {
             10 => factor_n::<10>(a, inv),
             11 => factor_n::<11>(a, inv),
             12 => factor_n::<12>(a, inv),
-            _ if self.profiled => factor_profile(n, a, inv, &self.first),
+            _ if self.profiled => factor_with(n, a, inv, &self.first[..n]),
             _ => factor_dyn(n, a, inv),
         }
     }
@@ -103,7 +103,7 @@ impl SmallCholesky {
             10 => solve_n::<10>(a, inv, b),
             11 => solve_n::<11>(a, inv, b),
             12 => solve_n::<12>(a, inv, b),
-            n if self.profiled => solve_profile(n, a, inv, &self.first, b),
+            n if self.profiled => solve_with(n, a, inv, &self.first[..n], b),
             n => solve_dyn(n, a, inv, b),
         }
     }
@@ -153,18 +153,8 @@ fn solve_dyn(n: usize, a: &[f64], inv: &[f64], b: &mut [f64]) {
     solve_with(n, a, inv, Dense, b)
 }
 
-/// [`factor_dyn`] skipping the zeros left of each row's profile `first` (L(i, k) = 0 for
-/// k < first[i]): a product with such a k is exactly zero, so nothing else changes.
-fn factor_profile(n: usize, a: &mut [f64], inv: &mut [f64], first: &[usize]) -> bool {
-    factor_with(n, a, inv, &first[..n])
-}
-
-/// [`solve_dyn`] over the profile.
-fn solve_profile(n: usize, a: &[f64], inv: &[f64], first: &[usize], b: &mut [f64]) {
-    solve_with(n, a, inv, &first[..n], b)
-}
-
-/// L Lᵀ = A in place (lower triangle, row-major), over the profile `p`.
+/// L Lᵀ = A in place (lower triangle, row-major), over the profile `p`: a product with a k left
+/// of a row's profile is exactly zero, so skipping it changes nothing else.
 #[inline(always)]
 fn factor_with<P: Profile>(n: usize, a: &mut [f64], inv: &mut [f64], p: P) -> bool {
     let a = &mut a[..n * n];

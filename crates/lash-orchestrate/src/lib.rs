@@ -968,43 +968,35 @@ struct SignalTable {
 
 impl SignalTable {
     fn new(resolved: &[Resolved], loads: usize, step: f64) -> Self {
-        let mut t = Self {
-            micro: Vec::new(),
-            hermite: Vec::new(),
-            linear: Vec::new(),
-            propagated: Vec::new(),
-            loads,
-            step,
-            hermite_nodes: Vec::new(),
-            linear_nodes: Vec::new(),
-            free: Vec::new(),
-            free_change: Vec::new(),
-            gain: Vec::new(),
-            gain_change: Vec::new(),
-            sums: Vec::new(),
-        };
+        let (mut micro, mut hermite, mut linear, mut propagated) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (at, r) in resolved.iter().enumerate() {
             match *r {
-                Resolved::Micro(i) => t.micro.push((at, i)),
-                Resolved::Macro { value, derivative: Some(d) } => t.hermite.push((at, value, d)),
-                Resolved::Macro { value, derivative: None } => t.linear.push((at, value)),
-                Resolved::Propagated { free, gain } => t.propagated.push((at, free, gain)),
+                Resolved::Micro(i) => micro.push((at, i)),
+                Resolved::Macro { value, derivative: Some(d) } => hermite.push((at, value, d)),
+                Resolved::Macro { value, derivative: None } => linear.push((at, value)),
+                Resolved::Propagated { free, gain } => propagated.push((at, free, gain)),
             }
         }
-        let p = t.propagated.len();
-        t.hermite_nodes = vec![[0.0; 4]; t.hermite.len()];
-        t.linear_nodes = vec![[0.0; 2]; t.linear.len()];
-        t.free = vec![0.0; p];
-        t.free_change = vec![0.0; p];
-        t.gain = vec![0.0; p * loads];
-        t.gain_change = vec![0.0; p * loads];
-        t.sums = vec![0.0; p];
-        t
+        let p = propagated.len();
+        Self {
+            hermite_nodes: vec![[0.0; 4]; hermite.len()],
+            linear_nodes: vec![[0.0; 2]; linear.len()],
+            free: vec![0.0; p],
+            free_change: vec![0.0; p],
+            gain: vec![0.0; p * loads],
+            gain_change: vec![0.0; p * loads],
+            sums: vec![0.0; p],
+            micro,
+            hermite,
+            linear,
+            propagated,
+            loads,
+            step,
+        }
     }
 
     /// Takes the node values of the macro step `w`.
     fn prepare(&mut self, w: &Window<'_>) {
-        self.step = w.h;
         for (n, &(_, value, d)) in self.hermite_nodes.iter_mut().zip(&self.hermite) {
             *n = [w.a[value], w.a[d], w.b[value], w.b[d]];
         }

@@ -139,7 +139,7 @@ impl<'a> Recorder<'a> {
 
     /// Per-channel statistics.
     pub fn channel_stats(&self) -> BTreeMap<String, ChannelStats> {
-        self.stats.channel_stats(self.sources.iter().map(|(c, _)| c))
+        self.stats.channel_stats(self.sources.iter().map(|(c, _)| c), self.samples)
     }
 
     /// Summary of clearance joint `k` from its impacts (open ones included).
@@ -164,7 +164,7 @@ impl<'a> Recorder<'a> {
     }
 }
 
-/// Running statistics of every channel (min, max, Σv, Σv², sample count): the planar and spatial
+/// Running statistics of every channel (min, max, Σv, Σv²): the planar and spatial
 /// runners' one accumulator, full and reduced. Kept as one array per statistic, so that adding a
 /// sample is four passes the compiler vectorises (52 channels at every micro step of the spatial
 /// reduced model: a tuple per channel cost ~22 instructions per channel and sample).
@@ -174,7 +174,6 @@ pub(crate) struct RunningStats {
     max: Vec<f64>,
     sum: Vec<f64>,
     squares: Vec<f64>,
-    samples: u64,
 }
 
 impl RunningStats {
@@ -185,7 +184,6 @@ impl RunningStats {
             max: vec![f64::NEG_INFINITY; channels],
             sum: vec![0.0; channels],
             squares: vec![0.0; channels],
-            samples: 0,
         }
     }
 
@@ -204,15 +202,15 @@ impl RunningStats {
             sum[i] += values[i];
             squares[i] += values[i] * values[i];
         }
-        self.samples += 1;
     }
 
-    /// The statistics, by channel name.
+    /// The statistics over `samples` added samples, by channel name.
     pub(crate) fn channel_stats<'a>(
         &self,
         channels: impl IntoIterator<Item = &'a Channel>,
+        samples: u64,
     ) -> BTreeMap<String, ChannelStats> {
-        let m = self.samples.max(1) as f64;
+        let m = samples.max(1) as f64;
         channels
             .into_iter()
             .enumerate()

@@ -488,7 +488,7 @@ pub(crate) fn run_reduced(
             sum_force[j] / m,
         ));
     }
-    let channels = stats.channel_stats(&c.recording.channels);
+    let channels = stats.channel_stats(&c.recording.channels, samples);
     let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
     let integrator = match micro.integrator() {
         MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },

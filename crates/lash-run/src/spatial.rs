@@ -356,7 +356,7 @@ impl SpatialRun {
                 )
             })
             .collect();
-        let channels = stats.channel_stats(sources.iter().map(|(c, _)| c));
+        let channels = stats.channel_stats(sources.iter().map(|(c, _)| c), samples);
         Ok(Summary {
             scenario: self.scenario.name.clone(),
             model: if self.ideal { "ideal" } else { "full" },
