@@ -61,7 +61,7 @@ pub fn run_estimate(
 /// `lash sweep`: `runs` runs whose dataset rows come every `1/sample_rate` over `horizon`, each
 /// run's rows held until its part is written (`threads` runs at once, `channels` values each,
 /// doubled with the clean copies; an anti-alias filter streams the simulation's samples, so only
-/// the logged rows are held); on disk the per-run parts and the assembled data.parquet (8 bytes a
+/// the logged rows are held); on disk the parts and the assembled data.parquet (8 bytes a
 /// value, uncompressed: an upper bound), and the CSV copy if asked for.
 pub fn sweep_estimate(
     runs: u64,

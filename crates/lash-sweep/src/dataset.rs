@@ -5,9 +5,11 @@
 //!   channels with units, per-run status, error and timing;
 //! * `data.parquet` — one long table `run_id, t, <channels…>`, one row group per run, in run order;
 //! * `params.parquet` — `run_id, seed, status, <parameter paths…>`;
-//! * while a sweep runs: `parts/run-<id>.parquet` (one finished run each, written to a temporary
-//!   name and renamed) and `runs.jsonl` (one line per finished run, flushed): a killed sweep
-//!   resumes from these and loses only the runs in flight.
+//! * while a sweep runs: `parts/runs-<id>.parquet` (each worker's finished runs, one row group
+//!   each, in a file it closes — footer written, temporary name renamed — after 64 runs or about
+//!   a second of work, [`PartWriter`]) and `runs.jsonl` (one line per run in a closed part, or per
+//!   failed run, flushed): a killed sweep resumes from these and loses only the runs in flight and
+//!   those in the workers' open parts (at most about a second of each worker's work).
 
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray, UInt64Array};
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
@@ -15,6 +17,7 @@ use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::Compression;
 use parquet::file::properties::WriterProperties;
+use parquet::schema::types::ColumnPath;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::fs::File;
@@ -48,6 +51,12 @@ pub struct RunRecord {
     pub simulate_s: f64,
     /// Wall time of writing its part [s].
     pub write_s: f64,
+    /// Journal only: the part file (in `parts/`) that holds its rows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part: Option<String>,
+    /// Journal only: its row group in that part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row_group: Option<usize>,
 }
 
 /// The shard of a sweep an output folder holds.
@@ -135,9 +144,14 @@ pub fn data_schema(channels: &[ChannelInfo]) -> SchemaRef {
     Arc::new(Schema::new(fields))
 }
 
+/// The dataset's tables: Snappy, and a dictionary only for `run_id` (constant within a row
+/// group); measured doubles never repeat enough for one to pay, and encoding them through it cost
+/// more than the compression.
 fn properties() -> WriterProperties {
     WriterProperties::builder()
         .set_compression(Compression::SNAPPY)
+        .set_dictionary_enabled(false)
+        .set_column_dictionary_enabled(ColumnPath::from("run_id"), true)
         .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
         .build()
 }
@@ -165,14 +179,75 @@ impl RunData {
     }
 }
 
-/// Writes one run's part file (temporary name, then rename).
-pub fn write_part(path: &Path, batch: &RecordBatch) -> Result<(), String> {
-    let tmp = path.with_extension("tmp");
-    let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
-    let mut w = ArrowWriter::try_new(file, batch.schema(), Some(properties())).map_err(|e| e.to_string())?;
-    w.write(batch).map_err(|e| e.to_string())?;
-    w.close().map_err(|e| e.to_string())?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {}: {e}", tmp.display()))
+/// A part file being filled by one worker while a sweep runs: one row group per finished run,
+/// written under a temporary name and renamed into place by [`PartWriter::close`] (a Parquet
+/// file is readable only once its footer is written). One file per run cost more than writing
+/// its rows: creating, renaming and finally deleting a file per run was ~10 % of a sweep of short
+/// runs (docs/performance.md).
+pub struct PartWriter {
+    name: String,
+    dir: PathBuf,
+    writer: ArrowWriter<File>,
+    runs: Vec<RunRecord>,
+    opened: std::time::Instant,
+}
+
+impl PartWriter {
+    /// Starts `parts/runs-<first_run>.parquet` in `parts` (the first run's id makes the name: a
+    /// run is written once per execution, and one that a resumed sweep runs again was never
+    /// journaled, so no journaled run points to a file of that name).
+    pub fn create(parts: &Path, first_run: u64, schema: &SchemaRef) -> Result<Self, String> {
+        let name = format!("runs-{first_run:09}.parquet");
+        let tmp = parts.join(format!("{name}.tmp"));
+        let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+        // Temporary: no compression, no dictionary.
+        let properties = WriterProperties::builder()
+            .set_compression(Compression::UNCOMPRESSED)
+            .set_dictionary_enabled(false)
+            .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
+            .build();
+        let writer = ArrowWriter::try_new(file, schema.clone(), Some(properties)).map_err(|e| e.to_string())?;
+        Ok(Self { name, dir: parts.to_path_buf(), writer, runs: Vec::new(), opened: std::time::Instant::now() })
+    }
+
+    /// Appends one finished run as a row group; `record` will point to it.
+    /// Its `write_s` is the time this took.
+    pub fn append(&mut self, batch: &RecordBatch, record: RunRecord) -> Result<(), String> {
+        let started = std::time::Instant::now();
+        self.writer.write(batch).map_err(|e| format!("{}: {e}", self.name))?;
+        self.writer.flush().map_err(|e| format!("{}: {e}", self.name))?;
+        let (part, row_group) = (Some(self.name.clone()), Some(self.runs.len()));
+        self.runs.push(RunRecord { part, row_group, write_s: started.elapsed().as_secs_f64(), ..record });
+        Ok(())
+    }
+
+    /// Runs held.
+    pub fn len(&self) -> usize {
+        self.runs.len()
+    }
+
+    /// Whether it holds no run.
+    pub fn is_empty(&self) -> bool {
+        self.runs.is_empty()
+    }
+
+    /// Seconds since it was started.
+    pub fn age(&self) -> f64 {
+        self.opened.elapsed().as_secs_f64()
+    }
+
+    /// Writes the footer and renames the file into place; returns the records of its runs, to be
+    /// journaled (the last one's `write_s` counts the closing too).
+    pub fn close(mut self) -> Result<Vec<RunRecord>, String> {
+        let started = std::time::Instant::now();
+        self.writer.close().map_err(|e| format!("{}: {e}", self.name))?;
+        let (tmp, path) = (self.dir.join(format!("{}.tmp", self.name)), self.dir.join(&self.name));
+        std::fs::rename(&tmp, &path).map_err(|e| format!("cannot rename {}: {e}", tmp.display()))?;
+        if let Some(last) = self.runs.last_mut() {
+            last.write_s += started.elapsed().as_secs_f64();
+        }
+        Ok(self.runs)
+    }
 }
 
 /// One run's time series streamed into a Parquet file (`lash run --format parquet`): a column
@@ -695,5 +770,53 @@ mod tests {
             assert_eq!(back[1][i].to_bits(), rows[2 * i + 1].to_bits());
         }
         let _ = std::fs::remove_file(&path);
+    }
+
+    #[test]
+    fn a_part_holds_each_run_as_a_row_group_and_appears_only_when_closed() {
+        let dir = std::env::temp_dir().join(format!("lash-part-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let channels = vec![ChannelInfo { name: "slider.ax".into(), unit: "m/s^2".into() }];
+        let schema = data_schema(&channels);
+        let record = |id| RunRecord {
+            run_id: id,
+            seed: 0,
+            status: "ok".into(),
+            error: None,
+            rows: 0,
+            simulate_s: 0.0,
+            write_s: 0.0,
+            part: None,
+            row_group: None,
+        };
+        let batches: Vec<RecordBatch> = [(3u64, 5usize), (8, 1), (9, 7)]
+            .iter()
+            .map(|&(id, n)| {
+                let t: Vec<f64> = (0..n).map(|i| i as f64 * 1e-4).collect();
+                let x: Vec<f64> = (0..n).map(|i| (id as f64 + i as f64).sin() * 1e3).collect();
+                RunData { run_id: id, time: t, columns: vec![x] }.into_batch(&schema).unwrap()
+            })
+            .collect();
+        let mut part = PartWriter::create(&dir, 3, &schema).unwrap();
+        for b in &batches {
+            let id = b.column(0).as_any().downcast_ref::<UInt64Array>().unwrap().value(0);
+            part.append(b, record(id)).unwrap();
+        }
+        assert_eq!(part.len(), 3);
+        let path = dir.join("runs-000000003.parquet");
+        assert!(!path.exists(), "an open part must not look finished");
+        let records = part.close().unwrap();
+        assert!(path.exists());
+        for (g, (r, b)) in records.iter().zip(&batches).enumerate() {
+            assert_eq!((r.part.as_deref(), r.row_group), (Some("runs-000000003.parquet"), Some(g)));
+            let file = File::open(&path).unwrap();
+            let reader =
+                ParquetRecordBatchReaderBuilder::try_new(file).unwrap().with_row_groups(vec![g]).build().unwrap();
+            let back: Vec<RecordBatch> = reader.map(Result::unwrap).collect();
+            assert_eq!(back.len(), 1);
+            assert_eq!(&back[0], b, "row group {g}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -274,8 +274,42 @@ fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Run
     Ok((data, horizon))
 }
 
-fn part_path(out: &Path, id: u64) -> PathBuf {
-    out.join("parts").join(format!("run-{id:09}.parquet"))
+/// A worker's part is closed (and its runs journaled) once it holds this many runs…
+const PART_RUNS: usize = 64;
+/// …or once it is this old [s] (counting the run just finished as the time the next one will
+/// take): a kill loses at most about this much of each worker's work.
+const PART_SECONDS: f64 = 1.0;
+
+/// Where run `r`'s rows are kept while its sweep runs: its part and row group (a journal written
+/// by an earlier lash, without them: a file of its own).
+fn part_source(out: &Path, r: &RunRecord) -> RunSource {
+    match &r.part {
+        Some(name) => RunSource { file: out.join("parts").join(name), row_group: r.row_group },
+        None => RunSource { file: out.join("parts").join(format!("run-{:09}.parquet", r.run_id)), row_group: None },
+    }
+}
+
+/// State shared by the workers: the journal, the journaled runs, the simulated time.
+struct Shared {
+    journal: std::fs::File,
+    records: BTreeMap<u64, RunRecord>,
+    simulated_s: f64,
+}
+
+/// Appends the lines of `records` to the journal in one write, flushed, and keeps them.
+fn append_journal(shared: &Mutex<Shared>, records: Vec<RunRecord>) -> Result<(), String> {
+    let mut text = String::new();
+    for r in &records {
+        text.push_str(&serde_json::to_string(r).map_err(|e| e.to_string())?);
+        text.push('\n');
+    }
+    let mut s = shared.lock().expect("lock");
+    s.journal
+        .write_all(text.as_bytes())
+        .and_then(|()| s.journal.flush())
+        .map_err(|e| format!("cannot append to the run journal: {e}"))?;
+    s.records.extend(records.into_iter().map(|r| (r.run_id, r)));
+    Ok(())
 }
 
 /// Reads the journal of finished runs (a torn last line, from a kill, is ignored).
@@ -339,42 +373,46 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
 
     let shard_runs: Vec<&RunSpec> = plan.runs.iter().filter(|r| options.shard.is_none_or(|s| s.holds(r.id))).collect();
     let mut done = read_journal(out);
-    done.retain(|id, r| r.status != "ok" || part_path(out, *id).exists());
+    done.retain(|_, r| r.status != "ok" || part_source(out, r).file.exists());
     let pending: Vec<&RunSpec> = shard_runs.iter().copied().filter(|r| !done.contains_key(&r.id)).collect();
     on_event(Event::Start { total: shard_runs.len() as u64, done: shard_runs.len() as u64 - pending.len() as u64 });
 
     let channels = manifest.channels.clone();
     let schema = dataset::data_schema(&channels);
+    let threads = options.threads.unwrap_or_else(rayon::current_num_threads).max(1);
     let journal = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
         .open(out.join("runs.jsonl"))
         .map_err(|e| io(format!("cannot open the run journal: {e}")))?;
-    struct Shared {
-        journal: std::fs::File,
-        records: BTreeMap<u64, RunRecord>,
-        simulated_s: f64,
-    }
     let shared = Mutex::new(Shared { journal, records: done, simulated_s: 0.0 });
+    // Each worker's open part.
+    let parts: Vec<Mutex<Option<dataset::PartWriter>>> = (0..threads).map(|_| Mutex::new(None)).collect();
     let stop: AtomicBool = AtomicBool::new(false);
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
     let write_error: Mutex<Option<String>> = Mutex::new(None);
-    let threads = options.threads.unwrap_or_else(rayon::current_num_threads).max(1);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| SweepError::Input(format!("cannot start {threads} worker threads: {e}")))?;
-    // Workers simulate, write their run's part (for resumption) and hand the data to this thread,
+    // Workers simulate, write their run into their part (for resumption) and hand the data to this thread,
     // which appends the runs to data.parquet in run order as they become available: assembling
     // the dataset overlaps with the simulations instead of following them.
     let (sender, receiver) = std::sync::mpsc::channel::<(u64, Option<RecordBatch>)>();
     let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv).map_err(io)?;
-    let earlier: BTreeMap<u64, bool> =
-        shared.lock().expect("lock").records.iter().map(|(id, r)| (*id, r.status == "ok")).collect();
+    // Runs finished by an earlier execution: where their rows are (None: failed).
+    let earlier: BTreeMap<u64, Option<RunSource>> = shared
+        .lock()
+        .expect("lock")
+        .records
+        .iter()
+        .map(|(id, r)| (*id, (r.status == "ok").then(|| part_source(out, r))))
+        .collect();
     let mut assemble_s = 0.0;
     let assembled: Result<(), String> = std::thread::scope(|scope| {
         let pending = &pending;
-        let (shared, stop, write_error, channels, schema) = (&shared, &stop, &write_error, &channels, &schema);
+        let (shared, stop, write_error, channels, schema, parts) =
+            (&shared, &stop, &write_error, &channels, &schema, &parts);
         scope.spawn(move || {
             pool.install(|| {
                 pending.par_iter().for_each_with(sender, |sender, run| {
@@ -384,61 +422,79 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
                     let t0 = Instant::now();
                     let result = simulate(plan, run, channels);
                     let simulate_s = t0.elapsed().as_secs_f64();
-                    let t1 = Instant::now();
-                    let (record, simulated, data) = match result {
+                    let record = |status: &str, error, rows| RunRecord {
+                        run_id: run.id,
+                        seed: run.seed,
+                        status: status.into(),
+                        error,
+                        rows,
+                        simulate_s,
+                        write_s: 0.0,
+                        part: None,
+                        row_group: None,
+                    };
+                    let fail = |e: String| {
+                        *write_error.lock().expect("lock") = Some(e);
+                        stop.store(true, Ordering::Relaxed);
+                    };
+                    let (simulated, data) = match result {
                         Ok((data, horizon)) => {
                             let rows = data.time.len() as u64;
-                            // One record batch serves the part file and the assembler.
-                            let written = data
-                                .into_batch(schema)
-                                .and_then(|b| dataset::write_part(&part_path(out, run.id), &b).map(|()| b));
-                            let data = match written {
+                            let batch = match data.into_batch(schema) {
                                 Ok(b) => b,
-                                Err(e) => {
-                                    *write_error.lock().expect("lock") = Some(e);
-                                    stop.store(true, Ordering::Relaxed);
-                                    return;
+                                Err(e) => return fail(e),
+                            };
+                            // Into this worker's part (one batch serves the part and the
+                            // assembler); the part is closed and journaled when it is full.
+                            let slot = &parts[rayon::current_thread_index().unwrap_or(0) % parts.len()];
+                            let mut part = slot.lock().expect("lock");
+                            let appended = match part.as_mut() {
+                                Some(p) => Ok(p),
+                                None => dataset::PartWriter::create(&out.join("parts"), run.id, schema)
+                                    .map(|p| part.insert(p)),
+                            }
+                            .and_then(|p| {
+                                let written = p.append(&batch, record("ok", None, rows));
+                                written.map(|()| p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS)
+                            });
+                            match appended {
+                                Ok(true) => {
+                                    let closed = part.take().expect("open part").close();
+                                    if let Err(e) = closed.and_then(|records| append_journal(shared, records)) {
+                                        return fail(e);
+                                    }
                                 }
-                            };
-                            let record = RunRecord {
-                                run_id: run.id,
-                                seed: run.seed,
-                                status: "ok".into(),
-                                error: None,
-                                rows,
-                                simulate_s,
-                                write_s: 0.0,
-                            };
-                            (record, horizon, Some(data))
+                                Ok(false) => {}
+                                Err(e) => return fail(e),
+                            }
+                            drop(part);
+                            (horizon, Some(batch))
                         }
                         Err(e) => {
-                            let record = RunRecord {
-                                run_id: run.id,
-                                seed: run.seed,
-                                status: "failed".into(),
-                                error: Some(e),
-                                rows: 0,
-                                simulate_s,
-                                write_s: 0.0,
-                            };
-                            (record, 0.0, None)
+                            // Nothing to keep but the line.
+                            if let Err(e) = append_journal(shared, vec![record("failed", Some(e), 0)]) {
+                                return fail(e);
+                            }
+                            (0.0, None)
                         }
                     };
-                    let record = RunRecord { write_s: t1.elapsed().as_secs_f64(), ..record };
-                    let ok = record.status == "ok";
                     {
                         let mut s = shared.lock().expect("lock");
-                        let line = serde_json::to_string(&record).unwrap_or_default();
-                        if let Err(e) = writeln!(s.journal, "{line}").and_then(|_| s.journal.flush()) {
-                            *write_error.lock().expect("lock") = Some(format!("cannot append to the run journal: {e}"));
-                            stop.store(true, Ordering::Relaxed);
-                        }
                         s.simulated_s += simulated;
-                        s.records.insert(run.id, record);
                     }
+                    let ok = data.is_some();
                     let _ = sender.send((run.id, data));
                     on_event(Event::Finished { ok });
-                })
+                });
+                // The parts still open (the last runs, or those finished before a stop) are
+                // closed and journaled.
+                for slot in parts.iter() {
+                    if let Some(part) = slot.lock().expect("lock").take()
+                        && let Err(e) = part.close().and_then(|records| append_journal(shared, records))
+                    {
+                        *write_error.lock().expect("lock") = Some(e);
+                    }
+                }
             })
         });
         // The assembler: walks the shard's runs in order.
@@ -449,9 +505,9 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
          -> Result<(), String> {
             while cursor < shard_runs.len() {
                 let id = shard_runs[cursor].id;
-                if let Some(ok) = earlier.get(&id) {
-                    if *ok {
-                        writer.append_file(&RunSource { file: part_path(out, id), row_group: None })?;
+                if let Some(source) = earlier.get(&id) {
+                    if let Some(source) = source {
+                        writer.append_file(source)?;
                     }
                 } else if let Some(data) = waiting.remove(&id) {
                     if let Some(d) = data {
@@ -516,7 +572,9 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         })
         .collect();
     dataset::write_params(out, &manifest.parameters, &params).map_err(io)?;
-    let manifest = Manifest { status: "complete".into(), runs: records, ..manifest };
+    // (Where the rows were kept while the sweep ran is the journal's business only.)
+    let runs = records.into_iter().map(|r| RunRecord { part: None, row_group: None, ..r }).collect();
+    let manifest = Manifest { status: "complete".into(), runs, ..manifest };
     manifest.write(out).map_err(io)?;
     std::fs::remove_dir_all(out.join("parts")).map_err(|e| io(format!("cannot remove the parts folder: {e}")))?;
     std::fs::remove_file(out.join("runs.jsonl")).map_err(|e| io(format!("cannot remove the run journal: {e}")))?;
