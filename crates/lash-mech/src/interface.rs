@@ -120,9 +120,43 @@ pub struct CoupledTerms {
     pub free_lambda: Vec<f64>,
     /// Columns of Λ, in the order of `gain`.
     pub lambda_gain: Vec<Vec<f64>>,
+    /// Work vectors of [`coupled_effective_terms_into`].
+    scratch: Scratch,
+}
+
+/// Work vectors of the coupled terms' solves: the load, zero γ, the multipliers, the arms.
+#[derive(Debug, Clone, PartialEq)]
+struct Scratch {
+    force: Vec<f64>,
+    zero_gamma: Vec<f64>,
+    lambda: DVector<f64>,
+    arms: Vec<[Vec2; 2]>,
 }
 
 impl CoupledTerms {
+    /// Zero terms for a mechanism of `coordinates` coordinates and `constraints` constraint rows
+    /// with `joints` clearance joints (the storage [`coupled_effective_terms_into`] fills).
+    pub fn zeros(coordinates: usize, constraints: usize, joints: usize) -> Self {
+        let dim = 2 * joints;
+        Self {
+            mobility: DMatrix::zeros(dim, dim),
+            effective_mass: None,
+            free_acceleration: DVector::zeros(dim),
+            effective_force: DVector::zeros(dim),
+            friction_mobility: DMatrix::zeros(dim, joints),
+            free_accelerations: vec![0.0; coordinates],
+            gain: vec![vec![0.0; coordinates]; 3 * joints],
+            free_lambda: vec![0.0; constraints],
+            lambda_gain: vec![vec![0.0; constraints]; 3 * joints],
+            scratch: Scratch {
+                force: vec![0.0; coordinates],
+                zero_gamma: vec![0.0; constraints],
+                lambda: DVector::zeros(constraints),
+                arms: Vec::with_capacity(joints),
+            },
+        }
+    }
+
     /// q̈ = q̈_free + G [f_c; F_T].
     pub fn accelerations(&self, contact_forces: &[f64], friction_forces: &[f64], out: &mut [f64]) {
         out.copy_from_slice(&self.free_accelerations);
@@ -144,36 +178,59 @@ pub fn coupled_effective_terms(
     q: &[f64],
     qd: &[f64],
 ) -> Result<CoupledTerms, MechError> {
-    let n = q.len();
-    let m = mech.constraint_count();
+    let mut terms = CoupledTerms::zeros(q.len(), mech.constraint_count(), joints.len());
+    coupled_effective_terms_into(mech, solver, joints, t, q, qd, &mut terms)?;
+    Ok(terms)
+}
+
+/// [`coupled_effective_terms`] written into `terms` (made by [`CoupledTerms::zeros`] for this
+/// mechanism and these joints, or by an earlier call): the same values, without allocating — the
+/// macro subsystem refreshes its terms this way at every communication point.
+pub fn coupled_effective_terms_into(
+    mech: &Mechanism,
+    solver: &mut Solver,
+    joints: &[ClearanceInterface],
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+    terms: &mut CoupledTerms,
+) -> Result<(), MechError> {
     let k = joints.len();
+    assert!(
+        terms.gain.len() == 3 * k && terms.free_accelerations.len() == q.len(),
+        "the terms were made for another mechanism or joint count"
+    );
     solver.set_state(mech, t, q, qd);
     solver.factor()?;
     solver.solve(mech, qd);
-    let free_accelerations = solver.accelerations.clone();
-    let free_lambda: Vec<f64> = solver.lambda.iter().copied().collect();
-    let poses = solver.poses.clone();
-    let zero_gamma = vec![0.0; m];
-    let mut gain = vec![vec![0.0; n]; 3 * k];
-    let mut lambda_gain = vec![vec![0.0; m]; 3 * k];
-    let mut lambda = DVector::zeros(m);
-    let mut force = vec![0.0; n];
+    terms.free_accelerations.copy_from_slice(&solver.accelerations);
+    terms.free_lambda.copy_from_slice(solver.lambda.as_slice());
+    // The arms of each joint's journal and bearing centres (read before the solves borrow the
+    // solver).
+    let arm = |body: BodyId, point: Vec2| match body {
+        BodyId::Body(b) => solver.poses[b].rotate(point),
+        BodyId::Ground => Vec2::zeros(),
+    };
+    let CoupledTerms { scratch, gain, lambda_gain, .. } = terms;
+    scratch.arms.clear();
+    scratch.arms.extend(joints.iter().map(|j| {
+        let iface = &j.interface;
+        [arm(iface.journal_body, iface.journal_point), arm(iface.bearing_body, iface.bearing_point)]
+    }));
+    let Scratch { force, zero_gamma, lambda, arms } = scratch;
     for (j, joint) in joints.iter().enumerate() {
         let iface = &joint.interface;
         for (i, e) in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)].into_iter().enumerate() {
             // Jᵀ e: the unit force on the journal point and its opposite on the bearing point.
             force.fill(0.0);
-            for (body, point, sign) in
-                [(iface.journal_body, iface.journal_point, 1.0), (iface.bearing_body, iface.bearing_point, -1.0)]
-            {
+            for (body, a, sign) in [(iface.journal_body, arms[j][0], 1.0), (iface.bearing_body, arms[j][1], -1.0)] {
                 if let BodyId::Body(b) = body {
-                    let a = poses[b].rotate(point);
                     force[3 * b] += sign * e.x;
                     force[3 * b + 1] += sign * e.y;
                     force[3 * b + 2] += sign * cross(a, e);
                 }
             }
-            solver.solve_with(&force, &zero_gamma, &mut gain[2 * j + i], &mut lambda);
+            solver.solve_with(force, zero_gamma, &mut gain[2 * j + i], lambda);
             lambda_gain[2 * j + i].copy_from_slice(lambda.as_slice());
         }
         // The friction force's moments per unit F_T: −R_J on the journal body, +R_B on the
@@ -185,13 +242,11 @@ pub fn coupled_effective_terms(
                 force[3 * b + 2] += moment;
             }
         }
-        solver.solve_with(&force, &zero_gamma, &mut gain[2 * k + j], &mut lambda);
+        solver.solve_with(force, zero_gamma, &mut gain[2 * k + j], lambda);
         lambda_gain[2 * k + j].copy_from_slice(lambda.as_slice());
     }
     let dim = 2 * k;
-    let mut mobility = DMatrix::zeros(dim, dim);
-    let mut friction_mobility = DMatrix::zeros(dim, k);
-    let mut free_acceleration = DVector::zeros(dim);
+    let poses = &solver.poses;
     // J̇ q̇ = −ω_J² a_J + ω_B² a_B.
     let centripetal = |body: BodyId, point: Vec2| -> Vec2 {
         match body {
@@ -202,47 +257,61 @@ pub fn coupled_effective_terms(
     for (row, joint) in joints.iter().enumerate() {
         let iface = &joint.interface;
         for c in 0..dim {
-            let w = interface_rate(iface, &poses, &gain[c]);
-            mobility[(2 * row, c)] = w.x;
-            mobility[(2 * row + 1, c)] = w.y;
+            let w = interface_rate(iface, poses, &terms.gain[c]);
+            terms.mobility[(2 * row, c)] = w.x;
+            terms.mobility[(2 * row + 1, c)] = w.y;
         }
         for c in 0..k {
-            let w = interface_rate(iface, &poses, &gain[dim + c]);
-            friction_mobility[(2 * row, c)] = w.x;
-            friction_mobility[(2 * row + 1, c)] = w.y;
+            let w = interface_rate(iface, poses, &terms.gain[dim + c]);
+            terms.friction_mobility[(2 * row, c)] = w.x;
+            terms.friction_mobility[(2 * row + 1, c)] = w.y;
         }
-        let a = interface_rate(iface, &poses, &free_accelerations)
+        let a = interface_rate(iface, poses, &terms.free_accelerations)
             + centripetal(iface.journal_body, iface.journal_point)
             - centripetal(iface.bearing_body, iface.bearing_point);
-        free_acceleration[2 * row] = a.x;
-        free_acceleration[2 * row + 1] = a.y;
+        terms.free_acceleration[2 * row] = a.x;
+        terms.free_acceleration[2 * row + 1] = a.y;
     }
-    let effective_mass = invert(&mobility);
-    let effective_force = effective_mass.as_ref().map_or(DVector::zeros(dim), |mt| mt * &free_acceleration);
-    Ok(CoupledTerms {
-        mobility,
-        effective_mass,
-        free_acceleration,
-        effective_force,
-        friction_mobility,
-        free_accelerations,
-        gain,
-        free_lambda,
-        lambda_gain,
-    })
+    invert_into(&terms.mobility, &mut terms.effective_mass);
+    match &terms.effective_mass {
+        Some(mt) => mt.mul_to(&terms.free_acceleration, &mut terms.effective_force),
+        None => terms.effective_force.fill(0.0),
+    }
+    Ok(())
+}
+
+/// [`invert`] into `out`, keeping its storage where the result is a 2 × 2 inverse again.
+fn invert_into(w: &DMatrix<f64>, out: &mut Option<DMatrix<f64>>) {
+    if w.nrows() == 2
+        && let Some(inverse) = invert_2x2(w)
+    {
+        match out {
+            Some(o) if o.shape() == (2, 2) => o.copy_from(&inverse),
+            _ => *out = Some(DMatrix::from_column_slice(2, 2, inverse.as_slice())),
+        }
+        return;
+    }
+    *out = invert(w);
+}
+
+/// The closed-form inverse of a 2 × 2 W, or `None` when it is singular (relative to its largest
+/// entry).
+fn invert_2x2(w: &DMatrix<f64>) -> Option<Matrix2<f64>> {
+    let scale = w.abs().max();
+    let m = Matrix2::new(w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]);
+    if m.determinant().abs() <= 1e-12 * scale * scale {
+        return None;
+    }
+    m.try_inverse()
 }
 
 /// W⁻¹, or `None` when W is singular (relative to its largest entry). The 2 × 2 case keeps the
 /// closed-form inverse of one joint.
 fn invert(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let scale = w.abs().max();
     if w.nrows() == 2 {
-        let m = Matrix2::new(w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]);
-        if m.determinant().abs() <= 1e-12 * scale * scale {
-            return None;
-        }
-        return m.try_inverse().map(|i| DMatrix::from_row_slice(2, 2, &[i[(0, 0)], i[(0, 1)], i[(1, 0)], i[(1, 1)]]));
+        return invert_2x2(w).map(|i| DMatrix::from_row_slice(2, 2, &[i[(0, 0)], i[(0, 1)], i[(1, 0)], i[(1, 1)]]));
     }
+    let scale = w.abs().max();
     let lu = w.clone().lu();
     let inverse = lu.try_inverse()?;
     // Singular to working precision: the inverse's scale betrays it.

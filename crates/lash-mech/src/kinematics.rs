@@ -1,9 +1,8 @@
 //! Assembly, velocity analysis, point kinematics and energy.
 
 use crate::model::{BodyId, Mechanism};
-use crate::solver::{MechError, Solver};
+use crate::solver::{Correction, MechError, Solver};
 use crate::{Pose, Vec2, perp};
-use nalgebra::DVector;
 
 /// Coordinates and velocities from the bodies' initial guesses.
 pub fn initial_guess(mech: &Mechanism) -> (Vec<f64>, Vec<f64>) {
@@ -19,14 +18,25 @@ pub fn initial_guess(mech: &Mechanism) -> (Vec<f64>, Vec<f64>) {
 /// Position analysis: Newton iterations with the mass-weighted minimum-norm correction
 /// Δq = −M⁻¹Φ_qᵀ(Φ_q M⁻¹ Φ_qᵀ)⁻¹Φ until max |Φ| ≤ `tol`. Returns the iterations spent.
 pub fn assemble(mech: &Mechanism, t: f64, q: &mut [f64], solver: &mut Solver, tol: f64) -> Result<usize, MechError> {
-    let n = q.len();
-    let zeros = vec![0.0; n];
-    let mut dq = vec![0.0; n];
-    let mut lambda = DVector::zeros(mech.constraint_count());
-    let mut neg_phi = vec![0.0; mech.constraint_count()];
+    // The solver's work vectors, lent for the call (nothing is allocated after the first).
+    let mut work = std::mem::take(&mut solver.correction).sized(q.len(), mech.constraint_count());
+    let result = assemble_with(mech, t, q, solver, tol, &mut work);
+    solver.correction = work;
+    result
+}
+
+fn assemble_with(
+    mech: &Mechanism,
+    t: f64,
+    q: &mut [f64],
+    solver: &mut Solver,
+    tol: f64,
+    work: &mut Correction,
+) -> Result<usize, MechError> {
+    let Correction { zeros, step, rhs: neg_phi, lambda } = work;
     const MAX_ITERATIONS: usize = 50;
     for it in 0..MAX_ITERATIONS {
-        solver.set_state(mech, t, q, &zeros);
+        solver.set_state(mech, t, q, zeros);
         let residual = solver.constraint_error();
         if residual <= tol {
             return Ok(it);
@@ -35,12 +45,12 @@ pub fn assemble(mech: &Mechanism, t: f64, q: &mut [f64], solver: &mut Solver, to
         for (o, p) in neg_phi.iter_mut().zip(&solver.phi) {
             *o = -p;
         }
-        solver.solve_with(&zeros, &neg_phi, &mut dq, &mut lambda);
-        for (qi, d) in q.iter_mut().zip(&dq) {
+        solver.solve_with(zeros, neg_phi, step, lambda);
+        for (qi, d) in q.iter_mut().zip(step.iter()) {
             *qi += d;
         }
     }
-    solver.set_state(mech, t, q, &zeros);
+    solver.set_state(mech, t, q, zeros);
     Err(MechError::AssemblyFailed { t, residual: solver.constraint_error(), iterations: MAX_ITERATIONS })
 }
 
@@ -52,18 +62,28 @@ pub fn velocity_analysis(
     qd: &mut [f64],
     solver: &mut Solver,
 ) -> Result<(), MechError> {
-    let n = q.len();
+    let mut work = std::mem::take(&mut solver.correction).sized(q.len(), mech.constraint_count());
+    let result = velocity_analysis_with(mech, t, q, qd, solver, &mut work);
+    solver.correction = work;
+    result
+}
+
+fn velocity_analysis_with(
+    mech: &Mechanism,
+    t: f64,
+    q: &[f64],
+    qd: &mut [f64],
+    solver: &mut Solver,
+    work: &mut Correction,
+) -> Result<(), MechError> {
+    let Correction { zeros, step: dqd, rhs: residual, lambda } = work;
     solver.set_state(mech, t, q, qd);
     solver.factor()?;
-    let mut residual = vec![0.0; mech.constraint_count()];
     for (a, r) in residual.iter_mut().enumerate() {
         *r = -(solver.jacobian_times(a, qd) - solver.nu[a]);
     }
-    let zeros = vec![0.0; n];
-    let mut dqd = vec![0.0; n];
-    let mut lambda = DVector::zeros(mech.constraint_count());
-    solver.solve_with(&zeros, &residual, &mut dqd, &mut lambda);
-    for (v, d) in qd.iter_mut().zip(&dqd) {
+    solver.solve_with(zeros, residual, dqd, lambda);
+    for (v, d) in qd.iter_mut().zip(dqd.iter()) {
         *v += d;
     }
     Ok(())

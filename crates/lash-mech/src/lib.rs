@@ -26,7 +26,8 @@ pub mod solver;
 pub mod subsystem;
 
 pub use interface::{
-    ClearanceInterface, CoupledTerms, EffectiveTerms, Interface, coupled_effective_terms, effective_terms,
+    ClearanceInterface, CoupledTerms, EffectiveTerms, Interface, coupled_effective_terms, coupled_effective_terms_into,
+    effective_terms,
 };
 pub use kinematics::{
     PointKinematics, assemble, driver_torque, initial_guess, joint_reaction, kinetic_energy, point_kinematics,

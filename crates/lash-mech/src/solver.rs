@@ -65,6 +65,33 @@ pub struct Solver {
     schur: SmallCholesky,
     factored: bool,
     time: f64,
+    /// Work vectors of the position and velocity corrections (`kinematics`), kept between calls.
+    pub(crate) correction: Correction,
+}
+
+/// Work vectors of a Newton or velocity correction: a zero load (n), the step (n), the right-hand
+/// side (m), the multipliers (m).
+#[derive(Default)]
+pub(crate) struct Correction {
+    pub(crate) zeros: Vec<f64>,
+    pub(crate) step: Vec<f64>,
+    pub(crate) rhs: Vec<f64>,
+    pub(crate) lambda: DVector<f64>,
+}
+
+impl Correction {
+    /// Sized for n coordinates and m constraint rows, the zero load zero (allocates only the
+    /// first time).
+    pub(crate) fn sized(mut self, n: usize, m: usize) -> Self {
+        self.zeros.clear();
+        self.zeros.resize(n, 0.0);
+        self.step.resize(n, 0.0);
+        self.rhs.resize(m, 0.0);
+        if self.lambda.len() != m {
+            self.lambda = DVector::zeros(m);
+        }
+        self
+    }
 }
 
 /// Topology-fixed data of the Schur solve.
@@ -183,6 +210,7 @@ impl Solver {
             schur: SmallCholesky::new(mf),
             factored: false,
             time: 0.0,
+            correction: Correction::default(),
         }
     }
 

@@ -20,7 +20,7 @@
 //! Hermite interpolation. One KKT factorisation per communication point serves all of it.
 
 use crate::Vec2;
-use crate::interface::{ClearanceInterface, CoupledTerms, coupled_effective_terms};
+use crate::interface::{ClearanceInterface, CoupledTerms, coupled_effective_terms_into};
 use crate::kinematics::{assemble, driver_torque, initial_guess, joint_reaction, point_kinematics, velocity_analysis};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
@@ -224,6 +224,19 @@ pub fn add_body_rates(t: &mut VariableTable, at: [ValueReference; 4], causality:
     t.add_at(at[3], "bearing_angular_acceleration", causality, C, "rad/s^2", "its rate", shape, &[0.0]);
 }
 
+/// Work vectors of [`MechanismSubsystem`]'s refresh at each communication point.
+#[derive(Default)]
+struct RefreshWork {
+    /// H = M̃ W_T.
+    friction_moment_force: nalgebra::DMatrix<f64>,
+    /// The interface loads of the macro's own motion [f; F_T].
+    own: Vec<f64>,
+    /// A zero velocity vector.
+    zeros: Vec<f64>,
+    /// One probe's gains.
+    gains: Vec<f64>,
+}
+
 /// The mechanism around its clearance joints as the macro [`Subsystem`].
 pub struct MechanismSubsystem {
     name: String,
@@ -253,6 +266,8 @@ pub struct MechanismSubsystem {
     cut_solver: Solver,
     /// The effective terms at the current communication point.
     pub terms: Option<CoupledTerms>,
+    /// Work storage of `refresh` (kept: a communication point allocates nothing).
+    work: RefreshWork,
     /// Steps and right-hand-side evaluations of the dynamic integration.
     pub integration_stats: lash_ode::Stats,
 }
@@ -450,6 +465,7 @@ impl MechanismSubsystem {
             offset_rows,
             last_prescribed: None,
             terms: None,
+            work: RefreshWork::default(),
             integration_stats: lash_ode::Stats::default(),
         }
     }
@@ -494,21 +510,30 @@ impl MechanismSubsystem {
     /// Terms and every output at the current state.
     fn refresh(&mut self) -> Result<(), String> {
         let t = self.time.seconds();
-        let terms = coupled_effective_terms(&self.cut, &mut self.cut_solver, &self.joints, t, &self.q, &self.qd)
+        let (k, n) = (self.joints.len(), 2 * self.joints.len());
+        let mut terms =
+            self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
+        coupled_effective_terms_into(&self.cut, &mut self.cut_solver, &self.joints, t, &self.q, &self.qd, &mut terms)
             .map_err(|e| e.to_string())?;
-        let Some(mass) = terms.effective_mass.clone() else {
+        let Some(mass) = terms.effective_mass.as_ref() else {
             return Err(format!(
                 "the interface mobility W = {} is singular: the cut mechanism cannot move the journals freely in \
                  every direction",
                 terms.mobility
             ));
         };
-        let (k, n) = (self.joints.len(), 2 * self.joints.len());
+        let work = &mut self.work;
         // The macro's own motion has ẅ = 0 (one-way) or ẅ of the prescribed eccentricities
         // (two-way, with the friction forces F̄_T); the interface force that produces it is
         // M̃ (ẅ − a_free) − H F̄_T, which is −f̃ in one-way coupling.
-        let friction_moment_force = &mass * &terms.friction_mobility;
-        let mut own = vec![0.0; n + k];
+        if work.friction_moment_force.shape() != (n, k) {
+            work.friction_moment_force = nalgebra::DMatrix::zeros(n, k);
+        }
+        mass.mul_to(&terms.friction_mobility, &mut work.friction_moment_force);
+        let friction_moment_force = &work.friction_moment_force;
+        work.own.clear();
+        work.own.resize(n + k, 0.0);
+        let own = &mut work.own;
         match (self.coupling, &self.last_prescribed) {
             (Coupling::TwoWay, Some(p)) => {
                 let mut wdd = nalgebra::DVector::zeros(n);
@@ -518,7 +543,7 @@ impl MechanismSubsystem {
                     wdd[2 * j + 1] = a.y;
                 }
                 let friction = nalgebra::DVector::from_column_slice(&p.friction);
-                let f = &mass * (wdd - &terms.free_acceleration) - &friction_moment_force * &friction;
+                let f = mass * (wdd - &terms.free_acceleration) - friction_moment_force * &friction;
                 own[..n].copy_from_slice(f.as_slice());
                 own[n..].copy_from_slice(&p.friction);
             }
@@ -533,21 +558,35 @@ impl MechanismSubsystem {
             BodyId::Body(k) => v[3 * k + 2],
             BodyId::Ground => 0.0,
         };
-        let row_major = |m: &nalgebra::DMatrix<f64>| -> Vec<f64> { m.transpose().as_slice().to_vec() };
         let joints = &self.joints;
         let (values, offsets) = (&mut self.values, &self.offsets);
-        let mut put =
-            |vr: ValueReference, v: &[f64]| values[offsets[vr as usize]..offsets[vr as usize + 1]].copy_from_slice(v);
-        put(vr::EFFECTIVE_MASS, &row_major(&mass));
+        let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
+        // Matrices go out row-major.
+        let mut put_matrix = |vr: ValueReference, m: &nalgebra::DMatrix<f64>| {
+            let out = &mut values[range(vr)];
+            let columns = m.ncols();
+            for i in 0..m.nrows() {
+                for j in 0..columns {
+                    out[i * columns + j] = m[(i, j)];
+                }
+            }
+        };
+        put_matrix(vr::EFFECTIVE_MASS, mass);
+        put_matrix(vr::MOBILITY, &terms.mobility);
+        put_matrix(vr::FRICTION_MOMENT_FORCE, friction_moment_force);
+        let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
-        put(vr::MOBILITY, &row_major(&terms.mobility));
         put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
-        put(vr::FRICTION_MOMENT_FORCE, &row_major(&friction_moment_force));
-        let each = |f: &dyn Fn(&ClearanceInterface) -> f64| -> Vec<f64> { joints.iter().map(f).collect() };
-        put(vr::JOURNAL_ANGULAR_VELOCITY, &each(&|j| omega(j.interface.journal_body, &self.qd)));
-        put(vr::JOURNAL_ANGULAR_ACCELERATION, &each(&|j| omega(j.interface.journal_body, &self.qdd)));
-        put(vr::BEARING_ANGULAR_VELOCITY, &each(&|j| omega(j.interface.bearing_body, &self.qd)));
-        put(vr::BEARING_ANGULAR_ACCELERATION, &each(&|j| omega(j.interface.bearing_body, &self.qdd)));
+        let mut each = |vr: ValueReference, f: &dyn Fn(&ClearanceInterface) -> f64| {
+            for (o, j) in values[range(vr)].iter_mut().zip(joints) {
+                *o = f(j);
+            }
+        };
+        each(vr::JOURNAL_ANGULAR_VELOCITY, &|j| omega(j.interface.journal_body, &self.qd));
+        each(vr::JOURNAL_ANGULAR_ACCELERATION, &|j| omega(j.interface.journal_body, &self.qdd));
+        each(vr::BEARING_ANGULAR_VELOCITY, &|j| omega(j.interface.bearing_body, &self.qd));
+        each(vr::BEARING_ANGULAR_ACCELERATION, &|j| omega(j.interface.bearing_body, &self.qdd));
+        let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         // Constraint error of the macro's own mechanism (the cut one's rows are a subset of the
         // ideal one's; the cut solver holds the current state).
         self.ideal_solver.set_state(&self.ideal, t, &self.q, &self.qd);
@@ -557,9 +596,13 @@ impl MechanismSubsystem {
         let phi = self.ideal_solver.constraint_error();
         put(vr::CONSTRAINT_ERROR, &[phi]);
         let mut next = vr::FRICTION_FORCE + 1;
-        let zeros = vec![0.0; self.q.len()];
+        work.zeros.clear();
+        work.zeros.resize(self.q.len(), 0.0);
+        let zeros = &work.zeros;
         let g = n + k;
-        let mut gains = vec![0.0; 2 * g];
+        work.gains.clear();
+        work.gains.resize(2 * g, 0.0);
+        let gains = &mut work.gains;
         for p in &self.probes {
             match *p {
                 Probe::Point { body, point, .. } => {

@@ -237,3 +237,57 @@ fn two_coupled_joints_satisfy_the_identities() {
     );
     assert!(friction > 1e-3, "the rod's friction moment moves the rod–slider interface ({friction:e})");
 }
+
+/// The terms refreshed in place (one storage through a run of states, as the macro subsystem
+/// keeps them) equal terms computed afresh at each state, bit for bit: nothing of an earlier state
+/// leaks into a later one.
+#[test]
+fn terms_refreshed_in_place_equal_fresh_ones_bit_for_bit() {
+    let ideal = ideal_slider_crank();
+    let names = ["crank_pivot", "rod_slider"];
+    let mut cut_m = ideal.clone();
+    cut_m.joints.retain(|j| !names.contains(&j.name.as_str()));
+    let mut closed = cut_m.clone();
+    let mut joints = Vec::new();
+    for name in names {
+        let j = ideal.joints.iter().find(|j| j.name == name).unwrap().clone();
+        joints.push(ClearanceInterface {
+            interface: Interface {
+                journal_body: j.body_i,
+                journal_point: j.point_i,
+                bearing_body: j.body_j,
+                bearing_point: j.point_j,
+            },
+            journal_radius: 9.5e-3,
+            bearing_radius: 10.0e-3,
+        });
+        closed.joints.push(j);
+    }
+    for count in [1, 2] {
+        let joints = &joints[..count];
+        let (mut s_ideal, mut s_cut, mut s_fresh) = (Solver::new(&closed), Solver::new(&cut_m), Solver::new(&cut_m));
+        let (mut q, _) = kinematics::initial_guess(&closed);
+        let mut kept = CoupledTerms::zeros(q.len(), cut_m.constraint_count(), count);
+        let period = 2.0 * std::f64::consts::PI / OMEGA;
+        for i in 0..12 {
+            let t = period * ((i as f64 * 0.618_033_988_75).fract());
+            assemble(&closed, t, &mut q, &mut s_ideal, 1e-14).unwrap();
+            let mut qd = vec![0.0; q.len()];
+            velocity_analysis(&closed, t, &q, &mut qd, &mut s_ideal).unwrap();
+            coupled_effective_terms_into(&cut_m, &mut s_cut, joints, t, &q, &qd, &mut kept).unwrap();
+            let fresh = coupled_effective_terms(&cut_m, &mut s_fresh, joints, t, &q, &qd).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(kept.mobility.as_slice()), bits(fresh.mobility.as_slice()), "W at t = {t}");
+            let (a, b) = (kept.effective_mass.as_ref().unwrap(), fresh.effective_mass.as_ref().unwrap());
+            assert_eq!(bits(a.as_slice()), bits(b.as_slice()), "M̃ at t = {t}");
+            assert_eq!(bits(kept.effective_force.as_slice()), bits(fresh.effective_force.as_slice()), "f̃ at t = {t}");
+            assert_eq!(bits(kept.friction_mobility.as_slice()), bits(fresh.friction_mobility.as_slice()));
+            assert_eq!(bits(&kept.free_accelerations), bits(&fresh.free_accelerations));
+            assert_eq!(bits(&kept.free_lambda), bits(&fresh.free_lambda));
+            for c in 0..3 * count {
+                assert_eq!(bits(&kept.gain[c]), bits(&fresh.gain[c]), "gain column {c} at t = {t}");
+                assert_eq!(bits(&kept.lambda_gain[c]), bits(&fresh.lambda_gain[c]));
+            }
+        }
+    }
+}
