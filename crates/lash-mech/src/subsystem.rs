@@ -609,7 +609,7 @@ impl MechanismSubsystem {
                     let own_kin = point_kinematics(&self.q, &self.qd, &self.qdd, body, point);
                     let free = point_kinematics(&self.q, &self.qd, &terms.free_accelerations, body, point);
                     for (c, column) in terms.gain.iter().enumerate() {
-                        let a = point_kinematics(&self.q, &zeros, column, body, point).acceleration;
+                        let a = point_kinematics(&self.q, zeros, column, body, point).acceleration;
                         gains[c] = a.x;
                         gains[g + c] = a.y;
                     }
@@ -617,7 +617,7 @@ impl MechanismSubsystem {
                     put(next + 1, own_kin.velocity.as_slice());
                     put(next + 2, own_kin.acceleration.as_slice());
                     put(next + 3, free.acceleration.as_slice());
-                    put(next + 4, &gains);
+                    put(next + 4, gains);
                     next += 5;
                 }
                 Probe::JointReaction { joint, .. } => {
@@ -634,7 +634,7 @@ impl MechanismSubsystem {
                     }
                     put(next, total.as_slice());
                     put(next + 1, free.as_slice());
-                    put(next + 2, &gains);
+                    put(next + 2, gains);
                     next += 3;
                 }
                 Probe::DriverTorque { driver, .. } => {
