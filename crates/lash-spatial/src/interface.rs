@@ -64,6 +64,29 @@ pub struct SpatialCoupledTerms {
     pub free_lambda: Vec<f64>,
     /// Columns of Λ, in the order of `gain`.
     pub lambda_gain: Vec<Vec<f64>>,
+    /// Work storage of [`spatial_effective_terms_into`]: a load vector, the bodies' frames.
+    scratch: (Vec<f64>, Vec<BodyFrame>),
+}
+
+impl SpatialCoupledTerms {
+    /// Zero terms for a cut mechanism of `velocities` velocity coordinates (6 per body) and
+    /// `constraints` constraint rows with `joints` spherical clearance joints (the storage
+    /// [`spatial_effective_terms_into`] fills).
+    pub fn zeros(velocities: usize, constraints: usize, joints: usize) -> Self {
+        let n = 3 * joints;
+        Self {
+            mobility: DMatrix::zeros(n, n),
+            effective_mass: None,
+            free_acceleration: DVector::zeros(n),
+            effective_force: DVector::zeros(n),
+            moment_mobility: DMatrix::zeros(n, n),
+            free_accelerations: vec![0.0; velocities],
+            gain: vec![vec![0.0; velocities]; 2 * n],
+            free_lambda: vec![0.0; constraints],
+            lambda_gain: vec![vec![0.0; constraints]; 2 * n],
+            scratch: (vec![0.0; velocities], Vec::new()),
+        }
+    }
 }
 
 fn frame(frames: &[BodyFrame], id: BodyId) -> BodyFrame {
@@ -98,18 +121,37 @@ pub fn spatial_effective_terms(
     q: &[f64],
     v: &[f64],
 ) -> Result<SpatialCoupledTerms, SpatialError> {
-    let nv = v.len();
-    let m = cut.constraint_count();
+    let mut terms = SpatialCoupledTerms::zeros(v.len(), cut.constraint_count(), joints.len());
+    spatial_effective_terms_into(cut, solver, joints, t, q, v, &mut terms)?;
+    Ok(terms)
+}
+
+/// [`spatial_effective_terms`] written into `terms` (made by [`SpatialCoupledTerms::zeros`] for
+/// this mechanism and these joints, or by an earlier call): the same values; the macro subsystem
+/// refreshes its terms this way at every communication point (the inverse of a coupled W above
+/// one joint is the only allocation left).
+pub fn spatial_effective_terms_into(
+    cut: &SpatialMechanism,
+    solver: &mut SpatialSolver,
+    joints: &[SphericalInterface],
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+    terms: &mut SpatialCoupledTerms,
+) -> Result<(), SpatialError> {
     let k = joints.len();
     let n = 3 * k;
+    assert!(
+        terms.gain.len() == 2 * n && terms.free_accelerations.len() == v.len(),
+        "the terms were made for another mechanism or joint count"
+    );
     solver.set_state(cut, t, q, v);
     solver.solve(cut)?;
-    let free_accelerations = solver.accelerations.clone();
-    let free_lambda = solver.lambda.clone();
-    let frames = solver.frames.clone();
-    let mut gain = vec![vec![0.0; nv]; 2 * n];
-    let mut lambda_gain = vec![vec![0.0; m]; 2 * n];
-    let mut load = vec![0.0; nv];
+    terms.free_accelerations.copy_from_slice(&solver.accelerations);
+    terms.free_lambda.copy_from_slice(&solver.lambda);
+    let SpatialCoupledTerms { gain, lambda_gain, scratch: (load, frames), .. } = terms;
+    frames.clone_from(&solver.frames);
+    let frames = &*frames;
     let put = |load: &mut [f64], body: BodyId, force: Vec3, torque: Vec3| {
         if let BodyId::Body(b) = body {
             let n_body = frames[b].rotation.transpose() * torque;
@@ -120,55 +162,45 @@ pub fn spatial_effective_terms(
         }
     };
     for (j, iface) in joints.iter().enumerate() {
-        let (fj, fb) = (frame(&frames, iface.journal_body), frame(&frames, iface.bearing_body));
+        let (fj, fb) = (frame(frames, iface.journal_body), frame(frames, iface.bearing_body));
         let (sj, sb) = (fj.rotation * iface.journal_point, fb.rotation * iface.bearing_point);
         for axis in 0..3 {
             let e = Vec3::ith(axis, 1.0);
             load.fill(0.0);
-            put(&mut load, iface.journal_body, e, sj.cross(&e));
-            put(&mut load, iface.bearing_body, -e, sb.cross(&-e));
+            put(load, iface.journal_body, e, sj.cross(&e));
+            put(load, iface.bearing_body, -e, sb.cross(&-e));
             let column = 3 * j + axis;
-            solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
+            solver.response(load, &mut gain[column], &mut lambda_gain[column]);
             // A unit friction load m = e: the torque pair on the ball's body and the socket's.
             load.fill(0.0);
-            put(&mut load, iface.journal_body, Vec3::zeros(), e * iface.journal_radius);
-            put(&mut load, iface.bearing_body, Vec3::zeros(), e * -iface.bearing_radius);
+            put(load, iface.journal_body, Vec3::zeros(), e * iface.journal_radius);
+            put(load, iface.bearing_body, Vec3::zeros(), e * -iface.bearing_radius);
             let column = n + column;
-            solver.response(&load, &mut gain[column], &mut lambda_gain[column]);
+            solver.response(load, &mut gain[column], &mut lambda_gain[column]);
         }
     }
-    let mut mobility = DMatrix::zeros(n, n);
-    let mut moment_mobility = DMatrix::zeros(n, n);
-    let mut free_acceleration = DVector::zeros(n);
     let centripetal = |f: &BodyFrame, s: Vec3| f.angular_velocity.cross(&f.angular_velocity.cross(&s));
     for (row, iface) in joints.iter().enumerate() {
         for c in 0..n {
-            let w = interface_rate(iface, &frames, &gain[c]);
-            mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
+            let w = interface_rate(iface, frames, &gain[c]);
+            terms.mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
         }
         for c in 0..n {
-            let w = interface_rate(iface, &frames, &gain[n + c]);
-            moment_mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
+            let w = interface_rate(iface, frames, &gain[n + c]);
+            terms.moment_mobility.fixed_view_mut::<3, 1>(3 * row, c).copy_from(&w);
         }
-        let (fj, fb) = (frame(&frames, iface.journal_body), frame(&frames, iface.bearing_body));
-        let a = interface_rate(iface, &frames, &free_accelerations)
+        let (fj, fb) = (frame(frames, iface.journal_body), frame(frames, iface.bearing_body));
+        let a = interface_rate(iface, frames, &terms.free_accelerations)
             + centripetal(&fj, fj.rotation * iface.journal_point)
             - centripetal(&fb, fb.rotation * iface.bearing_point);
-        free_acceleration.fixed_view_mut::<3, 1>(3 * row, 0).copy_from(&a);
+        terms.free_acceleration.fixed_view_mut::<3, 1>(3 * row, 0).copy_from(&a);
     }
-    let effective_mass = invert(&mobility);
-    let effective_force = effective_mass.as_ref().map_or(DVector::zeros(n), |mt| mt * &free_acceleration);
-    Ok(SpatialCoupledTerms {
-        mobility,
-        effective_mass,
-        free_acceleration,
-        effective_force,
-        moment_mobility,
-        free_accelerations,
-        gain,
-        free_lambda,
-        lambda_gain,
-    })
+    terms.effective_mass = invert(&terms.mobility);
+    match &terms.effective_mass {
+        Some(mt) => mt.mul_to(&terms.free_acceleration, &mut terms.effective_force),
+        None => terms.effective_force.fill(0.0),
+    }
+    Ok(())
 }
 
 /// W⁻¹, or `None` when W is singular to working precision.

@@ -31,7 +31,7 @@ pub mod solver;
 pub mod subsystem;
 pub mod system;
 
-pub use interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms};
+pub use interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms, spatial_effective_terms_into};
 pub use kinematics::{
     SpatialPoint, angular_momentum, assemble, kinetic_energy, point_kinematics, potential_energy, velocity_analysis,
 };

@@ -11,7 +11,7 @@
 //! every probe its propagation map (`…_free` at no interface load, `…_gain` per unit load: the contact forces, then the
 //! friction loads).
 
-use crate::interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms};
+use crate::interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms_into};
 use crate::model::SpatialMechanism;
 use crate::solver::SpatialSolver;
 use crate::system::SpatialSystem;
@@ -103,8 +103,26 @@ pub struct SpatialMechanismSubsystem {
     cut_solver: SpatialSolver,
     /// The effective terms at the current communication point.
     pub terms: Option<SpatialCoupledTerms>,
+    /// Work storage of `refresh` (kept between communication points).
+    work: RefreshWork,
     /// Steps and right-hand-side evaluations of the integration.
     pub integration_stats: lash_ode::Stats,
+}
+
+/// Work vectors of the spatial macro's refresh at each communication point.
+#[derive(Default)]
+struct RefreshWork {
+    /// H = M̃ W_τ.
+    moment_force: nalgebra::DMatrix<f64>,
+    /// The macro's own interface loads and generalized accelerations.
+    own_load: Vec<f64>,
+    own: Vec<f64>,
+    /// The bodies' frames at the communication point.
+    frames: Vec<crate::constraints::BodyFrame>,
+    /// One probe's gains.
+    gains: Vec<f64>,
+    /// Rows of each cut joint.
+    ranges: Vec<std::ops::Range<usize>>,
 }
 
 fn body_index(id: BodyId) -> Option<usize> {
@@ -260,6 +278,7 @@ impl SpatialMechanismSubsystem {
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
             terms: None,
+            work: RefreshWork::default(),
             integration_stats: lash_ode::Stats::default(),
         }
     }
@@ -279,30 +298,42 @@ impl SpatialMechanismSubsystem {
         let t = self.time.seconds();
         let nq = self.cut.coordinate_count();
         let (q, v) = self.y.split_at(nq);
-        let terms = spatial_effective_terms(&self.cut, &mut self.cut_solver, &self.joints, t, q, v)
+        let k = self.joints.len();
+        let mut terms =
+            self.terms.take().unwrap_or_else(|| SpatialCoupledTerms::zeros(v.len(), self.cut.constraint_count(), k));
+        spatial_effective_terms_into(&self.cut, &mut self.cut_solver, &self.joints, t, q, v, &mut terms)
             .map_err(|e| e.to_string())?;
-        let Some(mass) = terms.effective_mass.clone() else {
+        let Some(mass) = terms.effective_mass.as_ref() else {
             return Err(format!(
                 "the interface mobility W = {} is singular: the cut mechanism cannot move the balls freely in every \
                  direction",
                 terms.mobility
             ));
         };
-        let k = self.joints.len();
         let g = 6 * k; // loads: 3k contact forces, then 3k friction loads n × F_T
-        let moment_force = &mass * &terms.moment_mobility;
+        let work = &mut self.work;
+        if work.moment_force.shape() != terms.moment_mobility.shape() {
+            work.moment_force = nalgebra::DMatrix::zeros(3 * k, 3 * k);
+        }
+        mass.mul_to(&terms.moment_mobility, &mut work.moment_force);
+        let moment_force = &work.moment_force;
         // One-way: the macro's own motion has ẅ = 0, so its interface load is −f̃ (no friction).
-        let mut own_load = vec![0.0; g];
+        work.own_load.clear();
+        work.own_load.resize(g, 0.0);
+        let own_load = &mut work.own_load;
         for (o, f) in own_load.iter_mut().zip(terms.effective_force.iter()) {
             *o = -f;
         }
-        let mut own = terms.free_accelerations.clone();
-        for (column, &f) in terms.gain.iter().zip(&own_load) {
+        work.own.clone_from(&terms.free_accelerations);
+        let own = &mut work.own;
+        for (column, &f) in terms.gain.iter().zip(own_load.iter()) {
             for (a, c) in own.iter_mut().zip(column) {
                 *a += c * f;
             }
         }
-        let frames = self.cut_solver.frames.clone();
+        let (own_load, own) = (&*own_load, &*own);
+        work.frames.clone_from(&self.cut_solver.frames);
+        let frames = &work.frames;
         let world = |b: BodyId, x: &[f64], angular: bool| -> Vec3 {
             match body_index(b) {
                 None => Vec3::zeros(),
@@ -311,33 +342,48 @@ impl SpatialMechanismSubsystem {
             }
         };
         let omega = |b: BodyId| body_index(b).map_or(Vec3::zeros(), |k| frames[k].angular_velocity);
-        let row_major = |m: &nalgebra::DMatrix<f64>| -> Vec<f64> { m.transpose().as_slice().to_vec() };
         let (values, offsets) = (&mut self.values, &self.offsets);
-        let mut put =
-            |vr: ValueReference, v: &[f64]| values[offsets[vr as usize]..offsets[vr as usize + 1]].copy_from_slice(v);
-        put(vr::EFFECTIVE_MASS, &row_major(&mass));
-        put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
-        put(vr::MOBILITY, &row_major(&terms.mobility));
-        put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
-        put(vr::FRICTION_MOMENT_FORCE, &row_major(&moment_force));
-        let stack = |f: &dyn Fn(&SphericalInterface) -> Vec3| -> Vec<f64> {
-            self.joints.iter().flat_map(|j| f(j).as_slice().to_vec()).collect()
+        let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
+        // Matrices go out row-major.
+        let mut put_matrix = |vr: ValueReference, m: &nalgebra::DMatrix<f64>| {
+            let out = &mut values[range(vr)];
+            let columns = m.ncols();
+            for i in 0..m.nrows() {
+                for j in 0..columns {
+                    out[i * columns + j] = m[(i, j)];
+                }
+            }
         };
-        put(vr::JOURNAL_ANGULAR_VELOCITY, &stack(&|j| omega(j.journal_body)));
-        put(vr::JOURNAL_ANGULAR_ACCELERATION, &stack(&|j| world(j.journal_body, &own, true)));
-        put(vr::BEARING_ANGULAR_VELOCITY, &stack(&|j| omega(j.bearing_body)));
-        put(vr::BEARING_ANGULAR_ACCELERATION, &stack(&|j| world(j.bearing_body, &own, true)));
+        put_matrix(vr::EFFECTIVE_MASS, mass);
+        put_matrix(vr::MOBILITY, &terms.mobility);
+        put_matrix(vr::FRICTION_MOMENT_FORCE, moment_force);
+        let mut stack = |vr: ValueReference, f: &dyn Fn(&SphericalInterface) -> Vec3| {
+            for (out, j) in values[range(vr)].chunks_exact_mut(3).zip(&self.joints) {
+                out.copy_from_slice(f(j).as_slice());
+            }
+        };
+        stack(vr::JOURNAL_ANGULAR_VELOCITY, &|j| omega(j.journal_body));
+        stack(vr::JOURNAL_ANGULAR_ACCELERATION, &|j| world(j.journal_body, own, true));
+        stack(vr::BEARING_ANGULAR_VELOCITY, &|j| omega(j.bearing_body));
+        stack(vr::BEARING_ANGULAR_ACCELERATION, &|j| world(j.bearing_body, own, true));
+        let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
+        put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
+        put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
         self.ideal.solver.set_state(&self.ideal.mechanism, t, q, v);
         put(vr::CONSTRAINT_ERROR, &[self.ideal.solver.constraint_error()]);
         let mut next = vr::CONSTRAINT_ERROR + 1;
-        let mut gains = vec![0.0; 3 * g];
+        work.gains.clear();
+        work.gains.resize(3 * g, 0.0);
+        let gains = &mut work.gains;
         // Rows of each cut joint and the first driver row.
-        let mut ranges = Vec::with_capacity(self.cut.joints.len());
+        work.ranges.clear();
+        let ranges = &mut work.ranges;
         let mut row = 0;
         for j in &self.cut.joints {
             ranges.push(row..row + j.kind.equations());
             row += j.kind.equations();
         }
+        let ranges = &*ranges;
         for p in &self.probes {
             match p {
                 SpatialProbe::Point { body, point, .. } => {
@@ -357,9 +403,9 @@ impl SpatialMechanismSubsystem {
                     }
                     put(next, (f.position + s).as_slice());
                     put(next + 1, (f.velocity + w.cross(&s)).as_slice());
-                    put(next + 2, accel(&own, true).as_slice());
+                    put(next + 2, accel(own, true).as_slice());
                     put(next + 3, accel(&terms.free_accelerations, true).as_slice());
-                    put(next + 4, &gains);
+                    put(next + 4, gains);
                     next += 5;
                 }
                 SpatialProbe::JointReaction { joint, .. } => {
@@ -384,12 +430,12 @@ impl SpatialMechanismSubsystem {
                     }
                     put(next, total.as_slice());
                     put(next + 1, free.as_slice());
-                    put(next + 2, &gains);
+                    put(next + 2, gains);
                     next += 3;
                 }
                 SpatialProbe::DriverTorque { driver, .. } => {
                     let jt = &self.cut.joints[self.cut.drivers[*driver].joint];
-                    let axis = crate::constraints::marker_world(&jt.i, &frames).2;
+                    let axis = crate::constraints::marker_world(&jt.i, frames).2;
                     let driver_row = row + driver;
                     let solver = &mut self.cut_solver;
                     let mut torque = |lambda: &[f64]| -> f64 {

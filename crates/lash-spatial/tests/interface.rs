@@ -5,7 +5,8 @@
 mod common;
 use common::slider_crank;
 use lash_spatial::{
-    Baumgarte, BodyId, SpatialMechanism, SpatialSolver, SphericalInterface, Vec3, spatial_effective_terms,
+    Baumgarte, BodyId, SpatialCoupledTerms, SpatialMechanism, SpatialSolver, SphericalInterface, Vec3,
+    spatial_effective_terms, spatial_effective_terms_into,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -155,6 +156,40 @@ fn the_mobilities_equal_the_null_space_projection_of_the_cut_mechanism() {
                 (expected - column).abs().max() < 1e-9 * terms.moment_mobility.abs().max(),
                 "friction-load column {r} {axis}"
             );
+        }
+    }
+}
+
+/// The terms refreshed in place (one storage through several states, as the macro subsystem
+/// keeps them) equal terms computed afresh at each state, bit for bit, for one joint and two.
+#[test]
+fn terms_refreshed_in_place_equal_fresh_ones_bit_for_bit() {
+    let (_, cut, interfaces, y) = e_state();
+    let n = cut.coordinate_count();
+    let (q, v0) = y.split_at(n);
+    for count in [1, 2] {
+        let joints = &interfaces[..count];
+        let (mut kept_solver, mut fresh_solver) = (SpatialSolver::new(&cut), SpatialSolver::new(&cut));
+        let mut kept = SpatialCoupledTerms::zeros(v0.len(), cut.constraint_count(), count);
+        for (i, scale) in [1.0, -0.5, 3.0, 0.0].into_iter().enumerate() {
+            let v: Vec<f64> = v0.iter().map(|x| x * scale).collect();
+            let t = 0.01 * i as f64;
+            spatial_effective_terms_into(&cut, &mut kept_solver, joints, t, q, &v, &mut kept).expect("terms");
+            let fresh = spatial_effective_terms(&cut, &mut fresh_solver, joints, t, q, &v).expect("terms");
+            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(kept.mobility.as_slice()), bits(fresh.mobility.as_slice()), "W, state {i}");
+            let (a, b) =
+                (kept.effective_mass.as_ref().expect("regular"), fresh.effective_mass.as_ref().expect("regular"));
+            assert_eq!(bits(a.as_slice()), bits(b.as_slice()), "M̃, state {i}");
+            assert_eq!(bits(kept.effective_force.as_slice()), bits(fresh.effective_force.as_slice()), "f̃, state {i}");
+            assert_eq!(bits(kept.moment_mobility.as_slice()), bits(fresh.moment_mobility.as_slice()));
+            assert_eq!(bits(kept.free_acceleration.as_slice()), bits(fresh.free_acceleration.as_slice()));
+            assert_eq!(bits(&kept.free_accelerations), bits(&fresh.free_accelerations));
+            assert_eq!(bits(&kept.free_lambda), bits(&fresh.free_lambda));
+            for c in 0..6 * count {
+                assert_eq!(bits(&kept.gain[c]), bits(&fresh.gain[c]), "gain column {c}, state {i}");
+                assert_eq!(bits(&kept.lambda_gain[c]), bits(&fresh.lambda_gain[c]));
+            }
         }
     }
 }
