@@ -21,6 +21,7 @@
 
 pub mod bushing;
 pub mod joint;
+pub mod lanes;
 pub mod model;
 
 use crate::clearance::{ClearanceJoint, Impact};

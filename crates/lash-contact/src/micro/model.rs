@@ -106,11 +106,11 @@ fn norm(x: &[f64]) -> f64 {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MassFactor<const N: usize> {
     /// One joint: M̃ itself; more: L of M̃ = L D Lᵀ below the diagonal (unit diagonal implied).
-    mass: SMatrix<f64, N, N>,
+    pub(super) mass: SMatrix<f64, N, N>,
     /// One joint: 1/det M̃; more: unused.
-    reciprocal_determinant: f64,
+    pub(super) reciprocal_determinant: f64,
     /// More joints: 1/D_ii.
-    reciprocal_diagonal: SVector<f64, N>,
+    pub(super) reciprocal_diagonal: SVector<f64, N>,
 }
 
 impl<const N: usize> MassFactor<N> {
@@ -255,12 +255,12 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
     pub inputs: InterfaceInputs<N, M, R>,
     /// Time of `inputs` [s].
     pub input_time: f64,
-    open: Vec<Option<ImpactTracker>>,
+    pub(super) open: Vec<Option<ImpactTracker>>,
     violation: bool,
     /// The last integration was an adaptive one (continuous extensions reach `accept_dense`).
-    located: bool,
+    pub(super) located: bool,
     /// The end of the last RK4 step: the next step's first stage is the same instant and state.
-    end: Option<StepEnd<N, M>>,
+    pub(super) end: Option<StepEnd<N, M>>,
 }
 
 /// The micro model of k planar revolute clearance joints (N = 2k).
@@ -268,13 +268,13 @@ pub type PlanarInterfaceModel<const N: usize, const K: usize> = InterfaceModel<C
 
 /// What a step's end leaves to the next step's start.
 #[derive(Debug, Clone, Copy)]
-struct StepEnd<const N: usize, const M: usize> {
-    time: f64,
-    input_time: f64,
-    eccentricity: SVector<f64, N>,
-    eccentricity_rate: SVector<f64, N>,
-    loads: Loads<N, M>,
-    mass: MassFactor<N>,
+pub(super) struct StepEnd<const N: usize, const M: usize> {
+    pub(super) time: f64,
+    pub(super) input_time: f64,
+    pub(super) eccentricity: SVector<f64, N>,
+    pub(super) eccentricity_rate: SVector<f64, N>,
+    pub(super) loads: Loads<N, M>,
+    pub(super) mass: MassFactor<N>,
 }
 
 impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> InterfaceModel<J, N, K, M, R> {
@@ -556,34 +556,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let s1 = if DAMPED { s0 + (r1 + (r2 + r3) * 2.0 + r4) * (h / 6.0) } else { s0 };
         self.impulse += (l1.contact + (l2.contact + l3.contact) * 2.0 + l4.contact) * (h / 6.0);
         self.friction_impulse += (l1.friction + (l2.friction + l3.friction) * 2.0 + l4.friction) * (h / 6.0);
-        // Mode switches at the step end; the onset is placed by linear interpolation.
-        let d = J::COORDINATES;
-        for j in 0..self.joints.len() {
-            let c = self.joints[j].radial_clearance();
-            let (a0, a1) = (Self::part(&e0, j), Self::part(&e1, j));
-            // The contact's own indentation δ − s (s = 0 without a damped bush).
-            let (d0, d1) =
-                if DAMPED { (norm(a0) - c - s0[j], norm(a1) - c - s1[j]) } else { (norm(a0) - c, norm(a1) - c) };
-            if !self.joints[j].in_contact() && d1 > 0.0 {
-                let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
-                let (b0, b1) = (Self::part(&v0, j), Self::part(&v1, j));
-                let (mut ec, mut vc) = ([0.0; 3], [0.0; 3]);
-                for i in 0..d {
-                    ec[i] = a0[i] + (a1[i] - a0[i]) * frac;
-                    vc[i] = b0[i] + (b1[i] - b0[i]) * frac;
-                }
-                let length = norm(&ec[..d]).max(f64::MIN_POSITIVE);
-                let mut rate = (0..d).map(|i| vc[i] * ec[i]).sum::<f64>() / length;
-                if DAMPED {
-                    // δ̇ − ṡ, the bush relaxing until the contact closes.
-                    rate -= self.joints[j].relaxation_rate(s0[j] + (s1[j] - s0[j]) * frac);
-                }
-                self.open_contact(j, t + frac * h, rate);
-            } else if self.joints[j].in_contact() && d1 <= 0.0 {
-                let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
-                self.close_contact(j, t + frac * h);
-            }
-        }
+        self.switch_modes::<DAMPED>(t, h, (&e0, &v0, &s0), (&e1, &v1, &s1));
         self.eccentricity = e1;
         self.eccentricity_rate = v1;
         if DAMPED {
@@ -618,6 +591,46 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                     loads: end,
                     mass: finish,
                 })
+            }
+        }
+    }
+
+    /// Mode switches at the end of a step from (w0, ẇ0, s0) at `t` to (w1, ẇ1, s1) at `t + h`: a
+    /// joint that closes its clearance opens a contact, one that leaves it closes it; the onset
+    /// or exit is placed by linear interpolation.
+    #[inline(always)]
+    pub(super) fn switch_modes<const DAMPED: bool>(
+        &mut self,
+        t: f64,
+        h: f64,
+        (e0, v0, s0): (&SVector<f64, N>, &SVector<f64, N>, &SVector<f64, K>),
+        (e1, v1, s1): (&SVector<f64, N>, &SVector<f64, N>, &SVector<f64, K>),
+    ) {
+        let d = J::COORDINATES;
+        for j in 0..self.joints.len() {
+            let c = self.joints[j].radial_clearance();
+            let (a0, a1) = (Self::part(e0, j), Self::part(e1, j));
+            // The contact's own indentation δ − s (s = 0 without a damped bush).
+            let (d0, d1) =
+                if DAMPED { (norm(a0) - c - s0[j], norm(a1) - c - s1[j]) } else { (norm(a0) - c, norm(a1) - c) };
+            if !self.joints[j].in_contact() && d1 > 0.0 {
+                let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
+                let (b0, b1) = (Self::part(v0, j), Self::part(v1, j));
+                let (mut ec, mut vc) = ([0.0; 3], [0.0; 3]);
+                for i in 0..d {
+                    ec[i] = a0[i] + (a1[i] - a0[i]) * frac;
+                    vc[i] = b0[i] + (b1[i] - b0[i]) * frac;
+                }
+                let length = norm(&ec[..d]).max(f64::MIN_POSITIVE);
+                let mut rate = (0..d).map(|i| vc[i] * ec[i]).sum::<f64>() / length;
+                if DAMPED {
+                    // δ̇ − ṡ, the bush relaxing until the contact closes.
+                    rate -= self.joints[j].relaxation_rate(s0[j] + (s1[j] - s0[j]) * frac);
+                }
+                self.open_contact(j, t + frac * h, rate);
+            } else if self.joints[j].in_contact() && d1 <= 0.0 {
+                let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
+                self.close_contact(j, t + frac * h);
             }
         }
     }

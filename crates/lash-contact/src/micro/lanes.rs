@@ -1,0 +1,772 @@
+//! Lanes: `L` one-joint planar interface models (independent runs, as in a sweep) advanced by
+//! RK4 in lockstep, each arithmetic operation of a step done for all `L` models side by side
+//! (arrays of `L` numbers the compiler turns into vector instructions), so that the square roots
+//! and divisions of `L` models share the time one model's would take.
+//!
+//! Every lane computes exactly what [`InterfaceModel::rk4_step`] computes for its model, in the
+//! same order (results bit for bit the same; tested): the contact law's two paths (in contact,
+//! or in free flight with the onset velocity taken at a first indentation) and the gate of a
+//! joint inside its clearance are selections, not branches; what is rare and sequential — a
+//! contact opening or closing at the step end, the impact tracker's samples — is done lane by
+//! lane through the model's own code. A step that a lane cannot take this way (no kept step end
+//! to start from) is taken by the model itself.
+//!
+//! Which models qualify ([`lane_laws`]): one planar revolute clearance joint without a bush, the
+//! hysteresis contact law (Hunt–Crossley, Lankarani–Nikravesh, Flores, Gonthier, …) with
+//! exponent 1.5, friction none, Coulomb or Ambrósio. The lanes of one group share the laws' kind,
+//! not their numbers.
+//!
+//! [`InterfaceModel::rk4_step`]: super::model::InterfaceModel::rk4_step
+
+use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
+use crate::clearance::{ClearanceJoint, ContactState};
+use crate::friction::FrictionLaw;
+use crate::law::NormalForce;
+use lash_core::Ticks;
+use lash_mech::Vec2;
+use nalgebra::{SMatrix, SVector};
+
+/// The micro model of one planar clearance joint.
+pub type OneJoint = InterfaceModel<ClearanceJoint, 2, 1, 1, 1>;
+
+/// The friction law's kind shared by the lanes of a group.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LaneFriction {
+    /// No friction.
+    None,
+    /// μ sign(v_t).
+    Coulomb,
+    /// Ambrósio's modified Coulomb.
+    Ambrosio,
+}
+
+/// The laws' kind of a model that can run in lanes, or `None`.
+pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
+    let joint = &model.joints[0];
+    if joint.bush_stiffness.is_finite() {
+        return None;
+    }
+    if !matches!(joint.law, NormalForce::Hysteresis { exponent, .. } if exponent == 1.5) {
+        return None;
+    }
+    match joint.friction {
+        FrictionLaw::None => Some(LaneFriction::None),
+        FrictionLaw::Coulomb { .. } => Some(LaneFriction::Coulomb),
+        FrictionLaw::Ambrosio { .. } => Some(LaneFriction::Ambrosio),
+        _ => None,
+    }
+}
+
+/// How a lane's advance ended: the steps completed, and the failure (time reached, message).
+pub type LaneOutcome = Result<(), (usize, f64, String)>;
+
+/// One number per lane.
+type V<const L: usize> = [f64; L];
+
+/// √x of every lane, four at a time in vector registers (correctly rounded: the same bits as
+/// `f64::sqrt`; the compiler left the lanes' square roots scalar).
+#[inline(always)]
+fn sqrt_lanes<const L: usize>(x: &V<L>) -> V<L> {
+    let mut out = *x;
+    let mut chunks = out.chunks_exact_mut(4);
+    for c in &mut chunks {
+        let v = wide::f64x4::from([c[0], c[1], c[2], c[3]]).sqrt();
+        c.copy_from_slice(&<[f64; 4]>::from(v));
+    }
+    for o in chunks.into_remainder() {
+        *o = o.sqrt();
+    }
+    out
+}
+
+/// a / b of every lane, four at a time in vector registers (correctly rounded, as `/`).
+#[inline(always)]
+fn div_lanes<const L: usize>(a: &V<L>, b: &V<L>) -> V<L> {
+    let mut out = [0.0; L];
+    for ((o, a), b) in out.chunks_mut(4).zip(a.chunks(4)).zip(b.chunks(4)) {
+        if o.len() == 4 {
+            let q = wide::f64x4::from([a[0], a[1], a[2], a[3]]) / wide::f64x4::from([b[0], b[1], b[2], b[3]]);
+            o.copy_from_slice(&<[f64; 4]>::from(q));
+        } else {
+            for i in 0..o.len() {
+                o[i] = a[i] / b[i];
+            }
+        }
+    }
+    out
+}
+
+/// `f(l)` for every lane, as one short loop (the compiler vectorises it).
+#[inline(always)]
+fn lanes<const L: usize>(f: impl Fn(usize) -> f64) -> V<L> {
+    let mut out = [0.0; L];
+    for (l, o) in out.iter_mut().enumerate() {
+        *o = f(l);
+    }
+    out
+}
+
+/// A lane's numbers for one stage evaluation: the loads on the journal and the contact state.
+#[derive(Clone, Copy)]
+struct Stage<const L: usize> {
+    fx: V<L>,
+    fy: V<L>,
+    friction: V<L>,
+}
+
+/// Per-lane constants of the joint and its laws.
+struct Joint<const L: usize> {
+    clearance: V<L>,
+    journal_radius: V<L>,
+    bearing_radius: V<L>,
+    stiffness: V<L>,
+    chi: V<L>,
+    floor: V<L>,
+    mu: V<L>,
+    v0: V<L>,
+    v1: V<L>,
+    friction: LaneFriction,
+}
+
+/// Per-lane inputs of the interval (values at `input_time` and rates).
+struct Inputs<const L: usize> {
+    time: V<L>,
+    mass: [V<L>; 4],
+    mass_rate: [V<L>; 4],
+    force: [V<L>; 2],
+    force_rate: [V<L>; 2],
+    moment: [V<L>; 2],
+    moment_rate: [V<L>; 2],
+    journal_omega: V<L>,
+    journal_alpha: V<L>,
+    bearing_omega: V<L>,
+    bearing_alpha: V<L>,
+}
+
+/// The full contact state of each lane (what the model's `states[0]` holds).
+#[derive(Clone, Copy)]
+struct States<const L: usize> {
+    ex: V<L>,
+    ey: V<L>,
+    norm: V<L>,
+    nx: V<L>,
+    ny: V<L>,
+    delta: V<L>,
+    delta_dot: V<L>,
+    slip: V<L>,
+    normal_force: V<L>,
+    friction_force: V<L>,
+    fx: V<L>,
+    fy: V<L>,
+}
+
+impl<const L: usize> Joint<L> {
+    fn of(models: &[&mut OneJoint; L], friction: LaneFriction) -> Self {
+        let each = |f: &dyn Fn(&ClearanceJoint) -> f64| std::array::from_fn(|l| f(&models[l].joints[0]));
+        let law = |j: &ClearanceJoint| match j.law {
+            NormalForce::Hysteresis { stiffness, chi, floor, .. } => (stiffness, chi, floor),
+            _ => unreachable!("lane_laws admits the hysteresis law only"),
+        };
+        let fr = |j: &ClearanceJoint| match j.friction {
+            FrictionLaw::Coulomb { coefficient } => (coefficient, 0.0, 0.0),
+            FrictionLaw::Ambrosio { coefficient, v0, v1 } => (coefficient, v0, v1),
+            _ => (0.0, 0.0, 0.0),
+        };
+        Self {
+            clearance: each(&|j| j.radial_clearance()),
+            journal_radius: each(&|j| j.journal_radius),
+            bearing_radius: each(&|j| j.bearing_radius),
+            stiffness: each(&|j| law(j).0),
+            chi: each(&|j| law(j).1),
+            floor: each(&|j| law(j).2),
+            mu: each(&|j| fr(j).0),
+            v0: each(&|j| fr(j).1),
+            v1: each(&|j| fr(j).2),
+            friction,
+        }
+    }
+
+    /// The contact state of every lane at (e, ė) with the bodies' angular velocities, each lane in
+    /// its mode (`in_contact`, `onset`): [`ClearanceJoint::evaluate_relative_as`] as the micro
+    /// model calls it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where
+    /// they first indent.
+    #[inline(always)]
+    fn evaluate(
+        &self,
+        (ex, ey, vx, vy): (&V<L>, &V<L>, &V<L>, &V<L>),
+        (wj, wb): (&V<L>, &V<L>),
+        in_contact: &[bool; L],
+        onset: &V<L>,
+        out: &mut States<L>,
+    ) {
+        // One operation at a time over the lanes (short loops the compiler vectorises).
+        let norm = sqrt_lanes::<L>(&lanes(|l| ex[l] * ex[l] + ey[l] * ey[l]));
+        let (qx, qy) = (div_lanes(ex, &norm), div_lanes(ey, &norm));
+        let nx: V<L> = lanes(|l| if norm[l] > 0.0 { qx[l] } else { 1.0 });
+        let ny: V<L> = lanes(|l| if norm[l] > 0.0 { qy[l] } else { 0.0 });
+        let delta: V<L> = lanes(|l| norm[l] - self.clearance[l]);
+        let delta_dot: V<L> = lanes(|l| vx[l] * nx[l] + vy[l] * ny[l]);
+        // t = (−n_y, n_x).
+        let slip: V<L> = lanes(|l| {
+            (vx[l] * -ny[l] + vy[l] * nx[l]) + wj[l] * self.journal_radius[l] - wb[l] * self.bearing_radius[l]
+        });
+        // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
+        let onset: V<L> = lanes(|l| if !in_contact[l] && delta[l] > 0.0 { delta_dot[l].max(0.0) } else { onset[l] });
+        let root = sqrt_lanes(&delta);
+        let ratio =
+            div_lanes::<L>(&lanes(|l| self.chi[l] * delta_dot[l]), &lanes::<L>(|l| onset[l].max(self.floor[l])));
+        let f: V<L> = lanes(|l| self.stiffness[l] * (delta[l] * root[l]) * (1.0 + ratio[l]));
+        let normal: V<L> = lanes(|l| if delta[l] <= 0.0 { 0.0 } else { f[l].max(0.0) });
+        let sign: V<L> = lanes(|l| {
+            if slip[l] > 0.0 {
+                1.0
+            } else if slip[l] < 0.0 {
+                -1.0
+            } else {
+                0.0
+            }
+        });
+        let coefficient = match self.friction {
+            LaneFriction::None => [0.0; L],
+            LaneFriction::Coulomb => lanes::<L>(|l| self.mu[l] * sign[l]),
+            LaneFriction::Ambrosio => {
+                let a: V<L> = lanes(|l| slip[l].abs());
+                let blend = div_lanes::<L>(&lanes(|l| a[l] - self.v0[l]), &lanes::<L>(|l| self.v1[l] - self.v0[l]));
+                let cd: V<L> = lanes(|l| {
+                    if a[l] <= self.v0[l] {
+                        0.0
+                    } else if a[l] >= self.v1[l] {
+                        1.0
+                    } else {
+                        blend[l]
+                    }
+                });
+                lanes::<L>(|l| self.mu[l] * cd[l] * sign[l])
+            }
+        };
+        let tangential: V<L> = lanes(|l| if normal[l] > 0.0 { coefficient[l] * normal[l] } else { 0.0 });
+        out.ex = *ex;
+        out.ey = *ey;
+        out.norm = norm;
+        out.nx = nx;
+        out.ny = ny;
+        out.delta = delta;
+        out.delta_dot = delta_dot;
+        out.slip = slip;
+        out.normal_force = normal;
+        out.friction_force = tangential;
+        out.fx = lanes::<L>(|l| -(nx[l] * normal[l]) - -ny[l] * tangential[l]);
+        out.fy = lanes::<L>(|l| -(ny[l] * normal[l]) - nx[l] * tangential[l]);
+    }
+}
+
+impl<const L: usize> Inputs<L> {
+    fn of(models: &[&mut OneJoint; L]) -> Self {
+        let each = |f: &dyn Fn(&OneJoint) -> f64| std::array::from_fn(|l| f(models[l]));
+        let m = |i: usize, j: usize| each(&|x| x.inputs.effective_mass[(i, j)]);
+        let r = |i: usize, j: usize| each(&|x| x.inputs.effective_mass_rate[(i, j)]);
+        Self {
+            time: each(&|x| x.input_time),
+            mass: [m(0, 0), m(0, 1), m(1, 0), m(1, 1)],
+            mass_rate: [r(0, 0), r(0, 1), r(1, 0), r(1, 1)],
+            force: [each(&|x| x.inputs.effective_force[0]), each(&|x| x.inputs.effective_force[1])],
+            force_rate: [each(&|x| x.inputs.effective_force_rate[0]), each(&|x| x.inputs.effective_force_rate[1])],
+            moment: [each(&|x| x.inputs.friction_moment_force[0]), each(&|x| x.inputs.friction_moment_force[1])],
+            moment_rate: [
+                each(&|x| x.inputs.friction_moment_force_rate[0]),
+                each(&|x| x.inputs.friction_moment_force_rate[1]),
+            ],
+            journal_omega: each(&|x| x.inputs.journal_angular_velocity[0]),
+            journal_alpha: each(&|x| x.inputs.journal_angular_acceleration[0]),
+            bearing_omega: each(&|x| x.inputs.bearing_angular_velocity[0]),
+            bearing_alpha: each(&|x| x.inputs.bearing_angular_acceleration[0]),
+        }
+    }
+
+    /// M̃ + Ṁ dt of every lane by Cramer's rule: the matrix (row-major 2 × 2) and 1/det.
+    #[inline(always)]
+    fn mass_at(&self, dt: &V<L>) -> ([V<L>; 4], V<L>) {
+        let m: [V<L>; 4] = std::array::from_fn(|k| lanes(|l| self.mass[k][l] + self.mass_rate[k][l] * dt[l]));
+        let det = lanes(|l| m[0][l] * m[3][l] - m[1][l] * m[2][l]);
+        (m, div_lanes(&[1.0; L], &det))
+    }
+
+    /// ẅ of every lane: M̃⁻¹ (f̃ + ḟ dt + f_c + (H + Ḣ dt) F_T), the friction term only where
+    /// F_T ≠ 0 ([`InterfaceModel`]'s `acceleration_with`).
+    #[inline(always)]
+    fn acceleration(&self, dt: &V<L>, (m, inv): &([V<L>; 4], V<L>), loads: &Stage<L>) -> (V<L>, V<L>) {
+        let (mut ax, mut ay) = ([0.0; L], [0.0; L]);
+        for l in 0..L {
+            let mut r0 = self.force[0][l] + self.force_rate[0][l] * dt[l] + loads.fx[l];
+            let mut r1 = self.force[1][l] + self.force_rate[1][l] * dt[l] + loads.fy[l];
+            let f = loads.friction[l];
+            let with0 = r0 + (self.moment[0][l] + self.moment_rate[0][l] * dt[l]) * f;
+            let with1 = r1 + (self.moment[1][l] + self.moment_rate[1][l] * dt[l]) * f;
+            if f != 0.0 {
+                r0 = with0;
+                r1 = with1;
+            }
+            ax[l] = (m[3][l] * r0 - m[1][l] * r1) * inv[l];
+            ay[l] = (m[0][l] * r1 - m[2][l] * r0) * inv[l];
+        }
+        (ax, ay)
+    }
+}
+
+/// The loads of a contact state with the micro model's gate: nothing for a lane whose journal is
+/// inside its clearance (|e|² ≤ c², `loads_at`).
+#[inline(always)]
+fn gated<const L: usize>(s: &States<L>, clearance: &V<L>) -> Stage<L> {
+    let mut out = Stage { fx: [0.0; L], fy: [0.0; L], friction: [0.0; L] };
+    for l in 0..L {
+        let outside = s.ex[l] * s.ex[l] + s.ey[l] * s.ey[l] > clearance[l] * clearance[l];
+        out.fx[l] = if outside { s.fx[l] } else { 0.0 };
+        out.fy[l] = if outside { s.fy[l] } else { 0.0 };
+        out.friction[l] = if outside { s.friction_force[l] } else { 0.0 };
+    }
+    out
+}
+
+/// Writes lane `l` of `s` as a contact state.
+fn state_of<const L: usize>(s: &States<L>, l: usize) -> ContactState {
+    ContactState {
+        journal_centre: Vec2::zeros(),
+        eccentricity: Vec2::new(s.ex[l], s.ey[l]),
+        eccentricity_norm: s.norm[l],
+        normal: Vec2::new(s.nx[l], s.ny[l]),
+        penetration: s.delta[l],
+        penetration_rate: s.delta_dot[l],
+        slip_velocity: s.slip[l],
+        normal_force: s.normal_force[l],
+        friction_force: s.friction_force[l],
+        force_on_journal: Vec2::new(s.fx[l], s.fy[l]),
+    }
+}
+
+/// The lanes' state between steps: (w, ẇ), impulses, the kept step end (time, loads, factor).
+struct Kept<const L: usize> {
+    ex: V<L>,
+    ey: V<L>,
+    vx: V<L>,
+    vy: V<L>,
+    impulse: [V<L>; 2],
+    friction_impulse: V<L>,
+    end_time: V<L>,
+    end_loads: Stage<L>,
+    end_mass: ([V<L>; 4], V<L>),
+    /// The kept factor was formed with the current inputs.
+    end_inputs: [bool; L],
+    states: States<L>,
+}
+
+impl<const L: usize> Kept<L> {
+    /// Lane `l` from its model; `false` when its model has no step end to start from at `t`.
+    fn gather(&mut self, l: usize, m: &OneJoint, t: f64) -> bool {
+        self.ex[l] = m.eccentricity[0];
+        self.ey[l] = m.eccentricity[1];
+        self.vx[l] = m.eccentricity_rate[0];
+        self.vy[l] = m.eccentricity_rate[1];
+        self.impulse[0][l] = m.impulse[0];
+        self.impulse[1][l] = m.impulse[1];
+        self.friction_impulse[l] = m.friction_impulse[0];
+        let s = &m.states[0];
+        let st = &mut self.states;
+        (st.ex[l], st.ey[l], st.norm[l]) = (s.eccentricity.x, s.eccentricity.y, s.eccentricity_norm);
+        (st.nx[l], st.ny[l], st.delta[l], st.delta_dot[l]) =
+            (s.normal.x, s.normal.y, s.penetration, s.penetration_rate);
+        (st.slip[l], st.normal_force[l], st.friction_force[l]) = (s.slip_velocity, s.normal_force, s.friction_force);
+        (st.fx[l], st.fy[l]) = (s.force_on_journal.x, s.force_on_journal.y);
+        match &m.end {
+            Some(end)
+                if (end.time - t).abs() < 1e-12
+                    && end.eccentricity == m.eccentricity
+                    && end.eccentricity_rate == m.eccentricity_rate =>
+            {
+                self.end_time[l] = end.time;
+                self.end_loads.fx[l] = end.loads.contact[0];
+                self.end_loads.fy[l] = end.loads.contact[1];
+                self.end_loads.friction[l] = end.loads.friction[0];
+                let f = &end.mass.mass;
+                self.end_mass.0[0][l] = f[(0, 0)];
+                self.end_mass.0[1][l] = f[(0, 1)];
+                self.end_mass.0[2][l] = f[(1, 0)];
+                self.end_mass.0[3][l] = f[(1, 1)];
+                self.end_mass.1[l] = end.mass.reciprocal_determinant;
+                self.end_inputs[l] = end.input_time == m.input_time;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Writes lane `l` back into its model (state, impulses, contact state and step end).
+    fn scatter(&self, l: usize, m: &mut OneJoint) {
+        m.located = false;
+        m.eccentricity = SVector::from([self.ex[l], self.ey[l]]);
+        m.eccentricity_rate = SVector::from([self.vx[l], self.vy[l]]);
+        m.impulse = SVector::from([self.impulse[0][l], self.impulse[1][l]]);
+        m.friction_impulse = SVector::from([self.friction_impulse[l]]);
+        m.states[0] = state_of(&self.states, l);
+        let (mass, inv) = &self.end_mass;
+        m.end = Some(StepEnd {
+            time: self.end_time[l],
+            input_time: m.input_time,
+            eccentricity: m.eccentricity,
+            eccentricity_rate: m.eccentricity_rate,
+            loads: Loads {
+                contact: SVector::from([self.end_loads.fx[l], self.end_loads.fy[l]]),
+                friction: SVector::from([self.end_loads.friction[l]]),
+            },
+            mass: MassFactor {
+                mass: SMatrix::<f64, 2, 2>::new(mass[0][l], mass[1][l], mass[2][l], mass[3][l]),
+                reciprocal_determinant: inv[l],
+                reciprocal_diagonal: SVector::zeros(),
+            },
+        });
+    }
+}
+
+/// Advances `L` models (each [`lane_laws`] of kind `friction`, each at its own time `t[l]` with
+/// its inputs set) by `record.len()` RK4 steps of `step`, and after each flagged step calls
+/// `sample(lane, step index, model)` for every lane still running, in lane order. Like the
+/// model's own loop, each lane's penetration is checked after each step; a lane that fails stops
+/// there (its outcome says where), the others go on.
+pub fn advance<const L: usize>(
+    models: &mut [&mut OneJoint; L],
+    friction: LaneFriction,
+    t: [Ticks; L],
+    step: Ticks,
+    record: &[bool],
+    mut sample: impl FnMut(usize, usize, &OneJoint),
+) -> [LaneOutcome; L] {
+    let h = step.seconds();
+    let joint = Joint::of(models, friction);
+    let inputs = Inputs::of(models);
+    let zero = [0.0; L];
+    let mut kept = Kept {
+        ex: zero,
+        ey: zero,
+        vx: zero,
+        vy: zero,
+        impulse: [zero; 2],
+        friction_impulse: zero,
+        end_time: zero,
+        end_loads: Stage { fx: zero, fy: zero, friction: zero },
+        end_mass: ([zero; 4], zero),
+        end_inputs: [false; L],
+        states: States {
+            ex: zero,
+            ey: zero,
+            norm: zero,
+            nx: zero,
+            ny: zero,
+            delta: zero,
+            delta_dot: zero,
+            slip: zero,
+            normal_force: zero,
+            friction_force: zero,
+            fx: zero,
+            fy: zero,
+        },
+    };
+    let mut outcome: [LaneOutcome; L] = std::array::from_fn(|_| Ok(()));
+    let mut running = [true; L];
+    // Lanes whose model takes the step itself (no kept step end to start from).
+    let mut by_model = [false; L];
+    for (l, m) in models.iter_mut().enumerate() {
+        by_model[l] = !kept.gather(l, m, t[l].seconds());
+    }
+    let penetration_limit: V<L> = std::array::from_fn(|l| 0.1 * models[l].joints[0].journal_radius);
+    let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
+    let mut onset: V<L> = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
+    let mut stage = kept.states;
+    for (i, &flag) in record.iter().enumerate() {
+        let now: V<L> = std::array::from_fn(|l| Ticks(t[l].0 + i as i64 * step.0).seconds());
+        for l in 0..L {
+            if running[l] && !by_model[l] && (kept.end_time[l] - now[l]).abs() >= 1e-12 {
+                // (A step end that is not this instant: possible only for times far from the
+                // origin; the model decides what to reuse.)
+                kept.scatter(l, models[l]);
+                by_model[l] = true;
+            }
+        }
+        // The models that take this step themselves, before the lanes overwrite their numbers.
+        for l in 0..L {
+            if running[l] && by_model[l] {
+                models[l].rk4_step(now[l], h);
+            }
+        }
+        let dt = |offset: f64| -> V<L> { std::array::from_fn(|l| now[l] + offset - inputs.time[l]) };
+        let (dt0, dt_half, dt_end) = (dt(0.0), dt(0.5 * h), dt(h));
+        let fresh = inputs.mass_at(&dt0);
+        let mut start = kept.end_mass;
+        for l in 0..L {
+            if !kept.end_inputs[l] {
+                for k in 0..4 {
+                    start.0[k][l] = fresh.0[k][l];
+                }
+                start.1[l] = fresh.1[l];
+            }
+        }
+        let (middle, finish) = (inputs.mass_at(&dt_half), inputs.mass_at(&dt_end));
+        let omega = |dt: &V<L>| -> (V<L>, V<L>) {
+            (
+                std::array::from_fn(|l| inputs.journal_omega[l] + inputs.journal_alpha[l] * dt[l]),
+                std::array::from_fn(|l| inputs.bearing_omega[l] + inputs.bearing_alpha[l] * dt[l]),
+            )
+        };
+        let (w_half, w_end) = (omega(&dt_half), omega(&dt_end));
+        let (e0x, e0y, v0x, v0y) = (kept.ex, kept.ey, kept.vx, kept.vy);
+        // Stage 1 from the kept step end's loads.
+        let l1 = kept.end_loads;
+        let (k1x, k1y) = inputs.acceleration(&dt0, &start, &l1);
+        let along = |a: &V<L>, b: &V<L>, f: f64| -> V<L> { std::array::from_fn(|l| a[l] + b[l] * f) };
+        let (k2ex, k2ey) = (along(&v0x, &k1x, 0.5 * h), along(&v0y, &k1y, 0.5 * h));
+        let (s2x, s2y) = (along(&e0x, &v0x, 0.5 * h), along(&e0y, &v0y, 0.5 * h));
+        joint.evaluate((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), &in_contact, &onset, &mut stage);
+        let l2 = gated(&stage, &joint.clearance);
+        let (k2x, k2y) = inputs.acceleration(&dt_half, &middle, &l2);
+        let (k3ex, k3ey) = (along(&v0x, &k2x, 0.5 * h), along(&v0y, &k2y, 0.5 * h));
+        let (s3x, s3y) = (along(&e0x, &k2ex, 0.5 * h), along(&e0y, &k2ey, 0.5 * h));
+        joint.evaluate((&s3x, &s3y, &k3ex, &k3ey), (&w_half.0, &w_half.1), &in_contact, &onset, &mut stage);
+        let l3 = gated(&stage, &joint.clearance);
+        let (k3x, k3y) = inputs.acceleration(&dt_half, &middle, &l3);
+        let (k4ex, k4ey) = (along(&v0x, &k3x, h), along(&v0y, &k3y, h));
+        let (s4x, s4y) = (along(&e0x, &k3ex, h), along(&e0y, &k3ey, h));
+        joint.evaluate((&s4x, &s4y, &k4ex, &k4ey), (&w_end.0, &w_end.1), &in_contact, &onset, &mut stage);
+        let l4 = gated(&stage, &joint.clearance);
+        let (k4x, k4y) = inputs.acceleration(&dt_end, &finish, &l4);
+        let sixth = h / 6.0;
+        let combine = |y0: &V<L>, a: &V<L>, b: &V<L>, c: &V<L>, d: &V<L>| -> V<L> {
+            std::array::from_fn(|l| y0[l] + (a[l] + (b[l] + c[l]) * 2.0 + d[l]) * sixth)
+        };
+        let (e1x, e1y) = (combine(&e0x, &v0x, &k2ex, &k3ex, &k4ex), combine(&e0y, &v0y, &k2ey, &k3ey, &k4ey));
+        let (v1x, v1y) = (combine(&v0x, &k1x, &k2x, &k3x, &k4x), combine(&v0y, &k1y, &k2y, &k3y, &k4y));
+        let impulse = [
+            combine(&kept.impulse[0], &l1.fx, &l2.fx, &l3.fx, &l4.fx),
+            combine(&kept.impulse[1], &l1.fy, &l2.fy, &l3.fy, &l4.fy),
+        ];
+        let friction_impulse = combine(&kept.friction_impulse, &l1.friction, &l2.friction, &l3.friction, &l4.friction);
+        // Mode switches, lane by lane through the model's own code (rare).
+        for l in 0..L {
+            if !running[l] || by_model[l] {
+                continue;
+            }
+            let c = joint.clearance[l];
+            let d1 = (e1x[l] * e1x[l] + e1y[l] * e1y[l]).sqrt() - c;
+            if in_contact[l] != (d1 > 0.0) {
+                let m = &mut *models[l];
+                m.located = false;
+                let (e0, v0) = (SVector::from([e0x[l], e0y[l]]), SVector::from([v0x[l], v0y[l]]));
+                let (e1, v1) = (SVector::from([e1x[l], e1y[l]]), SVector::from([v1x[l], v1y[l]]));
+                let none = SVector::zeros();
+                m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
+                in_contact[l] = m.joints[0].in_contact;
+                onset[l] = m.joints[0].onset_velocity;
+            }
+        }
+        // The step end's contact state (not gated), then the impact trackers.
+        joint.evaluate((&e1x, &e1y, &v1x, &v1y), (&w_end.0, &w_end.1), &in_contact, &onset, &mut stage);
+        for l in 0..L {
+            if !running[l] || by_model[l] {
+                continue;
+            }
+            if let Some(tracker) = models[l].open[0].as_mut() {
+                tracker.sample(now[l] + h, stage.normal_force[l], stage.delta[l]);
+            }
+            kept.ex[l] = e1x[l];
+            kept.ey[l] = e1y[l];
+            kept.vx[l] = v1x[l];
+            kept.vy[l] = v1y[l];
+            kept.impulse[0][l] = impulse[0][l];
+            kept.impulse[1][l] = impulse[1][l];
+            kept.friction_impulse[l] = friction_impulse[l];
+            kept.end_time[l] = now[l] + h;
+            kept.end_loads.fx[l] = stage.fx[l];
+            kept.end_loads.fy[l] = stage.fy[l];
+            kept.end_loads.friction[l] = stage.friction_force[l];
+            for k in 0..4 {
+                kept.end_mass.0[k][l] = finish.0[k][l];
+            }
+            kept.end_mass.1[l] = finish.1[l];
+            kept.end_inputs[l] = true;
+            copy_lane(&stage, &mut kept.states, l);
+        }
+        // Lanes stepped by their models come back into the lanes.
+        for l in 0..L {
+            if running[l] && by_model[l] {
+                let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
+                by_model[l] = !kept.gather(l, models[l], next);
+                in_contact[l] = models[l].joints[0].in_contact;
+                onset[l] = models[l].joints[0].onset_velocity;
+            }
+        }
+        // The penetration check of the model's loop.
+        for l in 0..L {
+            if !running[l] {
+                continue;
+            }
+            let (delta, norm) = (kept.states.delta[l], kept.states.norm[l]);
+            if !(delta <= penetration_limit[l] && norm.is_finite()) {
+                kept.scatter(l, models[l]);
+                let message = models[l].check_penetration(0).err().unwrap_or_default();
+                outcome[l] = Err((i, Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds(), message));
+                running[l] = false;
+            }
+        }
+        if flag {
+            for l in 0..L {
+                if running[l] {
+                    if !by_model[l] {
+                        kept.scatter(l, models[l]);
+                    }
+                    sample(l, i, models[l]);
+                }
+            }
+        }
+    }
+    for l in 0..L {
+        if running[l] && !by_model[l] {
+            kept.scatter(l, models[l]);
+        }
+    }
+    outcome
+}
+
+/// Copies lane `l` of a contact state.
+#[inline(always)]
+fn copy_lane<const L: usize>(from: &States<L>, to: &mut States<L>, l: usize) {
+    to.ex[l] = from.ex[l];
+    to.ey[l] = from.ey[l];
+    to.norm[l] = from.norm[l];
+    to.nx[l] = from.nx[l];
+    to.ny[l] = from.ny[l];
+    to.delta[l] = from.delta[l];
+    to.delta_dot[l] = from.delta_dot[l];
+    to.slip[l] = from.slip[l];
+    to.normal_force[l] = from.normal_force[l];
+    to.friction_force[l] = from.friction_force[l];
+    to.fx[l] = from.fx[l];
+    to.fy[l] = from.fy[l];
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::micro::model::InterfaceInputs;
+    use lash_mech::BodyId;
+
+    fn joint(l: usize) -> ClearanceJoint {
+        let x = l as f64;
+        ClearanceJoint {
+            name: format!("pin{l}"),
+            journal_body: BodyId::Body(0),
+            journal_point: Vec2::zeros(),
+            bearing_body: BodyId::Ground,
+            bearing_point: Vec2::zeros(),
+            journal_radius: 0.0099,
+            bearing_radius: 0.01 + 2e-5 * x,
+            law: NormalForce::Hysteresis { stiffness: 5e9 * (1.0 + x), exponent: 1.5, chi: 0.1 + 0.1 * x, floor: 1e-4 },
+            friction: if l == 3 {
+                FrictionLaw::Coulomb { coefficient: 0.05 }
+            } else {
+                FrictionLaw::Ambrosio { coefficient: 0.1 + 0.02 * x, v0: 1e-4, v1: 1e-3 }
+            },
+            bush_stiffness: f64::INFINITY,
+            bush_damping: 0.0,
+            in_contact: false,
+            onset_velocity: 0.0,
+        }
+    }
+
+    /// Interval k's inputs for lane l: a force that turns and now and then reverses (free
+    /// flights and impacts), a coupled effective mass and its rate, rotating bodies.
+    fn inputs(k: usize, l: usize) -> InterfaceInputs<2, 1, 1> {
+        let (x, a) = (l as f64, k as f64 * 0.37 + l as f64);
+        let sign = if (k / 7) % 3 == 2 { -1.0 } else { 1.0 };
+        let magnitude = sign * (800.0 + 300.0 * x) * (1.0 + 0.3 * (0.9 * k as f64).sin());
+        InterfaceInputs {
+            effective_mass: nalgebra::Matrix2::new(2.0 + 0.1 * a.sin(), 0.3, 0.3, 3.0 + 0.2 * x),
+            effective_mass_rate: nalgebra::Matrix2::new(40.0 * a.cos(), 5.0, 5.0, -20.0),
+            effective_force: SVector::from([magnitude * a.cos(), magnitude * a.sin()]),
+            effective_force_rate: SVector::from([-3e4 * a.sin(), 3e4 * a.cos()]),
+            friction_moment_force: SMatrix::from([[0.02 * x, -0.01]]),
+            friction_moment_force_rate: SMatrix::from([[0.5, 0.1 * x]]),
+            journal_angular_velocity: [400.0 + 50.0 * x],
+            journal_angular_acceleration: [1e3 * a.cos()],
+            bearing_angular_velocity: [-20.0 * x],
+            bearing_angular_acceleration: [0.0],
+        }
+    }
+
+    fn same(a: &OneJoint, b: &OneJoint) -> String {
+        let show = |m: &OneJoint| {
+            format!(
+                "{:?} {:?} {:?} {:?} {:?} {} {:?} {:?}",
+                m.eccentricity.as_slice(),
+                m.eccentricity_rate.as_slice(),
+                m.impulse.as_slice(),
+                m.friction_impulse.as_slice(),
+                m.states[0],
+                m.joints[0].in_contact,
+                m.joints[0].onset_velocity.to_bits(),
+                m.impacts[0]
+            )
+        };
+        let (x, y) = (show(a), show(b));
+        if x == y { String::new() } else { format!("lanes {x}\nmodel {y}") }
+    }
+
+    /// Four lanes of different joints, laws and inputs, stepped through 120 intervals of 100
+    /// steps (contact, sliding, free flights and impacts), equal the models stepped one by one,
+    /// bit for bit: states, impulses, modes, impacts and every sampled state.
+    #[test]
+    fn lanes_equal_the_models_stepped_one_by_one_bit_for_bit() {
+        const L: usize = 4;
+        let step = Ticks::from_seconds(1e-5).unwrap();
+        let h = step.seconds();
+        let mut lanes: Vec<OneJoint> = (0..L).map(|l| InterfaceModel::new(vec![joint(l)])).collect();
+        let mut models = lanes.clone();
+        let friction = lane_laws(&lanes[0]).unwrap();
+        assert_eq!(lane_laws(&lanes[3]), Some(LaneFriction::Coulomb));
+        let record: Vec<bool> = (0..100).map(|i| i % 10 == 9).collect();
+        let (mut impacts, mut sampled) = (0, 0);
+        for k in 0..120 {
+            let t0 = Ticks(k as i64 * 100 * step.0);
+            for l in 0..L {
+                for m in [&mut lanes[l], &mut models[l]] {
+                    m.inputs = inputs(k, l);
+                    m.input_time = t0.seconds();
+                }
+            }
+            // The models one by one, as the micro subsystem's loop steps them.
+            let mut expected = vec![Vec::new(); L];
+            for (l, m) in models.iter_mut().enumerate() {
+                for (i, &flag) in record.iter().enumerate() {
+                    m.rk4_step(Ticks(t0.0 + i as i64 * step.0).seconds(), h);
+                    m.check_penetration(0).unwrap();
+                    if flag {
+                        expected[l].push(format!("{i} {:?}", m.states[0]));
+                    }
+                }
+            }
+            let mut got = vec![Vec::new(); L];
+            let [a, b, c, d] = &mut lanes[..] else { unreachable!() };
+            let outcome = advance(&mut [a, b, c, d], friction, [t0; L], step, &record, |l, i, m| {
+                got[l].push(format!("{i} {:?}", m.states[0]))
+            });
+            for l in 0..L {
+                assert!(outcome[l].is_ok(), "lane {l}: {:?}", outcome[l]);
+                assert_eq!(got[l], expected[l], "interval {k}, lane {l}: samples");
+                let diff = same(&lanes[l], &models[l]);
+                assert!(diff.is_empty(), "interval {k}, lane {l}:\n{diff}");
+                sampled += got[l].len();
+            }
+        }
+        for m in &models {
+            impacts += m.impacts[0].len();
+        }
+        assert!(impacts >= 8, "the inputs should make impacts: {impacts}");
+        assert_eq!(sampled, 120 * 10 * L);
+    }
+}
