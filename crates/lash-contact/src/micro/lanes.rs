@@ -60,107 +60,85 @@ pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
 /// How a lane's advance ended: the steps completed, and the failure (time reached, message).
 pub type LaneOutcome = Result<(), (usize, f64, String)>;
 
+/// Runs advanced together.
+pub const LANES: usize = 8;
+const L: usize = LANES;
+
 /// One number per lane.
-type V<const L: usize> = [f64; L];
+type V = [f64; L];
 
-/// √x of every lane, four at a time in vector registers (correctly rounded: the same bits as
-/// `f64::sqrt`; the compiler left the lanes' square roots scalar).
+/// The lanes in vector registers (four SSE2 pairs on generic x86-64, two AVX registers where
+/// the build targets them): IEEE operations, correctly rounded, so each lane gets the bits the scalar
+/// code gets; negation flips the sign bit as Rust's does.
+type X = wide::f64x8;
+
+/// The lanes of an array in vector registers.
 #[inline(always)]
-fn sqrt_lanes<const L: usize>(x: &V<L>) -> V<L> {
-    let mut out = *x;
-    let mut chunks = out.chunks_exact_mut(4);
-    for c in &mut chunks {
-        let v = wide::f64x4::from([c[0], c[1], c[2], c[3]]).sqrt();
-        c.copy_from_slice(&<[f64; 4]>::from(v));
-    }
-    for o in chunks.into_remainder() {
-        *o = o.sqrt();
-    }
-    out
+fn x(a: &V) -> X {
+    X::from(*a)
 }
 
-/// a / b of every lane, four at a time in vector registers (correctly rounded, as `/`).
+/// A mask from per-lane flags.
 #[inline(always)]
-fn div_lanes<const L: usize>(a: &V<L>, b: &V<L>) -> V<L> {
-    let mut out = [0.0; L];
-    for ((o, a), b) in out.chunks_mut(4).zip(a.chunks(4)).zip(b.chunks(4)) {
-        if o.len() == 4 {
-            let q = wide::f64x4::from([a[0], a[1], a[2], a[3]]) / wide::f64x4::from([b[0], b[1], b[2], b[3]]);
-            o.copy_from_slice(&<[f64; 4]>::from(q));
-        } else {
-            for i in 0..o.len() {
-                o[i] = a[i] / b[i];
-            }
-        }
-    }
-    out
-}
-
-/// `f(l)` for every lane, as one short loop (the compiler vectorises it).
-#[inline(always)]
-fn lanes<const L: usize>(f: impl Fn(usize) -> f64) -> V<L> {
-    let mut out = [0.0; L];
-    for (l, o) in out.iter_mut().enumerate() {
-        *o = f(l);
-    }
-    out
+fn mask(flags: &[bool; L]) -> X {
+    X::from(flags.map(|f| if f { f64::from_bits(u64::MAX) } else { 0.0 }))
 }
 
 /// A lane's numbers for one stage evaluation: the loads on the journal and the contact state.
 #[derive(Clone, Copy)]
-struct Stage<const L: usize> {
-    fx: V<L>,
-    fy: V<L>,
-    friction: V<L>,
+struct Stage {
+    fx: V,
+    fy: V,
+    friction: V,
 }
 
 /// Per-lane constants of the joint and its laws.
-struct Joint<const L: usize> {
-    clearance: V<L>,
-    journal_radius: V<L>,
-    bearing_radius: V<L>,
-    stiffness: V<L>,
-    chi: V<L>,
-    floor: V<L>,
-    mu: V<L>,
-    v0: V<L>,
-    v1: V<L>,
+struct Joint {
+    clearance: V,
+    journal_radius: V,
+    bearing_radius: V,
+    stiffness: V,
+    chi: V,
+    floor: V,
+    mu: V,
+    v0: V,
+    v1: V,
     friction: LaneFriction,
 }
 
 /// Per-lane inputs of the interval (values at `input_time` and rates).
-struct Inputs<const L: usize> {
-    time: V<L>,
-    mass: [V<L>; 4],
-    mass_rate: [V<L>; 4],
-    force: [V<L>; 2],
-    force_rate: [V<L>; 2],
-    moment: [V<L>; 2],
-    moment_rate: [V<L>; 2],
-    journal_omega: V<L>,
-    journal_alpha: V<L>,
-    bearing_omega: V<L>,
-    bearing_alpha: V<L>,
+struct Inputs {
+    time: V,
+    mass: [V; 4],
+    mass_rate: [V; 4],
+    force: [V; 2],
+    force_rate: [V; 2],
+    moment: [V; 2],
+    moment_rate: [V; 2],
+    journal_omega: V,
+    journal_alpha: V,
+    bearing_omega: V,
+    bearing_alpha: V,
 }
 
 /// The full contact state of each lane (what the model's `states[0]` holds).
 #[derive(Clone, Copy)]
-struct States<const L: usize> {
-    ex: V<L>,
-    ey: V<L>,
-    norm: V<L>,
-    nx: V<L>,
-    ny: V<L>,
-    delta: V<L>,
-    delta_dot: V<L>,
-    slip: V<L>,
-    normal_force: V<L>,
-    friction_force: V<L>,
-    fx: V<L>,
-    fy: V<L>,
+struct States {
+    ex: V,
+    ey: V,
+    norm: V,
+    nx: V,
+    ny: V,
+    delta: V,
+    delta_dot: V,
+    slip: V,
+    normal_force: V,
+    friction_force: V,
+    fx: V,
+    fy: V,
 }
 
-impl<const L: usize> Joint<L> {
+impl Joint {
     fn of(models: &[&mut OneJoint; L], friction: LaneFriction) -> Self {
         let each = |f: &dyn Fn(&ClearanceJoint) -> f64| std::array::from_fn(|l| f(&models[l].joints[0]));
         let law = |j: &ClearanceJoint| match j.law {
@@ -193,74 +171,60 @@ impl<const L: usize> Joint<L> {
     #[inline(always)]
     fn evaluate(
         &self,
-        (ex, ey, vx, vy): (&V<L>, &V<L>, &V<L>, &V<L>),
-        (wj, wb): (&V<L>, &V<L>),
+        (ex, ey, vx, vy): (&V, &V, &V, &V),
+        (wj, wb): (&V, &V),
         in_contact: &[bool; L],
-        onset: &V<L>,
-        out: &mut States<L>,
+        onset: &V,
+        out: &mut States,
     ) {
-        // One operation at a time over the lanes (short loops the compiler vectorises).
-        let norm = sqrt_lanes::<L>(&lanes(|l| ex[l] * ex[l] + ey[l] * ey[l]));
-        let (qx, qy) = (div_lanes(ex, &norm), div_lanes(ey, &norm));
-        let nx: V<L> = lanes(|l| if norm[l] > 0.0 { qx[l] } else { 1.0 });
-        let ny: V<L> = lanes(|l| if norm[l] > 0.0 { qy[l] } else { 0.0 });
-        let delta: V<L> = lanes(|l| norm[l] - self.clearance[l]);
-        let delta_dot: V<L> = lanes(|l| vx[l] * nx[l] + vy[l] * ny[l]);
+        let (zero, one, sign_bit) = (X::ZERO, X::ONE, X::splat(-0.0));
+        let (ex_, ey_, u, v) = (x(ex), x(ey), x(vx), x(vy));
+        let norm = (ex_ * ex_ + ey_ * ey_).sqrt();
+        let positive = norm.simd_gt(zero);
+        let nx = positive.select(ex_ / norm, one);
+        let ny = positive.select(ey_ / norm, zero);
         // t = (−n_y, n_x).
-        let slip: V<L> = lanes(|l| {
-            (vx[l] * -ny[l] + vy[l] * nx[l]) + wj[l] * self.journal_radius[l] - wb[l] * self.bearing_radius[l]
-        });
+        let tx = ny ^ sign_bit;
+        let delta = norm - x(&self.clearance);
+        let delta_dot = u * nx + v * ny;
+        let slip = (u * tx + v * nx) + x(wj) * x(&self.journal_radius) - x(wb) * x(&self.bearing_radius);
         // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
-        let onset: V<L> = lanes(|l| if !in_contact[l] && delta[l] > 0.0 { delta_dot[l].max(0.0) } else { onset[l] });
-        let root = sqrt_lanes(&delta);
-        let ratio =
-            div_lanes::<L>(&lanes(|l| self.chi[l] * delta_dot[l]), &lanes::<L>(|l| onset[l].max(self.floor[l])));
-        let f: V<L> = lanes(|l| self.stiffness[l] * (delta[l] * root[l]) * (1.0 + ratio[l]));
-        let normal: V<L> = lanes(|l| if delta[l] <= 0.0 { 0.0 } else { f[l].max(0.0) });
-        let sign: V<L> = lanes(|l| {
-            if slip[l] > 0.0 {
-                1.0
-            } else if slip[l] < 0.0 {
-                -1.0
-            } else {
-                0.0
-            }
-        });
+        let indenting = (mask(in_contact) ^ X::from(f64::from_bits(u64::MAX))) & delta.simd_gt(zero);
+        let onset = indenting.select(delta_dot.max(zero), x(onset));
+        let f =
+            x(&self.stiffness) * (delta * delta.sqrt()) * (one + x(&self.chi) * delta_dot / onset.max(x(&self.floor)));
+        let normal = delta.simd_le(zero).select(zero, f.max(zero));
+        let sign = slip.simd_gt(zero).select(one, slip.simd_lt(zero).select(-one, zero));
         let coefficient = match self.friction {
-            LaneFriction::None => [0.0; L],
-            LaneFriction::Coulomb => lanes::<L>(|l| self.mu[l] * sign[l]),
+            LaneFriction::None => zero,
+            LaneFriction::Coulomb => x(&self.mu) * sign,
             LaneFriction::Ambrosio => {
-                let a: V<L> = lanes(|l| slip[l].abs());
-                let blend = div_lanes::<L>(&lanes(|l| a[l] - self.v0[l]), &lanes::<L>(|l| self.v1[l] - self.v0[l]));
-                let cd: V<L> = lanes(|l| {
-                    if a[l] <= self.v0[l] {
-                        0.0
-                    } else if a[l] >= self.v1[l] {
-                        1.0
-                    } else {
-                        blend[l]
-                    }
-                });
-                lanes::<L>(|l| self.mu[l] * cd[l] * sign[l])
+                let a = slip.abs();
+                let (v0, v1) = (x(&self.v0), x(&self.v1));
+                let (stuck, sliding) = (a.simd_le(v0), a.simd_ge(v1));
+                // The blend's division only when a lane is between v0 and v1 (rare at speed).
+                let between = if (stuck | sliding).all() { one } else { (a - v0) / (v1 - v0) };
+                let cd = stuck.select(zero, sliding.select(one, between));
+                x(&self.mu) * cd * sign
             }
         };
-        let tangential: V<L> = lanes(|l| if normal[l] > 0.0 { coefficient[l] * normal[l] } else { 0.0 });
+        let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
         out.ex = *ex;
         out.ey = *ey;
-        out.norm = norm;
-        out.nx = nx;
-        out.ny = ny;
-        out.delta = delta;
-        out.delta_dot = delta_dot;
-        out.slip = slip;
-        out.normal_force = normal;
-        out.friction_force = tangential;
-        out.fx = lanes::<L>(|l| -(nx[l] * normal[l]) - -ny[l] * tangential[l]);
-        out.fy = lanes::<L>(|l| -(ny[l] * normal[l]) - nx[l] * tangential[l]);
+        out.norm = norm.into();
+        out.nx = nx.into();
+        out.ny = ny.into();
+        out.delta = delta.into();
+        out.delta_dot = delta_dot.into();
+        out.slip = slip.into();
+        out.normal_force = normal.into();
+        out.friction_force = tangential.into();
+        out.fx = (((nx * normal) ^ sign_bit) - tx * tangential).into();
+        out.fy = (((ny * normal) ^ sign_bit) - nx * tangential).into();
     }
 }
 
-impl<const L: usize> Inputs<L> {
+impl Inputs {
     fn of(models: &[&mut OneJoint; L]) -> Self {
         let each = |f: &dyn Fn(&OneJoint) -> f64| std::array::from_fn(|l| f(models[l]));
         let m = |i: usize, j: usize| each(&|x| x.inputs.effective_mass[(i, j)]);
@@ -285,50 +249,44 @@ impl<const L: usize> Inputs<L> {
 
     /// M̃ + Ṁ dt of every lane by Cramer's rule: the matrix (row-major 2 × 2) and 1/det.
     #[inline(always)]
-    fn mass_at(&self, dt: &V<L>) -> ([V<L>; 4], V<L>) {
-        let m: [V<L>; 4] = std::array::from_fn(|k| lanes(|l| self.mass[k][l] + self.mass_rate[k][l] * dt[l]));
-        let det = lanes(|l| m[0][l] * m[3][l] - m[1][l] * m[2][l]);
-        (m, div_lanes(&[1.0; L], &det))
+    fn mass_at(&self, dt: &V) -> ([V; 4], V) {
+        let dt = x(dt);
+        let m: [X; 4] = std::array::from_fn(|k| x(&self.mass[k]) + x(&self.mass_rate[k]) * dt);
+        let det = m[0] * m[3] - m[1] * m[2];
+        (m.map(Into::into), (X::ONE / det).into())
     }
 
     /// ẅ of every lane: M̃⁻¹ (f̃ + ḟ dt + f_c + (H + Ḣ dt) F_T), the friction term only where
     /// F_T ≠ 0 ([`InterfaceModel`]'s `acceleration_with`).
     #[inline(always)]
-    fn acceleration(&self, dt: &V<L>, (m, inv): &([V<L>; 4], V<L>), loads: &Stage<L>) -> (V<L>, V<L>) {
-        let (mut ax, mut ay) = ([0.0; L], [0.0; L]);
-        for l in 0..L {
-            let mut r0 = self.force[0][l] + self.force_rate[0][l] * dt[l] + loads.fx[l];
-            let mut r1 = self.force[1][l] + self.force_rate[1][l] * dt[l] + loads.fy[l];
-            let f = loads.friction[l];
-            let with0 = r0 + (self.moment[0][l] + self.moment_rate[0][l] * dt[l]) * f;
-            let with1 = r1 + (self.moment[1][l] + self.moment_rate[1][l] * dt[l]) * f;
-            if f != 0.0 {
-                r0 = with0;
-                r1 = with1;
-            }
-            ax[l] = (m[3][l] * r0 - m[1][l] * r1) * inv[l];
-            ay[l] = (m[0][l] * r1 - m[2][l] * r0) * inv[l];
-        }
-        (ax, ay)
+    fn acceleration(&self, dt: &V, (m, inv): &([V; 4], V), loads: &Stage) -> (V, V) {
+        let dt = x(dt);
+        let r0 = x(&self.force[0]) + x(&self.force_rate[0]) * dt + x(&loads.fx);
+        let r1 = x(&self.force[1]) + x(&self.force_rate[1]) * dt + x(&loads.fy);
+        let f = x(&loads.friction);
+        let acting = f.simd_ne(X::ZERO);
+        let r0 = acting.select(r0 + (x(&self.moment[0]) + x(&self.moment_rate[0]) * dt) * f, r0);
+        let r1 = acting.select(r1 + (x(&self.moment[1]) + x(&self.moment_rate[1]) * dt) * f, r1);
+        let (m0, m1, m2, m3, inv) = (x(&m[0]), x(&m[1]), x(&m[2]), x(&m[3]), x(inv));
+        (((m3 * r0 - m1 * r1) * inv).into(), ((m0 * r1 - m2 * r0) * inv).into())
     }
 }
 
 /// The loads of a contact state with the micro model's gate: nothing for a lane whose journal is
 /// inside its clearance (|e|² ≤ c², `loads_at`).
 #[inline(always)]
-fn gated<const L: usize>(s: &States<L>, clearance: &V<L>) -> Stage<L> {
-    let mut out = Stage { fx: [0.0; L], fy: [0.0; L], friction: [0.0; L] };
-    for l in 0..L {
-        let outside = s.ex[l] * s.ex[l] + s.ey[l] * s.ey[l] > clearance[l] * clearance[l];
-        out.fx[l] = if outside { s.fx[l] } else { 0.0 };
-        out.fy[l] = if outside { s.fy[l] } else { 0.0 };
-        out.friction[l] = if outside { s.friction_force[l] } else { 0.0 };
+fn gated(s: &States, clearance: &V) -> Stage {
+    let (ex, ey, c) = (x(&s.ex), x(&s.ey), x(clearance));
+    let outside = (ex * ex + ey * ey).simd_gt(c * c);
+    Stage {
+        fx: outside.select(x(&s.fx), X::ZERO).into(),
+        fy: outside.select(x(&s.fy), X::ZERO).into(),
+        friction: outside.select(x(&s.friction_force), X::ZERO).into(),
     }
-    out
 }
 
 /// Writes lane `l` of `s` as a contact state.
-fn state_of<const L: usize>(s: &States<L>, l: usize) -> ContactState {
+fn state_of(s: &States, l: usize) -> ContactState {
     ContactState {
         journal_centre: Vec2::zeros(),
         eccentricity: Vec2::new(s.ex[l], s.ey[l]),
@@ -344,22 +302,22 @@ fn state_of<const L: usize>(s: &States<L>, l: usize) -> ContactState {
 }
 
 /// The lanes' state between steps: (w, ẇ), impulses, the kept step end (time, loads, factor).
-struct Kept<const L: usize> {
-    ex: V<L>,
-    ey: V<L>,
-    vx: V<L>,
-    vy: V<L>,
-    impulse: [V<L>; 2],
-    friction_impulse: V<L>,
-    end_time: V<L>,
-    end_loads: Stage<L>,
-    end_mass: ([V<L>; 4], V<L>),
+struct Kept {
+    ex: V,
+    ey: V,
+    vx: V,
+    vy: V,
+    impulse: [V; 2],
+    friction_impulse: V,
+    end_time: V,
+    end_loads: Stage,
+    end_mass: ([V; 4], V),
     /// The kept factor was formed with the current inputs.
     end_inputs: [bool; L],
-    states: States<L>,
+    states: States,
 }
 
-impl<const L: usize> Kept<L> {
+impl Kept {
     /// Lane `l` from its model; `false` when its model has no step end to start from at `t`.
     fn gather(&mut self, l: usize, m: &OneJoint, t: f64) -> bool {
         self.ex[l] = m.eccentricity[0];
@@ -431,7 +389,7 @@ impl<const L: usize> Kept<L> {
 /// `sample(lane, step index, model)` for every lane still running, in lane order. Like the
 /// model's own loop, each lane's penetration is checked after each step; a lane that fails stops
 /// there (its outcome says where), the others go on.
-pub fn advance<const L: usize>(
+pub fn advance(
     models: &mut [&mut OneJoint; L],
     friction: LaneFriction,
     t: [Ticks; L],
@@ -476,12 +434,18 @@ pub fn advance<const L: usize>(
     for (l, m) in models.iter_mut().enumerate() {
         by_model[l] = !kept.gather(l, m, t[l].seconds());
     }
-    let penetration_limit: V<L> = std::array::from_fn(|l| 0.1 * models[l].joints[0].journal_radius);
+    let penetration_limit: V = std::array::from_fn(|l| 0.1 * models[l].joints[0].journal_radius);
     let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
-    let mut onset: V<L> = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
+    let mut onset: V = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
     let mut stage = kept.states;
+    // (The lanes of a sweep share their time: one conversion per step.)
+    let shared = t.iter().all(|&x| x == t[0]);
     for (i, &flag) in record.iter().enumerate() {
-        let now: V<L> = std::array::from_fn(|l| Ticks(t[l].0 + i as i64 * step.0).seconds());
+        let now: V = if shared {
+            [Ticks(t[0].0 + i as i64 * step.0).seconds(); L]
+        } else {
+            std::array::from_fn(|l| Ticks(t[l].0 + i as i64 * step.0).seconds())
+        };
         for l in 0..L {
             if running[l] && !by_model[l] && (kept.end_time[l] - now[l]).abs() >= 1e-12 {
                 // (A step end that is not this instant: possible only for times far from the
@@ -496,20 +460,23 @@ pub fn advance<const L: usize>(
                 models[l].rk4_step(now[l], h);
             }
         }
-        let dt = |offset: f64| -> V<L> { std::array::from_fn(|l| now[l] + offset - inputs.time[l]) };
+        let dt = |offset: f64| -> V { std::array::from_fn(|l| now[l] + offset - inputs.time[l]) };
         let (dt0, dt_half, dt_end) = (dt(0.0), dt(0.5 * h), dt(h));
-        let fresh = inputs.mass_at(&dt0);
+        // The kept factor where it was formed with these inputs (after the interval's first step).
         let mut start = kept.end_mass;
-        for l in 0..L {
-            if !kept.end_inputs[l] {
-                for k in 0..4 {
-                    start.0[k][l] = fresh.0[k][l];
+        if !kept.end_inputs.iter().all(|&k| k) {
+            let fresh = inputs.mass_at(&dt0);
+            for l in 0..L {
+                if !kept.end_inputs[l] {
+                    for k in 0..4 {
+                        start.0[k][l] = fresh.0[k][l];
+                    }
+                    start.1[l] = fresh.1[l];
                 }
-                start.1[l] = fresh.1[l];
             }
         }
         let (middle, finish) = (inputs.mass_at(&dt_half), inputs.mass_at(&dt_end));
-        let omega = |dt: &V<L>| -> (V<L>, V<L>) {
+        let omega = |dt: &V| -> (V, V) {
             (
                 std::array::from_fn(|l| inputs.journal_omega[l] + inputs.journal_alpha[l] * dt[l]),
                 std::array::from_fn(|l| inputs.bearing_omega[l] + inputs.bearing_alpha[l] * dt[l]),
@@ -520,7 +487,7 @@ pub fn advance<const L: usize>(
         // Stage 1 from the kept step end's loads.
         let l1 = kept.end_loads;
         let (k1x, k1y) = inputs.acceleration(&dt0, &start, &l1);
-        let along = |a: &V<L>, b: &V<L>, f: f64| -> V<L> { std::array::from_fn(|l| a[l] + b[l] * f) };
+        let along = |a: &V, b: &V, f: f64| -> V { (x(a) + x(b) * X::splat(f)).into() };
         let (k2ex, k2ey) = (along(&v0x, &k1x, 0.5 * h), along(&v0y, &k1y, 0.5 * h));
         let (s2x, s2y) = (along(&e0x, &v0x, 0.5 * h), along(&e0y, &v0y, 0.5 * h));
         joint.evaluate((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), &in_contact, &onset, &mut stage);
@@ -537,8 +504,8 @@ pub fn advance<const L: usize>(
         let l4 = gated(&stage, &joint.clearance);
         let (k4x, k4y) = inputs.acceleration(&dt_end, &finish, &l4);
         let sixth = h / 6.0;
-        let combine = |y0: &V<L>, a: &V<L>, b: &V<L>, c: &V<L>, d: &V<L>| -> V<L> {
-            std::array::from_fn(|l| y0[l] + (a[l] + (b[l] + c[l]) * 2.0 + d[l]) * sixth)
+        let combine = |y0: &V, a: &V, b: &V, c: &V, d: &V| -> V {
+            (x(y0) + (x(a) + (x(b) + x(c)) * X::splat(2.0) + x(d)) * X::splat(sixth)).into()
         };
         let (e1x, e1y) = (combine(&e0x, &v0x, &k2ex, &k3ex, &k4ex), combine(&e0y, &v0y, &k2ey, &k3ey, &k4ey));
         let (v1x, v1y) = (combine(&v0x, &k1x, &k2x, &k3x, &k4x), combine(&v0y, &k1y, &k2y, &k3y, &k4y));
@@ -547,51 +514,42 @@ pub fn advance<const L: usize>(
             combine(&kept.impulse[1], &l1.fy, &l2.fy, &l3.fy, &l4.fy),
         ];
         let friction_impulse = combine(&kept.friction_impulse, &l1.friction, &l2.friction, &l3.friction, &l4.friction);
-        // Mode switches, lane by lane through the model's own code (rare).
+        // Mode switches (rare), lane by lane through the model's own code.
+        let closed = ((x(&e1x) * x(&e1x) + x(&e1y) * x(&e1y)).sqrt() - x(&joint.clearance)).simd_gt(X::ZERO);
+        let switching = (closed ^ mask(&in_contact)).to_bitmask();
         for l in 0..L {
-            if !running[l] || by_model[l] {
+            if switching >> l & 1 == 0 || !running[l] || by_model[l] {
                 continue;
             }
-            let c = joint.clearance[l];
-            let d1 = (e1x[l] * e1x[l] + e1y[l] * e1y[l]).sqrt() - c;
-            if in_contact[l] != (d1 > 0.0) {
-                let m = &mut *models[l];
-                m.located = false;
-                let (e0, v0) = (SVector::from([e0x[l], e0y[l]]), SVector::from([v0x[l], v0y[l]]));
-                let (e1, v1) = (SVector::from([e1x[l], e1y[l]]), SVector::from([v1x[l], v1y[l]]));
-                let none = SVector::zeros();
-                m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
-                in_contact[l] = m.joints[0].in_contact;
-                onset[l] = m.joints[0].onset_velocity;
-            }
+            let m = &mut *models[l];
+            m.located = false;
+            let (e0, v0) = (SVector::from([e0x[l], e0y[l]]), SVector::from([v0x[l], v0y[l]]));
+            let (e1, v1) = (SVector::from([e1x[l], e1y[l]]), SVector::from([v1x[l], v1y[l]]));
+            let none = SVector::zeros();
+            m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
+            in_contact[l] = m.joints[0].in_contact;
+            onset[l] = m.joints[0].onset_velocity;
         }
         // The step end's contact state (not gated), then the impact trackers.
         joint.evaluate((&e1x, &e1y, &v1x, &v1y), (&w_end.0, &w_end.1), &in_contact, &onset, &mut stage);
+        let end_time: V = (x(&now) + X::splat(h)).into();
         for l in 0..L {
-            if !running[l] || by_model[l] {
-                continue;
+            if running[l]
+                && !by_model[l]
+                && let Some(tracker) = models[l].open[0].as_mut()
+            {
+                tracker.sample(end_time[l], stage.normal_force[l], stage.delta[l]);
             }
-            if let Some(tracker) = models[l].open[0].as_mut() {
-                tracker.sample(now[l] + h, stage.normal_force[l], stage.delta[l]);
-            }
-            kept.ex[l] = e1x[l];
-            kept.ey[l] = e1y[l];
-            kept.vx[l] = v1x[l];
-            kept.vy[l] = v1y[l];
-            kept.impulse[0][l] = impulse[0][l];
-            kept.impulse[1][l] = impulse[1][l];
-            kept.friction_impulse[l] = friction_impulse[l];
-            kept.end_time[l] = now[l] + h;
-            kept.end_loads.fx[l] = stage.fx[l];
-            kept.end_loads.fy[l] = stage.fy[l];
-            kept.end_loads.friction[l] = stage.friction_force[l];
-            for k in 0..4 {
-                kept.end_mass.0[k][l] = finish.0[k][l];
-            }
-            kept.end_mass.1[l] = finish.1[l];
-            kept.end_inputs[l] = true;
-            copy_lane(&stage, &mut kept.states, l);
         }
+        // (Every lane: those stepped by their models are gathered again below, failed ones are
+        // no longer read.)
+        (kept.ex, kept.ey, kept.vx, kept.vy) = (e1x, e1y, v1x, v1y);
+        (kept.impulse, kept.friction_impulse) = (impulse, friction_impulse);
+        kept.end_time = end_time;
+        kept.end_loads = Stage { fx: stage.fx, fy: stage.fy, friction: stage.friction_force };
+        kept.end_mass = finish;
+        kept.end_inputs = [true; L];
+        kept.states = stage;
         // Lanes stepped by their models come back into the lanes.
         for l in 0..L {
             if running[l] && by_model[l] {
@@ -601,13 +559,12 @@ pub fn advance<const L: usize>(
                 onset[l] = models[l].joints[0].onset_velocity;
             }
         }
-        // The penetration check of the model's loop.
+        // The penetration check of the model's loop (|e| finite: |e| − |e| = 0).
+        let (delta, norm) = (x(&kept.states.delta), x(&kept.states.norm));
+        let fine = delta.simd_le(x(&penetration_limit)) & (norm - norm).simd_eq(X::ZERO);
+        let bad = !fine.to_bitmask();
         for l in 0..L {
-            if !running[l] {
-                continue;
-            }
-            let (delta, norm) = (kept.states.delta[l], kept.states.norm[l]);
-            if !(delta <= penetration_limit[l] && norm.is_finite()) {
+            if bad >> l & 1 == 1 && running[l] {
                 kept.scatter(l, models[l]);
                 let message = models[l].check_penetration(0).err().unwrap_or_default();
                 outcome[l] = Err((i, Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds(), message));
@@ -631,23 +588,6 @@ pub fn advance<const L: usize>(
         }
     }
     outcome
-}
-
-/// Copies lane `l` of a contact state.
-#[inline(always)]
-fn copy_lane<const L: usize>(from: &States<L>, to: &mut States<L>, l: usize) {
-    to.ex[l] = from.ex[l];
-    to.ey[l] = from.ey[l];
-    to.norm[l] = from.norm[l];
-    to.nx[l] = from.nx[l];
-    to.ny[l] = from.ny[l];
-    to.delta[l] = from.delta[l];
-    to.delta_dot[l] = from.delta_dot[l];
-    to.slip[l] = from.slip[l];
-    to.normal_force[l] = from.normal_force[l];
-    to.friction_force[l] = from.friction_force[l];
-    to.fx[l] = from.fx[l];
-    to.fy[l] = from.fy[l];
 }
 
 #[cfg(test)]
@@ -717,18 +657,18 @@ mod tests {
         if x == y { String::new() } else { format!("lanes {x}\nmodel {y}") }
     }
 
-    /// Four lanes of different joints, laws and inputs, stepped through 120 intervals of 100
+    /// Eight lanes of different joints, laws and inputs, stepped through 120 intervals of 100
     /// steps (contact, sliding, free flights and impacts), equal the models stepped one by one,
     /// bit for bit: states, impulses, modes, impacts and every sampled state.
     #[test]
     fn lanes_equal_the_models_stepped_one_by_one_bit_for_bit() {
-        const L: usize = 4;
         let step = Ticks::from_seconds(1e-5).unwrap();
         let h = step.seconds();
         let mut lanes: Vec<OneJoint> = (0..L).map(|l| InterfaceModel::new(vec![joint(l)])).collect();
         let mut models = lanes.clone();
         let friction = lane_laws(&lanes[0]).unwrap();
         assert_eq!(lane_laws(&lanes[3]), Some(LaneFriction::Coulomb));
+        assert_eq!(lane_laws(&lanes[4]), Some(LaneFriction::Ambrosio));
         let record: Vec<bool> = (0..100).map(|i| i % 10 == 9).collect();
         let (mut impacts, mut sampled) = (0, 0);
         for k in 0..120 {
@@ -751,8 +691,9 @@ mod tests {
                 }
             }
             let mut got = vec![Vec::new(); L];
-            let [a, b, c, d] = &mut lanes[..] else { unreachable!() };
-            let outcome = advance(&mut [a, b, c, d], friction, [t0; L], step, &record, |l, i, m| {
+            let mut group: [&mut OneJoint; L] =
+                lanes.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("L models"));
+            let outcome = advance(&mut group, friction, [t0; L], step, &record, |l, i, m| {
                 got[l].push(format!("{i} {:?}", m.states[0]))
             });
             for l in 0..L {
@@ -768,5 +709,56 @@ mod tests {
         }
         assert!(impacts >= 8, "the inputs should make impacts: {impacts}");
         assert_eq!(sampled, 120 * 10 * L);
+    }
+
+    /// A lane that blows up (a soft contact under a large force: the penetration passes a tenth
+    /// of the journal radius) stops where its model's loop stops, with the same message; the
+    /// other lanes go on as if it were not there.
+    #[test]
+    fn a_lane_that_fails_stops_like_its_model_and_the_others_go_on() {
+        let step = Ticks::from_seconds(1e-5).unwrap();
+        let h = step.seconds();
+        let mut lanes: Vec<OneJoint> = (0..L).map(|l| InterfaceModel::new(vec![joint(l)])).collect();
+        if let NormalForce::Hysteresis { stiffness, .. } = &mut lanes[5].joints[0].law {
+            *stiffness = 1e3;
+        }
+        let mut models = lanes.clone();
+        let record = [false; 100];
+        let friction = lane_laws(&lanes[0]).unwrap();
+        for k in 0..5 {
+            let t0 = Ticks(k as i64 * 100 * step.0);
+            for l in 0..L {
+                for m in [&mut lanes[l], &mut models[l]] {
+                    m.inputs = inputs(0, l);
+                    m.input_time = t0.seconds();
+                }
+            }
+            let mut expected: Vec<LaneOutcome> = Vec::new();
+            for m in models.iter_mut() {
+                let mut result = Ok(());
+                for i in 0..record.len() {
+                    let t = Ticks(t0.0 + i as i64 * step.0);
+                    m.rk4_step(t.seconds(), h);
+                    if let Err(e) = m.check_penetration(0) {
+                        result = Err((i, Ticks(t.0 + step.0).seconds(), e));
+                        break;
+                    }
+                }
+                expected.push(result);
+            }
+            let mut group: [&mut OneJoint; L] =
+                lanes.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("L models"));
+            let outcome = advance(&mut group, friction, [t0; L], step, &record, |_, _, _| {});
+            assert_eq!(outcome.to_vec(), expected, "interval {k}");
+            if expected[5].is_err() {
+                for l in 0..L {
+                    let diff = same(&lanes[l], &models[l]);
+                    assert!(diff.is_empty(), "lane {l}:\n{diff}");
+                }
+                assert!(expected.iter().enumerate().all(|(l, e)| e.is_ok() == (l != 5)));
+                return;
+            }
+        }
+        panic!("the soft lane never failed");
     }
 }
