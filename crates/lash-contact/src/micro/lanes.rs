@@ -559,9 +559,9 @@ pub fn advance(
                 onset[l] = models[l].joints[0].onset_velocity;
             }
         }
-        // The penetration check of the model's loop (|e| finite: |e| − |e| = 0).
+        // The penetration check of the model's loop (|e| finite: below infinity, and not NaN).
         let (delta, norm) = (x(&kept.states.delta), x(&kept.states.norm));
-        let fine = delta.simd_le(x(&penetration_limit)) & (norm - norm).simd_eq(X::ZERO);
+        let fine = delta.simd_le(x(&penetration_limit)) & norm.abs().simd_lt(X::splat(f64::INFINITY));
         let bad = !fine.to_bitmask();
         for l in 0..L {
             if bad >> l & 1 == 1 && running[l] {
