@@ -401,26 +401,16 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     let a = builtin::by_name("A").expect("built-in");
     let joint = lash_run::build_model(&a, BuildOptions::default()).clearances[0].clone();
     let n = if quick { 100_000 } else { 400_000 };
-    let micro_ns = {
-        let mut inputs = lash_contact::micro::PlanarInputs::<2, 1> {
-            effective_mass: nalgebra::Matrix2::new(0.33, 0.01, 0.01, 0.21),
-            effective_force: nalgebra::Vector2::new(-900.0, 300.0),
-            friction_moment_force: nalgebra::Vector2::new(-20.0, 8.0),
-            ..Default::default()
-        };
-        inputs.journal_angular_velocity[0] = builtin::CRANK_SPEED;
-        time_micro_steps(vec![joint.clone()], inputs, reps, n)
+    let mut a_inputs = lash_contact::micro::PlanarInputs::<2, 1> {
+        effective_mass: nalgebra::Matrix2::new(0.33, 0.01, 0.01, 0.21),
+        effective_force: nalgebra::Vector2::new(-900.0, 300.0),
+        friction_moment_force: nalgebra::Vector2::new(-20.0, 8.0),
+        ..Default::default()
     };
-    let lane_ns = {
-        let mut inputs = lash_contact::micro::PlanarInputs::<2, 1> {
-            effective_mass: nalgebra::Matrix2::new(0.33, 0.01, 0.01, 0.21),
-            effective_force: nalgebra::Vector2::new(-900.0, 300.0),
-            friction_moment_force: nalgebra::Vector2::new(-20.0, 8.0),
-            ..Default::default()
-        };
-        inputs.journal_angular_velocity[0] = builtin::CRANK_SPEED;
-        time_lane_steps(&joint, inputs, reps, n)
-    };
+    a_inputs.journal_angular_velocity[0] = builtin::CRANK_SPEED;
+    let micro_ns = time_micro_steps(vec![joint.clone()], a_inputs, reps, n);
+    // The same steps, runs side by side in lanes.
+    let lane_ns = time_lane_steps(&joint, a_inputs, reps, n);
     // Two such joints coupled by off-diagonal blocks of M̃ (the 4 × 4 Cholesky path).
     let two_joint_ns = {
         let mut inputs = lash_contact::micro::PlanarInputs::<4, 2> {

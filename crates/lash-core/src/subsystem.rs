@@ -519,6 +519,13 @@ pub trait Subsystem: Send {
         steps_one_by_one(self, t, h, record, refs, rows)
     }
 
+    /// The subsystem itself as `Any`, for code that knows its concrete type and can do better
+    /// than the trait's calls with it (the micro subsystems of several runs stepped together);
+    /// `None`, the default, keeps it opaque.
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        None
+    }
+
     /// The subsystem's current time.
     fn time(&self) -> Ticks;
 
@@ -714,6 +721,15 @@ pub fn check_variable_table(variables: &[Variable]) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Writes a column-major matrix of `rows` rows (nalgebra's storage, `column_major`) into `out` in
+/// row-major order, the layout of FMI array variables.
+pub fn row_major(out: &mut [f64], column_major: &[f64], rows: usize) {
+    let columns = column_major.len() / rows.max(1);
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = column_major[i / columns + (i % columns) * rows];
+    }
 }
 
 /// Shape of a quantity with one value of shape `inner` per clearance joint: `inner ++ [joints]`,

@@ -18,9 +18,16 @@ pub fn initial_guess(mech: &Mechanism) -> (Vec<f64>, Vec<f64>) {
 /// Position analysis: Newton iterations with the mass-weighted minimum-norm correction
 /// Δq = −M⁻¹Φ_qᵀ(Φ_q M⁻¹ Φ_qᵀ)⁻¹Φ until max |Φ| ≤ `tol`. Returns the iterations spent.
 pub fn assemble(mech: &Mechanism, t: f64, q: &mut [f64], solver: &mut Solver, tol: f64) -> Result<usize, MechError> {
-    // The solver's work vectors, lent for the call (nothing is allocated after the first).
-    let mut work = std::mem::take(&mut solver.correction).sized(q.len(), mech.constraint_count());
-    let result = assemble_with(mech, t, q, solver, tol, &mut work);
+    with_correction(solver, q.len(), mech.constraint_count(), |solver, work| {
+        assemble_with(mech, t, q, solver, tol, work)
+    })
+}
+
+/// Runs `f` with the solver's correction work vectors, sized for `n` coordinates and `m` rows and
+/// lent for the call (nothing is allocated after the first).
+fn with_correction<R>(solver: &mut Solver, n: usize, m: usize, f: impl FnOnce(&mut Solver, &mut Correction) -> R) -> R {
+    let mut work = std::mem::take(&mut solver.correction).sized(n, m);
+    let result = f(solver, &mut work);
     solver.correction = work;
     result
 }
@@ -62,10 +69,9 @@ pub fn velocity_analysis(
     qd: &mut [f64],
     solver: &mut Solver,
 ) -> Result<(), MechError> {
-    let mut work = std::mem::take(&mut solver.correction).sized(q.len(), mech.constraint_count());
-    let result = velocity_analysis_with(mech, t, q, qd, solver, &mut work);
-    solver.correction = work;
-    result
+    with_correction(solver, q.len(), mech.constraint_count(), |solver, work| {
+        velocity_analysis_with(mech, t, q, qd, solver, work)
+    })
 }
 
 fn velocity_analysis_with(

@@ -563,13 +563,7 @@ impl MechanismSubsystem {
         let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
         // Matrices go out row-major.
         let mut put_matrix = |vr: ValueReference, m: &nalgebra::DMatrix<f64>| {
-            let out = &mut values[range(vr)];
-            let columns = m.ncols();
-            for i in 0..m.nrows() {
-                for j in 0..columns {
-                    out[i * columns + j] = m[(i, j)];
-                }
-            }
+            lash_core::subsystem::row_major(&mut values[range(vr)], m.as_slice(), m.nrows())
         };
         put_matrix(vr::EFFECTIVE_MASS, mass);
         put_matrix(vr::MOBILITY, &terms.mobility);

@@ -137,19 +137,14 @@ fn identities_hold_at_many_crank_angles_for_both_clearance_locations() {
     }
 }
 
-/// Two clearance joints at once (crank–ground and rod–slider of the slider-crank), coupled through
-/// the cut mechanism: the 4 × 4 effective mass by the KKT route equals the null-space route, its
-/// off-diagonal blocks do not vanish, f_c = −f̃ reproduces the ideal mechanism with both joints
-/// closed (and f̃ of each joint is minus its ideal reaction), and the friction columns equal the
-/// null-space response to the friction moments.
-#[test]
-fn two_coupled_joints_satisfy_the_identities() {
+/// The slider-crank cut at its crank–ground and rod–slider joints, the same mechanism with them
+/// closed (last), and the two clearance interfaces with radii `radius_j`, `radius_b`.
+fn two_clearance_joints(radius_j: f64, radius_b: f64) -> (Mechanism, Mechanism, Vec<ClearanceInterface>) {
     let ideal = ideal_slider_crank();
     let names = ["crank_pivot", "rod_slider"];
     let mut cut_m = ideal.clone();
     cut_m.joints.retain(|j| !names.contains(&j.name.as_str()));
     let mut closed = cut_m.clone();
-    let (radius_j, radius_b) = (9.5e-3, 10.0e-3);
     let mut joints = Vec::new();
     for name in names {
         let j = ideal.joints.iter().find(|j| j.name == name).unwrap().clone();
@@ -165,6 +160,18 @@ fn two_coupled_joints_satisfy_the_identities() {
         });
         closed.joints.push(j);
     }
+    (cut_m, closed, joints)
+}
+
+/// Two clearance joints at once (crank–ground and rod–slider of the slider-crank), coupled through
+/// the cut mechanism: the 4 × 4 effective mass by the KKT route equals the null-space route, its
+/// off-diagonal blocks do not vanish, f_c = −f̃ reproduces the ideal mechanism with both joints
+/// closed (and f̃ of each joint is minus its ideal reaction), and the friction columns equal the
+/// null-space response to the friction moments.
+#[test]
+fn two_coupled_joints_satisfy_the_identities() {
+    let (radius_j, radius_b) = (9.5e-3, 10.0e-3);
+    let (cut_m, closed, joints) = two_clearance_joints(radius_j, radius_b);
     let (mut s_ideal, mut s_cut) = (Solver::new(&closed), Solver::new(&cut_m));
     let (mut q, _) = kinematics::initial_guess(&closed);
     let period = 2.0 * std::f64::consts::PI / OMEGA;
@@ -243,26 +250,7 @@ fn two_coupled_joints_satisfy_the_identities() {
 /// leaks into a later one.
 #[test]
 fn terms_refreshed_in_place_equal_fresh_ones_bit_for_bit() {
-    let ideal = ideal_slider_crank();
-    let names = ["crank_pivot", "rod_slider"];
-    let mut cut_m = ideal.clone();
-    cut_m.joints.retain(|j| !names.contains(&j.name.as_str()));
-    let mut closed = cut_m.clone();
-    let mut joints = Vec::new();
-    for name in names {
-        let j = ideal.joints.iter().find(|j| j.name == name).unwrap().clone();
-        joints.push(ClearanceInterface {
-            interface: Interface {
-                journal_body: j.body_i,
-                journal_point: j.point_i,
-                bearing_body: j.body_j,
-                bearing_point: j.point_j,
-            },
-            journal_radius: 9.5e-3,
-            bearing_radius: 10.0e-3,
-        });
-        closed.joints.push(j);
-    }
+    let (cut_m, closed, joints) = two_clearance_joints(9.5e-3, 10.0e-3);
     for count in [1, 2] {
         let joints = &joints[..count];
         let (mut s_ideal, mut s_cut, mut s_fresh) = (Solver::new(&closed), Solver::new(&cut_m), Solver::new(&cut_m));

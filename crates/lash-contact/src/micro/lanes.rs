@@ -368,7 +368,9 @@ impl Kept {
         let (mass, inv) = &self.end_mass;
         m.end = Some(StepEnd {
             time: self.end_time[l],
-            input_time: m.input_time,
+            // (A factor formed before the inputs were last set is not to be kept: no time
+            // matches NaN.)
+            input_time: if self.end_inputs[l] { m.input_time } else { f64::NAN },
             eccentricity: m.eccentricity,
             eccentricity_rate: m.eccentricity_rate,
             loads: Loads {

@@ -29,7 +29,7 @@ use crate::parameters::ClearanceDefinition;
 use crate::spherical::SphericalClearance;
 pub use bushing::BushingJoint;
 pub use joint::MicroJoint;
-use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
+use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape, row_major};
 use lash_core::{SavedState, StepOutcome, Steps, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::AdaptiveOptions;
 pub use model::{InterfaceInputs, InterfaceModel, Loads, PLANAR_JOINT_COORDINATES, PlanarInputs, PlanarInterfaceModel};
@@ -298,6 +298,97 @@ fn rk4_recorded<J: MicroJoint, const N: usize, const K: usize, const M: usize, c
     Ok(())
 }
 
+/// [`Subsystem::do_steps`] of several micro subsystems (independent runs at the same point of
+/// their runs, each with its inputs set), with the same results bit for bit: those that hold one
+/// planar clearance joint stepped by RK4 at their own micro step, with laws that run in lanes
+/// ([`lanes::lane_laws`]), are advanced [`lanes::LANES`] at a time in lockstep
+/// ([`lanes::advance`]); the others, and the last group when it is not full, one by one. `rows[i]`
+/// receives subsystem i's flagged rows as `do_steps` writes them.
+pub fn do_steps_together(
+    subs: &mut [&mut dyn Subsystem],
+    t: Ticks,
+    h: Ticks,
+    record: &[bool],
+    refs: &[ValueReference],
+    rows: &mut [&mut [f64]],
+) -> Vec<Steps> {
+    use lanes::{LANES, LaneFriction, OneJoint};
+    assert_eq!(subs.len(), rows.len(), "one row buffer per subsystem");
+    let mut results: Vec<Option<Steps>> = (0..subs.len()).map(|_| None).collect();
+    // Which subsystems can run in lanes, by their laws' kind, with their row widths.
+    let mut groups: Vec<(LaneFriction, Vec<(usize, usize)>)> = Vec::new();
+    for (i, (sub, out)) in subs.iter_mut().zip(rows.iter_mut()).enumerate() {
+        let Some(micro) = sub.as_any_mut().and_then(|a| a.downcast_mut::<InterfaceSubsystem>()) else { continue };
+        let fast = matches!(micro.integrator, MicroIntegrator::Rk4 { .. })
+            && h == micro.micro_step
+            && micro.phase == Phase::Stepping
+            && t == micro.time;
+        let Core::C2(model) = &micro.core else { continue };
+        let (Some(kind), true) = (lanes::lane_laws(model), fast) else { continue };
+        let width = match lash_core::subsystem::recorded_rows(&micro.variables, record, refs, out) {
+            Ok(w) => w,
+            Err(e) => {
+                results[i] = Some(Steps { taken: 0, last: Err(e) });
+                continue;
+            }
+        };
+        match groups.iter_mut().find(|(k, members)| *k == kind && members.len() < LANES) {
+            Some((_, members)) => members.push((i, width)),
+            None => groups.push((kind, vec![(i, width)])),
+        }
+    }
+    for (kind, members) in groups.iter().filter(|(_, m)| m.len() == LANES) {
+        // The members' models, their step counts and parameters (for reading outputs), and rows.
+        let mut picked: Vec<(&mut InterfaceSubsystem, &mut [f64], usize)> = Vec::with_capacity(LANES);
+        let mut rest: &mut [&mut dyn Subsystem] = &mut subs[..];
+        let mut rows_rest: &mut [&mut [f64]] = &mut rows[..];
+        let mut offset = 0;
+        for &(i, width) in members {
+            let (sub_tail, row_tail) = (std::mem::take(&mut rest), std::mem::take(&mut rows_rest));
+            let (sub, sub_tail) = sub_tail[i - offset..].split_first_mut().expect("a member index");
+            let (out, row_tail) = row_tail[i - offset..].split_first_mut().expect("a member index");
+            let micro =
+                sub.as_any_mut().and_then(|a| a.downcast_mut::<InterfaceSubsystem>()).expect("a micro subsystem");
+            picked.push((micro, &mut **out, width));
+            (rest, rows_rest, offset) = (sub_tail, row_tail, i + 1);
+        }
+        let mut contexts = Vec::with_capacity(LANES);
+        let mut models: Vec<&mut OneJoint> = Vec::with_capacity(LANES);
+        for (micro, out, width) in picked.iter_mut() {
+            let InterfaceSubsystem { core, lens, parameter_values, micro_steps, .. } = &mut **micro;
+            let Core::C2(model) = core else { unreachable!("grouped as one planar joint") };
+            models.push(&mut **model);
+            contexts.push((*micro_steps, &parameter_values[..], &lens[..], &mut **out, *width, 0usize));
+        }
+        let mut models: [&mut OneJoint; LANES] = models.try_into().unwrap_or_else(|_| unreachable!("a full group"));
+        let outcome = lanes::advance(&mut models, *kind, [t; LANES], h, record, |l, i, m| {
+            let (steps, parameters, lens, out, width, row) = &mut contexts[l];
+            read(m, *steps + i as u64 + 1, parameters, lens, refs, &mut out[*row * *width..(*row + 1) * *width]);
+            *row += 1;
+        });
+        drop(contexts);
+        for ((micro, _, _), (outcome, &(i, _))) in picked.iter_mut().zip(outcome.into_iter().zip(members)) {
+            results[i] = Some(match outcome {
+                Ok(()) => {
+                    micro.micro_steps += record.len() as u64;
+                    micro.time = Ticks(t.0 + record.len() as i64 * h.0);
+                    Steps { taken: record.len(), last: Ok(StepOutcome::Completed) }
+                }
+                Err((taken, at, message)) => {
+                    micro.micro_steps += taken as u64 + 1;
+                    micro.phase = Phase::Failed;
+                    Steps { taken, last: Err(SubsystemError::Simulation { t: at, message }) }
+                }
+            });
+        }
+    }
+    subs.iter_mut()
+        .zip(rows.iter_mut())
+        .zip(results)
+        .map(|((sub, out), r)| r.unwrap_or_else(|| sub.do_steps(t, h, record, refs, out)))
+        .collect()
+}
+
 /// Writes input `r` (already checked: an input, finite, of the right length) into `u`.
 fn set_input<const N: usize, const M: usize, const R: usize>(
     u: &mut InterfaceInputs<N, M, R>,
@@ -320,14 +411,6 @@ fn set_input<const N: usize, const M: usize, const R: usize>(
         vr::JOURNAL_ANGULAR_ACCELERATION => u.journal_angular_acceleration.copy_from_slice(v),
         vr::BEARING_ANGULAR_VELOCITY => u.bearing_angular_velocity.copy_from_slice(v),
         _ => u.bearing_angular_acceleration.copy_from_slice(v),
-    }
-}
-
-/// Row-major elements (the FMI array layout) of a column-major matrix of `rows` rows.
-fn row_major(out: &mut [f64], column_major: &[f64], rows: usize) {
-    let columns = column_major.len() / rows.max(1);
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = column_major[i / columns + (i % columns) * rows];
     }
 }
 
@@ -853,6 +936,10 @@ impl Subsystem for InterfaceSubsystem {
     /// RK4 at its own micro step: the steps are taken in one loop over the model, each flagged
     /// one's outputs read from it directly (the same arithmetic as one `do_step` and `get_f64`
     /// per step: results are bit-identical). Otherwise one step at a time.
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        Some(self)
+    }
+
     fn do_steps(&mut self, t: Ticks, h: Ticks, record: &[bool], refs: &[ValueReference], rows: &mut [f64]) -> Steps {
         let fast = matches!(self.integrator, MicroIntegrator::Rk4 { .. })
             && h == self.micro_step
@@ -934,6 +1021,83 @@ mod tests {
         s.setup(Ticks::ZERO, None).unwrap();
         s.initialize().unwrap();
         s
+    }
+
+    /// Twelve micro subsystems stepped together — eight of one laws' kind in lanes, four of
+    /// another kind (too few for a group) one by one — give each one's rows, outputs and time as
+    /// it gives them stepped alone, bit for bit, through intervals with impacts.
+    #[test]
+    fn subsystems_stepped_together_equal_each_stepped_alone() {
+        let make = |l: usize| {
+            let mut j = joint();
+            j.bearing_radius += 2e-5 * l as f64;
+            // (A velocity floor that keeps grazing impacts from stiffening the damping.)
+            j.law = NormalForce::Hysteresis { stiffness: 1e10, exponent: 1.5, chi: 0.2, floor: 1e-2 };
+            if l % 3 == 1 {
+                j.friction = FrictionLaw::Ambrosio { coefficient: 0.1, v0: 1e-4, v1: 1e-3 };
+            }
+            let mut s = InterfaceSubsystem::new(vec![j], MicroIntegrator::Rk4 { step: 1e-5 }).unwrap();
+            s.setup(Ticks::ZERO, None).unwrap();
+            s.initialize().unwrap();
+            s
+        };
+        let (mut together, mut alone): (Vec<_>, Vec<_>) = ((0..12).map(make).collect(), (0..12).map(make).collect());
+        let outputs: Vec<ValueReference> = together[0]
+            .variables()
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+            .map(|v| v.value_reference)
+            .collect();
+        let width = element_count(together[0].variables(), &outputs).unwrap();
+        let inputs: Vec<ValueReference> = (vr::EFFECTIVE_MASS..=vr::BEARING_ANGULAR_ACCELERATION).collect();
+        let h = Ticks::from_seconds(1e-5).unwrap();
+        let record: Vec<bool> = (0..100).map(|i| i % 10 == 9).collect();
+        for k in 0..40 {
+            let t = Ticks(k * 100 * h.0);
+            for (l, (a, b)) in together.iter_mut().zip(alone.iter_mut()).enumerate() {
+                let angle = 0.4 * k as f64 + l as f64;
+                let magnitude = if (k / 5) % 3 == 2 { -600.0 } else { 900.0 + 40.0 * l as f64 };
+                #[rustfmt::skip]
+                let values = [
+                    0.33, 0.01, 0.01, 0.21, // M̃
+                    2.0, 0.1, 0.1, -1.0, // dM̃/dt
+                    magnitude * angle.cos(), magnitude * angle.sin(), // f̃
+                    -2e4 * angle.sin(), 2e4 * angle.cos(), // df̃/dt
+                    -0.5, 0.2, 0.01, 0.0, // H, dH/dt
+                    523.6, 100.0, -10.0, 0.0, // ω and ω̇ of journal and bearing
+                ];
+                // (A run that blew up refuses inputs, alone as together.)
+                assert_eq!(a.set_f64(&inputs, &values).is_ok(), b.set_f64(&inputs, &values).is_ok(), "{l}");
+            }
+            let mut rows_together = vec![vec![0.0; 10 * width]; 12];
+            let mut subs: Vec<&mut dyn Subsystem> = together.iter_mut().map(|s| s as &mut dyn Subsystem).collect();
+            let mut outs: Vec<&mut [f64]> = rows_together.iter_mut().map(|r| &mut r[..]).collect();
+            let steps = do_steps_together(&mut subs, t, h, &record, &outputs, &mut outs);
+            for (l, b) in alone.iter_mut().enumerate() {
+                let mut rows = vec![0.0; 10 * width];
+                let expected = b.do_steps(t, h, &record, &outputs, &mut rows);
+                assert_eq!((steps[l].taken, steps[l].last.is_ok()), (expected.taken, expected.last.is_ok()), "{l}");
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&rows_together[l]), bits(&rows), "interval {k}, subsystem {l}");
+            }
+        }
+        for (a, b) in together.iter().zip(&alone) {
+            let (mut x, mut y) = (vec![0.0; width], vec![0.0; width]);
+            a.get_f64(&outputs, &mut x).unwrap();
+            b.get_f64(&outputs, &mut y).unwrap();
+            assert_eq!(
+                x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                y.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+            assert_eq!(a.time(), b.time());
+        }
+        let impacts = |s: &InterfaceSubsystem| match &s.core {
+            Core::C2(m) => m.impacts[0].len(),
+            _ => 0,
+        };
+        assert!(alone.iter().map(impacts).sum::<usize>() >= 12, "the inputs should make impacts");
+        let failed = together.iter().filter(|s| s.phase == Phase::Failed).count();
+        assert!(failed <= 2, "{failed} of the runs blew up: the comparison should be of running ones");
     }
 
     #[test]
