@@ -382,6 +382,37 @@ struct CouplingIndex {
     layout: Vec<(usize, usize)>,
 }
 
+/// What [`InterfaceMaster::run`] prepares before its first macro step (`InterfaceMaster::prepare`).
+struct Prepared {
+    per_macro: usize,
+    fractions: Vec<f64>,
+    macro_steps: usize,
+    decimation: Vec<u64>,
+    micro_inputs: Vec<ValueReference>,
+    index: CouplingIndex,
+    width_in: usize,
+    target_inputs: Option<[ValueReference; 3]>,
+    micro_outputs: Vec<ValueReference>,
+    coupling_outputs: [ValueReference; 3],
+    loads: usize,
+    n: usize,
+    k: usize,
+    ecc_at: usize,
+    rate_at: usize,
+    impulse_at: usize,
+    micro_width: usize,
+    all_macro: Vec<ValueReference>,
+    width: usize,
+    first: Vec<f64>,
+    ahead: usize,
+    h_m: f64,
+    stats: MasterStats,
+    signals: Vec<f64>,
+    table: SignalTable,
+    micro_values: Vec<f64>,
+    coupling_values: Vec<f64>,
+}
+
 /// The multirate master of the reduced interface model.
 pub struct InterfaceMaster<'a> {
     macro_sub: &'a mut dyn Subsystem,
@@ -552,9 +583,10 @@ impl<'a> InterfaceMaster<'a> {
         self.signals.iter().map(|s| s.name().to_string()).collect()
     }
 
-    /// Initialises both subsystems and runs to the stop time. Each observer comes with its
-    /// interval (a whole multiple of the micro step); all are called at the start time too.
-    pub fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
+    /// Everything a run needs before its first macro step: the coupling variables and signals
+    /// resolved, both subsystems initialised, the first macro frame read and the micro inputs set
+    /// from it, the first micro outputs read.
+    fn prepare(&mut self, observers: &[(&mut dyn Observer, Ticks)]) -> Result<Prepared, MasterError> {
         let o = self.options;
         let per_macro = o.macro_step.exact_ratio(o.micro_step).expect("checked") as usize;
         // The fractions j / per_macro of the macro step at the micro steps' ends, divided once.
@@ -695,9 +727,9 @@ impl<'a> InterfaceMaster<'a> {
             _ => 1,
         };
         let h_m = o.macro_step.seconds();
-        let mut stats = MasterStats::default();
-        let mut signals = vec![0.0; resolved.len()];
-        let mut table = SignalTable::new(&resolved, loads, h_m);
+        let stats = MasterStats::default();
+        let signals = vec![0.0; resolved.len()];
+        let table = SignalTable::new(&resolved, loads, h_m);
         // The micro inputs at the start (the first frame's values, no rate) before anything is
         // read: a micro joint that starts where it holds its load (a bushing) settles there, so
         // the first sample is already the settled one. (Each macro step sets them again.)
@@ -720,7 +752,74 @@ impl<'a> InterfaceMaster<'a> {
         self.micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
         let mut coupling_values = vec![0.0; 2 * n + k];
         self.micro_sub.get_f64(&coupling_outputs, &mut coupling_values).map_err(micro_err)?;
+        Ok(Prepared {
+            per_macro,
+            fractions,
+            macro_steps,
+            decimation,
+            micro_inputs,
+            index,
+            width_in,
+            target_inputs,
+            micro_outputs,
+            coupling_outputs,
+            loads,
+            n,
+            k,
+            ecc_at,
+            rate_at,
+            impulse_at,
+            micro_width,
+            all_macro,
+            width,
+            first,
+            ahead,
+            h_m,
+            stats,
+            signals,
+            table,
+            micro_values,
+            coupling_values,
+        })
+    }
 
+    /// Initialises both subsystems and runs to the stop time. Each observer comes with its
+    /// interval (a whole multiple of the micro step); all are called at the start time too.
+    pub fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
+        let o = self.options;
+        let Prepared {
+            per_macro,
+            fractions,
+            macro_steps,
+            decimation,
+            micro_inputs,
+            index,
+            width_in,
+            target_inputs,
+            micro_outputs,
+            coupling_outputs,
+            loads,
+            n,
+            k,
+            ecc_at,
+            rate_at,
+            impulse_at,
+            micro_width,
+            all_macro,
+            width,
+            first,
+            ahead,
+            h_m,
+            stats,
+            signals,
+            table,
+            micro_values,
+            coupling_values,
+        } = self.prepare(observers)?;
+        let mut stats = stats;
+        let mut signals = signals;
+        let mut table = table;
+        let mut coupling_values = coupling_values;
         let Self { macro_sub, micro_sub, .. } = self;
         let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
         let macro_sub: &mut dyn Subsystem = &mut **macro_sub;
