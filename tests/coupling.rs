@@ -340,3 +340,102 @@ fn the_interface_master_honours_early_returns_and_stop_requests() {
         assert!(stats.micro_steps < 500, "{which}: the master went on after the stop");
     }
 }
+
+/// Ten runs of A (different clearances and crank speeds) stepped together — their micro
+/// subsystems eight in lanes and two one by one, one call per macro step — give each run's
+/// samples at both observer rates as the run alone gives them, bit for bit.
+#[test]
+fn runs_stepped_together_equal_each_run_alone() {
+    use lash_core::{Subsystem, Ticks};
+    use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
+    let stop = Ticks::from_seconds(0.02).unwrap();
+    let options = MasterOptions {
+        start: Ticks::ZERO,
+        stop,
+        macro_step: Ticks::from_seconds(1e-3).unwrap(),
+        micro_step: Ticks::from_seconds(1e-5).unwrap(),
+        interpolation: Interpolation::Linear,
+        coupling: Coupling::OneWay,
+        execution: Execution::Sequential,
+    };
+    let signals = || {
+        vec![
+            Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 },
+            Signal::Micro { name: "impacts".into(), variable: "impacts".into(), element: 0 },
+            Signal::Propagated {
+                name: "slider.ax".into(),
+                free: ("slider.acceleration_free".into(), 0),
+                gain: ("slider.acceleration_gain".into(), 0),
+            },
+        ]
+    };
+    let subsystems = || -> Vec<(Box<dyn Subsystem>, Box<dyn Subsystem>)> {
+        (0..10)
+            .map(|r| {
+                let mut a = builtin::by_name("A").unwrap();
+                a.output.channels = vec!["slider.ax".into()];
+                a.clearances[0].bearing_radius += 2e-6 * r as f64;
+                if let lash_mech::Motion::ConstantSpeed { omega, .. } = &mut a.drivers[0].motion {
+                    *omega *= 1.0 + 0.03 * r as f64;
+                }
+                let (mut m, mut i) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
+                m.setup(Ticks::ZERO, Some(stop)).unwrap();
+                i.setup(Ticks::ZERO, Some(stop)).unwrap();
+                (Box::new(m) as Box<dyn Subsystem>, Box::new(i) as Box<dyn Subsystem>)
+            })
+            .collect()
+    };
+    type Samples = Vec<(i64, Vec<u64>)>;
+    type Sink<'a> = Box<dyn FnMut(Ticks, &[f64]) -> Result<(), String> + 'a>;
+    let record = |into: &mut Samples, t: Ticks, v: &[f64]| -> Result<(), String> {
+        into.push((t.0, v.iter().map(|x| x.to_bits()).collect()));
+        Ok(())
+    };
+    // Each run alone.
+    let mut alone: Vec<(Samples, Samples)> = Vec::new();
+    for (mut m, mut i) in subsystems() {
+        let (mut fast, mut slow) = (Vec::new(), Vec::new());
+        let mut f = |t: Ticks, v: &[f64]| -> Result<(), String> { record(&mut fast, t, v) };
+        let mut s = |t: Ticks, v: &[f64]| -> Result<(), String> { record(&mut slow, t, v) };
+        let mut observers: [(&mut dyn Observer, Ticks); 2] =
+            [(&mut f, Ticks::from_seconds(1e-5).unwrap()), (&mut s, Ticks::from_seconds(2e-4).unwrap())];
+        InterfaceMaster::new(&mut *m, &mut *i, options, signals()).unwrap().run(&mut observers).unwrap();
+        alone.push((fast, slow));
+    }
+    // All together.
+    let mut pairs = subsystems();
+    let mut samples: Vec<(Samples, Samples)> = (0..pairs.len()).map(|_| (Vec::new(), Vec::new())).collect();
+    {
+        let mut masters: Vec<InterfaceMaster<'_>> = pairs
+            .iter_mut()
+            .map(|(m, i)| InterfaceMaster::new(&mut **m, &mut **i, options, signals()).unwrap())
+            .collect();
+        let mut closures: Vec<(Sink<'_>, Sink<'_>)> = samples
+            .iter_mut()
+            .map(|(fast, slow)| {
+                let f: Sink<'_> = Box::new(move |t: Ticks, v: &[f64]| record(fast, t, v));
+                let s: Sink<'_> = Box::new(move |t: Ticks, v: &[f64]| record(slow, t, v));
+                (f, s)
+            })
+            .collect();
+        let mut lists: Vec<[(&mut dyn Observer, Ticks); 2]> = closures
+            .iter_mut()
+            .map(|(f, s)| {
+                [
+                    (f as &mut dyn Observer, Ticks::from_seconds(1e-5).unwrap()),
+                    (s as &mut dyn Observer, Ticks::from_seconds(2e-4).unwrap()),
+                ]
+            })
+            .collect();
+        let mut observers: Vec<&mut [(&mut dyn Observer, Ticks)]> = lists.iter_mut().map(|l| &mut l[..]).collect();
+        let mut step = lash_contact::micro::do_steps_together;
+        let results = InterfaceMaster::run_together(&mut masters, &mut observers, &mut step);
+        for r in &results {
+            assert_eq!(r.as_ref().unwrap().micro_steps, 2000);
+        }
+    }
+    for (k, (a, b)) in alone.iter().zip(&samples).enumerate() {
+        assert_eq!((a.0.len(), a.1.len()), (2001, 101), "run {k}");
+        assert!(a.0 == b.0 && a.1 == b.1, "run {k}: samples differ when stepped together");
+    }
+}

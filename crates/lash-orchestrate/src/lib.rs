@@ -256,6 +256,18 @@ pub fn advance_steps(
     rows: &mut [f64],
 ) -> (usize, Result<Option<StopReason>, MasterError>) {
     let steps = sub.do_steps(t, h, record, refs, rows);
+    steps_outcome(steps, who, t, h, record.len())
+}
+
+/// What [`Subsystem::do_steps`]' result means for a master that asked for `asked` steps of `h`
+/// from `t`: the steps completed, and a stop or an error ([`advance_steps`]).
+fn steps_outcome(
+    steps: lash_core::Steps,
+    who: &'static str,
+    t: Ticks,
+    h: Ticks,
+    asked: usize,
+) -> (usize, Result<Option<StopReason>, MasterError>) {
     let outcome = match steps.last {
         Ok(outcome) => outcome,
         Err(source) => return (steps.taken, Err(MasterError::Subsystem { subsystem: who, source })),
@@ -265,15 +277,14 @@ pub fn advance_steps(
     }
     let last = Ticks(t.0 + (steps.taken as i64 - 1) * h.0);
     match outcome.stop(last, h) {
-        None if steps.taken == record.len() => (steps.taken, Ok(None)),
+        None if steps.taken == asked => (steps.taken, Ok(None)),
         None => (
             steps.taken,
             Err(MasterError::Subsystem {
                 subsystem: who,
                 source: SubsystemError::Other(format!(
                     "took {} of {} steps without saying why it stopped",
-                    steps.taken,
-                    record.len()
+                    steps.taken, asked
                 )),
             }),
         ),
@@ -1017,6 +1028,245 @@ impl<'a> InterfaceMaster<'a> {
             }
         }
         Ok(stats)
+    }
+}
+
+/// How the micro subsystems of runs stepped together are advanced: as [`Subsystem::do_steps`] of
+/// each (same `t`, `h`, flags and outputs for all), row buffer by row buffer — e.g. lash-contact's
+/// `do_steps_together`, which steps suitable ones in lanes.
+pub type GroupStep<'f> = dyn FnMut(
+        &mut [&mut dyn Subsystem],
+        Ticks,
+        Ticks,
+        &[bool],
+        &[ValueReference],
+        &mut [&mut [f64]],
+    ) -> Vec<lash_core::Steps>
+    + 'f;
+
+/// One run of [`InterfaceMaster::run_together`] between macro steps.
+struct Lane {
+    p: Prepared,
+    window: VecDeque<Vec<f64>>,
+    prev: Option<Vec<f64>>,
+    produced: usize,
+    inputs: Vec<f64>,
+    left: Vec<u64>,
+    rows: Vec<f64>,
+    micro_count: u64,
+}
+
+impl<'a> InterfaceMaster<'a> {
+    /// Runs several masters side by side, a macro step at a time, their micro subsystems advanced
+    /// together by `step` once per macro step: each run's result is what its own
+    /// [`InterfaceMaster::run`] gives (the same calls in the same order on its subsystems and
+    /// observers). Runs together only masters with the same options, one-way coupling,
+    /// sequential execution, inputs held as value and rate (not cubic Hermite), the same observer
+    /// intervals and the same micro outputs; otherwise each runs alone.
+    pub fn run_together(
+        masters: &mut [InterfaceMaster<'a>],
+        observers: &mut [&mut [(&mut dyn Observer, Ticks)]],
+        step: &mut GroupStep<'_>,
+    ) -> Vec<Result<MasterStats, MasterError>> {
+        assert_eq!(masters.len(), observers.len(), "one observer list per master");
+        let o = masters.first().map(|m| m.options);
+        let intervals = |obs: &[(&mut dyn Observer, Ticks)]| obs.iter().map(|(_, t)| *t).collect::<Vec<_>>();
+        let alike = o.is_some_and(|o| {
+            o.coupling == Coupling::OneWay
+                && o.execution == Execution::Sequential
+                && o.interpolation != Interpolation::CubicHermite
+                && masters.iter().all(|m| m.options == o)
+                && observers.iter().all(|obs| intervals(obs) == intervals(observers[0]))
+        });
+        if !alike {
+            return masters.iter_mut().zip(observers.iter_mut()).map(|(m, obs)| m.run(obs)).collect();
+        }
+        let o = o.expect("masters");
+        let mut results: Vec<Option<Result<MasterStats, MasterError>>> = masters.iter().map(|_| None).collect();
+        let mut lanes: Vec<Option<Lane>> = Vec::with_capacity(masters.len());
+        for (i, (m, obs)) in masters.iter_mut().zip(observers.iter_mut()).enumerate() {
+            let lane = m.prepare(obs).and_then(|mut p| {
+                let w = Window { prev: None, a: &p.first, b: &p.first, next: None, h: p.h_m };
+                p.table.prepare(&w);
+                p.table.fill(0.0, &p.micro_values[..p.loads], &p.micro_values, &mut p.signals);
+                for (ob, _) in obs.iter_mut() {
+                    ob.observe(o.start, &p.signals).map_err(MasterError::Observer)?;
+                }
+                let mut window = VecDeque::with_capacity(4);
+                window.push_back(p.first.clone());
+                Ok(Lane {
+                    inputs: vec![0.0; p.width_in],
+                    left: p.decimation.clone(),
+                    rows: vec![0.0; p.per_macro * p.micro_width],
+                    window,
+                    prev: None,
+                    produced: 0,
+                    micro_count: 0,
+                    p,
+                })
+            });
+            match lane {
+                Ok(l) => lanes.push(Some(l)),
+                Err(e) => {
+                    results[i] = Some(Err(e));
+                    lanes.push(None);
+                }
+            }
+        }
+        // The same outputs read from every micro subsystem (one list for the group call).
+        let refs = lanes.iter().flatten().next().map(|l| l.p.micro_outputs.clone()).unwrap_or_default();
+        if lanes.iter().flatten().any(|l| l.p.micro_outputs != refs) {
+            for (i, lane) in lanes.iter_mut().enumerate() {
+                if lane.take().is_some() {
+                    results[i] = Some(Err(MasterError::Settings(
+                        "runs stepped together must read the same micro outputs".into(),
+                    )));
+                }
+            }
+        }
+        let (per_macro, macro_steps) = match lanes.iter().flatten().next() {
+            Some(l) => (l.p.per_macro, l.p.macro_steps),
+            None => (0, 0),
+        };
+        let kind = o.interpolation;
+        let mut due = vec![false; per_macro];
+        for step_index in 0..macro_steps {
+            let t_k = Ticks(o.start.0 + step_index as i64 * o.macro_step.0);
+            // Each run: its macro step, its micro inputs for the interval.
+            for (i, (lane, m)) in lanes.iter_mut().zip(masters.iter_mut()).enumerate() {
+                let Some(l) = lane else { continue };
+                let prepared = (|| -> Result<(), MasterError> {
+                    while l.produced < (step_index + l.p.ahead).min(macro_steps) {
+                        let t = Ticks(o.start.0 + l.produced as i64 * o.macro_step.0);
+                        let started = Instant::now();
+                        l.window.push_back(step_macro(
+                            &mut *m.macro_sub,
+                            &l.p.all_macro,
+                            l.p.width,
+                            t,
+                            o.macro_step,
+                            None,
+                        )?);
+                        l.p.stats.macro_seconds += started.elapsed().as_secs_f64();
+                        l.produced += 1;
+                        l.p.stats.macro_steps += 1;
+                    }
+                    let w = Window {
+                        prev: l.prev.as_deref(),
+                        a: &l.window[0],
+                        b: &l.window[1],
+                        next: l.window.get(2).map(|v| v.as_slice()),
+                        h: l.p.h_m,
+                    };
+                    l.p.table.prepare(&w);
+                    let mut elements = l.p.index.elements.iter();
+                    for &(values, rates) in &l.p.index.layout {
+                        for e in 0..rates - values {
+                            let &(value, derivative) = elements.next().expect("one element per input value");
+                            let (v, rate) = match derivative {
+                                Some(d) => w.with_derivative(kind, value, d, 0.0),
+                                None => w.coupling(kind, value, 0.0),
+                            };
+                            l.inputs[values + e] = v;
+                            l.inputs[rates + e] = if kind == Interpolation::ZeroOrderHold { 0.0 } else { rate };
+                        }
+                    }
+                    m.micro_sub.set_f64(&l.p.micro_inputs, &l.inputs).map_err(micro_err)
+                })();
+                if let Err(e) = prepared {
+                    results[i] = Some(Self::ended(e, &mut l.p.stats));
+                    *lane = None;
+                }
+            }
+            // The steps at which an observer is due (the same countdowns in every run).
+            let Some(first) = lanes.iter().flatten().next() else { break };
+            let mut scratch = first.left.clone();
+            for d in due.iter_mut() {
+                *d = false;
+                for (l, p) in scratch.iter_mut().zip(&first.p.decimation) {
+                    *l -= 1;
+                    if *l == 0 {
+                        *d = true;
+                        *l = *p;
+                    }
+                }
+            }
+            // Every run's micro interval in one call.
+            let started = Instant::now();
+            let members: Vec<usize> = (0..lanes.len()).filter(|&i| lanes[i].is_some()).collect();
+            let outcomes = {
+                let mut subs: Vec<&mut dyn Subsystem> = Vec::with_capacity(members.len());
+                let mut rows: Vec<&mut [f64]> = Vec::with_capacity(members.len());
+                for (m, lane) in masters.iter_mut().zip(lanes.iter_mut()) {
+                    if let Some(l) = lane {
+                        subs.push(&mut *m.micro_sub);
+                        rows.push(&mut l.rows[..]);
+                    }
+                }
+                let t = t_k;
+                step(&mut subs, t, o.micro_step, &due, &refs, &mut rows)
+            };
+            let share = started.elapsed().as_secs_f64() / members.len().max(1) as f64;
+            // Each run: its samples, in order, to its observers.
+            for (&i, steps) in members.iter().zip(outcomes) {
+                let (Some(l), obs) = (lanes[i].as_mut(), &mut observers[i]) else { continue };
+                l.p.stats.micro_seconds += share;
+                let processed = (|| -> Result<(), MasterError> {
+                    let (completed, outcome) = steps_outcome(steps, "micro", t_k, o.micro_step, due.len());
+                    l.micro_count += completed as u64;
+                    let mut row = 0;
+                    let width = l.p.micro_width;
+                    for (j, &sampled) in due[..completed].iter().enumerate() {
+                        for c in l.left.iter_mut() {
+                            *c -= 1;
+                        }
+                        if !sampled {
+                            continue;
+                        }
+                        let micro = &l.rows[row * width..(row + 1) * width];
+                        row += 1;
+                        l.p.table.fill(l.p.fractions[j + 1], &micro[..l.p.loads], micro, &mut l.p.signals);
+                        let t1 = Ticks(t_k.0 + (j as i64 + 1) * o.micro_step.0);
+                        for (((ob, _), c), d) in obs.iter_mut().zip(l.left.iter_mut()).zip(&l.p.decimation) {
+                            if *c == 0 {
+                                *c = *d;
+                                ob.observe(t1, &l.p.signals).map_err(MasterError::Observer)?;
+                            }
+                        }
+                    }
+                    l.p.stats.micro_steps = l.micro_count;
+                    if let Some(reason) = outcome? {
+                        return Err(MasterError::Stopped { subsystem: "micro", reason });
+                    }
+                    Ok(())
+                })();
+                if let Err(e) = processed {
+                    results[i] = Some(Self::ended(e, &mut l.p.stats));
+                    lanes[i] = None;
+                    continue;
+                }
+                l.prev = l.window.pop_front();
+            }
+        }
+        for (i, lane) in lanes.into_iter().enumerate() {
+            if let Some(mut l) = lane {
+                l.p.stats.micro_steps = l.micro_count;
+                results[i] = Some(Ok(l.p.stats));
+            }
+        }
+        results.into_iter().map(|r| r.expect("every run ends")).collect()
+    }
+
+    /// A run ended by `e`: a stop is a clean end (the observers keep what they have), anything
+    /// else the run's error.
+    fn ended(e: MasterError, stats: &mut MasterStats) -> Result<MasterStats, MasterError> {
+        match e {
+            MasterError::Stopped { subsystem, reason } => {
+                stats.stopped = Some((subsystem.to_string(), reason));
+                Ok(stats.clone())
+            }
+            other => Err(other),
+        }
     }
 }
 
