@@ -167,17 +167,11 @@ fn cubic_hermite_is_closer_than_linear_to_the_macro_converged_reduced_model() {
     assert!(hermite < linear);
 }
 
-#[test]
-fn observers_record_at_their_own_rates() {
-    use lash_core::{Subsystem, Ticks};
-    use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
-    let mut a = builtin::by_name("A").unwrap();
-    a.output.channels = vec!["slider.ax".into()];
-    let (mut mechanism, mut interface) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
-    let stop = Ticks::from_seconds(0.01).unwrap();
-    mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
-    interface.setup(Ticks::ZERO, Some(stop)).unwrap();
-    let options = MasterOptions {
+/// The master options of A's reduced model to `stop`: h_m = 1 ms, h_r = 10 µs, linear, one-way,
+/// sequential.
+fn one_way_options(stop: lash_core::Ticks) -> lash_orchestrate::MasterOptions {
+    use lash_core::Ticks;
+    lash_orchestrate::MasterOptions {
         start: Ticks::ZERO,
         stop,
         macro_step: Ticks::from_seconds(1e-3).unwrap(),
@@ -185,7 +179,20 @@ fn observers_record_at_their_own_rates() {
         interpolation: Interpolation::Linear,
         coupling: Coupling::OneWay,
         execution: Execution::Sequential,
-    };
+    }
+}
+
+#[test]
+fn observers_record_at_their_own_rates() {
+    use lash_core::{Subsystem, Ticks};
+    use lash_orchestrate::{InterfaceMaster, Observer, Signal};
+    let mut a = builtin::by_name("A").unwrap();
+    a.output.channels = vec!["slider.ax".into()];
+    let (mut mechanism, mut interface) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
+    let stop = Ticks::from_seconds(0.01).unwrap();
+    mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+    interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+    let options = one_way_options(stop);
     let signals = vec![
         Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 },
         Signal::Propagated {
@@ -347,17 +354,9 @@ fn the_interface_master_honours_early_returns_and_stop_requests() {
 #[test]
 fn runs_stepped_together_equal_each_run_alone() {
     use lash_core::{Subsystem, Ticks};
-    use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
+    use lash_orchestrate::{InterfaceMaster, Observer, Signal};
     let stop = Ticks::from_seconds(0.02).unwrap();
-    let options = MasterOptions {
-        start: Ticks::ZERO,
-        stop,
-        macro_step: Ticks::from_seconds(1e-3).unwrap(),
-        micro_step: Ticks::from_seconds(1e-5).unwrap(),
-        interpolation: Interpolation::Linear,
-        coupling: Coupling::OneWay,
-        execution: Execution::Sequential,
-    };
+    let options = one_way_options(stop);
     let signals = || {
         vec![
             Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 },

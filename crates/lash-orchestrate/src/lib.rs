@@ -424,6 +424,42 @@ struct Prepared {
     coupling_values: Vec<f64>,
 }
 
+impl CouplingIndex {
+    /// The micro inputs at fraction `s` of the macro step `w`: each value and its rate (the
+    /// rate 0 when inputs are held).
+    fn fill(&self, w: &Window<'_>, kind: Interpolation, s: f64, inputs: &mut [f64]) {
+        let mut elements = self.elements.iter();
+        for &(values, rates) in &self.layout {
+            for e in 0..rates - values {
+                let &(value, derivative) = elements.next().expect("one element per input value");
+                let (v, rate) = match derivative {
+                    Some(d) => w.with_derivative(kind, value, d, s),
+                    None => w.coupling(kind, value, s),
+                };
+                inputs[values + e] = v;
+                inputs[rates + e] = if kind == Interpolation::ZeroOrderHold { 0.0 } else { rate };
+            }
+        }
+    }
+}
+
+/// Which of the next `due.len()` micro steps an observer samples: a dry run of the countdowns
+/// `left` (each observer's steps to its next sample; `decimation`, its interval in steps) in
+/// `scratch`.
+fn due_steps(left: &[u64], decimation: &[u64], scratch: &mut [u64], due: &mut [bool]) {
+    scratch.copy_from_slice(left);
+    for d in due.iter_mut() {
+        *d = false;
+        for (l, p) in scratch.iter_mut().zip(decimation) {
+            *l -= 1;
+            if *l == 0 {
+                *d = true;
+                *l = *p;
+            }
+        }
+    }
+}
+
 /// The multirate master of the reduced interface model.
 pub struct InterfaceMaster<'a> {
     macro_sub: &'a mut dyn Subsystem,
@@ -821,16 +857,12 @@ impl<'a> InterfaceMaster<'a> {
             first,
             ahead,
             h_m,
-            stats,
-            signals,
-            table,
+            mut stats,
+            mut signals,
+            mut table,
             micro_values,
-            coupling_values,
+            mut coupling_values,
         } = self.prepare(observers)?;
-        let mut stats = stats;
-        let mut signals = signals;
-        let mut table = table;
-        let mut coupling_values = coupling_values;
         let Self { macro_sub, micro_sub, .. } = self;
         let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
         let macro_sub: &mut dyn Subsystem = &mut **macro_sub;
@@ -907,33 +939,11 @@ impl<'a> InterfaceMaster<'a> {
                 let batch = if every_micro_step { 1 } else { per_macro };
                 let mut j = 0;
                 while j < per_macro {
-                    let s = fractions[j];
-                    let mut elements = index.elements.iter();
-                    for &(values, rates) in &index.layout {
-                        for e in 0..rates - values {
-                            let &(value, derivative) = elements.next().expect("one element per input value");
-                            let (v, rate) = match derivative {
-                                Some(d) => w.with_derivative(kind, value, d, s),
-                                None => w.coupling(kind, value, s),
-                            };
-                            inputs[values + e] = v;
-                            inputs[rates + e] = if kind == Interpolation::ZeroOrderHold { 0.0 } else { rate };
-                        }
-                    }
+                    index.fill(&w, kind, fractions[j], &mut inputs);
                     micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
-                    // The steps at which an observer is due (a dry run of the countdowns).
+                    // The steps at which an observer is due.
                     let due = &mut due[..batch];
-                    scratch.copy_from_slice(&left);
-                    for d in due.iter_mut() {
-                        *d = false;
-                        for (l, p) in scratch.iter_mut().zip(&decimation) {
-                            *l -= 1;
-                            if *l == 0 {
-                                *d = true;
-                                *l = *p;
-                            }
-                        }
-                    }
+                    due_steps(&left, &decimation, &mut scratch, due);
                     let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
                     let (completed, outcome) =
                         advance_steps(micro_sub, "micro", t, o.micro_step, due, &micro_outputs, &mut rows);
@@ -1129,7 +1139,7 @@ impl<'a> InterfaceMaster<'a> {
             None => (0, 0),
         };
         let kind = o.interpolation;
-        let mut due = vec![false; per_macro];
+        let (mut due, mut scratch) = (vec![false; per_macro], Vec::new());
         for step_index in 0..macro_steps {
             let t_k = Ticks(o.start.0 + step_index as i64 * o.macro_step.0);
             // Each run: its macro step, its micro inputs for the interval.
@@ -1159,18 +1169,7 @@ impl<'a> InterfaceMaster<'a> {
                         h: l.p.h_m,
                     };
                     l.p.table.prepare(&w);
-                    let mut elements = l.p.index.elements.iter();
-                    for &(values, rates) in &l.p.index.layout {
-                        for e in 0..rates - values {
-                            let &(value, derivative) = elements.next().expect("one element per input value");
-                            let (v, rate) = match derivative {
-                                Some(d) => w.with_derivative(kind, value, d, 0.0),
-                                None => w.coupling(kind, value, 0.0),
-                            };
-                            l.inputs[values + e] = v;
-                            l.inputs[rates + e] = if kind == Interpolation::ZeroOrderHold { 0.0 } else { rate };
-                        }
-                    }
+                    l.p.index.fill(&w, kind, 0.0, &mut l.inputs);
                     m.micro_sub.set_f64(&l.p.micro_inputs, &l.inputs).map_err(micro_err)
                 })();
                 if let Err(e) = prepared {
@@ -1180,17 +1179,8 @@ impl<'a> InterfaceMaster<'a> {
             }
             // The steps at which an observer is due (the same countdowns in every run).
             let Some(first) = lanes.iter().flatten().next() else { break };
-            let mut scratch = first.left.clone();
-            for d in due.iter_mut() {
-                *d = false;
-                for (l, p) in scratch.iter_mut().zip(&first.p.decimation) {
-                    *l -= 1;
-                    if *l == 0 {
-                        *d = true;
-                        *l = *p;
-                    }
-                }
-            }
+            scratch.resize(first.left.len(), 0);
+            due_steps(&first.left, &first.p.decimation, &mut scratch, &mut due);
             // Every run's micro interval in one call.
             let started = Instant::now();
             let members: Vec<usize> = (0..lanes.len()).filter(|&i| lanes[i].is_some()).collect();
