@@ -108,3 +108,87 @@ fn two_clearance_joints_reduced_against_full() {
         assert!(r.impacts * 2 >= f.impacts && r.impacts <= 2 * f.impacts, "{}: impacts", f.name);
     }
 }
+
+#[test]
+fn runs_executed_together_equal_each_run_alone() {
+    // Nineteen reduced runs of A, differing in clearance, restitution and friction: eight with
+    // Ambrósio friction and eight without (each eight stepped in vector lanes), one with Coulomb
+    // friction (the only one of its kind: stepped alone), two with laws the lanes do not take
+    // (alone in the same group). Every run's rows and summary (but for its times) must be what it
+    // gives run alone, bit for bit.
+    use lash_contact::{ContactLaw, FrictionLaw};
+    let base = builtin::by_name("A").unwrap();
+    let mut scenarios = Vec::new();
+    for k in 0..19 {
+        let mut s = base.clone();
+        s.simulation.horizon = 0.06;
+        let c = &mut s.clearances[0];
+        c.journal_radius = c.bearing_radius - (0.05e-3 + 0.02e-3 * k as f64);
+        if let ContactLaw::LankaraniNikravesh(p) = &mut c.contact {
+            p.restitution = 0.5 + 0.02 * k as f64;
+        }
+        c.friction = match k {
+            0..8 => FrictionLaw::Ambrosio { coefficient: 0.02 * (k + 1) as f64, v0: 1e-4, v1: 1e-3 },
+            16 => FrictionLaw::Coulomb { coefficient: 0.05 },
+            _ => FrictionLaw::None,
+        };
+        if k == 17 {
+            c.contact = ContactLaw::KelvinVoigt { stiffness: 1e8, damping: 1e3 };
+        }
+        if k == 18
+            && let ContactLaw::LankaraniNikravesh(p) = &mut c.contact
+        {
+            p.exponent = 1.3;
+        }
+        scenarios.push(lash_scenario::AnyScenario::Planar(s));
+    }
+    let model = lash_run::Model::Reduced(ReducedOptions::default());
+    // Without the run's times (the group's, shared).
+    let comparable = |s: &lash_run::Summary| {
+        let mut v = serde_json::to_value(s).unwrap();
+        v["cpu_time_s"] = 0.into();
+        v["wall_time_s"] = 0.into();
+        v["reduced"]["master"]["macro_seconds"] = 0.into();
+        v["reduced"]["master"]["micro_seconds"] = 0.into();
+        v
+    };
+    let alone: Vec<_> = scenarios
+        .iter()
+        .map(|s| {
+            let mut runner = lash_run::runner(s, model).unwrap();
+            let (summary, _, rows) = rows(runner.as_mut());
+            (comparable(&summary), rows)
+        })
+        .collect();
+    let mut runners: Vec<_> = scenarios.iter().map(|s| lash_run::runner(s, model).unwrap()).collect();
+    let mut together: Vec<Vec<Vec<f64>>> = vec![Vec::new(); runners.len()];
+    let mut sinks: Vec<_> = together
+        .iter_mut()
+        .map(|rows| {
+            move |r: &[f64]| -> Result<(), String> {
+                rows.push(r.to_vec());
+                Ok(())
+            }
+        })
+        .collect();
+    let summaries =
+        lash_run::execute_together(&mut runners, sinks.iter_mut().map(|s| s as lash_run::Sink<'_>).collect());
+    drop(sinks);
+    let mut impacts = 0;
+    for (k, ((summary, rows), (expected, expected_rows))) in
+        summaries.into_iter().zip(&together).zip(&alone).enumerate()
+    {
+        let summary = summary.unwrap();
+        impacts += summary.clearances[0].impacts;
+        assert_eq!(rows.len(), expected_rows.len(), "run {k}: rows");
+        for (a, b) in rows.iter().zip(expected_rows) {
+            assert!(
+                a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "run {k} at t = {}: {a:?} vs {b:?}",
+                a[0]
+            );
+        }
+        assert!(&comparable(&summary) == expected, "run {k}: the summary differs from the run's alone");
+    }
+    assert!(impacts > 20, "the runs have impacts to compare ({impacts})");
+}

@@ -64,15 +64,24 @@ fn bytes(p: PathBuf) -> Vec<u8> {
 fn results_do_not_depend_on_threads_shards_or_interruptions() {
     let dir = scratch("invariance");
     let file = sweep_file(&dir, 24, 0.02);
+    // One thread simulating one run at a time; two threads, each eight runs side by side (their
+    // micro models in vector lanes); one thread, eight side by side.
     let one = dir.join("one");
-    let o = run_sweep(&file, &one, &["--threads", "1"]);
+    let o = run_sweep(&file, &one, &["--threads", "1", "--side-by-side", "1"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let two = dir.join("two");
-    let o = run_sweep(&file, &two, &["--threads", "2"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    for f in ["data.parquet", "params.parquet"] {
-        assert!(bytes(one.join(f)) == bytes(two.join(f)), "{f} differs between 1 and 2 threads");
+    for (name, extra) in
+        [("two", ["--threads", "2", "--side-by-side", "8"]), ("lanes", ["--threads", "1", "--side-by-side", "8"])]
+    {
+        let other = dir.join(name);
+        let o = run_sweep(&file, &other, &extra);
+        assert!(o.status.success(), "{}", stderr(&o));
+        for f in ["data.parquet", "params.parquet"] {
+            assert!(bytes(one.join(f)) == bytes(other.join(f)), "{f} differs between one at a time and {extra:?}");
+        }
     }
+    let o = run_sweep(&file, &dir.join("none"), &["--side-by-side", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--side-by-side must be ≥ 1"), "{}", stderr(&o));
     // Noise is really there and seeded per run: the same parameters twice would differ only by it.
     let manifest: serde_json::Value = serde_json::from_slice(&bytes(one.join("manifest.json"))).unwrap();
     let runs = manifest["runs"].as_array().unwrap();

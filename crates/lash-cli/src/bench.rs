@@ -646,30 +646,42 @@ uniform = {{ low = 400.0, high = 600.0 }}
         "lash bench sweep: scenario A, reduced model, {runs} runs × 0.1 s, slider.ax at 10 kHz (+ noise), LHS over clearance and speed"
     );
     println!(
-        "  threads   wall [s]   runs/s   simulated s per wall s   per core   simulate [s]   write parts [s]   assemble [s]"
+        "  threads   runs side by side   wall [s]   runs/s   simulated s per wall s   per core   simulate [s]   write parts [s]   assemble [s]"
     );
-    let mut walls = Vec::new();
-    for threads in [1usize, 2] {
-        let out = dir.join(format!("out-{threads}"));
-        let options = lash_sweep::ExecuteOptions { out, shard: None, threads: Some(threads), cancel: None };
-        let r = lash_sweep::execute(&plan, &options, &|_| {}).map_err(|e| CliError::Failure(e.to_string()))?;
-        let throughput = r.simulated_s / r.wall_s;
-        println!(
-            "  {threads:7}   {:8.3}   {:6.1}   {throughput:22.1}   {:8.1}   {:12.3}   {:15.3}   {:12.3}",
-            r.wall_s,
-            r.ran as f64 / r.wall_s,
-            throughput / threads as f64,
-            r.simulate_s,
-            r.write_s,
-            r.assemble_s
-        );
-        walls.push(r.wall_s);
+    // One at a time (the workload as it was first measured) and side by side (eight runs per
+    // worker, their micro models in vector lanes), alternating, each with 1 and 2 threads.
+    let mut walls = std::collections::BTreeMap::new();
+    for side_by_side in [1usize, lash_sweep::SIDE_BY_SIDE] {
+        for threads in [1usize, 2] {
+            let out = dir.join(format!("out-{threads}-{side_by_side}"));
+            let options =
+                lash_sweep::ExecuteOptions { out, shard: None, threads: Some(threads), cancel: None, side_by_side };
+            let r = lash_sweep::execute(&plan, &options, &|_| {}).map_err(|e| CliError::Failure(e.to_string()))?;
+            let throughput = r.simulated_s / r.wall_s;
+            println!(
+                "  {threads:7}   {side_by_side:16}   {:8.3}   {:6.1}   {throughput:22.1}   {:8.1}   {:12.3}   {:15.3}   {:12.3}",
+                r.wall_s,
+                r.ran as f64 / r.wall_s,
+                throughput / threads as f64,
+                r.simulate_s,
+                r.write_s,
+                r.assemble_s
+            );
+            walls.insert((threads, side_by_side), r.wall_s);
+        }
     }
-    let same = std::fs::read(dir.join("out-1/data.parquet")).ok() == std::fs::read(dir.join("out-2/data.parquet")).ok();
+    let data = |threads: usize, side_by_side: usize| {
+        std::fs::read(dir.join(format!("out-{threads}-{side_by_side}/data.parquet"))).ok()
+    };
+    let lanes = lash_sweep::SIDE_BY_SIDE;
+    let same = data(1, 1).is_some() && [(2, 1), (1, lanes), (2, lanes)].iter().all(|&(t, s)| data(t, s) == data(1, 1));
     println!(
-        "  scaling 1 → 2 threads: {:.2}× (target ≥ 1.8×); data.parquet byte-identical across thread counts: {same}",
-        walls[0] / walls[1]
+        "  side by side vs one at a time: {:.2}× (1 thread), {:.2}× (2 threads); scaling 1 → 2 threads: {:.2}× side by side (target ≥ 1.8×)",
+        walls[&(1, 1)] / walls[&(1, lanes)],
+        walls[&(2, 1)] / walls[&(2, lanes)],
+        walls[&(1, lanes)] / walls[&(2, lanes)]
     );
+    println!("  data.parquet byte-identical across thread counts and side by side or not: {same}");
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }

@@ -244,6 +244,11 @@ enum Command {
         /// Worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Runs each worker simulates side by side (default 8: reduced runs with one clearance
+        /// joint step their micro models together in vector lanes); 1: one at a time. The data
+        /// are the same bit for bit either way.
+        #[arg(long)]
+        side_by_side: Option<usize>,
         /// No progress bar (batch systems).
         #[arg(long)]
         quiet: bool,
@@ -463,8 +468,8 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             _ => bench::run(quick),
         },
         Command::Sweep { command: Some(SweepCommand::Merge { inputs, out }), .. } => sweep::merge(&inputs, &out),
-        Command::Sweep { command: None, file, out, shard, threads, quiet } => match (file, out) {
-            (Some(file), Some(out)) => sweep::run(&file, &out, shard.as_deref(), threads, quiet),
+        Command::Sweep { command: None, file, out, shard, threads, side_by_side, quiet } => match (file, out) {
+            (Some(file), Some(out)) => sweep::run(&file, &out, (shard.as_deref(), threads, side_by_side), quiet),
             _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
         },
         Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {

@@ -59,13 +59,13 @@ pub fn run_estimate(
 }
 
 /// `lash sweep`: `runs` runs whose dataset rows come every `1/sample_rate` over `horizon`, each
-/// run's rows held until its part is written (`threads` runs at once, `channels` values each,
+/// run's rows held until its part is written (`at_once` runs at once, `channels` values each,
 /// doubled with the clean copies; an anti-alias filter streams the simulation's samples, so only
 /// the logged rows are held); on disk the parts and the assembled data.parquet (8 bytes a
 /// value, uncompressed: an upper bound), and the CSV copy if asked for.
 pub fn sweep_estimate(
     runs: u64,
-    threads: u64,
+    at_once: u64,
     horizon: f64,
     sample_rate: f64,
     channels: usize,
@@ -88,7 +88,7 @@ pub fn sweep_estimate(
         memory_bytes: per_run
             .saturating_mul((channels * copies) as u64 + 1)
             .saturating_mul(8)
-            .saturating_mul(threads.min(runs).max(1)),
+            .saturating_mul(at_once.min(runs).max(1)),
     }
 }
 

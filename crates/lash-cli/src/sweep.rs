@@ -15,14 +15,15 @@ fn map_error(e: SweepError) -> CliError {
 }
 
 /// Runs a sweep file (or one shard, `shard` as `i/N`) into `out` on `threads` workers (None: one
-/// per core), after its limits are checked (limits.rs): the path every front end takes (the
+/// per core) that each simulate `side_by_side` runs at once (None: [`lash_sweep::SIDE_BY_SIDE`]),
+/// after its limits are checked (limits.rs): the path every front end takes (the
 /// command line, the Python package). `on_event` sees the start and each finished run; setting
 /// `cancel` stops the sweep resumably. Runs that fail are in the report and the dataset; the
 /// caller decides what a failure means to it.
 pub fn execute(
     file: &Path,
     out: &Path,
-    (shard, threads): (Option<&str>, Option<usize>),
+    (shard, threads, side_by_side): (Option<&str>, Option<usize>, Option<usize>),
     cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
     on_event: &(dyn Fn(Event) + Sync),
 ) -> Result<lash_sweep::Report, CliError> {
@@ -30,6 +31,10 @@ pub fn execute(
     if threads == Some(0) {
         return Err(CliError::Input("threads must be ≥ 1".into()));
     }
+    if side_by_side == Some(0) {
+        return Err(CliError::Input("side_by_side must be ≥ 1 (1: one run at a time)".into()));
+    }
+    let side_by_side = side_by_side.unwrap_or(lash_sweep::SIDE_BY_SIDE);
     // Sized before the runs are listed (a design of 10⁹ runs is itself gigabytes).
     let (spec, text, base) = lash_sweep::read(file).map_err(map_error)?;
     let listed = spec.run_count();
@@ -40,8 +45,10 @@ pub fn execute(
     let workers = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let o = &spec.output;
     let horizon = spec.horizon.unwrap_or(base.simulation().horizon);
+    // Each worker holds the runs it simulates side by side.
+    let at_once = workers.saturating_mul(side_by_side) as u64;
     let mut estimate =
-        crate::limits::sweep_estimate(runs, workers as u64, horizon, o.sample_rate, o.channels.len(), o.clean, o.csv);
+        crate::limits::sweep_estimate(runs, at_once, horizon, o.sample_rate, o.channels.len(), o.clean, o.csv);
     // The design and the journal: each run's values and its record.
     let per_run = 8 * spec.parameters.len() as u64 + 128;
     estimate.memory_bytes = estimate.memory_bytes.saturating_add(listed.saturating_mul(per_run));
@@ -52,14 +59,26 @@ pub fn execute(
         "fewer runs (or shards), a shorter horizon, a lower output.sample_rate or fewer output.channels",
     )?;
     let plan = lash_sweep::plan(file, (spec, text, base)).map_err(map_error)?;
-    lash_sweep::execute(&plan, &ExecuteOptions { out: out.to_path_buf(), shard, threads, cancel }, on_event)
-        .map_err(map_error)
+    lash_sweep::execute(
+        &plan,
+        &ExecuteOptions { out: out.to_path_buf(), shard, threads, cancel, side_by_side },
+        on_event,
+    )
+    .map_err(map_error)
 }
 
 /// `lash sweep`: [`execute`] with a progress bar; exit 1 when runs failed.
-pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>, quiet: bool) -> Result<(), CliError> {
+pub fn run(
+    file: &Path,
+    out: &Path,
+    (shard, threads, side_by_side): (Option<&str>, Option<usize>, Option<usize>),
+    quiet: bool,
+) -> Result<(), CliError> {
     if threads == Some(0) {
         return Err(CliError::Input("--threads must be ≥ 1".into()));
+    }
+    if side_by_side == Some(0) {
+        return Err(CliError::Input("--side-by-side must be ≥ 1 (1: one run at a time)".into()));
     }
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
     bar.set_style(
@@ -82,7 +101,7 @@ pub fn run(file: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>,
             bar.inc(1);
         }
     };
-    let report = execute(file, out, (shard, threads), None, &on_event)?;
+    let report = execute(file, out, (shard, threads, side_by_side), None, &on_event)?;
     bar.finish_and_clear();
     let what = match shard {
         Some(s) => format!("shard {s} of {}", file.display()),

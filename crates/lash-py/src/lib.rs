@@ -352,7 +352,7 @@ fn sweep(
             let cancel = cancel.clone();
             let (file, out, shard, on_event) = (&file, &out, shard.as_deref(), &on_event);
             move || {
-                let report = lash_cli::sweep::execute(file, out, (shard, threads), Some(cancel), on_event);
+                let report = lash_cli::sweep::execute(file, out, (shard, threads, None), Some(cancel), on_event);
                 let _ = done_tx.send(());
                 report
             }

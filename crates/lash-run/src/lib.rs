@@ -20,7 +20,7 @@ pub mod spatial;
 pub use build::{BuildOptions, build_model};
 pub use full_subsystem::FullSubsystem;
 pub use reduced::{ReducedOptions, ReducedRun};
-pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Summary};
+pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Sink, Summary};
 pub use spatial::{SpatialReducedRun, SpatialRun, build_spatial};
 
 /// Which model of a scenario to run.
@@ -46,4 +46,28 @@ pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Box
         (Spatial(s), Model::Full { ideal }) => Box::new(SpatialRun::new(s, ideal)),
         (Spatial(s), Model::Reduced(o)) => Box::new(SpatialReducedRun::new(s, o).map_err(|e| e.to_string())?),
     })
+}
+
+/// Executes several runners, run i's rows to `sinks[i]`, with the result each gives alone:
+/// planar reduced runs go side by side ([`ReducedRun::execute_together`], their micro models
+/// stepped in vector lanes where they can be — the same rows and summaries bit for bit, the CPU
+/// and wall times shared), the others one after the other. Nothing reports progress.
+pub fn execute_together(runners: &mut [Box<dyn Runner>], sinks: Vec<Sink<'_>>) -> Vec<Result<Summary, RunError>> {
+    assert_eq!(runners.len(), sinks.len(), "one sink per runner");
+    let reduced: Vec<bool> = runners.iter_mut().map(|r| r.as_reduced().is_some()).collect();
+    let mut results: Vec<Option<Result<Summary, RunError>>> = runners.iter().map(|_| None).collect();
+    let (mut group, mut group_sinks, mut members) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, ((runner, sink), together)) in runners.iter_mut().zip(sinks).zip(reduced).enumerate() {
+        if together {
+            group.push(runner.as_reduced().expect("a reduced run"));
+            group_sinks.push(sink);
+            members.push(i);
+        } else {
+            results[i] = Some(runner.execute(sink, &mut |_| {}));
+        }
+    }
+    for (i, r) in members.into_iter().zip(ReducedRun::execute_together(&mut group, group_sinks)) {
+        results[i] = Some(r);
+    }
+    results.into_iter().map(|r| r.expect("every runner ran")).collect()
 }

@@ -254,12 +254,8 @@ impl ReducedRun {
         lash_scenario::channels::header(&self.sources, &self.selected)
     }
 
-    /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
-    pub fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
+    /// What a run records: the channels, the clearance summary's, the measurements, the stresses.
+    fn recording(&self) -> Recording {
         let quantity = |j: usize, name: &str| {
             self.sources
                 .iter()
@@ -268,7 +264,7 @@ impl ReducedRun {
         };
         // The clearance summary is the clearance joints' (a bushing has no impacts to count).
         let joints = self.scenario.clearances.len();
-        let recording = Recording {
+        Recording {
             channels: self.sources.iter().map(|(c, _)| c.clone()).collect(),
             written: self.selected.len(),
             summary: (0..joints).map(|j| (quantity(j, "eccentricity"), quantity(j, "force"))).collect(),
@@ -284,28 +280,67 @@ impl ReducedRun {
                     })
                     .collect()
             },
-        };
-        let kinematic_macro = self.macro_sub.is_kinematic();
-        let options = self.options;
-        let summary = run_reduced(
-            Coupled {
-                macro_sub: &mut self.macro_sub,
-                micro_sub: &mut self.micro_sub,
-                master: self.master_options,
-                signals: &self.signals,
-                recording: &recording,
-                simulation: &self.scenario.simulation,
-                scenario: &self.scenario.name,
-                period: driver_period(&self.scenario),
-            },
-            |master| ReducedDetails { options, kinematic_macro, master },
-            sink,
-            progress,
-        )?;
+        }
+    }
+
+    /// The two subsystems with what the master and the summary need.
+    fn coupled<'a>(&'a mut self, recording: &'a Recording) -> Coupled<'a> {
+        Coupled {
+            macro_sub: &mut self.macro_sub,
+            micro_sub: &mut self.micro_sub,
+            master: self.master_options,
+            signals: &self.signals,
+            recording,
+            simulation: &self.scenario.simulation,
+            scenario: &self.scenario.name,
+            period: driver_period(&self.scenario),
+        }
+    }
+
+    /// The details in the summary.
+    fn details(&self) -> impl Fn(MasterStats) -> ReducedDetails + use<> {
+        let (options, kinematic_macro) = (self.options, self.macro_sub.is_kinematic());
+        move |master| ReducedDetails { options, kinematic_macro, master }
+    }
+
+    /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
+    pub fn execute(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Summary, RunError> {
+        let recording = self.recording();
+        let details = self.details();
+        let summary = run_reduced(self.coupled(&recording), details, sink, progress)?;
         Ok(Summary {
             warnings: [summary.warnings, crate::run::series_bush_warnings(&self.scenario)].concat(),
             ..summary
         })
+    }
+
+    /// Runs several prepared runs side by side, run i's rows to `sinks[i]`: the micro models of
+    /// one-joint RK4 runs are stepped eight at a time in vector lanes. Each run's rows and summary
+    /// are those of its own [`ReducedRun::execute`], bit for bit, but for the CPU and wall times
+    /// (the group's, shared equally); runs that cannot go together (two-way coupling, threads,
+    /// cubic Hermite, different steps or output intervals) run one after the other.
+    pub fn execute_together(
+        runs: &mut [&mut ReducedRun],
+        sinks: Vec<crate::run::Sink<'_>>,
+    ) -> Vec<Result<Summary, RunError>> {
+        let recordings: Vec<Recording> = runs.iter().map(|r| r.recording()).collect();
+        let details: Vec<_> = runs.iter().map(|r| r.details()).collect();
+        let group: Vec<Coupled<'_>> = runs.iter_mut().zip(&recordings).map(|(r, rec)| r.coupled(rec)).collect();
+        let results = run_reduced_together(group, sinks, |i, master| details[i](master));
+        results
+            .into_iter()
+            .zip(runs.iter())
+            .map(|(result, run)| {
+                result.map(|summary| Summary {
+                    warnings: [summary.warnings, crate::run::series_bush_warnings(&run.scenario)].concat(),
+                    ..summary
+                })
+            })
+            .collect()
     }
 
     /// The micro subsystem (impacts, final state) after a run.
@@ -386,73 +421,181 @@ pub(crate) struct Coupled<'a> {
     pub period: Option<f64>,
 }
 
+/// What a reduced run records while it runs — the rows to its sink, the channel statistics, the
+/// measurements and the clearance summary — as the master's observer.
+struct Recorder<'c, 's> {
+    recording: &'c Recording,
+    start_time: f64,
+    per_horizon: f64,
+    stats: crate::record::RunningStats,
+    measurements: crate::measure::MeasurementRecorder,
+    row: Vec<f64>,
+    mapped: Vec<f64>,
+    samples: u64,
+    max_ecc: Vec<f64>,
+    sum_force: Vec<f64>,
+    last_error: Option<String>,
+    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+    progress: Option<&'s mut dyn FnMut(f64)>,
+}
+
+impl<'c, 's> Recorder<'c, 's> {
+    fn new(
+        c: &Coupled<'c>,
+        sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+        progress: Option<&'s mut dyn FnMut(f64)>,
+    ) -> Self {
+        let recording = c.recording;
+        let joints = recording.summary.len();
+        let names: Vec<&str> = recording.channels.iter().map(|ch| ch.name.as_str()).collect();
+        Self {
+            recording,
+            start_time: c.simulation.start_time,
+            per_horizon: 1.0 / c.simulation.horizon,
+            stats: crate::record::RunningStats::new(c.signals.len()),
+            measurements: crate::measure::MeasurementRecorder::new(&recording.measurements, &names),
+            row: vec![0.0; recording.written + 1],
+            mapped: vec![0.0; c.signals.len()],
+            samples: 0,
+            max_ecc: vec![0.0; joints],
+            sum_force: vec![0.0; joints],
+            last_error: None,
+            sink,
+            progress,
+        }
+    }
+}
+
+impl Observer for Recorder<'_, '_> {
+    fn observe(&mut self, t: Ticks, values: &[f64]) -> Result<(), String> {
+        // Normal forces that stand for interface stresses become the stresses (a copy only then).
+        let values = if self.recording.stresses.is_empty() {
+            values
+        } else {
+            self.mapped.copy_from_slice(values);
+            for (i, model) in &self.recording.stresses {
+                self.mapped[*i] = model.von_mises(values[*i]);
+            }
+            &self.mapped[..]
+        };
+        self.measurements.record(values);
+        self.stats.add(values);
+        for (j, &(ecc, force)) in self.recording.summary.iter().enumerate() {
+            self.max_ecc[j] = self.max_ecc[j].max(values[ecc]);
+            self.sum_force[j] += values[force];
+        }
+        self.samples += 1;
+        self.row[0] = t.seconds();
+        self.row[1..].copy_from_slice(&values[..self.recording.written]);
+        // The progress callback every 64 samples (it is a call through a pointer).
+        if self.samples & 63 == 1
+            && let Some(progress) = self.progress.as_mut()
+        {
+            progress(((t.seconds() - self.start_time) * self.per_horizon).clamp(0.0, 1.0));
+        }
+        let written = (self.sink)(&self.row);
+        if let Err(e) = &written {
+            self.last_error = Some(e.clone());
+        }
+        written
+    }
+}
+
+/// Sets both subsystems of `c` up for its time span.
+fn setup(c: &mut Coupled<'_>) -> Result<(), RunError> {
+    let (start, stop) = (c.master.start, c.master.stop);
+    let t = c.simulation.start_time;
+    let failed = |e: lash_core::SubsystemError| RunError::Simulation { t, message: e.to_string() };
+    c.macro_sub.setup(start, Some(stop)).map_err(failed)?;
+    c.micro_sub.setup(start, Some(stop)).map_err(failed)
+}
+
 /// Runs a reduced model (planar or spatial) on the interface master over the horizon: rows to
 /// `sink`, statistics and the clearance summary from the micro subsystem's impacts.
 pub(crate) fn run_reduced(
-    c: Coupled<'_>,
+    mut c: Coupled<'_>,
     details: impl FnOnce(MasterStats) -> ReducedDetails,
     sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Summary, RunError> {
-    let sim = c.simulation.clone();
-    let o = c.master;
-    let start = o.start;
-    c.macro_sub
-        .setup(start, Some(o.stop))
-        .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
-    c.micro_sub
-        .setup(start, Some(o.stop))
-        .map_err(|e| RunError::Simulation { t: sim.start_time, message: e.to_string() })?;
-    let n_sel = c.recording.written;
-    let mut stats = crate::record::RunningStats::new(c.signals.len());
-    let mut row = vec![0.0; n_sel + 1];
-    let mut samples = 0u64;
-    let summary_of = &c.recording.summary;
-    let joints = summary_of.len();
-    let (mut max_ecc, mut sum_force) = (vec![0.0f64; joints], vec![0.0; joints]);
-    let mut last_error = None;
-    let horizon = sim.horizon;
-    let per_horizon = 1.0 / horizon;
-    let names: Vec<&str> = c.recording.channels.iter().map(|ch| ch.name.as_str()).collect();
-    let mut measurements = crate::measure::MeasurementRecorder::new(&c.recording.measurements, &names);
-    let mut mapped = vec![0.0; c.signals.len()];
-    let mut observer = |t: Ticks, values: &[f64]| -> Result<(), String> {
-        // Normal forces that stand for interface stresses become the stresses (a copy only then).
-        let values = if c.recording.stresses.is_empty() {
-            values
-        } else {
-            mapped.copy_from_slice(values);
-            for (i, model) in &c.recording.stresses {
-                mapped[*i] = model.von_mises(values[*i]);
-            }
-            &mapped[..]
-        };
-        measurements.record(values);
-        stats.add(values);
-        for (j, &(ecc, force)) in summary_of.iter().enumerate() {
-            max_ecc[j] = max_ecc[j].max(values[ecc]);
-            sum_force[j] += values[force];
-        }
-        samples += 1;
-        row[0] = t.seconds();
-        row[1..].copy_from_slice(&values[..n_sel]);
-        // The progress callback every 64 samples (it is a call through a pointer).
-        if samples & 63 == 1 {
-            progress(((t.seconds() - sim.start_time) * per_horizon).clamp(0.0, 1.0));
-        }
-        sink(&row).inspect_err(|e| last_error = Some(e.clone()))
-    };
-    let interval = ticks(sim.output_interval, "simulation.output_interval")?;
+    setup(&mut c)?;
+    let interval = ticks(c.simulation.output_interval, "simulation.output_interval")?;
+    let mut recorder = Recorder::new(&c, sink, Some(progress));
     let cpu0 = cpu_time::ProcessTime::now();
     let wall0 = std::time::Instant::now();
     let master_stats = {
-        let mut master = InterfaceMaster::new(c.macro_sub, &mut *c.micro_sub, o, c.signals.to_vec())
+        let mut master = InterfaceMaster::new(&mut *c.macro_sub, &mut *c.micro_sub, c.master, c.signals.to_vec())
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
-        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut observer, interval)];
+        let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut recorder, interval)];
         master.run(&mut observers)
     };
-    let cpu = cpu0.elapsed().as_secs_f64();
-    let wall = wall0.elapsed().as_secs_f64();
+    let times = (cpu0.elapsed().as_secs_f64(), wall0.elapsed().as_secs_f64());
+    summarise(&c, recorder, master_stats, times, details)
+}
+
+/// Runs several reduced models side by side ([`InterfaceMaster::run_together`]), their micro
+/// subsystems stepped together — the one-joint RK4 ones eight at a time in vector lanes
+/// ([`lash_contact::micro::do_steps_together`]). Each run's rows and summary are what
+/// [`run_reduced`] gives it, bit for bit, but for its CPU and wall times: the group's, shared
+/// equally. Runs whose settings cannot go together (two-way coupling, threads, cubic Hermite,
+/// different steps or output intervals) run one after the other, as [`run_reduced`] runs them.
+pub(crate) fn run_reduced_together<'c, 's>(
+    mut group: Vec<Coupled<'c>>,
+    sinks: Vec<crate::run::Sink<'s>>,
+    details: impl Fn(usize, MasterStats) -> ReducedDetails,
+) -> Vec<Result<Summary, RunError>> {
+    assert_eq!(group.len(), sinks.len(), "one sink per run");
+    let mut results: Vec<Option<Result<Summary, RunError>>> = group.iter().map(|_| None).collect();
+    let mut recorders: Vec<Option<(Recorder<'c, 's>, Ticks)>> = Vec::with_capacity(group.len());
+    for (i, (c, sink)) in group.iter_mut().zip(sinks).enumerate() {
+        match setup(c).and_then(|()| ticks(c.simulation.output_interval, "simulation.output_interval")) {
+            Ok(interval) => recorders.push(Some((Recorder::new(c, sink, None), interval))),
+            Err(e) => {
+                results[i] = Some(Err(e));
+                recorders.push(None);
+            }
+        }
+    }
+    let cpu0 = cpu_time::ProcessTime::now();
+    let wall0 = std::time::Instant::now();
+    let ran: Vec<(usize, Result<MasterStats, lash_orchestrate::MasterError>)> = {
+        let (mut members, mut masters, mut observers) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, (c, r)) in group.iter_mut().zip(recorders.iter_mut()).enumerate() {
+            let Some((recorder, interval)) = r else { continue };
+            match InterfaceMaster::new(&mut *c.macro_sub, &mut *c.micro_sub, c.master, c.signals.to_vec()) {
+                Ok(m) => {
+                    members.push(i);
+                    masters.push(m);
+                    observers.push([(recorder as &mut dyn Observer, *interval)]);
+                }
+                Err(e) => results[i] = Some(Err(RunError::Unsupported(e.to_string()))),
+            }
+        }
+        let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = observers.iter_mut().map(|o| &mut o[..]).collect();
+        let mut step = lash_contact::micro::do_steps_together;
+        let stats = InterfaceMaster::run_together(&mut masters, &mut lists, &mut step);
+        members.into_iter().zip(stats).collect()
+    };
+    let share = 1.0 / ran.len().max(1) as f64;
+    let times = (cpu0.elapsed().as_secs_f64() * share, wall0.elapsed().as_secs_f64() * share);
+    for (i, master_stats) in ran {
+        let (recorder, _) = recorders[i].take().expect("ran");
+        results[i] = Some(summarise(&group[i], recorder, master_stats, times, |m| details(i, m)));
+    }
+    results.into_iter().map(|r| r.expect("every run ends")).collect()
+}
+
+/// The summary of a run of `c` that `recorder` observed: its channel statistics, the clearance
+/// summary from the micro subsystem's impacts, the master's counters; or the run's error.
+fn summarise(
+    c: &Coupled<'_>,
+    recorder: Recorder<'_, '_>,
+    master_stats: Result<MasterStats, lash_orchestrate::MasterError>,
+    (cpu, wall): (f64, f64),
+    details: impl FnOnce(MasterStats) -> ReducedDetails,
+) -> Result<Summary, RunError> {
+    let sim = c.simulation;
+    let Recorder { stats, measurements, samples, max_ecc, sum_force, last_error, recording, .. } = recorder;
     let master_stats = match master_stats {
         Ok(s) => s,
         Err(lash_orchestrate::MasterError::Observer(m)) => return Err(RunError::Output(last_error.unwrap_or(m))),
@@ -465,12 +608,14 @@ pub(crate) fn run_reduced(
         }
         Err(e) => return Err(RunError::Unsupported(e.to_string())),
     };
+    let horizon = sim.horizon;
     let t_end = sim.start_time + sim.horizon;
     let (measurements, measured) = measurements
         .finish(sim.start_time, sim.output_interval)
         .map_err(|message| RunError::Simulation { t: t_end, message })?;
     let micro = &*c.micro_sub;
     let m = samples.max(1) as f64;
+    let joints = recording.summary.len();
     let mut events = 0;
     let mut clearances = Vec::with_capacity(joints);
     for (j, name) in micro.joint_names().into_iter().enumerate().take(joints) {
@@ -488,7 +633,7 @@ pub(crate) fn run_reduced(
             sum_force[j] / m,
         ));
     }
-    let channels = stats.channel_stats(&c.recording.channels, samples);
+    let channels = stats.channel_stats(&recording.channels, samples);
     let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
     let integrator = match micro.integrator() {
         MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },

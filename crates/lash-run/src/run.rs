@@ -384,6 +384,9 @@ pub(crate) fn driver_period(s: &Scenario) -> Option<f64> {
     })
 }
 
+/// Where a run's rows go (time first, then the written channels); an error stops the run.
+pub type Sink<'a> = &'a mut dyn FnMut(&[f64]) -> Result<(), String>;
+
 /// Anything that runs a scenario into rows and a summary (full, ideal or reduced model).
 pub trait Runner {
     /// Column names with units, time first.
@@ -394,6 +397,11 @@ pub trait Runner {
         sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError>;
+    /// The planar reduced run this is, if it is one (runs that [`crate::execute_together`] can
+    /// step side by side).
+    fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {
+        None
+    }
 }
 
 impl Runner for FullRun {
@@ -419,5 +427,8 @@ impl Runner for crate::reduced::ReducedRun {
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         crate::reduced::ReducedRun::execute(self, sink, progress)
+    }
+    fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {
+        Some(self)
     }
 }

@@ -54,7 +54,14 @@ pub struct ExecuteOptions {
     /// Set it to stop the sweep: runs in flight finish, no new run starts, and the execution
     /// returns [`SweepError::Interrupted`] with the folder resumable.
     pub cancel: Option<std::sync::Arc<AtomicBool>>,
+    /// Runs a worker simulates side by side ([`SIDE_BY_SIDE`]; 1: one at a time) — reduced runs
+    /// with one clearance joint step their micro models together in vector lanes, each with the
+    /// result it has alone. A sweep with fewer runs than workers × this runs them one at a time.
+    pub side_by_side: usize,
 }
+
+/// Runs a worker simulates side by side by default: as many as the micro models' vector lanes.
+pub const SIDE_BY_SIDE: usize = lash_contact::micro::lanes::LANES;
 
 /// What happened to runs, for progress display.
 #[derive(Debug, Clone, Copy)]
@@ -184,94 +191,144 @@ fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
     }
 }
 
-/// Simulates one run and returns its samples (noise added) and the simulated time.
-fn simulate(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(RunData, f64), String> {
-    let scenario = plan.scenario(run)?;
-    let horizon = match &scenario {
-        lash_scenario::AnyScenario::Planar(s) => s.simulation.horizon,
-        lash_scenario::AnyScenario::Spatial(s) => s.simulation.horizon,
-    };
-    let model = match plan.spec.model {
-        ModelKind::Full => lash_run::Model::Full { ideal: false },
-        ModelKind::Reduced => lash_run::Model::Reduced(plan::reduced_options(&plan.spec)),
-    };
-    let mut runner = lash_run::runner(&scenario, model)?;
-    let header = runner.header();
-    let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();
-    // The simulated channels (the clean copies, if any, follow them in `channels`).
-    let simulated = &channels[..plan.spec.output.channels.len()];
-    let index: Vec<usize> = simulated
-        .iter()
-        .map(|c| {
-            header.iter().position(|h| name_of(h) == c.name).ok_or_else(|| format!("channel {} not produced", c.name))
-        })
-        .collect::<Result<_, _>>()?;
-    let mut data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); simulated.len()] };
-    // With an anti-alias filter the samples stream through the logger of each channel (low-pass,
-    // decimation to the sample rate) as the run produces them: only the logged rows are held.
-    let mut loggers = match plan.spec.output.anti_alias {
-        Some(a) => {
-            let logger = lash_measure::Acquisition {
-                sample_rate: plan.spec.output.sample_rate,
-                cutoff: a.cutoff,
-                order: a.order,
-                settle: 0.0,
-            };
-            let dt = match &scenario {
-                lash_scenario::AnyScenario::Planar(s) => s.simulation.output_interval,
-                lash_scenario::AnyScenario::Spatial(s) => s.simulation.output_interval,
-            };
-            let one = logger.logger(dt)?;
-            vec![one; index.len()]
-        }
-        None => Vec::new(),
-    };
-    runner
-        .execute(
-            &mut |row| {
-                if loggers.is_empty() {
-                    data.time.push(row[0]);
-                    for (col, &i) in data.columns.iter_mut().zip(&index) {
-                        col.push(row[i]);
-                    }
-                } else {
-                    let mut logged = false;
-                    for ((col, &i), logger) in data.columns.iter_mut().zip(&index).zip(loggers.iter_mut()) {
-                        if let Some(y) = logger.push(row[i]) {
-                            col.push(y);
-                            logged = true;
-                        }
-                    }
-                    if logged {
-                        data.time.push(row[0]);
-                    }
-                }
-                Ok(())
-            },
-            &mut |_| {},
-        )
-        .map_err(|e| e.to_string())?;
-    // Clean copies (before the noise), after their channels.
-    if plan.spec.output.clean {
-        let clean: Vec<Vec<f64>> = data.columns.clone();
-        data.columns.extend(clean);
+/// What a run keeps of its runner's rows: where its channels are in them, the loggers of its
+/// emulated measurement, and the samples kept so far.
+struct Simulation {
+    horizon: f64,
+    index: Vec<usize>,
+    loggers: Vec<lash_measure::Logger>,
+    data: RunData,
+}
+
+impl Simulation {
+    /// The runner of run `run` of `plan`, and what keeps its `channels`.
+    fn new(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Box<dyn lash_run::Runner>, Self), String> {
+        let scenario = plan.scenario(run)?;
+        let (horizon, output_interval) = match &scenario {
+            lash_scenario::AnyScenario::Planar(s) => (s.simulation.horizon, s.simulation.output_interval),
+            lash_scenario::AnyScenario::Spatial(s) => (s.simulation.horizon, s.simulation.output_interval),
+        };
+        let model = match plan.spec.model {
+            ModelKind::Full => lash_run::Model::Full { ideal: false },
+            ModelKind::Reduced => lash_run::Model::Reduced(plan::reduced_options(&plan.spec)),
+        };
+        let runner = lash_run::runner(&scenario, model)?;
+        let header = runner.header();
+        let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();
+        // The simulated channels (the clean copies, if any, follow them in `channels`).
+        let simulated = &channels[..plan.spec.output.channels.len()];
+        let index: Vec<usize> = simulated
+            .iter()
+            .map(|c| {
+                header
+                    .iter()
+                    .position(|h| name_of(h) == c.name)
+                    .ok_or_else(|| format!("channel {} not produced", c.name))
+            })
+            .collect::<Result<_, _>>()?;
+        // With an anti-alias filter the samples stream through the logger of each channel
+        // (low-pass, decimation to the sample rate) as the run produces them: only the logged
+        // rows are held.
+        let loggers = match plan.spec.output.anti_alias {
+            Some(a) => {
+                let logger = lash_measure::Acquisition {
+                    sample_rate: plan.spec.output.sample_rate,
+                    cutoff: a.cutoff,
+                    order: a.order,
+                    settle: 0.0,
+                };
+                vec![logger.logger(output_interval)?; index.len()]
+            }
+            None => Vec::new(),
+        };
+        let data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); simulated.len()] };
+        Ok((runner, Self { horizon, index, loggers, data }))
     }
-    // Measurement noise: one ChaCha8 stream per run, drawn row by row, channel by channel.
-    let sigmas: Vec<f64> =
-        channels.iter().map(|c| plan.spec.output.noise.get(&c.name).copied().unwrap_or(0.0)).collect();
-    if sigmas.iter().any(|s| *s > 0.0) {
-        let mut rng = ChaCha8Rng::seed_from_u64(run.seed);
-        let normals: Vec<Option<Normal<f64>>> =
-            sigmas.iter().map(|s| if *s > 0.0 { Normal::new(0.0, *s).ok() } else { None }).collect();
-        for r in 0..data.time.len() {
-            for (col, n) in data.columns.iter_mut().zip(&normals) {
-                if let Some(n) = n {
-                    col[r] += n.sample(&mut rng);
+
+    /// Keeps a row of the runner (its channels, or what their loggers log).
+    fn keep(index: &[usize], loggers: &mut [lash_measure::Logger], data: &mut RunData, row: &[f64]) {
+        if loggers.is_empty() {
+            data.time.push(row[0]);
+            for (col, &i) in data.columns.iter_mut().zip(index) {
+                col.push(row[i]);
+            }
+        } else {
+            let mut logged = false;
+            for ((col, &i), logger) in data.columns.iter_mut().zip(index).zip(loggers.iter_mut()) {
+                if let Some(y) = logger.push(row[i]) {
+                    col.push(y);
+                    logged = true;
                 }
+            }
+            if logged {
+                data.time.push(row[0]);
             }
         }
     }
-    Ok((data, horizon))
+
+    /// The run's samples after it ran: the clean copies, then the measurement noise.
+    fn finish(self, plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> (RunData, f64) {
+        let mut data = self.data;
+        // Clean copies (before the noise), after their channels.
+        if plan.spec.output.clean {
+            let clean: Vec<Vec<f64>> = data.columns.clone();
+            data.columns.extend(clean);
+        }
+        // Measurement noise: one ChaCha8 stream per run, drawn row by row, channel by channel.
+        let sigmas: Vec<f64> =
+            channels.iter().map(|c| plan.spec.output.noise.get(&c.name).copied().unwrap_or(0.0)).collect();
+        if sigmas.iter().any(|s| *s > 0.0) {
+            let mut rng = ChaCha8Rng::seed_from_u64(run.seed);
+            let normals: Vec<Option<Normal<f64>>> =
+                sigmas.iter().map(|s| if *s > 0.0 { Normal::new(0.0, *s).ok() } else { None }).collect();
+            for r in 0..data.time.len() {
+                for (col, n) in data.columns.iter_mut().zip(&normals) {
+                    if let Some(n) = n {
+                        col[r] += n.sample(&mut rng);
+                    }
+                }
+            }
+        }
+        (data, self.horizon)
+    }
+}
+
+/// Simulates runs side by side ([`lash_run::execute_together`]: reduced runs of one-joint
+/// interfaces step their micro models in vector lanes) and returns each one's samples (noise
+/// added) and simulated time, or its error: for each run what simulating it alone gives, bit for
+/// bit.
+fn simulate(plan: &Plan, runs: &[&RunSpec], channels: &[ChannelInfo]) -> Vec<Result<(RunData, f64), String>> {
+    let mut results: Vec<Option<Result<(RunData, f64), String>>> = runs.iter().map(|_| None).collect();
+    let (mut members, mut runners, mut simulations) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, run) in runs.iter().enumerate() {
+        match Simulation::new(plan, run, channels) {
+            Ok((runner, s)) => {
+                members.push(i);
+                runners.push(runner);
+                simulations.push(s);
+            }
+            Err(e) => results[i] = Some(Err(e)),
+        }
+    }
+    let mut sinks: Vec<_> = simulations
+        .iter_mut()
+        .map(|s| {
+            let (index, loggers, data) = (&s.index[..], &mut s.loggers[..], &mut s.data);
+            move |row: &[f64]| -> Result<(), String> {
+                Simulation::keep(index, loggers, data, row);
+                Ok(())
+            }
+        })
+        .collect();
+    let outcomes = lash_run::execute_together(&mut runners, sinks.iter_mut().map(|s| s as _).collect());
+    drop(sinks);
+    for ((i, simulation), outcome) in members.into_iter().zip(simulations).zip(outcomes) {
+        results[i] = Some(match outcome {
+            Ok(_) => Ok(simulation.finish(plan, runs[i], channels)),
+            Err(e) => Err(e.to_string()),
+        });
+    }
+    results.into_iter().map(|r| r.expect("every run ends")).collect()
 }
 
 /// A worker's part is closed (and its runs journaled) once it holds this many runs…
@@ -380,6 +437,9 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     let channels = manifest.channels.clone();
     let schema = dataset::data_schema(&channels);
     let threads = options.threads.unwrap_or_else(rayon::current_num_threads).max(1);
+    // Runs simulated side by side by one worker: a full group each where there are enough runs
+    // to keep every worker busy, else one at a time.
+    let group = if pending.len() >= threads * options.side_by_side { options.side_by_side.max(1) } else { 1 };
     let journal = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -415,76 +475,82 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             (&shared, &stop, &write_error, &channels, &schema, &parts);
         scope.spawn(move || {
             pool.install(|| {
-                pending.par_iter().for_each_with(sender, |sender, run| {
+                pending.par_chunks(group).for_each_with(sender, |sender, runs| {
                     if stop.load(Ordering::Relaxed) || cancelled() {
                         return;
                     }
                     let t0 = Instant::now();
-                    let result = simulate(plan, run, channels);
-                    let simulate_s = t0.elapsed().as_secs_f64();
-                    let record = |status: &str, error, rows| RunRecord {
-                        run_id: run.id,
-                        seed: run.seed,
-                        status: status.into(),
-                        error,
-                        rows,
-                        simulate_s,
-                        write_s: 0.0,
-                        part: None,
-                        row_group: None,
-                    };
-                    let fail = |e: String| {
-                        *write_error.lock().expect("lock") = Some(e);
-                        stop.store(true, Ordering::Relaxed);
-                    };
-                    let (simulated, data) = match result {
-                        Ok((data, horizon)) => {
-                            let rows = data.time.len() as u64;
-                            let batch = match data.into_batch(schema) {
-                                Ok(b) => b,
-                                Err(e) => return fail(e),
-                            };
-                            // Into this worker's part (one batch serves the part and the
-                            // assembler); the part is closed and journaled when it is full.
-                            let slot = &parts[rayon::current_thread_index().unwrap_or(0) % parts.len()];
-                            let mut part = slot.lock().expect("lock");
-                            let appended = match part.as_mut() {
-                                Some(p) => Ok(p),
-                                None => dataset::PartWriter::create(&out.join("parts"), run.id, schema)
-                                    .map(|p| part.insert(p)),
-                            }
-                            .and_then(|p| {
-                                let written = p.append(&batch, record("ok", None, rows));
-                                written.map(|()| p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS)
-                            });
-                            match appended {
-                                Ok(true) => {
-                                    let closed = part.take().expect("open part").close();
-                                    if let Err(e) = closed.and_then(|records| append_journal(shared, records)) {
-                                        return fail(e);
-                                    }
+                    let results = simulate(plan, runs, channels);
+                    // The group's time, shared by its runs.
+                    let simulate_s = t0.elapsed().as_secs_f64() / runs.len() as f64;
+                    for (run, result) in runs.iter().zip(results) {
+                        if stop.load(Ordering::Relaxed) {
+                            return;
+                        }
+                        let record = |status: &str, error, rows| RunRecord {
+                            run_id: run.id,
+                            seed: run.seed,
+                            status: status.into(),
+                            error,
+                            rows,
+                            simulate_s,
+                            write_s: 0.0,
+                            part: None,
+                            row_group: None,
+                        };
+                        let fail = |e: String| {
+                            *write_error.lock().expect("lock") = Some(e);
+                            stop.store(true, Ordering::Relaxed);
+                        };
+                        let (simulated, data) = match result {
+                            Ok((data, horizon)) => {
+                                let rows = data.time.len() as u64;
+                                let batch = match data.into_batch(schema) {
+                                    Ok(b) => b,
+                                    Err(e) => return fail(e),
+                                };
+                                // Into this worker's part (one batch serves the part and the
+                                // assembler); the part is closed and journaled when it is full.
+                                let slot = &parts[rayon::current_thread_index().unwrap_or(0) % parts.len()];
+                                let mut part = slot.lock().expect("lock");
+                                let appended = match part.as_mut() {
+                                    Some(p) => Ok(p),
+                                    None => dataset::PartWriter::create(&out.join("parts"), run.id, schema)
+                                        .map(|p| part.insert(p)),
                                 }
-                                Ok(false) => {}
-                                Err(e) => return fail(e),
+                                .and_then(|p| {
+                                    let written = p.append(&batch, record("ok", None, rows));
+                                    written.map(|()| p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS)
+                                });
+                                match appended {
+                                    Ok(true) => {
+                                        let closed = part.take().expect("open part").close();
+                                        if let Err(e) = closed.and_then(|records| append_journal(shared, records)) {
+                                            return fail(e);
+                                        }
+                                    }
+                                    Ok(false) => {}
+                                    Err(e) => return fail(e),
+                                }
+                                drop(part);
+                                (horizon, Some(batch))
                             }
-                            drop(part);
-                            (horizon, Some(batch))
-                        }
-                        Err(e) => {
-                            // Nothing to keep but the line.
-                            if let Err(e) = append_journal(shared, vec![record("failed", Some(e), 0)]) {
-                                return fail(e);
+                            Err(e) => {
+                                // Nothing to keep but the line.
+                                if let Err(e) = append_journal(shared, vec![record("failed", Some(e), 0)]) {
+                                    return fail(e);
+                                }
+                                (0.0, None)
                             }
-                            (0.0, None)
+                        };
+                        {
+                            let mut s = shared.lock().expect("lock");
+                            s.simulated_s += simulated;
                         }
-                    };
-                    {
-                        let mut s = shared.lock().expect("lock");
-                        s.simulated_s += simulated;
+                        let ok = data.is_some();
+                        let _ = sender.send((run.id, data));
+                        on_event(Event::Finished { ok });
                     }
-                    let ok = data.is_some();
-                    let _ = sender.send((run.id, data));
-                    on_event(Event::Finished { ok });
                 });
                 // The parts still open (the last runs, or those finished before a stop) are
                 // closed and journaled.
