@@ -67,10 +67,154 @@ const L: usize = LANES;
 /// One number per lane.
 type V = [f64; L];
 
-/// The lanes in vector registers (four SSE2 pairs on generic x86-64, two AVX registers where
-/// the build targets them): IEEE operations, correctly rounded, so each lane gets the bits the scalar
-/// code gets; negation flips the sign bit as Rust's does.
-type X = wide::f64x8;
+/// The lanes as one value: IEEE operations lane by lane, correctly rounded, so each lane gets the
+/// bits the scalar code gets. Written as plain loops over the lanes that the compiler turns into
+/// vector instructions of whatever width the CPU offers: [`advance`] runs in a copy compiled for
+/// AVX2 or AVX-512 where the CPU has them (chosen at run time), else for the baseline (SSE2 pairs).
+type X = vector::F64x8;
+
+mod vector {
+    use super::L;
+    use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
+
+    /// Eight numbers, one per lane; a comparison gives a mask (all bits set where true).
+    #[derive(Clone, Copy, Debug)]
+    pub struct F64x8(pub [f64; L]);
+
+    #[inline(always)]
+    fn each(f: impl Fn(usize) -> f64) -> F64x8 {
+        F64x8(std::array::from_fn(f))
+    }
+
+    #[inline(always)]
+    fn flag(b: bool) -> f64 {
+        f64::from_bits(if b { u64::MAX } else { 0 })
+    }
+
+    impl F64x8 {
+        pub const ZERO: Self = Self([0.0; L]);
+        pub const ONE: Self = Self([1.0; L]);
+
+        #[inline(always)]
+        pub fn splat(v: f64) -> Self {
+            Self([v; L])
+        }
+        #[inline(always)]
+        pub fn sqrt(self) -> Self {
+            each(|l| self.0[l].sqrt())
+        }
+        /// `f64::max` lane by lane.
+        #[inline(always)]
+        pub fn max(self, o: Self) -> Self {
+            each(|l| self.0[l].max(o.0[l]))
+        }
+        #[inline(always)]
+        pub fn abs(self) -> Self {
+            each(|l| self.0[l].abs())
+        }
+        #[inline(always)]
+        pub fn simd_gt(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] > o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_ge(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] >= o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_lt(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] < o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_le(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] <= o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_ne(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] != o.0[l]))
+        }
+        /// For a mask: `t` where set, `f` elsewhere.
+        #[inline(always)]
+        pub fn select(self, t: Self, f: Self) -> Self {
+            each(|l| {
+                let m = self.0[l].to_bits();
+                f64::from_bits((m & t.0[l].to_bits()) | (!m & f.0[l].to_bits()))
+            })
+        }
+        /// For a mask: whether every lane is set.
+        #[inline(always)]
+        pub fn all(self) -> bool {
+            self.0.iter().all(|v| v.to_bits() >> 63 == 1)
+        }
+        /// For a mask: bit l set where lane l is.
+        #[inline(always)]
+        pub fn to_bitmask(self) -> u32 {
+            self.0.iter().enumerate().fold(0, |b, (l, v)| b | (((v.to_bits() >> 63) as u32) << l))
+        }
+    }
+
+    impl From<[f64; L]> for F64x8 {
+        #[inline(always)]
+        fn from(a: [f64; L]) -> Self {
+            Self(a)
+        }
+    }
+
+    impl From<F64x8> for [f64; L] {
+        #[inline(always)]
+        fn from(v: F64x8) -> Self {
+            v.0
+        }
+    }
+
+    impl From<f64> for F64x8 {
+        #[inline(always)]
+        fn from(v: f64) -> Self {
+            Self([v; L])
+        }
+    }
+
+    macro_rules! arithmetic {
+        ($($trait:ident $method:ident $op:tt),*) => {$(
+            impl $trait for F64x8 {
+                type Output = Self;
+                #[inline(always)]
+                fn $method(self, o: Self) -> Self {
+                    each(|l| self.0[l] $op o.0[l])
+                }
+            }
+        )*};
+    }
+    arithmetic!(Add add +, Sub sub -, Mul mul *, Div div /);
+
+    macro_rules! bitwise {
+        ($($trait:ident $method:ident $op:tt),*) => {$(
+            impl $trait for F64x8 {
+                type Output = Self;
+                #[inline(always)]
+                fn $method(self, o: Self) -> Self {
+                    each(|l| f64::from_bits(self.0[l].to_bits() $op o.0[l].to_bits()))
+                }
+            }
+        )*};
+    }
+    bitwise!(BitAnd bitand &, BitOr bitor |, BitXor bitxor ^);
+
+    impl Neg for F64x8 {
+        type Output = Self;
+        #[inline(always)]
+        fn neg(self) -> Self {
+            each(|l| -self.0[l])
+        }
+    }
+
+    impl Not for F64x8 {
+        type Output = Self;
+        #[inline(always)]
+        fn not(self) -> Self {
+            each(|l| f64::from_bits(!self.0[l].to_bits()))
+        }
+    }
+}
 
 /// The lanes of an array in vector registers.
 #[inline(always)]
@@ -397,6 +541,38 @@ pub fn advance(
     t: [Ticks; L],
     step: Ticks,
     record: &[bool],
+    sample: impl FnMut(usize, usize, &OneJoint),
+) -> [LaneOutcome; L] {
+    advance_on(pulp::Arch::new(), models, friction, t, step, record, sample)
+}
+
+/// [`advance`] compiled for the instruction set `arch` (pulp compiles it for the baseline, AVX2
+/// and AVX-512 and detects the CPU's once): the same IEEE operations in wider registers, and no
+/// fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do not
+/// depend on the CPU.
+fn advance_on(
+    arch: pulp::Arch,
+    models: &mut [&mut OneJoint; L],
+    friction: LaneFriction,
+    t: [Ticks; L],
+    step: Ticks,
+    record: &[bool],
+    sample: impl FnMut(usize, usize, &OneJoint),
+) -> [LaneOutcome; L] {
+    arch.dispatch(
+        #[inline(always)]
+        || advance_lanes(models, friction, t, step, record, sample),
+    )
+}
+
+/// [`advance`] in the instruction set it was dispatched to.
+#[inline(always)]
+fn advance_lanes(
+    models: &mut [&mut OneJoint; L],
+    friction: LaneFriction,
+    t: [Ticks; L],
+    step: Ticks,
+    record: &[bool],
     mut sample: impl FnMut(usize, usize, &OneJoint),
 ) -> [LaneOutcome; L] {
     let h = step.seconds();
@@ -662,8 +838,31 @@ mod tests {
     /// Eight lanes of different joints, laws and inputs, stepped through 120 intervals of 100
     /// steps (contact, sliding, free flights and impacts), equal the models stepped one by one,
     /// bit for bit: states, impulses, modes, impacts and every sampled state.
+    /// The instruction sets [`advance`] is compiled for that this CPU has.
+    fn instruction_sets() -> Vec<(&'static str, pulp::Arch)> {
+        #[allow(unused_mut)]
+        let mut sets = vec![("baseline", pulp::Arch::Scalar)];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(s) = pulp::x86::V3::try_new() {
+                sets.push(("AVX2", pulp::Arch::V3(s)));
+            }
+            if let Some(s) = pulp::x86::V4::try_new() {
+                sets.push(("AVX-512", pulp::Arch::V4(s)));
+            }
+        }
+        sets
+    }
+
     #[test]
     fn lanes_equal_the_models_stepped_one_by_one_bit_for_bit() {
+        for (name, arch) in instruction_sets() {
+            eprintln!("lanes compiled for {name}");
+            lanes_equal_the_models_on(arch);
+        }
+    }
+
+    fn lanes_equal_the_models_on(arch: pulp::Arch) {
         let step = Ticks::from_seconds(1e-5).unwrap();
         let h = step.seconds();
         let mut lanes: Vec<OneJoint> = (0..L).map(|l| InterfaceModel::new(vec![joint(l)])).collect();
@@ -695,7 +894,7 @@ mod tests {
             let mut got = vec![Vec::new(); L];
             let mut group: [&mut OneJoint; L] =
                 lanes.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("L models"));
-            let outcome = advance(&mut group, friction, [t0; L], step, &record, |l, i, m| {
+            let outcome = advance_on(arch, &mut group, friction, [t0; L], step, &record, |l, i, m| {
                 got[l].push(format!("{i} {:?}", m.states[0]))
             });
             for l in 0..L {
