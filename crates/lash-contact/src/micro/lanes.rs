@@ -70,7 +70,7 @@ type V = [f64; L];
 /// The lanes as one value: IEEE operations lane by lane, correctly rounded, so each lane gets the
 /// bits the scalar code gets. Written as plain loops over the lanes that the compiler turns into
 /// vector instructions of whatever width the CPU offers: [`advance`] runs in a copy compiled for
-/// AVX2 or AVX-512 where the CPU has them (chosen at run time), else for the baseline (SSE2 pairs).
+/// AVX2 where the CPU has it (chosen at run time), else for the baseline (SSE2 pairs).
 type X = vector::F64x8;
 
 mod vector {
@@ -546,10 +546,11 @@ pub fn advance(
     advance_on(pulp::Arch::new(), models, friction, t, step, record, sample)
 }
 
-/// [`advance`] compiled for the instruction set `arch` (pulp compiles it for the baseline, AVX2
-/// and AVX-512 and detects the CPU's once): the same IEEE operations in wider registers, and no
-/// fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do not
-/// depend on the CPU.
+/// [`advance`] compiled for the instruction set `arch` (pulp compiles it for the baseline and
+/// AVX2 and detects the CPU's once): the same IEEE operations in wider registers, and no fused
+/// multiply–add (Rust never fuses a product and a sum by itself), so the bits do not depend on
+/// the CPU. (pulp's AVX-512 level is left off: it would also switch faer's kernels, and with them
+/// the bits of the bush's finite-element results, on AVX-512 machines.)
 fn advance_on(
     arch: pulp::Arch,
     models: &mut [&mut OneJoint; L],
@@ -846,9 +847,6 @@ mod tests {
         {
             if let Some(s) = pulp::x86::V3::try_new() {
                 sets.push(("AVX2", pulp::Arch::V3(s)));
-            }
-            if let Some(s) = pulp::x86::V4::try_new() {
-                sets.push(("AVX-512", pulp::Arch::V4(s)));
             }
         }
         sets
