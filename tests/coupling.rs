@@ -3,7 +3,7 @@
 //! error-controlled micro model agrees with a fine fixed step, cubic Hermite interpolation.
 
 mod common;
-use common::{column, rows};
+use common::{column, one_way_options, rows};
 use lash_contact::FrictionLaw;
 use lash_core::Coupling;
 use lash_orchestrate::{Execution, Interpolation};
@@ -167,21 +167,6 @@ fn cubic_hermite_is_closer_than_linear_to_the_macro_converged_reduced_model() {
     assert!(hermite < linear);
 }
 
-/// The master options of A's reduced model to `stop`: h_m = 1 ms, h_r = 10 µs, linear, one-way,
-/// sequential.
-fn one_way_options(stop: lash_core::Ticks) -> lash_orchestrate::MasterOptions {
-    use lash_core::Ticks;
-    lash_orchestrate::MasterOptions {
-        start: Ticks::ZERO,
-        stop,
-        macro_step: Ticks::from_seconds(1e-3).unwrap(),
-        micro_step: Ticks::from_seconds(1e-5).unwrap(),
-        interpolation: Interpolation::Linear,
-        coupling: Coupling::OneWay,
-        execution: Execution::Sequential,
-    }
-}
-
 #[test]
 fn observers_record_at_their_own_rates() {
     use lash_core::{Subsystem, Ticks};
@@ -192,7 +177,7 @@ fn observers_record_at_their_own_rates() {
     let stop = Ticks::from_seconds(0.01).unwrap();
     mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
     interface.setup(Ticks::ZERO, Some(stop)).unwrap();
-    let options = one_way_options(stop);
+    let options = one_way_options(stop, Execution::Sequential);
     let signals = vec![
         Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 },
         Signal::Propagated {
@@ -285,7 +270,7 @@ impl<S: lash_core::Subsystem> lash_core::Subsystem for Stopping<S> {
 #[test]
 fn the_interface_master_honours_early_returns_and_stop_requests() {
     use lash_core::{StepOutcome, StopReason, Subsystem, Ticks};
-    use lash_orchestrate::{InterfaceMaster, MasterOptions, Observer, Signal};
+    use lash_orchestrate::{InterfaceMaster, Observer, Signal};
     let a = builtin::by_name("A").unwrap();
     let stop = Ticks::from_seconds(0.005).unwrap();
     let at = Ticks::from_seconds(0.0021).unwrap();
@@ -303,15 +288,7 @@ fn the_interface_master_honours_early_returns_and_stop_requests() {
         let mut interface = Stopping { inner: interface, at: if which == "micro" { at } else { stop }, outcome };
         mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
         interface.setup(Ticks::ZERO, Some(stop)).unwrap();
-        let options = MasterOptions {
-            start: Ticks::ZERO,
-            stop,
-            macro_step: Ticks::from_seconds(1e-3).unwrap(),
-            micro_step: Ticks::from_seconds(1e-5).unwrap(),
-            interpolation: Interpolation::Linear,
-            coupling: Coupling::OneWay,
-            execution,
-        };
+        let options = one_way_options(stop, execution);
         let signals =
             vec![Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 }];
         let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
@@ -356,7 +333,7 @@ fn runs_stepped_together_equal_each_run_alone() {
     use lash_core::{Subsystem, Ticks};
     use lash_orchestrate::{InterfaceMaster, Observer, Signal};
     let stop = Ticks::from_seconds(0.02).unwrap();
-    let options = one_way_options(stop);
+    let options = one_way_options(stop, Execution::Sequential);
     let signals = || {
         vec![
             Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 },

@@ -287,17 +287,9 @@ fn master_slider_acceleration(
     stop: lash_core::Ticks,
     execution: lash_orchestrate::Execution,
 ) -> Vec<f64> {
-    use lash_core::{Coupling, Ticks};
-    use lash_orchestrate::{InterfaceMaster, Interpolation, MasterOptions, Observer, Signal};
-    let options = MasterOptions {
-        start: Ticks::ZERO,
-        stop,
-        macro_step: Ticks::from_seconds(1e-3).unwrap(),
-        micro_step: Ticks::from_seconds(1e-5).unwrap(),
-        interpolation: Interpolation::Linear,
-        coupling: Coupling::OneWay,
-        execution,
-    };
+    use lash_core::Ticks;
+    use lash_orchestrate::{InterfaceMaster, Observer, Signal};
+    let options = common::one_way_options(stop, execution);
     let signals = vec![Signal::Propagated {
         name: "slider.ax".into(),
         free: ("slider.acceleration_free".into(), 0),

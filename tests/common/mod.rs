@@ -48,3 +48,21 @@ pub fn fmpy_python() -> std::path::PathBuf {
     }
     python
 }
+
+/// The master options of A's reduced model to `stop`: h_m = 1 ms, h_r = 10 µs, linear, one-way,
+/// run as `execution` says.
+pub fn one_way_options(
+    stop: lash_core::Ticks,
+    execution: lash_orchestrate::Execution,
+) -> lash_orchestrate::MasterOptions {
+    use lash_core::Ticks;
+    lash_orchestrate::MasterOptions {
+        start: Ticks::ZERO,
+        stop,
+        macro_step: Ticks::from_seconds(1e-3).unwrap(),
+        micro_step: Ticks::from_seconds(1e-5).unwrap(),
+        interpolation: lash_orchestrate::Interpolation::Linear,
+        coupling: lash_core::Coupling::OneWay,
+        execution,
+    }
+}

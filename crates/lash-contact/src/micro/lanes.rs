@@ -543,24 +543,12 @@ pub fn advance(
     record: &[bool],
     sample: impl FnMut(usize, usize, &OneJoint),
 ) -> [LaneOutcome; L] {
-    advance_on(pulp::Arch::new(), models, friction, t, step, record, sample)
-}
-
-/// [`advance`] compiled for the instruction set `arch` (pulp compiles it for the baseline and
-/// AVX2 and detects the CPU's once): the same IEEE operations in wider registers, and no fused
-/// multiply–add (Rust never fuses a product and a sum by itself), so the bits do not depend on
-/// the CPU. (pulp's AVX-512 level is left off: it would also switch faer's kernels, and with them
-/// the bits of the bush's finite-element results, on AVX-512 machines.)
-fn advance_on(
-    arch: pulp::Arch,
-    models: &mut [&mut OneJoint; L],
-    friction: LaneFriction,
-    t: [Ticks; L],
-    step: Ticks,
-    record: &[bool],
-    sample: impl FnMut(usize, usize, &OneJoint),
-) -> [LaneOutcome; L] {
-    arch.dispatch(
+    // Compiled for the baseline and AVX2 (pulp detects the CPU's features once): the same IEEE
+    // operations in wider registers, and no fused multiply–add (Rust never fuses a product and a
+    // sum by itself), so the bits do not depend on the CPU. (pulp's AVX-512 level is left off: it
+    // would also switch faer's kernels, and with them the bits of the bush's finite-element
+    // results, on AVX-512 machines.)
+    pulp::Arch::new().dispatch(
         #[inline(always)]
         || advance_lanes(models, friction, t, step, record, sample),
     )
@@ -892,9 +880,11 @@ mod tests {
             let mut got = vec![Vec::new(); L];
             let mut group: [&mut OneJoint; L] =
                 lanes.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("L models"));
-            let outcome = advance_on(arch, &mut group, friction, [t0; L], step, &record, |l, i, m| {
-                got[l].push(format!("{i} {:?}", m.states[0]))
-            });
+            let sample = |l: usize, i: usize, m: &OneJoint| got[l].push(format!("{i} {:?}", m.states[0]));
+            let outcome = arch.dispatch(
+                #[inline(always)]
+                || advance_lanes(&mut group, friction, [t0; L], step, &record, sample),
+            );
             for l in 0..L {
                 assert!(outcome[l].is_ok(), "lane {l}: {:?}", outcome[l]);
                 assert_eq!(got[l], expected[l], "interval {k}, lane {l}: samples");
