@@ -23,6 +23,25 @@ pub fn assemble(mech: &Mechanism, t: f64, q: &mut [f64], solver: &mut Solver, to
     })
 }
 
+/// Position then velocity analysis at `t`: [`assemble`] to `tol`, then [`velocity_analysis`] —
+/// the same operations and results, but the projection takes Φ_q and ν from the assembly's last
+/// residual check instead of evaluating them again (both depend on q and t only). Afterwards the
+/// solver holds Φ of the assembled position. Returns the Newton iterations spent.
+pub fn assemble_and_project(
+    mech: &Mechanism,
+    t: f64,
+    q: &mut [f64],
+    qd: &mut [f64],
+    solver: &mut Solver,
+    tol: f64,
+) -> Result<usize, MechError> {
+    with_correction(solver, q.len(), mech.constraint_count(), |solver, work| {
+        let iterations = assemble_with(mech, t, q, solver, tol, work)?;
+        project_velocities(qd, solver, work)?;
+        Ok(iterations)
+    })
+}
+
 /// Runs `f` with the solver's correction work vectors, sized for `n` coordinates and `m` rows and
 /// lent for the call (nothing is allocated after the first).
 fn with_correction<R>(solver: &mut Solver, n: usize, m: usize, f: impl FnOnce(&mut Solver, &mut Correction) -> R) -> R {
@@ -82,8 +101,13 @@ fn velocity_analysis_with(
     solver: &mut Solver,
     work: &mut Correction,
 ) -> Result<(), MechError> {
-    let Correction { zeros, step: dqd, rhs: residual, lambda } = work;
     solver.set_state(mech, t, q, qd);
+    project_velocities(qd, solver, work)
+}
+
+/// The velocity projection with Φ_q and ν as the solver holds them.
+fn project_velocities(qd: &mut [f64], solver: &mut Solver, work: &mut Correction) -> Result<(), MechError> {
+    let Correction { zeros, step: dqd, rhs: residual, lambda } = work;
     solver.factor()?;
     for (a, r) in residual.iter_mut().enumerate() {
         *r = -(solver.jacobian_times(a, qd) - solver.nu[a]);

@@ -30,8 +30,8 @@ pub use interface::{
     effective_terms,
 };
 pub use kinematics::{
-    PointKinematics, assemble, driver_torque, initial_guess, joint_reaction, kinetic_energy, point_kinematics,
-    velocity_analysis,
+    PointKinematics, assemble, assemble_and_project, driver_torque, initial_guess, joint_reaction, kinetic_energy,
+    point_kinematics, velocity_analysis,
 };
 pub use lash_core::Coupling;
 pub use model::{

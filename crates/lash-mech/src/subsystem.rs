@@ -21,7 +21,7 @@
 
 use crate::Vec2;
 use crate::interface::{ClearanceInterface, CoupledTerms, coupled_effective_terms_into};
-use crate::kinematics::{assemble, driver_torque, initial_guess, joint_reaction, point_kinematics, velocity_analysis};
+use crate::kinematics::{assemble_and_project, driver_torque, initial_guess, joint_reaction, point_kinematics};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
@@ -263,6 +263,9 @@ pub struct MechanismSubsystem {
     offset_rows: Vec<usize>,
     last_prescribed: Option<Prescribed>,
     ideal_solver: Solver,
+    /// max |Φ| of the position the last position analysis assembled (kinematic macro), for the
+    /// next `refresh` (it takes it).
+    assembled_error: Option<f64>,
     cut_solver: Solver,
     /// The effective terms at the current communication point.
     pub terms: Option<CoupledTerms>,
@@ -440,6 +443,7 @@ impl MechanismSubsystem {
             offsets,
             values: vec![0.0; at],
             ideal_solver: Solver::new(&ideal),
+            assembled_error: None,
             cut_solver: Solver::new(&cut),
             cut,
             ideal,
@@ -503,13 +507,16 @@ impl MechanismSubsystem {
         for k in 0..self.q.len() {
             self.q[k] += h * self.qd[k] + 0.5 * h * h * self.qdd[k];
         }
-        assemble(&self.ideal, t, &mut self.q, &mut self.ideal_solver, 1e-13).map_err(|e| e.to_string())?;
-        velocity_analysis(&self.ideal, t, &self.q, &mut self.qd, &mut self.ideal_solver).map_err(|e| e.to_string())
+        assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, 1e-13)
+            .map_err(|e| e.to_string())?;
+        self.assembled_error = Some(self.ideal_solver.constraint_error());
+        Ok(())
     }
 
     /// Terms and every output at the current state.
     fn refresh(&mut self) -> Result<(), String> {
         let t = self.time.seconds();
+        let assembled_error = self.assembled_error.take();
         let (k, n) = (self.joints.len(), 2 * self.joints.len());
         let mut terms =
             self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
@@ -583,11 +590,17 @@ impl MechanismSubsystem {
         let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         // Constraint error of the macro's own mechanism (the cut one's rows are a subset of the
         // ideal one's; the cut solver holds the current state).
-        self.ideal_solver.set_state(&self.ideal, t, &self.q, &self.qd);
-        if let (Coupling::TwoWay, Some(p)) = (self.coupling, &self.last_prescribed) {
-            p.apply(&mut self.ideal_solver, &self.offset_rows, &self.joints, t);
-        }
-        let phi = self.ideal_solver.constraint_error();
+        // (After a position analysis its last residual check holds it: Φ depends on q and t only.)
+        let phi = match assembled_error {
+            Some(phi) => phi,
+            None => {
+                self.ideal_solver.set_state(&self.ideal, t, &self.q, &self.qd);
+                if let (Coupling::TwoWay, Some(p)) = (self.coupling, &self.last_prescribed) {
+                    p.apply(&mut self.ideal_solver, &self.offset_rows, &self.joints, t);
+                }
+                self.ideal_solver.constraint_error()
+            }
+        };
         put(vr::CONSTRAINT_ERROR, &[phi]);
         let mut next = vr::FRICTION_FORCE + 1;
         work.zeros.clear();
@@ -681,11 +694,11 @@ impl Subsystem for MechanismSubsystem {
         let (q, qd) = initial_guess(&self.ideal);
         self.q = q;
         self.qd = qd;
-        let r = assemble(&self.ideal, t, &mut self.q, &mut self.ideal_solver, 1e-13)
-            .and_then(|_| velocity_analysis(&self.ideal, t, &self.q, &mut self.qd, &mut self.ideal_solver));
+        let r = assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, 1e-13);
         if let Err(e) = r {
             return Err(self.simulation_error(format!("initial conditions: {e}")));
         }
+        self.assembled_error = Some(self.ideal_solver.constraint_error());
         if let Err(m) = self.refresh() {
             return Err(self.simulation_error(m));
         }

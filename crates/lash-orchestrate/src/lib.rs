@@ -529,7 +529,14 @@ impl Window<'_> {
 
 /// Where the macro frames come from: the macro stepped in place, or a producer thread.
 enum Frames<'s> {
-    Local { sub: &'s mut dyn Subsystem, all: Vec<ValueReference>, width: usize, seconds: f64 },
+    /// `spare`: a frame the master is done with, whose storage the next frame takes.
+    Local {
+        sub: &'s mut dyn Subsystem,
+        all: Vec<ValueReference>,
+        width: usize,
+        seconds: f64,
+        spare: Option<Vec<f64>>,
+    },
     Channel(crossbeam_channel::Receiver<Result<Vec<f64>, MasterError>>),
 }
 
@@ -540,15 +547,22 @@ type Targets<'t> = (&'t [ValueReference; 3], &'t [f64]);
 impl Frames<'_> {
     fn next(&mut self, t: Ticks, h: Ticks, targets: Option<Targets<'_>>) -> Result<Vec<f64>, MasterError> {
         match self {
-            Frames::Local { sub, all, width, seconds } => {
+            Frames::Local { sub, all, width, seconds, spare } => {
                 let start = Instant::now();
-                let frame = step_macro(&mut **sub, all, *width, t, h, targets);
+                let frame = step_macro(&mut **sub, all, *width, t, h, targets, spare.take());
                 *seconds += start.elapsed().as_secs_f64();
                 frame
             }
             Frames::Channel(rx) => rx
                 .recv()
                 .map_err(|_| MasterError::Settings("the macro producer thread stopped without a result".into()))?,
+        }
+    }
+
+    /// Hands back a frame the master is done with (its storage serves the next one).
+    fn recycle(&mut self, frame: Option<Vec<f64>>) {
+        if let Frames::Local { spare, .. } = self {
+            *spare = frame;
         }
     }
 
@@ -567,8 +581,15 @@ impl Frames<'_> {
     }
 }
 
-fn read_frame(sub: &dyn Subsystem, all: &[ValueReference], width: usize) -> Result<Vec<f64>, MasterError> {
-    let mut frame = vec![0.0; width];
+/// The macro outputs `all` (`width` numbers), in `spare`'s storage if given (no allocation).
+fn read_frame(
+    sub: &dyn Subsystem,
+    all: &[ValueReference],
+    width: usize,
+    spare: Option<Vec<f64>>,
+) -> Result<Vec<f64>, MasterError> {
+    let mut frame = spare.unwrap_or_default();
+    frame.resize(width, 0.0);
     sub.get_f64(all, &mut frame).map_err(macro_err)?;
     Ok(frame)
 }
@@ -580,13 +601,14 @@ fn step_macro(
     t: Ticks,
     h: Ticks,
     targets: Option<Targets<'_>>,
+    spare: Option<Vec<f64>>,
 ) -> Result<Vec<f64>, MasterError> {
     let _span = tracing::debug_span!("macro_step", t = t.seconds()).entered();
     if let Some((vrs, values)) = targets {
         sub.set_f64(vrs, values).map_err(macro_err)?;
     }
     advance_or_stop(sub, "macro", t, h)?;
-    read_frame(sub, all, width)
+    read_frame(sub, all, width, spare)
 }
 
 impl<'a> InterfaceMaster<'a> {
@@ -768,7 +790,7 @@ impl<'a> InterfaceMaster<'a> {
         // Initialise.
         self.macro_sub.initialize().map_err(macro_err)?;
         self.micro_sub.initialize().map_err(micro_err)?;
-        let first = read_frame(&*self.macro_sub, &all_macro, width)?;
+        let first = read_frame(&*self.macro_sub, &all_macro, width, None)?;
         let ahead = match (o.coupling, o.interpolation) {
             (Coupling::OneWay, Interpolation::CubicHermite) => 2,
             _ => 1,
@@ -989,7 +1011,7 @@ impl<'a> InterfaceMaster<'a> {
                     window[1] = frames.next(t_k, o.macro_step, Some((vrs, &targets[..])))?;
                     stats.macro_steps += 1;
                 }
-                prev = window.pop_front();
+                frames.recycle(std::mem::replace(&mut prev, window.pop_front()));
             }
             stats.micro_steps = micro_count;
             Ok(())
@@ -1005,7 +1027,7 @@ impl<'a> InterfaceMaster<'a> {
         };
         match o.execution {
             Execution::Sequential => {
-                let mut frames = Frames::Local { sub: macro_sub, all: all_macro, width, seconds: 0.0 };
+                let mut frames = Frames::Local { sub: macro_sub, all: all_macro, width, seconds: 0.0, spare: None };
                 run(&mut frames, &mut stats)?;
                 if let Frames::Local { seconds, .. } = frames {
                     stats.macro_seconds = seconds;
@@ -1019,7 +1041,7 @@ impl<'a> InterfaceMaster<'a> {
                         let started = Instant::now();
                         for k in 0..macro_steps {
                             let t = Ticks(origin.0 + k as i64 * o.macro_step.0);
-                            let frame = step_macro(macro_sub, &all_macro, width, t, o.macro_step, None);
+                            let frame = step_macro(macro_sub, &all_macro, width, t, o.macro_step, None, None);
                             let failed = frame.is_err();
                             if tx.send(frame).is_err() || failed {
                                 break;
@@ -1059,6 +1081,8 @@ struct Lane {
     p: Prepared,
     window: VecDeque<Vec<f64>>,
     prev: Option<Vec<f64>>,
+    /// A frame done with, whose storage the next macro frame takes.
+    spare: Option<Vec<f64>>,
     produced: usize,
     inputs: Vec<f64>,
     left: Vec<u64>,
@@ -1110,6 +1134,7 @@ impl<'a> InterfaceMaster<'a> {
                     rows: vec![0.0; p.per_macro * p.micro_width],
                     window,
                     prev: None,
+                    spare: None,
                     produced: 0,
                     micro_count: 0,
                     p,
@@ -1156,6 +1181,7 @@ impl<'a> InterfaceMaster<'a> {
                             t,
                             o.macro_step,
                             None,
+                            l.spare.take(),
                         )?);
                         l.p.stats.macro_seconds += started.elapsed().as_secs_f64();
                         l.produced += 1;
@@ -1235,7 +1261,7 @@ impl<'a> InterfaceMaster<'a> {
                     lanes[i] = None;
                     continue;
                 }
-                l.prev = l.window.pop_front();
+                l.spare = std::mem::replace(&mut l.prev, l.window.pop_front());
             }
         }
         for (i, lane) in lanes.into_iter().enumerate() {

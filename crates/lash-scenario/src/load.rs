@@ -287,6 +287,9 @@ pub fn validate(s: &Scenario) -> Problems {
     for (k, c) in s.clearances.iter().enumerate() {
         p.extend_prefixed(&format!("clearances[{k}]"), validate_clearance_numbers(c));
     }
+    for (k, sen) in s.sensors.iter().enumerate() {
+        p.extend_prefixed(&format!("sensors[{k}]"), finite2("point", sen.point));
+    }
     for (name, m) in &s.materials {
         p.extend_prefixed(&format!("materials.{name}"), m.validate());
     }

@@ -200,10 +200,12 @@ impl PartWriter {
         let name = format!("runs-{first_run:09}.parquet");
         let tmp = parts.join(format!("{name}.tmp"));
         let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
-        // Temporary: no compression, no dictionary.
+        // Temporary: no compression, no dictionary, no statistics (nothing filters on them; the
+        // assembled dataset has its own).
         let properties = WriterProperties::builder()
             .set_compression(Compression::UNCOMPRESSED)
             .set_dictionary_enabled(false)
+            .set_statistics_enabled(parquet::file::properties::EnabledStatistics::None)
             .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
             .build();
         let writer = ArrowWriter::try_new(file, schema.clone(), Some(properties)).map_err(|e| e.to_string())?;

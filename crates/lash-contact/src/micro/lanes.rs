@@ -19,7 +19,7 @@
 //! [`InterfaceModel::rk4_step`]: super::model::InterfaceModel::rk4_step
 
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
-use crate::clearance::{ClearanceJoint, ContactState};
+use crate::clearance::{ClearanceJoint, ContactState, ImpactTracker};
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;
 use lash_core::Ticks;
@@ -459,6 +459,9 @@ struct Kept {
     /// The kept factor was formed with the current inputs.
     end_inputs: [bool; L],
     states: States,
+    /// Each lane's open impact, followed here (next to the lanes' numbers, not behind each
+    /// model's pointers) and written back with the rest of the lane.
+    trackers: [Option<ImpactTracker>; L],
 }
 
 impl Kept {
@@ -478,6 +481,7 @@ impl Kept {
             (s.normal.x, s.normal.y, s.penetration, s.penetration_rate);
         (st.slip[l], st.normal_force[l], st.friction_force[l]) = (s.slip_velocity, s.normal_force, s.friction_force);
         (st.fx[l], st.fy[l]) = (s.force_on_journal.x, s.force_on_journal.y);
+        self.trackers[l] = m.open[0];
         match &m.end {
             Some(end)
                 if (end.time - t).abs() < 1e-12
@@ -509,6 +513,7 @@ impl Kept {
         m.impulse = SVector::from([self.impulse[0][l], self.impulse[1][l]]);
         m.friction_impulse = SVector::from([self.friction_impulse[l]]);
         m.states[0] = state_of(&self.states, l);
+        m.open[0] = self.trackers[l];
         let (mass, inv) = &self.end_mass;
         m.end = Some(StepEnd {
             time: self.end_time[l],
@@ -593,6 +598,7 @@ fn advance_lanes(
             fx: zero,
             fy: zero,
         },
+        trackers: [None; L],
     };
     let mut outcome: [LaneOutcome; L] = std::array::from_fn(|_| Ok(()));
     let mut running = [true; L];
@@ -693,7 +699,9 @@ fn advance_lanes(
             let (e0, v0) = (SVector::from([e0x[l], e0y[l]]), SVector::from([v0x[l], v0y[l]]));
             let (e1, v1) = (SVector::from([e1x[l], e1y[l]]), SVector::from([v1x[l], v1y[l]]));
             let none = SVector::zeros();
+            m.open[0] = kept.trackers[l];
             m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
+            kept.trackers[l] = m.open[0];
             in_contact[l] = m.joints[0].in_contact;
             onset[l] = m.joints[0].onset_velocity;
         }
@@ -703,7 +711,7 @@ fn advance_lanes(
         for l in 0..L {
             if running[l]
                 && !by_model[l]
-                && let Some(tracker) = models[l].open[0].as_mut()
+                && let Some(tracker) = kept.trackers[l].as_mut()
             {
                 tracker.sample(end_time[l], stage.normal_force[l], stage.delta[l]);
             }
