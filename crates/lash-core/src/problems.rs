@@ -65,6 +65,14 @@ impl Problems {
         }
     }
 
+    /// [`Problems::extend_prefixed`] with the prefix made only when `other` holds a problem (a
+    /// check of many elements formats no field path for those that pass).
+    pub fn extend_prefixed_with(&mut self, prefix: impl FnOnce() -> String, other: Problems) {
+        if !other.is_empty() {
+            self.extend_prefixed(&prefix(), other);
+        }
+    }
+
     /// Moves all problems of `other` in, prefixing their field paths with `prefix`.
     pub fn extend_prefixed(&mut self, prefix: &str, other: Problems) {
         for p in other.0 {

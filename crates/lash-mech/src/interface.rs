@@ -297,7 +297,7 @@ fn invert_into(w: &DMatrix<f64>, out: &mut Option<DMatrix<f64>>) {
 /// The closed-form inverse of a 2 × 2 W, or `None` when it is singular (relative to its largest
 /// entry).
 fn invert_2x2(w: &DMatrix<f64>) -> Option<Matrix2<f64>> {
-    let scale = w.abs().max();
+    let scale = w.amax();
     let m = Matrix2::new(w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]);
     if m.determinant().abs() <= 1e-12 * scale * scale {
         return None;
@@ -311,11 +311,11 @@ fn invert(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     if w.nrows() == 2 {
         return invert_2x2(w).map(|i| DMatrix::from_row_slice(2, 2, &[i[(0, 0)], i[(0, 1)], i[(1, 0)], i[(1, 1)]]));
     }
-    let scale = w.abs().max();
+    let scale = w.amax();
     let lu = w.clone().lu();
     let inverse = lu.try_inverse()?;
     // Singular to working precision: the inverse's scale betrays it.
-    let condition = inverse.abs().max() * scale * w.nrows() as f64;
+    let condition = inverse.amax() * scale * w.nrows() as f64;
     (condition.is_finite() && condition < 1e12).then_some(inverse)
 }
 

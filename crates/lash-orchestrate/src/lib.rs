@@ -676,7 +676,7 @@ impl<'a> InterfaceMaster<'a> {
         }
 
         // Resolve the coupling variables and the signals.
-        let (mac_vars, mic_vars) = (self.macro_sub.variables().to_vec(), self.micro_sub.variables().to_vec());
+        let (mac_vars, mic_vars) = (self.macro_sub.variables(), self.micro_sub.variables());
         let (mac_name, mic_name) = (self.macro_sub.name().to_string(), self.micro_sub.name().to_string());
         let mac_off = offsets(&mac_vars);
         let out = Causality::Output;

@@ -248,7 +248,7 @@ pub fn parse_table(table: toml::Table) -> Result<Scenario, Problems> {
         .map(|v| v.clone().try_into::<std::collections::BTreeMap<String, lash_contact::Material>>())
     {
         for (name, mat) in &m {
-            problems.extend_prefixed(&format!("materials.{name}"), mat.validate());
+            problems.extend_prefixed_with(|| format!("materials.{name}"), mat.validate());
         }
     }
     if let Some(Ok(g)) = table.get("gravity").map(|v| v.clone().try_into::<[f64; 2]>()) {
@@ -273,25 +273,25 @@ pub fn parse_table(table: toml::Table) -> Result<Scenario, Problems> {
 pub fn validate(s: &Scenario) -> Problems {
     let mut p = Problems::new();
     for (k, b) in s.bodies.iter().enumerate() {
-        p.extend_prefixed(&format!("bodies[{k}]"), validate_body(b));
+        p.extend_prefixed_with(|| format!("bodies[{k}]"), validate_body(b));
     }
     for (k, j) in s.joints.iter().enumerate() {
-        p.extend_prefixed(&format!("joints[{k}]"), validate_joint(j));
+        p.extend_prefixed_with(|| format!("joints[{k}]"), validate_joint(j));
     }
     for (k, d) in s.drivers.iter().enumerate() {
-        p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
+        p.extend_prefixed_with(|| format!("drivers[{k}].motion"), d.motion.validate());
     }
     for (k, l) in s.loads.iter().enumerate() {
-        p.extend_prefixed(&format!("loads[{k}]"), validate_load(l));
+        p.extend_prefixed_with(|| format!("loads[{k}]"), validate_load(l));
     }
     for (k, c) in s.clearances.iter().enumerate() {
-        p.extend_prefixed(&format!("clearances[{k}]"), validate_clearance_numbers(c));
+        p.extend_prefixed_with(|| format!("clearances[{k}]"), validate_clearance_numbers(c));
     }
     for (k, sen) in s.sensors.iter().enumerate() {
-        p.extend_prefixed(&format!("sensors[{k}]"), finite2("point", sen.point));
+        p.extend_prefixed_with(|| format!("sensors[{k}]"), finite2("point", sen.point));
     }
     for (name, m) in &s.materials {
-        p.extend_prefixed(&format!("materials.{name}"), m.validate());
+        p.extend_prefixed_with(|| format!("materials.{name}"), m.validate());
     }
     p.extend_prefixed("simulation", validate_simulation(&s.simulation));
     p.0.extend(finite2("gravity", s.gravity).0);
@@ -371,7 +371,7 @@ pub(crate) fn for_each_ok<T: DeserializeOwned>(
     if let Some(toml::Value::Array(items)) = table.get(key) {
         for (k, v) in items.iter().enumerate() {
             if let Ok(item) = v.clone().try_into::<T>() {
-                problems.extend_prefixed(&format!("{key}[{k}]"), check(&item));
+                problems.extend_prefixed_with(|| format!("{key}[{k}]"), check(&item));
             }
         }
     }

@@ -379,7 +379,7 @@ pub fn parse_spatial_table(table: toml::Table) -> Result<SpatialScenario, Proble
     }
     if let Some(Ok(m)) = table.get("materials").map(|v| v.clone().try_into::<BTreeMap<String, Material>>()) {
         for (name, mat) in &m {
-            problems.extend_prefixed(&format!("materials.{name}"), mat.validate());
+            problems.extend_prefixed_with(|| format!("materials.{name}"), mat.validate());
         }
     }
     if let Some(Ok(g)) = table.get("gravity").map(|v| v.clone().try_into::<[f64; 3]>()) {
@@ -403,26 +403,26 @@ pub fn parse_spatial_table(table: toml::Table) -> Result<SpatialScenario, Proble
 pub fn validate_spatial(s: &SpatialScenario) -> Problems {
     let mut p = Problems::new();
     for (k, b) in s.bodies.iter().enumerate() {
-        p.extend_prefixed(&format!("bodies[{k}]"), validate_body(b));
+        p.extend_prefixed_with(|| format!("bodies[{k}]"), validate_body(b));
     }
     for (k, j) in s.joints.iter().enumerate() {
-        p.extend_prefixed(&format!("joints[{k}]"), validate_joint(j));
+        p.extend_prefixed_with(|| format!("joints[{k}]"), validate_joint(j));
     }
     for (k, d) in s.drivers.iter().enumerate() {
-        p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
+        p.extend_prefixed_with(|| format!("drivers[{k}].motion"), d.motion.validate());
     }
     for (k, l) in s.loads.iter().enumerate() {
-        p.extend_prefixed(&format!("loads[{k}]"), validate_load(l));
+        p.extend_prefixed_with(|| format!("loads[{k}]"), validate_load(l));
     }
     for (k, c) in s.clearances.iter().enumerate() {
-        p.extend_prefixed(&format!("clearances[{k}]"), validate_clearance_numbers(c));
+        p.extend_prefixed_with(|| format!("clearances[{k}]"), validate_clearance_numbers(c));
     }
     for (k, sen) in s.sensors.iter().enumerate() {
-        p.extend_prefixed(&format!("sensors[{k}]"), finite3("point", sen.point));
+        p.extend_prefixed_with(|| format!("sensors[{k}]"), finite3("point", sen.point));
     }
     p.extend_prefixed("simulation", validate_simulation(&s.simulation));
     for (name, mat) in &s.materials {
-        p.extend_prefixed(&format!("materials.{name}"), mat.validate());
+        p.extend_prefixed_with(|| format!("materials.{name}"), mat.validate());
     }
     p.0.extend(finite3("gravity", s.gravity).0);
     p.0.extend(cross_check(s).0);

@@ -205,8 +205,8 @@ pub fn spatial_effective_terms_into(
 
 /// W⁻¹, or `None` when W is singular to working precision.
 fn invert(w: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let scale = w.abs().max();
+    let scale = w.amax();
     let inverse = w.clone().lu().try_inverse()?;
-    let condition = inverse.abs().max() * scale * w.nrows() as f64;
+    let condition = inverse.amax() * scale * w.nrows() as f64;
     (condition.is_finite() && condition < 1e12).then_some(inverse)
 }
