@@ -678,13 +678,13 @@ impl<'a> InterfaceMaster<'a> {
         // Resolve the coupling variables and the signals.
         let (mac_vars, mic_vars) = (self.macro_sub.variables(), self.micro_sub.variables());
         let (mac_name, mic_name) = (self.macro_sub.name().to_string(), self.micro_sub.name().to_string());
-        let mac_off = offsets(&mac_vars);
+        let mac_off = offsets(mac_vars);
         let out = Causality::Output;
         // Sizes: n interface coordinates, r angular velocity components per side (planar: one
         // per joint; spherical: three), m friction loads (planar: one per joint, F_T; spherical:
         // three, n × F_T).
         let size = |name: &str| -> Result<usize, MasterError> {
-            Ok(mac_vars[lookup(&mac_vars, &mac_name, name, out, None)? as usize].len())
+            Ok(mac_vars[lookup(mac_vars, &mac_name, name, out, None)? as usize].len())
         };
         let (n, r) = (size("effective_force")?, size("journal_angular_velocity")?);
         let moment_map = size("friction_moment_force")?;
@@ -696,7 +696,7 @@ impl<'a> InterfaceMaster<'a> {
         }
         let k = moment_map / n;
         let at = |name: &str, len: usize| -> Result<usize, MasterError> {
-            Ok(mac_off[lookup(&mac_vars, &mac_name, name, out, Some(len))? as usize])
+            Ok(mac_off[lookup(mac_vars, &mac_name, name, out, Some(len))? as usize])
         };
         let inp = Causality::Input;
         // (name, elements, derivative variable of the macro)
@@ -714,8 +714,8 @@ impl<'a> InterfaceMaster<'a> {
             let start = at(name, len)?;
             let derivative_start = derivative.map(|d| at(d, len)).transpose()?;
             let rate_name = derivative.map_or_else(|| format!("{name}_rate"), str::to_string);
-            micro_inputs.push(lookup(&mic_vars, &mic_name, name, inp, Some(len))?);
-            micro_inputs.push(lookup(&mic_vars, &mic_name, &rate_name, inp, Some(len))?);
+            micro_inputs.push(lookup(mic_vars, &mic_name, name, inp, Some(len))?);
+            micro_inputs.push(lookup(mic_vars, &mic_name, &rate_name, inp, Some(len))?);
             index.layout.push((width_in, width_in + len));
             width_in += 2 * len;
             for e in 0..len {
@@ -724,9 +724,9 @@ impl<'a> InterfaceMaster<'a> {
         }
         let target_inputs = match o.coupling {
             Coupling::TwoWay => Some([
-                lookup(&mac_vars, &mac_name, "eccentricity", Causality::Input, Some(n))?,
-                lookup(&mac_vars, &mac_name, "eccentricity_rate", Causality::Input, Some(n))?,
-                lookup(&mac_vars, &mac_name, "friction_force", Causality::Input, Some(k))?,
+                lookup(mac_vars, &mac_name, "eccentricity", Causality::Input, Some(n))?,
+                lookup(mac_vars, &mac_name, "eccentricity_rate", Causality::Input, Some(n))?,
+                lookup(mac_vars, &mac_name, "friction_force", Causality::Input, Some(k))?,
             ]),
             Coupling::OneWay => None,
         };
@@ -734,13 +734,13 @@ impl<'a> InterfaceMaster<'a> {
         // then the signals'. Two-way coupling reads the eccentricities, their rates and the friction
         // impulses at the end of each macro step.
         let mut micro_outputs: Vec<ValueReference> = vec![
-            lookup(&mic_vars, &mic_name, "contact_force", out, Some(n))?,
-            lookup(&mic_vars, &mic_name, "friction_load", out, Some(k))?,
+            lookup(mic_vars, &mic_name, "contact_force", out, Some(n))?,
+            lookup(mic_vars, &mic_name, "friction_load", out, Some(k))?,
         ];
         let coupling_outputs = [
-            lookup(&mic_vars, &mic_name, "eccentricity", out, Some(n))?,
-            lookup(&mic_vars, &mic_name, "eccentricity_rate", out, Some(n))?,
-            lookup(&mic_vars, &mic_name, "friction_impulse", out, Some(k))?,
+            lookup(mic_vars, &mic_name, "eccentricity", out, Some(n))?,
+            lookup(mic_vars, &mic_name, "eccentricity_rate", out, Some(n))?,
+            lookup(mic_vars, &mic_name, "friction_impulse", out, Some(k))?,
         ];
         let loads = n + k;
         let (ecc_at, rate_at, impulse_at) = (0, n, 2 * n);
@@ -759,13 +759,13 @@ impl<'a> InterfaceMaster<'a> {
                 Ok((vr, e))
             };
         let mac_index = |name: &str, e: usize| -> Result<usize, MasterError> {
-            let (vr, e) = element(&mac_vars, &mac_name, name, e)?;
+            let (vr, e) = element(mac_vars, &mac_name, name, e)?;
             Ok(mac_off[vr as usize] + e)
         };
         for s in &self.signals {
             resolved.push(match s {
                 Signal::Micro { variable, element: e, .. } => {
-                    let (vr, e) = element(&mic_vars, &mic_name, variable, *e)?;
+                    let (vr, e) = element(mic_vars, &mic_name, variable, *e)?;
                     let pos = micro_outputs.iter().position(|&v| v == vr).unwrap_or_else(|| {
                         micro_outputs.push(vr);
                         micro_outputs.len() - 1
