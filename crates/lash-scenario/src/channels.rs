@@ -53,33 +53,43 @@ pub const CLEARANCE_QUANTITIES: [(&str, &str); 11] = [
     ("slip_velocity", "m/s"),
 ];
 
+/// `owner.quantity` (built without the formatting machinery: the channel list is made for every
+/// run of a sweep).
+pub(crate) fn dotted(owner: &str, quantity: &str) -> String {
+    let mut name = String::with_capacity(owner.len() + 1 + quantity.len());
+    name.push_str(owner);
+    name.push('.');
+    name.push_str(quantity);
+    name
+}
+
 /// Channels of a scenario (time excluded), with what computes them.
 pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
     let mut out = Vec::new();
     for (k, sen) in s.sensors.iter().enumerate() {
         for (q, (name, unit)) in SENSOR_QUANTITIES.iter().enumerate() {
-            out.push((Channel { name: format!("{}.{name}", sen.name), unit }, Source::Sensor(k, q as u8)));
+            out.push((Channel { name: dotted(&sen.name, name), unit }, Source::Sensor(k, q as u8)));
         }
     }
     if !ideal {
         for (k, c) in s.clearances.iter().enumerate() {
             for (q, (name, unit)) in CLEARANCE_QUANTITIES.iter().enumerate() {
-                out.push((Channel { name: format!("{}.{name}", c.joint), unit }, Source::Clearance(k, q as u8)));
+                out.push((Channel { name: dotted(&c.joint, name), unit }, Source::Clearance(k, q as u8)));
             }
         }
         for (k, c) in s.clearances.iter().enumerate() {
             if c.bush.is_some() {
-                out.push((Channel { name: format!("{}.von_mises", c.joint), unit: "Pa" }, Source::InterfaceStress(k)));
+                out.push((Channel { name: dotted(&c.joint, "von_mises"), unit: "Pa" }, Source::InterfaceStress(k)));
             }
         }
         for (k, b) in s.bushings.iter().enumerate() {
             for (q, (name, unit)) in BUSHING_QUANTITIES.iter().enumerate() {
-                out.push((Channel { name: format!("{}.{name}", b.joint), unit }, Source::Bushing(k, q as u8)));
+                out.push((Channel { name: dotted(&b.joint, name), unit }, Source::Bushing(k, q as u8)));
             }
         }
     }
     for (k, d) in s.drivers.iter().enumerate() {
-        out.push((Channel { name: format!("{}.torque", d.name), unit: "N m" }, Source::DriverTorque(k)));
+        out.push((Channel { name: dotted(&d.name, "torque"), unit: "N m" }, Source::DriverTorque(k)));
     }
     let mut k = 0;
     for j in &s.joints {
@@ -87,11 +97,11 @@ pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
             continue;
         }
         if j.kind == crate::schema::JointType::Revolute {
-            out.push((Channel { name: format!("{}.fx", j.name), unit: "N" }, Source::JointReaction(k, 0)));
-            out.push((Channel { name: format!("{}.fy", j.name), unit: "N" }, Source::JointReaction(k, 1)));
+            out.push((Channel { name: dotted(&j.name, "fx"), unit: "N" }, Source::JointReaction(k, 0)));
+            out.push((Channel { name: dotted(&j.name, "fy"), unit: "N" }, Source::JointReaction(k, 1)));
         } else {
-            out.push((Channel { name: format!("{}.normal_force_x", j.name), unit: "N" }, Source::JointReaction(k, 0)));
-            out.push((Channel { name: format!("{}.normal_force_y", j.name), unit: "N" }, Source::JointReaction(k, 1)));
+            out.push((Channel { name: dotted(&j.name, "normal_force_x"), unit: "N" }, Source::JointReaction(k, 0)));
+            out.push((Channel { name: dotted(&j.name, "normal_force_y"), unit: "N" }, Source::JointReaction(k, 1)));
         }
         k += 1;
     }

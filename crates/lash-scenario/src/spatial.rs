@@ -625,23 +625,29 @@ pub fn spatial_channels(s: &SpatialScenario, ideal: bool) -> Vec<(crate::Channel
     let channel = |name: String, unit: &'static str| crate::Channel { name, unit };
     for (k, sen) in s.sensors.iter().enumerate() {
         for (q, (name, unit)) in SENSOR_QUANTITIES.iter().enumerate() {
-            out.push((channel(format!("{}.{name}", sen.name), unit), SpatialSource::Sensor(k, q as u8)));
+            out.push((channel(crate::channels::dotted(&sen.name, name), unit), SpatialSource::Sensor(k, q as u8)));
         }
     }
     if !ideal {
         for (k, c) in s.clearances.iter().enumerate() {
             for (q, (name, unit)) in SPATIAL_CLEARANCE_QUANTITIES.iter().enumerate() {
-                out.push((channel(format!("{}.{name}", c.joint), unit), SpatialSource::Clearance(k, q as u8)));
+                out.push((
+                    channel(crate::channels::dotted(&c.joint, name), unit),
+                    SpatialSource::Clearance(k, q as u8),
+                ));
             }
         }
     }
     for (k, b) in s.bodies.iter().enumerate() {
         for (q, axis) in ["wx", "wy", "wz"].iter().enumerate() {
-            out.push((channel(format!("{}.{axis}", b.name), "rad/s"), SpatialSource::AngularVelocity(k, q as u8)));
+            out.push((
+                channel(crate::channels::dotted(&b.name, axis), "rad/s"),
+                SpatialSource::AngularVelocity(k, q as u8),
+            ));
         }
     }
     for (k, d) in s.drivers.iter().enumerate() {
-        out.push((channel(format!("{}.torque", d.name), "N m"), SpatialSource::DriverTorque(k)));
+        out.push((channel(crate::channels::dotted(&d.name, "torque"), "N m"), SpatialSource::DriverTorque(k)));
     }
     let mut index = 0;
     for j in &s.joints {
@@ -649,7 +655,10 @@ pub fn spatial_channels(s: &SpatialScenario, ideal: bool) -> Vec<(crate::Channel
             continue;
         }
         for (q, axis) in ["fx", "fy", "fz"].iter().enumerate() {
-            out.push((channel(format!("{}.{axis}", j.name), "N"), SpatialSource::JointReaction(index, q as u8)));
+            out.push((
+                channel(crate::channels::dotted(&j.name, axis), "N"),
+                SpatialSource::JointReaction(index, q as u8),
+            ));
         }
         index += 1;
     }
