@@ -184,3 +184,35 @@ fn applied_loads_and_revolute_reaction() {
     assert!(r.x.abs() < 1e-12);
     assert!((r.y - (m * alpha * l / 2.0 - f + m * g)).abs() < 1e-10, "{r:?}");
 }
+
+/// The position-and-velocity analysis of the kinematic macro equals assembly followed by velocity
+/// analysis, bit for bit, over a turn of the slider-crank stepped from a Taylor-like prediction
+/// (the Newton iterations and the projection see the same numbers), and the solver holds the
+/// assembled position's constraint error.
+#[test]
+fn assembly_and_projection_together_equal_them_one_after_the_other() {
+    let m = ideal_slider_crank();
+    let (mut q1, mut qd1) = initial_guess(&m);
+    let (mut q2, mut qd2) = (q1.clone(), qd1.clone());
+    let (mut s1, mut s2) = (Solver::new(&m), Solver::new(&m));
+    let h = 2.0 * PI / OMEGA / 40.0;
+    for k in 0..=40 {
+        let t = k as f64 * h;
+        // A prediction of the next position, off the constraint manifold.
+        for q in [&mut q1, &mut q2] {
+            for (x, v) in q.iter_mut().zip(&qd1) {
+                *x += h * v;
+            }
+        }
+        let iterations = assemble(&m, t, &mut q1, &mut s1, 1e-13).expect("assembles");
+        velocity_analysis(&m, t, &q1, &mut qd1, &mut s1).expect("projects");
+        let together = assemble_and_project(&m, t, &mut q2, &mut qd2, &mut s2, 1e-13).expect("assembles");
+        assert_eq!(together, iterations, "t = {t}");
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&q2), bits(&q1), "positions at t = {t}");
+        assert_eq!(bits(&qd2), bits(&qd1), "velocities at t = {t}");
+        s1.set_state(&m, t, &q1, &qd1);
+        assert_eq!(s2.constraint_error().to_bits(), s1.constraint_error().to_bits(), "Φ at t = {t}");
+        assert!(s2.constraint_error() <= 1e-13);
+    }
+}
