@@ -263,9 +263,6 @@ pub struct MechanismSubsystem {
     offset_rows: Vec<usize>,
     last_prescribed: Option<Prescribed>,
     ideal_solver: Solver,
-    /// max |Φ| of the position the last position analysis assembled (kinematic macro), for the
-    /// next `refresh` (it takes it).
-    assembled_error: Option<f64>,
     cut_solver: Solver,
     /// The effective terms at the current communication point.
     pub terms: Option<CoupledTerms>,
@@ -443,7 +440,6 @@ impl MechanismSubsystem {
             offsets,
             values: vec![0.0; at],
             ideal_solver: Solver::new(&ideal),
-            assembled_error: None,
             cut_solver: Solver::new(&cut),
             cut,
             ideal,
@@ -499,8 +495,9 @@ impl MechanismSubsystem {
         SubsystemError::Simulation { t: self.time.seconds(), message }
     }
 
-    /// Motion at `t` of a fully driven mechanism: position and velocity analysis.
-    fn kinematic_motion(&mut self, t: f64) -> Result<(), String> {
+    /// Motion at `t` of a fully driven mechanism: position and velocity analysis. Returns the
+    /// assembled position's constraint error (max |Φ|).
+    fn kinematic_motion(&mut self, t: f64) -> Result<f64, String> {
         // Second-order Taylor prediction from the last node: Newton then needs one or two
         // iterations instead of several across a 30° step.
         let h = t - self.time.seconds();
@@ -509,14 +506,13 @@ impl MechanismSubsystem {
         }
         assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, 1e-13)
             .map_err(|e| e.to_string())?;
-        self.assembled_error = Some(self.ideal_solver.constraint_error());
-        Ok(())
+        Ok(self.ideal_solver.constraint_error())
     }
 
-    /// Terms and every output at the current state.
-    fn refresh(&mut self) -> Result<(), String> {
+    /// Terms and every output at the current state; `assembled_error`: the constraint error of a
+    /// position analysis just done at this state (else it is evaluated).
+    fn refresh(&mut self, assembled_error: Option<f64>) -> Result<(), String> {
         let t = self.time.seconds();
-        let assembled_error = self.assembled_error.take();
         let (k, n) = (self.joints.len(), 2 * self.joints.len());
         let mut terms =
             self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
@@ -698,8 +694,7 @@ impl Subsystem for MechanismSubsystem {
         if let Err(e) = r {
             return Err(self.simulation_error(format!("initial conditions: {e}")));
         }
-        self.assembled_error = Some(self.ideal_solver.constraint_error());
-        if let Err(m) = self.refresh() {
+        if let Err(m) = self.refresh(Some(self.ideal_solver.constraint_error())) {
             return Err(self.simulation_error(m));
         }
         self.phase = Phase::Stepping;
@@ -774,7 +769,7 @@ impl Subsystem for MechanismSubsystem {
         }
         let (t0, t1) = (t.seconds(), Ticks(t.0 + h.0).seconds());
         let result = if self.kinematic {
-            self.kinematic_motion(t1)
+            self.kinematic_motion(t1).map(Some)
         } else {
             self.last_prescribed = (self.coupling == Coupling::TwoWay).then(|| Prescribed {
                 start: t0,
@@ -804,7 +799,7 @@ impl Subsystem for MechanismSubsystem {
                     self.integration_stats.steps += stats.steps;
                     self.integration_stats.rejected += stats.rejected;
                     self.integration_stats.rhs_evaluations += stats.rhs_evaluations;
-                    Ok(())
+                    Ok(None)
                 }
                 Err(e) => Err(format!("macro integration: {e}")),
             }
@@ -813,7 +808,7 @@ impl Subsystem for MechanismSubsystem {
         if self.coupling == Coupling::TwoWay {
             self.eccentricity.clone_from(&self.target);
         }
-        if let Err(m) = result.and_then(|_| self.refresh()) {
+        if let Err(m) = result.and_then(|assembled_error| self.refresh(assembled_error)) {
             return Err(self.simulation_error(m));
         }
         Ok(StepOutcome::Completed)
@@ -852,7 +847,7 @@ impl Subsystem for MechanismSubsystem {
         self.last_prescribed.clone_from(&s.last_prescribed);
         self.values.clone_from(&s.values);
         if self.phase == Phase::Stepping {
-            self.refresh().map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
+            self.refresh(None).map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
         }
         Ok(())
     }

@@ -11,23 +11,8 @@ pub enum EditError {
     Invalid(lash_core::Problems),
 }
 
-/// The scenario `base` (as a TOML table) with each `(path, value)` written in, parsed and
-/// validated like a file.
-pub fn edited<'a>(
-    base: &toml::Table,
-    edits: impl IntoIterator<Item = (&'a str, f64)> + Clone,
-) -> Result<crate::Scenario, EditError> {
-    match edited_any(base, edits)? {
-        crate::AnyScenario::Planar(s) => Ok(s),
-        crate::AnyScenario::Spatial(_) => {
-            let mut p = lash_core::Problems::new();
-            p.push("space", "a planar scenario was expected, not a spatial one".to_string());
-            Err(EditError::Invalid(p))
-        }
-    }
-}
-
-/// [`edited`] for a planar or spatial base (its `space` key decides).
+/// The scenario `base` (as a TOML table, planar or spatial: its `space` key decides) with each
+/// `(path, value)` written in, parsed and validated like a file.
 ///
 /// An edit changes numbers only, so the edited table is read in one go and the typed scenario
 /// checked ([`crate::AnyScenario::validate`]: the file parser's checks); only a table that does
@@ -36,16 +21,17 @@ pub fn edited<'a>(
 /// a fraction of the cost for the runs of a sweep.
 pub fn edited_any<'a>(
     base: &toml::Table,
-    edits: impl IntoIterator<Item = (&'a str, f64)> + Clone,
+    edits: impl IntoIterator<Item = (&'a str, f64)>,
 ) -> Result<crate::AnyScenario, EditError> {
-    let write = |edits: &mut dyn Iterator<Item = (&'a str, f64)>| -> Result<toml::Table, EditError> {
+    let edits: Vec<(&str, f64)> = edits.into_iter().collect();
+    let write = || -> Result<toml::Table, EditError> {
         let mut table = base.clone();
-        for (path, value) in edits {
+        for &(path, value) in &edits {
             set_path(&mut table, path, value).map_err(EditError::Path)?;
         }
         Ok(table)
     };
-    let table = write(&mut edits.clone().into_iter())?;
+    let table = write()?;
     let spatial = match table.get("space") {
         None => Some(false),
         Some(toml::Value::String(s)) if s == "spatial" => Some(true),
@@ -61,7 +47,7 @@ pub fn edited_any<'a>(
     {
         return Ok(scenario);
     }
-    crate::load::parse_any_table(write(&mut edits.into_iter())?).map_err(EditError::Invalid)
+    crate::load::parse_any_table(write()?).map_err(EditError::Invalid)
 }
 
 /// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
