@@ -198,7 +198,7 @@ fn the_ideal_spatial_slider_crank_of_e_follows_its_closed_form_through_the_runne
     assert!(fy < -0.6 * 9.81 && fy > -(0.6 + 0.25) * 9.81, "guide reaction on the ground {fy} N");
 }
 
-/// The reduced model's macro side integrates the ideal mechanism (DOPRI5 at rtol 1e-7 over each
+/// The reduced model's macro side integrates the ideal mechanism (DOPRI5 at rtol 1e-6 over each
 /// 1 ms communication step): at the communication points, where its slider position is the
 /// node itself (no interpolation), it follows the closed form as the converged ideal run does.
 #[test]
