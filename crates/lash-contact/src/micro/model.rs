@@ -496,7 +496,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let mut r = u.effective_force + u.effective_force_rate * dt + loads.contact;
         for j in 0..M {
             let l = loads.friction[j];
-            if l != 0.0 {
+            if l != 0.0 && N == 2 {
+                // One planar joint: two entries, indexed (as slices the step measured 3 % slower).
+                for i in 0..N {
+                    r[i] += (u.friction_moment_force[(i, j)] + u.friction_moment_force_rate[(i, j)] * dt) * l;
+                }
+            } else if l != 0.0 {
                 // Column j of H and of its rate, as slices (indexing each entry was a quarter of
                 // the spatial micro step's instructions).
                 let columns = N * j..N * (j + 1);
