@@ -151,11 +151,19 @@ pub fn parse_any(text: &str) -> Result<AnyScenario, Problems> {
 
 /// [`parse_any`] of a parsed TOML table (a sweep's edited base: no round trip through text).
 pub fn parse_any_table(table: toml::Table) -> Result<AnyScenario, Problems> {
-    match table.get("space").cloned() {
-        None => parse_table(table).map(AnyScenario::Planar),
-        Some(toml::Value::String(s)) if s == "spatial" => {
-            crate::spatial::parse_spatial_table(table).map(AnyScenario::Spatial)
-        }
+    if is_spatial(&table)? {
+        crate::spatial::parse_spatial_table(table).map(AnyScenario::Spatial)
+    } else {
+        parse_table(table).map(AnyScenario::Planar)
+    }
+}
+
+/// Whether a scenario table describes a spatial mechanism (`space = "spatial"`) or a planar one
+/// (no `space` key); any other `space` is a problem.
+pub(crate) fn is_spatial(table: &toml::Table) -> Result<bool, Problems> {
+    match table.get("space") {
+        None => Ok(false),
+        Some(toml::Value::String(s)) if s == "spatial" => Ok(true),
         Some(other) => {
             let mut p = Problems::new();
             p.push("space", format!("must be \"spatial\" (or left out for a planar mechanism), got {other}"));

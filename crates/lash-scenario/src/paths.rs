@@ -32,15 +32,10 @@ pub fn edited_any<'a>(
         Ok(table)
     };
     let table = write()?;
-    let spatial = match table.get("space") {
-        None => Some(false),
-        Some(toml::Value::String(s)) if s == "spatial" => Some(true),
-        Some(_) => None,
-    };
-    let read = match spatial {
-        Some(false) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Planar),
-        Some(true) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Spatial),
-        None => None,
+    let read = match crate::load::is_spatial(&table) {
+        Ok(false) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Planar),
+        Ok(true) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Spatial),
+        Err(_) => None,
     };
     if let Some(scenario) = read
         && scenario.validate().is_empty()

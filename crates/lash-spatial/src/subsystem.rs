@@ -270,10 +270,11 @@ impl SpatialMechanismSubsystem {
             },
             joints,
             probes,
-            // DOPRI5 at 1e-6: for E one step and 6.1 solves per 1 ms communication step, the
-            // slider within 3e-11 m of its closed form at the nodes (tests/spatial.rs) — as at
-            // 1e-7 (1.4 steps, 8.6 solves) and 1e-5: that error is not the integrator's — far below
-            // the micro model's error. (DOP853 at 1e-10: 16 right-hand sides; DOPRI5 at 1e-8: 13.)
+            // DOPRI5 at 1e-6: for E one step and 6.1 solves per 1 ms communication step. The
+            // slider stays within 3e-11 m of its closed form at the nodes (tests/spatial.rs), as
+            // at 1e-7 (1.4 steps, 8.6 solves) and at 1e-5, so that error is not the integrator's;
+            // it is far below the micro model's. (DOP853 at 1e-10: 16 right-hand sides; DOPRI5 at
+            // 1e-8: 13.)
             integrator: AdaptiveOptions { rtol: 1e-6, atol: 1e-9, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 },
             y: vec![0.0; dim],
             time: Ticks::ZERO,
