@@ -3,7 +3,8 @@ low-level API (FMI 3.0 or FMI 2.0, taken from the archives), with the multirate 
 linear interpolation: at each macro step the micro inputs are the values at the step start and the
 slopes to the next node; the slider acceleration is propagated at every micro step as
 free + gain . [f_c; F_T] with the maps interpolated linearly), for any number of clearance joints
-(sizes read from the mechanism FMU).
+(sizes read from the mechanism FMU) and either form of the interface terms (the names the
+interface FMU takes).
 
 Compares the slider acceleration with lash's in-process run (a CSV of `lash run SCENARIO --model reduced --horizon 0.036`), for planar and spatial scenarios alike.
 Usage: python reduced_cosim.py lash_mechanism.fmu lash_interface.fmu lash_reduced_timeseries.csv [name=value,...]
@@ -83,18 +84,23 @@ if len(sys.argv) > 4:
 micro = Fmu(sys.argv[2], "interface", parameters)
 h_m, h_r, n_micro, n_macro = 1e-3, 1e-5, 100, 36
 
-names = ["effective_mass", "effective_force", "friction_moment_force", "journal_angular_velocity",
-         "bearing_angular_velocity", "slider.acceleration_free", "slider.acceleration_gain"]
+# The interface terms the micro FMU takes: effective-mass form (M~, f~, H; planar joints) or
+# mobility form (W, a_free, W H; spherical joints), named alike on both FMUs.
+if "mobility" in micro.refs:
+    terms = ["mobility", "free_acceleration", "friction_mobility"]
+else:
+    terms = ["effective_mass", "effective_force", "friction_moment_force"]
+coupled = terms + ["journal_angular_velocity", "bearing_angular_velocity"]
+names = coupled + ["slider.acceleration_free", "slider.acceleration_gain"]
 
 
 def frame():
     return {name: mech.get(name) for name in names}
 
 
-inputs = ["effective_mass", "effective_mass_rate", "effective_force", "effective_force_rate",
-          "friction_moment_force", "friction_moment_force_rate",
-          "journal_angular_velocity", "journal_angular_acceleration", "bearing_angular_velocity",
-          "bearing_angular_acceleration"]
+inputs = [x for t in terms for x in (t, t + "_rate")] + [
+    "journal_angular_velocity", "journal_angular_acceleration", "bearing_angular_velocity",
+    "bearing_angular_acceleration"]
 
 a = frame()
 ax = [a["slider.acceleration_free"][0]]
@@ -105,8 +111,7 @@ for step in range(n_macro):
     values = []
     # Sizes from the mechanism's arrays (n interface coordinates, m friction loads, r angular
     # velocity components: planar revolute or spherical joints alike).
-    for name in ["effective_mass", "effective_force", "friction_moment_force", "journal_angular_velocity",
-                 "bearing_angular_velocity"]:
+    for name in coupled:
         count = len(a[name])
         value = [a[name][e] + (b[name][e] - a[name][e]) * 0.0 for e in range(count)]
         rate = [(b[name][e] - a[name][e]) / h_m for e in range(count)]

@@ -686,12 +686,20 @@ impl<'a> InterfaceMaster<'a> {
         let size = |name: &str| -> Result<usize, MasterError> {
             Ok(mac_vars[lookup(mac_vars, &mac_name, name, out, None)? as usize].len())
         };
-        let (n, r) = (size("effective_force")?, size("journal_angular_velocity")?);
-        let moment_map = size("friction_moment_force")?;
+        // The interface terms in effective-mass form (M̃, f̃, H) or, where the micro subsystem takes
+        // them so (spherical joints), in mobility form (W, a_free, G = W H).
+        let mobility_form = mic_vars.iter().any(|v| v.name == "mobility" && v.causality == Causality::Input);
+        let [matrix, force, friction_map] = if mobility_form {
+            ["mobility", "free_acceleration", "friction_mobility"]
+        } else {
+            ["effective_mass", "effective_force", "friction_moment_force"]
+        };
+        let (n, r) = (size(force)?, size("journal_angular_velocity")?);
+        let moment_map = size(friction_map)?;
         if n == 0 || moment_map % n != 0 {
             return Err(MasterError::Variables {
                 subsystem: mac_name.clone(),
-                problem: format!("friction_moment_force has {moment_map} elements, not a multiple of n = {n}"),
+                problem: format!("{friction_map} has {moment_map} elements, not a multiple of n = {n}"),
             });
         }
         let k = moment_map / n;
@@ -701,9 +709,9 @@ impl<'a> InterfaceMaster<'a> {
         let inp = Causality::Input;
         // (name, elements, derivative variable of the macro)
         let couplings: [(&str, usize, Option<&str>); 5] = [
-            ("effective_mass", n * n, None),
-            ("effective_force", n, None),
-            ("friction_moment_force", n * k, None),
+            (matrix, n * n, None),
+            (force, n, None),
+            (friction_map, n * k, None),
             ("journal_angular_velocity", r, Some("journal_angular_acceleration")),
             ("bearing_angular_velocity", r, Some("bearing_angular_acceleration")),
         ];

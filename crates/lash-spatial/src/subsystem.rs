@@ -73,6 +73,8 @@ pub mod vr {
         FREE_ACCELERATION,
         /// Output H = M̃ W_τ (n × 3k).
         FRICTION_MOMENT_FORCE,
+        /// Output G = W_τ = W H (n × 3k) [1/kg]: the interface acceleration per unit friction load.
+        FRICTION_MOBILITY,
         /// Output ω of each journal body (3k, world frame).
         JOURNAL_ANGULAR_VELOCITY,
         /// Output α of each journal body (3k).
@@ -187,6 +189,16 @@ impl SpatialMechanismSubsystem {
             C,
             "1",
             "force on the balls equivalent to a unit friction load n x F_T of each joint (M~ W_tau)",
+            &[n, m],
+            &[0.0],
+        );
+        t.add_at(
+            vr::FRICTION_MOBILITY,
+            "friction_mobility",
+            Output,
+            C,
+            "1/kg",
+            "interface acceleration per unit friction load n x F_T of each joint (W_tau = W H)",
             &[n, m],
             &[0.0],
         );
@@ -353,6 +365,7 @@ impl SpatialMechanismSubsystem {
         put_matrix(vr::EFFECTIVE_MASS, mass);
         put_matrix(vr::MOBILITY, &terms.mobility);
         put_matrix(vr::FRICTION_MOMENT_FORCE, moment_force);
+        put_matrix(vr::FRICTION_MOBILITY, &terms.moment_mobility);
         let mut stack = |vr: ValueReference, f: &dyn Fn(&SphericalInterface) -> Vec3| {
             for (out, j) in values[range(vr)].chunks_exact_mut(3).zip(&self.joints) {
                 out.copy_from_slice(f(j).as_slice());

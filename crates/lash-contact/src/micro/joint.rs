@@ -20,6 +20,11 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     const FRICTION_LOADS: usize;
     /// Angular velocity components of one body: planar 1, spherical 3 (world frame).
     const ROTATIONS: usize;
+    /// Whether the micro model holds the macro terms of this kind of joint in mobility form
+    /// (W = M̃⁻¹, a_free = W f̃ and W H, each linear between its values at the two ends of the
+    /// communication step) rather than in effective-mass form (M̃, f̃ and H linear, M̃ factored at
+    /// every instant a micro step needs): see [`super::model::Mobility`].
+    const MOBILITY_FORM: bool = false;
     /// Geometry, kinematics and forces at one state.
     type State: Copy + Default + std::fmt::Debug + PartialEq;
 
@@ -216,6 +221,9 @@ impl MicroJoint for SphericalClearance {
     const COORDINATES: usize = 3;
     const FRICTION_LOADS: usize = 3;
     const ROTATIONS: usize = 3;
+    // Three coordinates per joint: two coupled joints factor a 6 × 6 M̃ twice per micro step in
+    // the effective-mass form (docs/theory.md §8).
+    const MOBILITY_FORM: bool = true;
     type State = SphericalContactState;
 
     fn name(&self) -> &str {

@@ -14,9 +14,12 @@
 //! blocks of M̃ and H couple the joints.
 //!
 //! One model serves every joint kind ([`MicroJoint`]); the dimensions are const generics: the
-//! state lives in fixed-size vectors on the stack and a micro step allocates nothing. One planar
-//! joint (N = 2) solves M̃ by Cramer's rule; more coordinates by an L D Lᵀ factorisation of the
-//! N × N effective mass (symmetric positive definite).
+//! state lives in fixed-size vectors on the stack and a micro step allocates nothing. The macro
+//! terms come in one of two forms, the joint kind's ([`MicroJoint::MOBILITY_FORM`]): the
+//! effective-mass form above (planar joints: one joint (N = 2) solves M̃ by Cramer's rule, more
+//! coordinates by an L D Lᵀ factorisation of the N × N effective mass, symmetric positive
+//! definite), or the mobility form ẅ = a_free + W f_c + G L ([`Mobility`]; spherical joints),
+//! which multiplies instead of solving.
 
 use super::joint::MicroJoint;
 use crate::clearance::{ClearanceJoint, Impact, ImpactTracker};
@@ -114,6 +117,13 @@ pub struct MassFactor<const N: usize> {
 }
 
 impl<const N: usize> MassFactor<N> {
+    /// No factor (a step end of a model in mobility form keeps none).
+    pub(super) const NONE: Self = Self {
+        mass: SMatrix::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; N])),
+        reciprocal_determinant: 0.0,
+        reciprocal_diagonal: SVector::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; 1])),
+    };
+
     /// Factors `mass`. Not positive definite (impossible for M̃ interpolated between two positive
     /// definite nodes): NaN, which the step's penetration check reports.
     #[inline(always)]
@@ -158,9 +168,10 @@ impl<const N: usize> MassFactor<N> {
     #[inline(always)]
     pub fn interpolated_pair(mass: &SMatrix<f64, N, N>, rate: &SMatrix<f64, N, N>, dt: [f64; 2]) -> [Self; 2] {
         if N == 2 {
-            return dt.map(|dt| Self::interpolated(mass, rate, dt));
+            // (Arrays written out rather than `map`ped: `map` was a call of its own in the step.)
+            return [Self::interpolated(mass, rate, dt[0]), Self::interpolated(mass, rate, dt[1])];
         }
-        Self::factor_lower_pair(dt.map(|dt| Self::lower_at(mass, rate, dt)))
+        Self::factor_lower_pair([Self::lower_at(mass, rate, dt[0]), Self::lower_at(mass, rate, dt[1])])
     }
 
     /// [`MassFactor::factor_lower`] of two matrices in one loop.
@@ -278,6 +289,173 @@ impl<const N: usize> MassFactor<N> {
     }
 }
 
+/// The macro terms in mobility form, the inputs of the kinds of joint with
+/// [`MicroJoint::MOBILITY_FORM`] (value and rate at the inputs' time, like [`InterfaceInputs`]):
+///
+/// ```text
+///     ẅ = a_free(t) + W(t) f_c + G(t) L,    W = M̃⁻¹,  a_free = W f̃,  G = W H,
+/// ```
+///
+/// the mobility W, the free acceleration a_free and the friction mobility G exported by the
+/// macro side as they are, each linear across the communication step between its values at the
+/// nodes (as M̃, f̃ and H are in the effective-mass form). Both forms are exact at the nodes and
+/// first order between them; they differ by O(h_m²) inside a step (a test bounds that). A micro
+/// step in mobility form forms the terms at its instants and multiplies, where the
+/// effective-mass form factors M̃ twice and solves with the factor four times.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mobility<const N: usize, const M: usize> {
+    /// W [1/kg].
+    pub mobility: SMatrix<f64, N, N>,
+    /// dW/dt [1/(kg s)].
+    pub mobility_rate: SMatrix<f64, N, N>,
+    /// G = W H, the interface acceleration per unit friction load [1/kg].
+    pub friction_mobility: SMatrix<f64, N, M>,
+    /// dG/dt.
+    pub friction_mobility_rate: SMatrix<f64, N, M>,
+    /// a_free = W f̃ [m/s²].
+    pub free_acceleration: SVector<f64, N>,
+    /// da_free/dt [m/s³].
+    pub free_acceleration_rate: SVector<f64, N>,
+}
+
+impl<const N: usize, const M: usize> Default for Mobility<N, M> {
+    fn default() -> Self {
+        Self {
+            mobility: SMatrix::identity(),
+            mobility_rate: SMatrix::zeros(),
+            friction_mobility: SMatrix::zeros(),
+            friction_mobility_rate: SMatrix::zeros(),
+            free_acceleration: SVector::zeros(),
+            free_acceleration_rate: SVector::zeros(),
+        }
+    }
+}
+
+impl<const N: usize, const M: usize> Mobility<N, M> {
+    /// The terms at `dt` after the step's start.
+    #[inline(always)]
+    pub fn at(&self, dt: f64) -> MobilityAt<N, M> {
+        MobilityAt {
+            mobility: self.mobility + self.mobility_rate * dt,
+            friction_mobility: self.friction_mobility + self.friction_mobility_rate * dt,
+            free_acceleration: self.free_acceleration + self.free_acceleration_rate * dt,
+        }
+    }
+}
+
+/// [`Mobility`] at one instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MobilityAt<const N: usize, const M: usize> {
+    /// W [1/kg].
+    pub mobility: SMatrix<f64, N, N>,
+    /// G = W H [1/kg].
+    pub friction_mobility: SMatrix<f64, N, M>,
+    /// a_free [m/s²].
+    pub free_acceleration: SVector<f64, N>,
+}
+
+impl<const N: usize, const M: usize> MobilityAt<N, M> {
+    /// ẅ = a_free + W f_c + G L, column by column (the loads of a joint in free flight are zero
+    /// and add nothing).
+    #[inline(always)]
+    pub fn acceleration(&self, loads: &Loads<N, M>) -> SVector<f64, N> {
+        let mut a = self.free_acceleration;
+        let add = |a: &mut SVector<f64, N>, columns: &[f64], values: &[f64]| {
+            for (column, &v) in columns.chunks_exact(N).zip(values) {
+                for (ai, ci) in a.iter_mut().zip(column) {
+                    *ai += ci * v;
+                }
+            }
+        };
+        add(&mut a, self.mobility.as_slice(), loads.contact.as_slice());
+        add(&mut a, self.friction_mobility.as_slice(), loads.friction.as_slice());
+        a
+    }
+}
+
+/// The macro terms at one instant, ready to give ẅ for given loads: the effective-mass form's
+/// factor ([`MassFactor`]) or the mobility form's terms ([`MobilityAt`]).
+pub(super) trait InstantTerms<const N: usize, const M: usize>: Sized {
+    /// The terms at `t`.
+    fn at<J: MicroJoint, const K: usize, const R: usize>(model: &InterfaceModel<J, N, K, M, R>, t: f64) -> Self;
+    /// The terms at two instants.
+    fn pair<J: MicroJoint, const K: usize, const R: usize>(
+        model: &InterfaceModel<J, N, K, M, R>,
+        t: [f64; 2],
+    ) -> [Self; 2];
+    /// ẅ at `t` for `loads`.
+    fn acceleration<J: MicroJoint, const K: usize, const R: usize>(
+        &self,
+        model: &InterfaceModel<J, N, K, M, R>,
+        t: f64,
+        loads: &Loads<N, M>,
+    ) -> SVector<f64, N>;
+    /// The terms kept at a step's end for the next step's start, if this form keeps them.
+    fn kept(end: &StepEnd<N, M>) -> Option<&Self>;
+    /// Keeps the terms at a step's end (a form that keeps nothing leaves `end` as it is).
+    fn keep(self, end: &mut MassFactor<N>);
+}
+
+impl<const N: usize, const M: usize> InstantTerms<N, M> for MassFactor<N> {
+    #[inline(always)]
+    fn at<J: MicroJoint, const K: usize, const R: usize>(model: &InterfaceModel<J, N, K, M, R>, t: f64) -> Self {
+        model.mass_at(t)
+    }
+    #[inline(always)]
+    fn pair<J: MicroJoint, const K: usize, const R: usize>(
+        model: &InterfaceModel<J, N, K, M, R>,
+        t: [f64; 2],
+    ) -> [Self; 2] {
+        model.masses_at(t)
+    }
+    #[inline(always)]
+    fn acceleration<J: MicroJoint, const K: usize, const R: usize>(
+        &self,
+        model: &InterfaceModel<J, N, K, M, R>,
+        t: f64,
+        loads: &Loads<N, M>,
+    ) -> SVector<f64, N> {
+        model.acceleration_with(t, self, loads)
+    }
+    #[inline(always)]
+    fn kept(end: &StepEnd<N, M>) -> Option<&Self> {
+        Some(&end.mass)
+    }
+    #[inline(always)]
+    fn keep(self, end: &mut MassFactor<N>) {
+        *end = self;
+    }
+}
+
+impl<const N: usize, const M: usize> InstantTerms<N, M> for MobilityAt<N, M> {
+    #[inline(always)]
+    fn at<J: MicroJoint, const K: usize, const R: usize>(model: &InterfaceModel<J, N, K, M, R>, t: f64) -> Self {
+        model.mobility.at(t - model.input_time)
+    }
+    #[inline(always)]
+    fn pair<J: MicroJoint, const K: usize, const R: usize>(
+        model: &InterfaceModel<J, N, K, M, R>,
+        t: [f64; 2],
+    ) -> [Self; 2] {
+        [Self::at(model, t[0]), Self::at(model, t[1])]
+    }
+    #[inline(always)]
+    fn acceleration<J: MicroJoint, const K: usize, const R: usize>(
+        &self,
+        _model: &InterfaceModel<J, N, K, M, R>,
+        _t: f64,
+        loads: &Loads<N, M>,
+    ) -> SVector<f64, N> {
+        MobilityAt::acceleration(self, loads)
+    }
+    #[inline(always)]
+    fn kept(_end: &StepEnd<N, M>) -> Option<&Self> {
+        None
+    }
+    #[inline(always)]
+    fn keep(self, _end: &mut MassFactor<N>) {}
+}
+
 /// One joint's state (and its damped bush's deflection rate, 0 when `damped` is false) from
 /// (e, ė, ω_J, ω_B). A function rather than a closure: a closure here was not inlined, and the
 /// call on the hot path cost the rigid micro step a quarter (95 → 123 ns).
@@ -322,6 +500,9 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
     pub inputs: InterfaceInputs<N, M, R>,
     /// Time of `inputs` [s].
     pub input_time: f64,
+    /// Inputs of the current step in mobility form (joints with [`MicroJoint::MOBILITY_FORM`];
+    /// their W, a_free and G take the place of `inputs`' M̃, f̃ and H, which they leave unused).
+    pub mobility: Mobility<N, M>,
     pub(super) open: Vec<Option<ImpactTracker>>,
     violation: bool,
     /// The last integration was an adaptive one (continuous extensions reach `accept_dense`).
@@ -363,6 +544,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             states: vec![J::State::default(); K],
             inputs: InterfaceInputs::default(),
             input_time: 0.0,
+            mobility: Mobility::default(),
             open: vec![None; K],
             violation: false,
             located: false,
@@ -473,7 +655,8 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     #[inline(always)]
     fn masses_at(&self, t: [f64; 2]) -> [MassFactor<N>; 2] {
         let u = &self.inputs;
-        MassFactor::interpolated_pair(&u.effective_mass, &u.effective_mass_rate, t.map(|t| t - self.input_time))
+        let dt = [t[0] - self.input_time, t[1] - self.input_time];
+        MassFactor::interpolated_pair(&u.effective_mass, &u.effective_mass_rate, dt)
     }
 
     /// M̃(t), factored.
@@ -521,16 +704,16 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     /// ẅ and the loads at (t, w, ẇ) (and the bushes' deflection rates, see
     /// [`InterfaceModel::loads_at`]).
     #[inline(always)]
-    fn acceleration<const SERIES: bool, const DAMPED: bool>(
+    fn acceleration<const SERIES: bool, const DAMPED: bool, F: InstantTerms<N, M>>(
         &self,
         t: f64,
-        mass: &MassFactor<N>,
+        terms: &F,
         (e, ed): (&SVector<f64, N>, &SVector<f64, N>),
         deflection: &SVector<f64, K>,
         rates: &mut SVector<f64, K>,
     ) -> (SVector<f64, N>, Loads<N, M>) {
         let loads = self.loads_at::<SERIES, DAMPED>(t, e, ed, deflection, rates);
-        (self.acceleration_with(t, mass, &loads), loads)
+        (terms.acceleration(self, t, &loads), loads)
     }
 
     /// Puts each joint that starts where it holds the interface force ([`MicroJoint::rest_under`]:
@@ -565,26 +748,36 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     /// One RK4 step of size `h` from `t`; the joints' states at the step end are in `states`.
     #[inline(always)]
     pub fn rk4_step(&mut self, t: f64, h: f64) {
-        if !self.joints.iter().any(J::in_series) {
-            self.rk4_step_as::<false, false>(t, h)
-        } else if self.joints.iter().any(J::damped_in_series) {
-            self.rk4_step_damped(t, h)
+        if J::MOBILITY_FORM {
+            self.rk4_step_in::<MobilityAt<N, M>>(t, h)
         } else {
-            self.rk4_step_as::<true, false>(t, h)
+            self.rk4_step_in::<MassFactor<N>>(t, h)
+        }
+    }
+
+    /// [`InterfaceModel::rk4_step`] with the macro terms in form `F`.
+    #[inline(always)]
+    pub(super) fn rk4_step_in<F: InstantTerms<N, M>>(&mut self, t: f64, h: f64) {
+        if !self.joints.iter().any(J::in_series) {
+            self.rk4_step_as::<false, false, F>(t, h)
+        } else if self.joints.iter().any(J::damped_in_series) {
+            self.rk4_step_damped::<F>(t, h)
+        } else {
+            self.rk4_step_as::<true, false, F>(t, h)
         }
     }
 
     /// [`InterfaceModel::rk4_step`] with bushes damped in series, compiled apart: the rare case
     /// kept out of the code of the loops that inline the step.
     #[inline(never)]
-    fn rk4_step_damped(&mut self, t: f64, h: f64) {
-        self.rk4_step_as::<true, true>(t, h)
+    fn rk4_step_damped<F: InstantTerms<N, M>>(&mut self, t: f64, h: f64) {
+        self.rk4_step_as::<true, true, F>(t, h)
     }
 
     /// [`InterfaceModel::rk4_step`] with the series solve in the code or not, and the damped
     /// bushes' deflections as states or not.
     #[inline(always)]
-    fn rk4_step_as<const SERIES: bool, const DAMPED: bool>(&mut self, t: f64, h: f64) {
+    fn rk4_step_as<const SERIES: bool, const DAMPED: bool, F: InstantTerms<N, M>>(&mut self, t: f64, h: f64) {
         self.located = false;
         let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
         let s0 = if DAMPED { self.bush_deflection } else { SVector::zeros() };
@@ -607,22 +800,26 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         }
         // The kept factor is read where it lies (a copy of the spatial joints' 6 × 6 factor was a
         // memmove per step).
-        let computed = if start_kept { None } else { Some(self.mass_at(t)) };
-        let start = match (&computed, &self.end) {
-            (Some(m), _) => m,
-            (None, Some(end)) => &end.mass,
-            (None, None) => unreachable!("a kept factor comes from a step end"),
+        let kept = match (&self.end, start_kept) {
+            (Some(end), true) => F::kept(end),
+            _ => None,
         };
-        let [middle, finish] = self.masses_at([t + 0.5 * h, t + h]);
+        let computed = if kept.is_some() { None } else { Some(F::at(self, t)) };
+        let start = match (&computed, kept) {
+            (Some(m), _) => m,
+            (None, Some(kept)) => kept,
+            (None, None) => unreachable!("terms either kept or computed"),
+        };
+        let [middle, finish] = F::pair(self, [t + 0.5 * h, t + h]);
         let (k1v, l1) = match reused {
-            Some(loads) => (self.acceleration_with(t, start, &loads), loads),
-            None => self.acceleration::<SERIES, DAMPED>(t, start, (&e0, &v0), &s0, &mut r1),
+            Some(loads) => (start.acceleration(self, t, &loads), loads),
+            None => self.acceleration::<SERIES, DAMPED, F>(t, start, (&e0, &v0), &s0, &mut r1),
         };
         // The deflections of the stages (unused, and compiled out, without damped bushes).
         let stage = |r: &SVector<f64, K>, f: f64| if DAMPED { s0 + r * f } else { s0 };
         let k1e = v0;
         let k2e = v0 + k1v * (0.5 * h);
-        let (k2v, l2) = self.acceleration::<SERIES, DAMPED>(
+        let (k2v, l2) = self.acceleration::<SERIES, DAMPED, F>(
             t + 0.5 * h,
             &middle,
             (&(e0 + k1e * (0.5 * h)), &k2e),
@@ -630,7 +827,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             &mut r2,
         );
         let k3e = v0 + k2v * (0.5 * h);
-        let (k3v, l3) = self.acceleration::<SERIES, DAMPED>(
+        let (k3v, l3) = self.acceleration::<SERIES, DAMPED, F>(
             t + 0.5 * h,
             &middle,
             (&(e0 + k2e * (0.5 * h)), &k3e),
@@ -639,7 +836,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         );
         let k4e = v0 + k3v * h;
         let (k4v, l4) =
-            self.acceleration::<SERIES, DAMPED>(t + h, &finish, (&(e0 + k3e * h), &k4e), &stage(&r3, h), &mut r4);
+            self.acceleration::<SERIES, DAMPED, F>(t + h, &finish, (&(e0 + k3e * h), &k4e), &stage(&r3, h), &mut r4);
         let e1 = e0 + (k1e + (k2e + k3e) * 2.0 + k4e) * (h / 6.0);
         let v1 = v0 + (k1v + (k2v + k3v) * 2.0 + k4v) * (h / 6.0);
         let s1 = if DAMPED { s0 + (r1 + (r2 + r3) * 2.0 + r4) * (h / 6.0) } else { s0 };
@@ -669,17 +866,13 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                 e.eccentricity = e1;
                 e.eccentricity_rate = v1;
                 e.loads = end;
-                e.mass = finish;
+                finish.keep(&mut e.mass);
             }
             None => {
-                self.end = Some(StepEnd {
-                    time: t + h,
-                    input_time,
-                    eccentricity: e1,
-                    eccentricity_rate: v1,
-                    loads: end,
-                    mass: finish,
-                })
+                let mut mass = MassFactor::NONE;
+                finish.keep(&mut mass);
+                self.end =
+                    Some(StepEnd { time: t + h, input_time, eccentricity: e1, eccentricity_rate: v1, loads: end, mass })
             }
         }
     }
@@ -796,13 +989,13 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             }
         }
         // (Bushes damped in series are refused with this integrator: see InterfaceSubsystem.)
-        let (a, loads) = self.acceleration::<true, false>(
-            t,
-            &self.mass_at(t),
-            (&e, &ed),
-            &self.bush_deflection,
-            &mut SVector::zeros(),
-        );
+        let (a, loads) = if J::MOBILITY_FORM {
+            let terms = MobilityAt::at(self, t);
+            self.acceleration::<true, false, _>(t, &terms, (&e, &ed), &self.bush_deflection, &mut SVector::zeros())
+        } else {
+            let terms = self.mass_at(t);
+            self.acceleration::<true, false, _>(t, &terms, (&e, &ed), &self.bush_deflection, &mut SVector::zeros())
+        };
         dydt[..N].copy_from_slice(ed.as_slice());
         dydt[N..2 * N].copy_from_slice(a.as_slice());
         dydt[2 * N..3 * N].copy_from_slice(loads.contact.as_slice());
@@ -972,5 +1165,143 @@ mod tests {
         let m = SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from([1.0, 2.0, -0.5, 1.0]));
         let x = MassFactor::new(m).solve(&SVector::repeat(1.0));
         assert!(x.iter().all(|v| v.is_nan()), "{x}");
+    }
+
+    /// Two spherical joints (N = 6, M = 6) with a clearance far larger than any motion here:
+    /// free flight, ẅ = M̃(t)⁻¹ f̃(t).
+    fn two_balls() -> super::InterfaceModel<crate::SphericalClearance, 6, 2, 6, 6> {
+        let ball = |name: &str| crate::SphericalClearance {
+            name: name.into(),
+            journal_body: lash_mech::BodyId::Body(0),
+            journal_point: lash_spatial::Vec3::zeros(),
+            bearing_body: lash_mech::BodyId::Ground,
+            bearing_point: lash_spatial::Vec3::zeros(),
+            journal_radius: 0.001,
+            bearing_radius: 1.0,
+            law: crate::NormalForce::Power { stiffness: 1e9, exponent: 1.5 },
+            friction: crate::FrictionLaw::Coulomb { coefficient: 0.1 },
+            in_contact: false,
+            onset_velocity: 0.0,
+        };
+        super::InterfaceModel::new(vec![ball("a"), ball("b")])
+    }
+
+    /// A smooth effective mass and force of time (quadratic in t; M̃ positive definite
+    /// throughout, changing by a few % per millisecond like a fast mechanism's).
+    fn smooth_terms(t: f64) -> (SMatrix<f64, 6, 6>, SVector<f64, 6>) {
+        let a = SMatrix::<f64, 6, 6>::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 * 0.1 - 0.2);
+        let b = SMatrix::<f64, 6, 6>::from_fn(|i, j| ((i * 2 + j * 5) % 7) as f64 * 0.1 - 0.3);
+        let m = a * a.transpose() + SMatrix::identity() * 0.5 + b * b.transpose() * (20.0 * t + 2000.0 * t * t);
+        let f = SVector::<f64, 6>::from_fn(|i, _| 10.0 * (i as f64 - 2.5) + 4e3 * t * (i % 3) as f64 - 3e5 * t * t);
+        (m, f)
+    }
+
+    /// ẇ at T of the two balls driven by `smooth_terms` over macro steps of `h_m` (micro steps of
+    /// 1e-5 s), in the effective-mass form and in the mobility form, each from the values at the
+    /// macro nodes as the master sets them (value and the slope to the next node).
+    fn both_forms(h_m: f64, horizon: f64) -> (SVector<f64, 6>, SVector<f64, 6>) {
+        use super::{InstantTerms, MobilityAt};
+        fn run<F: InstantTerms<6, 6>>(h_m: f64, horizon: f64) -> SVector<f64, 6> {
+            let mut model = two_balls();
+            let (h, per) = (1e-5, (h_m / 1e-5).round() as usize);
+            for k in 0..(horizon / h_m).round() as usize {
+                let (t0, t1) = (k as f64 * h_m, (k + 1) as f64 * h_m);
+                let ((m0, f0), (m1, f1)) = (smooth_terms(t0), smooth_terms(t1));
+                let (w0, w1) = (m0.try_inverse().unwrap(), m1.try_inverse().unwrap());
+                model.inputs.effective_mass = m0;
+                model.inputs.effective_mass_rate = (m1 - m0) / h_m;
+                model.inputs.effective_force = f0;
+                model.inputs.effective_force_rate = (f1 - f0) / h_m;
+                let p = &mut model.mobility;
+                p.mobility = w0;
+                p.mobility_rate = (w1 - w0) / h_m;
+                p.free_acceleration = w0 * f0;
+                p.free_acceleration_rate = (w1 * f1 - w0 * f0) / h_m;
+                model.input_time = t0;
+                for i in 0..per {
+                    model.rk4_step_in::<F>(t0 + i as f64 * h, h);
+                }
+            }
+            assert!(model.states.iter().all(|s| s.normal_force == 0.0), "free flight throughout");
+            model.eccentricity_rate
+        }
+        (run::<MassFactor<6>>(h_m, horizon), run::<MobilityAt<6, 6>>(h_m, horizon))
+    }
+
+    /// The same motion from the exact terms (RK4 at 1e-5 s on ẅ = M̃(t)⁻¹ f̃(t), no
+    /// interpolation): the reference both forms converge to.
+    fn exact_rate(horizon: f64) -> SVector<f64, 6> {
+        let a = |t: f64| {
+            let (m, f) = smooth_terms(t);
+            m.lu().solve(&f).unwrap()
+        };
+        let h = 1e-5;
+        let mut v = SVector::<f64, 6>::zeros();
+        for i in 0..(horizon / h).round() as usize {
+            let t = i as f64 * h;
+            // ẅ does not depend on (w, ẇ) in free flight: RK4 in v is Simpson's rule.
+            v += (a(t) + a(t + 0.5 * h) * 4.0 + a(t + h)) * (h / 6.0);
+        }
+        v
+    }
+
+    /// Both forms interpolate between the same exact nodes; inside a macro step they differ by
+    /// O(h_m²), and so do their results after a fixed time: halving h_m quarters both each
+    /// form's error against the exactly driven motion and their difference.
+    #[test]
+    fn the_mobility_form_and_the_effective_mass_form_converge_together_at_second_order() {
+        let horizon = 0.02;
+        let exact = exact_rate(horizon);
+        let (coarse_mass, coarse_mobility) = both_forms(2e-3, horizon);
+        let (fine_mass, fine_mobility) = both_forms(1e-3, horizon);
+        let order = |coarse: f64, fine: f64| (coarse / fine).log2();
+        let (e_mass, e_mobility) = ((coarse_mass - exact).norm(), (coarse_mobility - exact).norm());
+        let (f_mass, f_mobility) = ((fine_mass - exact).norm(), (fine_mobility - exact).norm());
+        let (d_coarse, d_fine) = ((coarse_mass - coarse_mobility).norm(), (fine_mass - fine_mobility).norm());
+        for (what, coarse, fine) in
+            [("mass form", e_mass, f_mass), ("mobility form", e_mobility, f_mobility), ("difference", d_coarse, d_fine)]
+        {
+            let p = order(coarse, fine);
+            eprintln!("{what}: {coarse:e} → {fine:e}, order {p:.3}");
+            assert!((1.8..2.2).contains(&p), "{what}: order {p} ({coarse:e} → {fine:e})");
+        }
+        // Small against the velocity itself (h_m = 1 ms, M̃ changing ~2 % per step).
+        assert!(d_fine < 1e-3 * exact.norm(), "{d_fine:e} vs |ẇ| = {:e}", exact.norm());
+    }
+
+    /// At the nodes the two forms are the same model: for any loads (contact forces and
+    /// friction loads), a_free + W f_c + G L = M̃⁻¹ (f̃ + f_c + H L) at both ends of a step.
+    #[test]
+    fn at_the_nodes_the_mobility_form_gives_the_effective_mass_forms_acceleration() {
+        use super::{InstantTerms, Loads, MobilityAt};
+        let mut model = two_balls();
+        let span = 1e-3;
+        let (m0, f0) = smooth_terms(0.01);
+        let (m1, f1) = smooth_terms(0.01 + span);
+        let h0 = SMatrix::<f64, 6, 6>::from_fn(|i, j| ((i + 2 * j) % 5) as f64 - 2.0);
+        let h1 = h0 * 1.1 + SMatrix::identity() * 0.3;
+        let (w0, w1) = (m0.try_inverse().unwrap(), m1.try_inverse().unwrap());
+        model.input_time = 0.01;
+        let u = &mut model.inputs;
+        (u.effective_mass, u.effective_mass_rate) = (m0, (m1 - m0) / span);
+        (u.effective_force, u.effective_force_rate) = (f0, (f1 - f0) / span);
+        (u.friction_moment_force, u.friction_moment_force_rate) = (h0, (h1 - h0) / span);
+        let p = &mut model.mobility;
+        (p.mobility, p.mobility_rate) = (w0, (w1 - w0) / span);
+        (p.free_acceleration, p.free_acceleration_rate) = (w0 * f0, (w1 * f1 - w0 * f0) / span);
+        (p.friction_mobility, p.friction_mobility_rate) = (w0 * h0, (w1 * h1 - w0 * h0) / span);
+        let loads = Loads {
+            contact: SVector::from_fn(|i, _| 100.0 * (i as f64 - 2.0)),
+            friction: SVector::from_fn(|i, _| if i == 4 { 0.0 } else { 7.0 - 3.0 * i as f64 }),
+        };
+        for t in [0.01, 0.01 + span] {
+            let by_mass = MassFactor::at(&model, t).acceleration(&model, t, &loads);
+            let by_mobility = MobilityAt::at(&model, t).acceleration(&loads);
+            assert!((by_mass - by_mobility).norm() <= 1e-10 * by_mass.norm(), "t = {t}: {by_mass} vs {by_mobility}");
+        }
+        // Between the nodes they differ (the interpolations are not the same model there).
+        let t = 0.01 + 0.5 * span;
+        let by_mass = MassFactor::at(&model, t).acceleration(&model, t, &loads);
+        assert_ne!(by_mass, MobilityAt::at(&model, t).acceleration(&loads));
     }
 }
