@@ -1337,6 +1337,26 @@ struct SignalTable {
     gain_change: Vec<f64>,
     /// The propagated values being summed (one per propagated signal).
     sums: Vec<f64>,
+    /// The instruction set [`SignalTable::fill`] runs in (detected once).
+    arch: pulp::Arch,
+}
+
+/// The arguments of [`SignalTable::fill_in`], run in the instruction set `pulp` dispatches to.
+struct Fill<'a> {
+    table: &'a mut SignalTable,
+    s: f64,
+    loads: &'a [f64],
+    micro: &'a [f64],
+    out: &'a mut [f64],
+}
+
+impl pulp::WithSimd for Fill<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        self.table.fill_in(self.s, self.loads, self.micro, self.out)
+    }
 }
 
 impl SignalTable {
@@ -1359,6 +1379,7 @@ impl SignalTable {
             gain: vec![0.0; p * loads],
             gain_change: vec![0.0; p * loads],
             sums: vec![0.0; p],
+            arch: pulp::Arch::new(),
             micro,
             hermite,
             linear,
@@ -1388,9 +1409,23 @@ impl SignalTable {
     }
 
     /// Every signal at fraction `s` of the prepared macro step, from the loads (contact forces,
-    /// then friction loads) and the micro outputs.
+    /// then friction loads) and the micro outputs. With four propagated signals or more, compiled
+    /// for the baseline and for AVX2 (the CPU's, detected once): the same IEEE operations in
+    /// wider registers and no fused multiply–add, so the bits do not depend on the CPU (E with
+    /// four channels: the fill 5.9 → 4.8 % of the run; with one signal, a sweep of A, the dispatch
+    /// measured ~2 % slower, so fewer signals are filled in the baseline set).
     #[inline]
     fn fill(&mut self, s: f64, loads: &[f64], micro: &[f64], out: &mut [f64]) {
+        if self.propagated.len() < 4 {
+            return self.fill_in(s, loads, micro, out);
+        }
+        let arch = self.arch;
+        arch.dispatch(Fill { table: self, s, loads, micro, out })
+    }
+
+    /// [`SignalTable::fill`] in the instruction set it was dispatched to.
+    #[inline(always)]
+    fn fill_in(&mut self, s: f64, loads: &[f64], micro: &[f64], out: &mut [f64]) {
         for &(at, i) in &self.micro {
             out[at] = micro[i];
         }
@@ -1403,6 +1438,9 @@ impl SignalTable {
         let count = self.propagated.len();
         if count == 0 {
             return;
+        }
+        if count >= 4 {
+            return self.fill_propagated_by_fours(s, loads, out);
         }
         // Equal lengths, written out: the loops then compile to straight vector code.
         let sums = &mut self.sums[..count];
@@ -1419,6 +1457,46 @@ impl SignalTable {
             for p in 0..count {
                 sums[p] += (a[p] + d[p] * s) * load;
             }
+        }
+        for (&(at, _, _), v) in self.propagated.iter().zip(&self.sums) {
+            out[at] = *v;
+        }
+    }
+
+    /// The propagated signals of [`SignalTable::fill_in`], four at a time in fixed-size arrays
+    /// (one vector register each in AVX2), the rest one by one: each signal's sum takes the same
+    /// operations in the same order as one by one, so the bits are the same. The loop over any
+    /// count of signals spent ~1 100 instructions per sample on E's four channels and twelve
+    /// loads (its bookkeeping, not its arithmetic).
+    #[inline(always)]
+    fn fill_propagated_by_fours(&mut self, s: f64, loads: &[f64], out: &mut [f64]) {
+        let count = self.propagated.len();
+        let (free, free_change) = (&self.free[..count], &self.free_change[..count]);
+        let loads = &loads[..self.loads];
+        let whole = count - count % 4;
+        for first in (0..whole).step_by(4) {
+            let mut sums: [f64; 4] = std::array::from_fn(|q| free[first + q] + free_change[first + q] * s);
+            for (c, &load) in loads.iter().enumerate() {
+                if load == 0.0 {
+                    continue;
+                }
+                let at = c * count + first;
+                let a: &[f64; 4] = self.gain[at..at + 4].try_into().expect("four gains");
+                let d: &[f64; 4] = self.gain_change[at..at + 4].try_into().expect("four changes");
+                for q in 0..4 {
+                    sums[q] += (a[q] + d[q] * s) * load;
+                }
+            }
+            self.sums[first..first + 4].copy_from_slice(&sums);
+        }
+        for p in whole..count {
+            let mut sum = free[p] + free_change[p] * s;
+            for (c, &load) in loads.iter().enumerate() {
+                if load != 0.0 {
+                    sum += (self.gain[c * count + p] + self.gain_change[c * count + p] * s) * load;
+                }
+            }
+            self.sums[p] = sum;
         }
         for (&(at, _, _), v) in self.propagated.iter().zip(&self.sums) {
             out[at] = *v;
