@@ -164,11 +164,6 @@ impl<'a> Recorder<'a> {
     }
 }
 
-thread_local! {
-    /// The instruction set detected once per thread.
-    static ARCH: pulp::Arch = pulp::Arch::new();
-}
-
 /// Running statistics of every channel (min, max, Σv, Σv²): the planar and spatial
 /// runners' one accumulator, full and reduced. Kept as one array per statistic, so that adding a
 /// sample is four passes the compiler vectorises (52 channels at every micro step of the spatial
@@ -179,6 +174,8 @@ pub(crate) struct RunningStats {
     max: Vec<f64>,
     sum: Vec<f64>,
     squares: Vec<f64>,
+    /// The instruction set [`RunningStats::add`] runs in (detected once).
+    arch: pulp::Arch,
 }
 
 impl RunningStats {
@@ -189,6 +186,7 @@ impl RunningStats {
             max: vec![f64::NEG_INFINITY; channels],
             sum: vec![0.0; channels],
             squares: vec![0.0; channels],
+            arch: pulp::Arch::new(),
         }
     }
 
@@ -208,7 +206,8 @@ impl RunningStats {
                 self.0.add_in(self.1)
             }
         }
-        ARCH.with(|arch| arch.dispatch(Add(self, values)))
+        let arch = self.arch;
+        arch.dispatch(Add(self, values))
     }
 
     /// [`RunningStats::add`] in the instruction set it was dispatched to.

@@ -392,8 +392,8 @@ pub(super) trait InstantTerms<const N: usize, const M: usize>: Sized {
     ) -> SVector<f64, N>;
     /// The terms kept at a step's end for the next step's start, if this form keeps them.
     fn kept(end: &StepEnd<N, M>) -> Option<&Self>;
-    /// Keeps the terms at a step's end (a form that keeps nothing leaves `end` as it is).
-    fn keep(self, end: &mut MassFactor<N>);
+    /// Keeps the terms in a step's end (a form that keeps nothing leaves it as it is).
+    fn keep(self, end: &mut StepEnd<N, M>);
 }
 
 impl<const N: usize, const M: usize> InstantTerms<N, M> for MassFactor<N> {
@@ -422,8 +422,8 @@ impl<const N: usize, const M: usize> InstantTerms<N, M> for MassFactor<N> {
         Some(&end.mass)
     }
     #[inline(always)]
-    fn keep(self, end: &mut MassFactor<N>) {
-        *end = self;
+    fn keep(self, end: &mut StepEnd<N, M>) {
+        end.mass = self;
     }
 }
 
@@ -453,7 +453,7 @@ impl<const N: usize, const M: usize> InstantTerms<N, M> for MobilityAt<N, M> {
         None
     }
     #[inline(always)]
-    fn keep(self, _end: &mut MassFactor<N>) {}
+    fn keep(self, _end: &mut StepEnd<N, M>) {}
 }
 
 /// One joint's state (and its damped bush's deflection rate, 0 when `damped` is false) from
@@ -866,13 +866,13 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                 e.eccentricity = e1;
                 e.eccentricity_rate = v1;
                 e.loads = end;
-                finish.keep(&mut e.mass);
+                finish.keep(e);
             }
             None => {
-                let mut mass = MassFactor::NONE;
-                finish.keep(&mut mass);
-                self.end =
-                    Some(StepEnd { time: t + h, input_time, eccentricity: e1, eccentricity_rate: v1, loads: end, mass })
+                let (eccentricity, eccentricity_rate, mass) = (e1, v1, MassFactor::NONE);
+                let mut first = StepEnd { time: t + h, input_time, eccentricity, eccentricity_rate, loads: end, mass };
+                finish.keep(&mut first);
+                self.end = Some(first);
             }
         }
     }
