@@ -308,28 +308,41 @@ impl Joint {
         }
     }
 
-    /// The contact state of every lane at (e, ė) with the bodies' angular velocities, each lane in
-    /// its mode (`in_contact`, `onset`): [`ClearanceJoint::evaluate_relative_as`] as the micro
-    /// model calls it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where
-    /// they first indent.
+    /// The gated loads of a stage at (e, ė) ([`Joint::contact`], [`gated`]).
     #[inline(always)]
-    fn evaluate(
+    fn stage(&self, (ex, ey, vx, vy): (&V, &V, &V, &V), w: (&V, &V), in_contact: &[bool; L], onset: &V) -> Stage {
+        let (ex, ey) = (x(ex), x(ey));
+        let contact = self.contact((ex, ey, x(vx), x(vy)), self.geometry(ex, ey), w, in_contact, onset);
+        gated(&contact, &self.clearance)
+    }
+
+    /// |e| and the penetration δ = |e| − c of every lane at the eccentricity (ex, ey).
+    #[inline(always)]
+    fn geometry(&self, ex: X, ey: X) -> (X, X) {
+        let norm = (ex * ex + ey * ey).sqrt();
+        (norm, norm - x(&self.clearance))
+    }
+
+    /// The contact of every lane at (e, ė) with the bodies' angular velocities, each lane in its
+    /// mode (`in_contact`, `onset`): [`ClearanceJoint::evaluate_relative_as`] as the micro model
+    /// calls it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where they
+    /// first indent. `geometry` is [`Joint::geometry`] at e. Kept in registers: a stage of the
+    /// step reads only its loads ([`gated`]), the step end is stored whole ([`Contact::store`]).
+    #[inline(always)]
+    fn contact(
         &self,
-        (ex, ey, vx, vy): (&V, &V, &V, &V),
+        (ex, ey, u, v): (X, X, X, X),
+        (norm, delta): (X, X),
         (wj, wb): (&V, &V),
         in_contact: &[bool; L],
         onset: &V,
-        out: &mut States,
-    ) {
+    ) -> Contact {
         let (zero, one, sign_bit) = (X::ZERO, X::ONE, X::splat(-0.0));
-        let (ex_, ey_, u, v) = (x(ex), x(ey), x(vx), x(vy));
-        let norm = (ex_ * ex_ + ey_ * ey_).sqrt();
         let positive = norm.simd_gt(zero);
-        let nx = positive.select(ex_ / norm, one);
-        let ny = positive.select(ey_ / norm, zero);
+        let nx = positive.select(ex / norm, one);
+        let ny = positive.select(ey / norm, zero);
         // t = (−n_y, n_x).
         let tx = ny ^ sign_bit;
-        let delta = norm - x(&self.clearance);
         let delta_dot = u * nx + v * ny;
         let slip = (u * tx + v * nx) + x(wj) * x(&self.journal_radius) - x(wb) * x(&self.bearing_radius);
         // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
@@ -353,18 +366,56 @@ impl Joint {
             }
         };
         let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
-        out.ex = *ex;
-        out.ey = *ey;
-        out.norm = norm.into();
-        out.nx = nx.into();
-        out.ny = ny.into();
-        out.delta = delta.into();
-        out.delta_dot = delta_dot.into();
-        out.slip = slip.into();
-        out.normal_force = normal.into();
-        out.friction_force = tangential.into();
-        out.fx = (((nx * normal) ^ sign_bit) - tx * tangential).into();
-        out.fy = (((ny * normal) ^ sign_bit) - nx * tangential).into();
+        Contact {
+            ex,
+            ey,
+            norm,
+            nx,
+            ny,
+            delta,
+            delta_dot,
+            slip,
+            normal,
+            tangential,
+            fx: ((nx * normal) ^ sign_bit) - tx * tangential,
+            fy: ((ny * normal) ^ sign_bit) - nx * tangential,
+        }
+    }
+}
+
+/// The contact of every lane at one state ([`Joint::contact`]).
+#[derive(Clone, Copy)]
+struct Contact {
+    ex: X,
+    ey: X,
+    norm: X,
+    nx: X,
+    ny: X,
+    delta: X,
+    delta_dot: X,
+    slip: X,
+    normal: X,
+    tangential: X,
+    fx: X,
+    fy: X,
+}
+
+impl Contact {
+    /// As the lanes' contact states.
+    #[inline(always)]
+    fn store(&self, out: &mut States) {
+        out.ex = self.ex.into();
+        out.ey = self.ey.into();
+        out.norm = self.norm.into();
+        out.nx = self.nx.into();
+        out.ny = self.ny.into();
+        out.delta = self.delta.into();
+        out.delta_dot = self.delta_dot.into();
+        out.slip = self.slip.into();
+        out.normal_force = self.normal.into();
+        out.friction_force = self.tangential.into();
+        out.fx = self.fx.into();
+        out.fy = self.fy.into();
     }
 }
 
@@ -416,16 +467,16 @@ impl Inputs {
     }
 }
 
-/// The loads of a contact state with the micro model's gate: nothing for a lane whose journal is
+/// The loads of a contact with the micro model's gate: nothing for a lane whose journal is
 /// inside its clearance (|e|² ≤ c², `loads_at`).
 #[inline(always)]
-fn gated(s: &States, clearance: &V) -> Stage {
-    let (ex, ey, c) = (x(&s.ex), x(&s.ey), x(clearance));
-    let outside = (ex * ex + ey * ey).simd_gt(c * c);
+fn gated(c: &Contact, clearance: &V) -> Stage {
+    let (ex, ey, r) = (c.ex, c.ey, x(clearance));
+    let outside = (ex * ex + ey * ey).simd_gt(r * r);
     Stage {
-        fx: outside.select(x(&s.fx), X::ZERO).into(),
-        fy: outside.select(x(&s.fy), X::ZERO).into(),
-        friction: outside.select(x(&s.friction_force), X::ZERO).into(),
+        fx: outside.select(c.fx, X::ZERO).into(),
+        fy: outside.select(c.fy, X::ZERO).into(),
+        friction: outside.select(c.tangential, X::ZERO).into(),
     }
 }
 
@@ -548,15 +599,27 @@ pub fn advance(
     record: &[bool],
     sample: impl FnMut(usize, usize, &OneJoint),
 ) -> [LaneOutcome; L] {
-    // Compiled for the baseline and AVX2 (pulp detects the CPU's features once): the same IEEE
-    // operations in wider registers, and no fused multiply–add (Rust never fuses a product and a
-    // sum by itself), so the bits do not depend on the CPU. (pulp's AVX-512 level is left off: it
-    // would also switch faer's kernels, and with them the bits of the bush's finite-element
-    // results, on AVX-512 machines.)
-    pulp::Arch::new().dispatch(
-        #[inline(always)]
-        || advance_lanes(models, friction, t, step, record, sample),
-    )
+    advance_dispatched(models, friction, t, step, record, sample)
+}
+
+/// [`advance_lanes`] compiled for the baseline, AVX2 and AVX-512 (`multiversion` detects the CPU's
+/// features once and calls the widest copy it has): the same IEEE operations in wider registers,
+/// and no fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do not
+/// depend on the CPU. With AVX-512 the eight lanes fill one register instead of two, and 32
+/// registers hold what 16 spilled to the stack: ~8 % of a sweep's time. (Only this function: pulp's
+/// AVX-512 level, which the other dispatched loops use for AVX2, is a switch for the whole build
+/// that would also move faer's kernels, and with them the last bits of the bush's finite-element
+/// results, on AVX-512 machines.)
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
+fn advance_dispatched(
+    models: &mut [&mut OneJoint; L],
+    friction: LaneFriction,
+    t: [Ticks; L],
+    step: Ticks,
+    record: &[bool],
+    sample: impl FnMut(usize, usize, &OneJoint),
+) -> [LaneOutcome; L] {
+    advance_lanes(models, friction, t, step, record, sample)
 }
 
 /// [`advance`] in the instruction set it was dispatched to.
@@ -610,7 +673,6 @@ fn advance_lanes(
     let penetration_limit: V = std::array::from_fn(|l| 0.1 * models[l].joints[0].journal_radius);
     let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
     let mut onset: V = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
-    let mut stage = kept.states;
     // (The lanes of a sweep share their time: one conversion per step.)
     let shared = t.iter().all(|&x| x == t[0]);
     for (i, &flag) in record.iter().enumerate() {
@@ -663,18 +725,15 @@ fn advance_lanes(
         let along = |a: &V, b: &V, f: f64| -> V { (x(a) + x(b) * X::splat(f)).into() };
         let (k2ex, k2ey) = (along(&v0x, &k1x, 0.5 * h), along(&v0y, &k1y, 0.5 * h));
         let (s2x, s2y) = (along(&e0x, &v0x, 0.5 * h), along(&e0y, &v0y, 0.5 * h));
-        joint.evaluate((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), &in_contact, &onset, &mut stage);
-        let l2 = gated(&stage, &joint.clearance);
+        let l2 = joint.stage((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), &in_contact, &onset);
         let (k2x, k2y) = inputs.acceleration(&dt_half, &middle, &l2);
         let (k3ex, k3ey) = (along(&v0x, &k2x, 0.5 * h), along(&v0y, &k2y, 0.5 * h));
         let (s3x, s3y) = (along(&e0x, &k2ex, 0.5 * h), along(&e0y, &k2ey, 0.5 * h));
-        joint.evaluate((&s3x, &s3y, &k3ex, &k3ey), (&w_half.0, &w_half.1), &in_contact, &onset, &mut stage);
-        let l3 = gated(&stage, &joint.clearance);
+        let l3 = joint.stage((&s3x, &s3y, &k3ex, &k3ey), (&w_half.0, &w_half.1), &in_contact, &onset);
         let (k3x, k3y) = inputs.acceleration(&dt_half, &middle, &l3);
         let (k4ex, k4ey) = (along(&v0x, &k3x, h), along(&v0y, &k3y, h));
         let (s4x, s4y) = (along(&e0x, &k3ex, h), along(&e0y, &k3ey, h));
-        joint.evaluate((&s4x, &s4y, &k4ex, &k4ey), (&w_end.0, &w_end.1), &in_contact, &onset, &mut stage);
-        let l4 = gated(&stage, &joint.clearance);
+        let l4 = joint.stage((&s4x, &s4y, &k4ex, &k4ey), (&w_end.0, &w_end.1), &in_contact, &onset);
         let (k4x, k4y) = inputs.acceleration(&dt_end, &finish, &l4);
         let sixth = h / 6.0;
         let combine = |y0: &V, a: &V, b: &V, c: &V, d: &V| -> V {
@@ -688,7 +747,9 @@ fn advance_lanes(
         ];
         let friction_impulse = combine(&kept.friction_impulse, &l1.friction, &l2.friction, &l3.friction, &l4.friction);
         // Mode switches (rare), lane by lane through the model's own code.
-        let closed = ((x(&e1x) * x(&e1x) + x(&e1y) * x(&e1y)).sqrt() - x(&joint.clearance)).simd_gt(X::ZERO);
+        // (|e| and δ at the step end do not depend on the mode: computed once, before the switch.)
+        let end_geometry = joint.geometry(x(&e1x), x(&e1y));
+        let closed = end_geometry.1.simd_gt(X::ZERO);
         let switching = (closed ^ mask(&in_contact)).to_bitmask();
         for l in 0..L {
             if switching >> l & 1 == 0 || !running[l] || by_model[l] {
@@ -706,7 +767,15 @@ fn advance_lanes(
             onset[l] = m.joints[0].onset_velocity;
         }
         // The step end's contact state (not gated), then the impact trackers.
-        joint.evaluate((&e1x, &e1y, &v1x, &v1y), (&w_end.0, &w_end.1), &in_contact, &onset, &mut stage);
+        let end = joint.contact(
+            (x(&e1x), x(&e1y), x(&v1x), x(&v1y)),
+            end_geometry,
+            (&w_end.0, &w_end.1),
+            &in_contact,
+            &onset,
+        );
+        end.store(&mut kept.states);
+        let stage = &kept.states;
         let end_time: V = (x(&now) + X::splat(h)).into();
         for l in 0..L {
             if running[l]
@@ -721,10 +790,9 @@ fn advance_lanes(
         (kept.ex, kept.ey, kept.vx, kept.vy) = (e1x, e1y, v1x, v1y);
         (kept.impulse, kept.friction_impulse) = (impulse, friction_impulse);
         kept.end_time = end_time;
-        kept.end_loads = Stage { fx: stage.fx, fy: stage.fy, friction: stage.friction_force };
+        kept.end_loads = Stage { fx: end.fx.into(), fy: end.fy.into(), friction: end.tangential.into() };
         kept.end_mass = finish;
         kept.end_inputs = [true; L];
-        kept.states = stage;
         // Lanes stepped by their models come back into the lanes.
         for l in 0..L {
             if running[l] && by_model[l] {
@@ -832,22 +900,25 @@ mod tests {
         if x == y { String::new() } else { format!("lanes {x}\nmodel {y}") }
     }
 
-    /// Eight lanes of different joints, laws and inputs, stepped through 120 intervals of 100
-    /// steps (contact, sliding, free flights and impacts), equal the models stepped one by one,
-    /// bit for bit: states, impulses, modes, impacts and every sampled state.
-    /// The instruction sets [`advance`] is compiled for that this CPU has.
-    fn instruction_sets() -> Vec<(&'static str, pulp::Arch)> {
+    /// The instruction sets [`advance`] is compiled for that this CPU has: the baseline and AVX2
+    /// through pulp's dispatch, and `advance` itself (its widest copy this CPU runs: AVX-512 on
+    /// CPUs with Ice Lake's AVX-512 extensions and later).
+    fn instruction_sets() -> Vec<(&'static str, Option<pulp::Arch>)> {
         #[allow(unused_mut)]
-        let mut sets = vec![("baseline", pulp::Arch::Scalar)];
+        let mut sets = vec![("baseline", Some(pulp::Arch::Scalar))];
         #[cfg(target_arch = "x86_64")]
         {
             if let Some(s) = pulp::x86::V3::try_new() {
-                sets.push(("AVX2", pulp::Arch::V3(s)));
+                sets.push(("AVX2", Some(pulp::Arch::V3(s))));
             }
         }
+        sets.push(("advance's own dispatch", None));
         sets
     }
 
+    /// Eight lanes of different joints, laws and inputs, stepped through 120 intervals of 100
+    /// steps (contact, sliding, free flights and impacts), equal the models stepped one by one,
+    /// bit for bit: states, impulses, modes, impacts and every sampled state.
     #[test]
     fn lanes_equal_the_models_stepped_one_by_one_bit_for_bit() {
         for (name, arch) in instruction_sets() {
@@ -856,7 +927,7 @@ mod tests {
         }
     }
 
-    fn lanes_equal_the_models_on(arch: pulp::Arch) {
+    fn lanes_equal_the_models_on(arch: Option<pulp::Arch>) {
         let step = Ticks::from_seconds(1e-5).unwrap();
         let h = step.seconds();
         let mut lanes: Vec<OneJoint> = (0..L).map(|l| InterfaceModel::new(vec![joint(l)])).collect();
@@ -889,10 +960,13 @@ mod tests {
             let mut group: [&mut OneJoint; L] =
                 lanes.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("L models"));
             let sample = |l: usize, i: usize, m: &OneJoint| got[l].push(format!("{i} {:?}", m.states[0]));
-            let outcome = arch.dispatch(
-                #[inline(always)]
-                || advance_lanes(&mut group, friction, [t0; L], step, &record, sample),
-            );
+            let outcome = match arch {
+                Some(arch) => arch.dispatch(
+                    #[inline(always)]
+                    || advance_lanes(&mut group, friction, [t0; L], step, &record, sample),
+                ),
+                None => advance(&mut group, friction, [t0; L], step, &record, sample),
+            };
             for l in 0..L {
                 assert!(outcome[l].is_ok(), "lane {l}: {:?}", outcome[l]);
                 assert_eq!(got[l], expected[l], "interval {k}, lane {l}: samples");
