@@ -44,6 +44,8 @@ pub enum MechError {
 pub struct Solver {
     /// Body poses of the current state.
     pub poses: Vec<Pose>,
+    /// The sines and cosines of the last poses' angles.
+    rotations: constraints::Rotations,
     /// Φ_q by rows (sparse body blocks).
     pub jacobian: Vec<JacobianRow>,
     /// Φ at the current state.
@@ -191,6 +193,7 @@ impl Solver {
         let structure = Structure { fixed, free_rows, pairs, free_inverse_mass, offsets };
         Self {
             poses: vec![Pose::GROUND; mech.bodies.len()],
+            rotations: constraints::Rotations::new(mech.bodies.len()),
             jacobian: vec![[Block::EMPTY; 2]; m],
             phi: vec![0.0; m],
             nu: vec![0.0; m],
@@ -222,7 +225,7 @@ impl Solver {
     /// Evaluates poses, constraint terms and the applied forces (gravity, loads) at `(t, q, q̇)`.
     pub fn set_state(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
         self.time = t;
-        constraints::fill_poses(q, qd, &mut self.poses);
+        constraints::fill_poses_reusing(q, qd, &mut self.poses, &mut self.rotations);
         constraints::evaluate(
             mech,
             t,

