@@ -1209,7 +1209,7 @@ impl<'a> InterfaceMaster<'a> {
             for (i, (lane, m)) in lanes.iter_mut().zip(masters.iter_mut()).enumerate() {
                 let Some(l) = lane else { continue };
                 l.p.stats.macro_seconds += share;
-                let prepared = (|| -> Result<(), MasterError> {
+                let prepared = {
                     let w = Window {
                         prev: l.prev.as_deref(),
                         a: &l.window[0],
@@ -1220,7 +1220,7 @@ impl<'a> InterfaceMaster<'a> {
                     l.p.table.prepare(&w);
                     l.p.index.fill(&w, kind, 0.0, &mut l.inputs);
                     m.micro_sub.set_f64(&l.p.micro_inputs, &l.inputs).map_err(micro_err)
-                })();
+                };
                 if let Err(e) = prepared {
                     results[i] = Some(Self::ended(e, &mut l.p.stats));
                     *lane = None;
