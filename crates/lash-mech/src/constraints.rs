@@ -47,6 +47,16 @@ pub fn fill_poses(q: &[f64], qd: &[f64], poses: &mut [Pose]) {
 pub struct Rotations(Vec<(u64, f64, f64)>);
 
 impl Rotations {
+    /// Takes `other`'s known sines and cosines (each stays tied to its angle's bits, so any
+    /// solver's serve), when both have as many bodies.
+    pub fn take_from(&mut self, other: &Rotations) {
+        if self.0.len() == other.0.len() {
+            self.0.copy_from_slice(&other.0);
+        }
+    }
+}
+
+impl Rotations {
     /// For `bodies` bodies, none known yet.
     pub fn new(bodies: usize) -> Self {
         // (A NaN angle is always recomputed, so no angle matches these entries.)

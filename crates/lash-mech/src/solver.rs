@@ -217,6 +217,13 @@ impl Solver {
         }
     }
 
+    /// Takes the sines and cosines `other` knows (of the same bodies, e.g. the ideal mechanism's
+    /// solver for the cut one's at the same position: its next [`Solver::set_state`] then
+    /// computes none).
+    pub fn share_rotations(&mut self, other: &Solver) {
+        self.rotations.take_from(&other.rotations);
+    }
+
     /// Diagonal of M⁻¹ (per coordinate).
     pub fn inverse_mass(&self) -> &[f64] {
         &self.inverse_mass

@@ -516,6 +516,8 @@ impl MechanismSubsystem {
         let (k, n) = (self.joints.len(), 2 * self.joints.len());
         let mut terms =
             self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
+        // (The ideal mechanism's solver was last set at this position: its sines and cosines serve.)
+        self.cut_solver.share_rotations(&self.ideal_solver);
         coupled_effective_terms_into(&self.cut, &mut self.cut_solver, &self.joints, t, &self.q, &self.qd, &mut terms)
             .map_err(|e| e.to_string())?;
         let Some(mass) = terms.effective_mass.as_ref() else {
