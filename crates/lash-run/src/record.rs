@@ -174,8 +174,13 @@ pub(crate) struct RunningStats {
     max: Vec<f64>,
     sum: Vec<f64>,
     squares: Vec<f64>,
-    /// The instruction set [`RunningStats::add`] runs in (detected once).
-    arch: pulp::Arch,
+}
+
+/// [`RunningStats::add_in`] compiled for the baseline, AVX2 and AVX-512 (`multiversion` detects
+/// the CPU's features once and calls the widest copy).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
+fn add_dispatched(stats: &mut RunningStats, values: &[f64]) {
+    stats.add_in(values)
 }
 
 impl RunningStats {
@@ -186,28 +191,18 @@ impl RunningStats {
             max: vec![f64::NEG_INFINITY; channels],
             sum: vec![0.0; channels],
             squares: vec![0.0; channels],
-            arch: pulp::Arch::new(),
         }
     }
 
-    /// Adds one sample (one value per channel). With many channels, compiled for the baseline
-    /// and for AVX2 (detected once): the same IEEE operations four channels per instruction, so
-    /// the same bits on any CPU.
+    /// Adds one sample (one value per channel). With many channels, compiled for the baseline,
+    /// AVX2 and AVX-512 (detected once): the same IEEE operations four or eight channels per
+    /// instruction, so the same bits on any CPU.
     #[inline]
     pub(crate) fn add(&mut self, values: &[f64]) {
         if self.min.len() < 8 {
             return self.add_in(values);
         }
-        struct Add<'a>(&'a mut RunningStats, &'a [f64]);
-        impl pulp::WithSimd for Add<'_> {
-            type Output = ();
-            #[inline(always)]
-            fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                self.0.add_in(self.1)
-            }
-        }
-        let arch = self.arch;
-        arch.dispatch(Add(self, values))
+        add_dispatched(self, values)
     }
 
     /// [`RunningStats::add`] in the instruction set it was dispatched to.

@@ -70,7 +70,7 @@ type V = [f64; L];
 /// The lanes as one value: IEEE operations lane by lane, correctly rounded, so each lane gets the
 /// bits the scalar code gets. Written as plain loops over the lanes that the compiler turns into
 /// vector instructions of whatever width the CPU offers: [`advance`] runs in a copy compiled for
-/// AVX2 where the CPU has it (chosen at run time), else for the baseline (SSE2 pairs).
+/// AVX-512 or AVX2 where the CPU has it (chosen at run time), else for the baseline (SSE2 pairs).
 type X = vector::F64x8;
 
 mod vector {
@@ -606,10 +606,11 @@ pub fn advance(
 /// features once and calls the widest copy it has): the same IEEE operations in wider registers,
 /// and no fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do not
 /// depend on the CPU. With AVX-512 the eight lanes fill one register instead of two, and 32
-/// registers hold what 16 spilled to the stack: ~8 % of a sweep's time. (Only this function: pulp's
-/// AVX-512 level, which the other dispatched loops use for AVX2, is a switch for the whole build
-/// that would also move faer's kernels, and with them the last bits of the bush's finite-element
-/// results, on AVX-512 machines.)
+/// registers hold what 16 spilled to the stack: ~8 % of a sweep's time. (`multiversion` because it
+/// compiles this function alone for AVX-512: pulp's AVX-512 level is a switch for the whole build
+/// that also moves faer's kernels, and with them the last bits of the bush's finite-element
+/// results, on AVX-512 machines. It takes AVX-512 only on CPUs with Ice Lake's extensions and
+/// later, where it does not slow the clock.)
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
 fn advance_dispatched(
     models: &mut [&mut OneJoint; L],

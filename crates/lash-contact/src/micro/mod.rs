@@ -289,35 +289,28 @@ fn rk4_recorded<J: MicroJoint, const N: usize, const K: usize, const M: usize, c
         // below, with the step inlined, measured 3 % slower on scenario A).
         return rk4_recorded_in::<J, N, K, M, R, false>(m, t, step, record, context, refs, width, rows);
     }
-    // Larger models: the loop with the step inlined, compiled for the baseline and for AVX2
-    // (pulp detects the CPU's features once): the same IEEE operations in wider registers and no
-    // fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do not
-    // depend on the CPU. E's micro part: 22.6 → 19.6 ms, two planar joints (C) 9 % faster.
-    pulp::Arch::new().dispatch(Recorded { m, t, step, record, context, refs, width, rows })
+    // Larger models: the loop with the step inlined, compiled for the baseline, AVX2 and AVX-512
+    // (multiversion detects the CPU's features once): the same IEEE operations in wider registers
+    // and no fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do
+    // not depend on the CPU. E's micro part: 22.6 → 19.6 ms in AVX2, two planar joints (C) 9 %
+    // faster; AVX-512 (32 registers) took E with four channels from 21.5–21.6 to 20.9–21.0 ms.
+    rk4_recorded_dispatched(m, t, step, record, context, refs, width, rows)
 }
 
-/// The arguments of [`rk4_recorded_in`], run in the instruction set `pulp` dispatches to.
-struct Recorded<'a, J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> {
-    m: &'a mut InterfaceModel<J, N, K, M, R>,
+/// [`rk4_recorded_in`] with the step inlined, in the widest instruction set the CPU has.
+#[allow(clippy::too_many_arguments)]
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
+fn rk4_recorded_dispatched<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    m: &mut InterfaceModel<J, N, K, M, R>,
     t: Ticks,
     step: Ticks,
-    record: &'a [bool],
-    context: (u64, &'a [f64], &'a [usize]),
-    refs: &'a [ValueReference],
+    record: &[bool],
+    context: (u64, &[f64], &[usize]),
+    refs: &[ValueReference],
     width: usize,
-    rows: &'a mut [f64],
-}
-
-impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> pulp::WithSimd
-    for Recorded<'_, J, N, K, M, R>
-{
-    type Output = Result<(), (usize, f64, String)>;
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
-        let Self { m, t, step, record, context, refs, width, rows } = self;
-        rk4_recorded_in::<J, N, K, M, R, true>(m, t, step, record, context, refs, width, rows)
-    }
+    rows: &mut [f64],
+) -> Result<(), (usize, f64, String)> {
+    rk4_recorded_in::<J, N, K, M, R, true>(m, t, step, record, context, refs, width, rows)
 }
 
 /// [`rk4_recorded`]'s loop, with the step inlined (`INLINE`) or called.
