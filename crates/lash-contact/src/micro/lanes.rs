@@ -591,28 +591,18 @@ impl Kept {
 /// `sample(lane, step index, model)` for every lane still running, in lane order. Like the
 /// model's own loop, each lane's penetration is checked after each step; a lane that fails stops
 /// there (its outcome says where), the others go on.
-pub fn advance(
-    models: &mut [&mut OneJoint; L],
-    friction: LaneFriction,
-    t: [Ticks; L],
-    step: Ticks,
-    record: &[bool],
-    sample: impl FnMut(usize, usize, &OneJoint),
-) -> [LaneOutcome; L] {
-    advance_dispatched(models, friction, t, step, record, sample)
-}
-
-/// [`advance_lanes`] compiled for the baseline, AVX2 and AVX-512 (`multiversion` detects the CPU's
-/// features once and calls the widest copy it has): the same IEEE operations in wider registers,
-/// and no fused multiply–add (Rust never fuses a product and a sum by itself), so the bits do not
-/// depend on the CPU. With AVX-512 the eight lanes fill one register instead of two, and 32
-/// registers hold what 16 spilled to the stack: ~8 % of a sweep's time. (`multiversion` because it
-/// compiles this function alone for AVX-512: pulp's AVX-512 level is a switch for the whole build
-/// that also moves faer's kernels, and with them the last bits of the bush's finite-element
-/// results, on AVX-512 machines. It takes AVX-512 only on CPUs with Ice Lake's extensions and
-/// later, where it does not slow the clock.)
+///
+/// Compiled for the baseline, AVX2 and AVX-512 (`multiversion` detects the CPU's features once
+/// and calls the widest copy it has): the same IEEE operations in wider registers, and no fused
+/// multiply–add (Rust never fuses a product and a sum by itself), so the bits do not depend on the
+/// CPU. With AVX-512 the eight lanes fill one register instead of two, and 32 registers hold what
+/// 16 spilled to the stack: ~8 % of a sweep's time. (`multiversion` because it compiles this
+/// function alone for AVX-512: pulp's AVX-512 level is a switch for the whole build that also
+/// moves faer's kernels, and with them the last bits of the bush's finite-element results, on
+/// AVX-512 machines. It takes AVX-512 only on CPUs with Ice Lake's extensions and later, where it
+/// does not slow the clock.)
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
-fn advance_dispatched(
+pub fn advance(
     models: &mut [&mut OneJoint; L],
     friction: LaneFriction,
     t: [Ticks; L],
