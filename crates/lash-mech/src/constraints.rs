@@ -34,19 +34,18 @@ pub fn pose_of(poses: &[Pose], id: BodyId) -> Pose {
     }
 }
 
-/// Fills `poses` (one per moving body) from coordinates and velocities.
-pub fn fill_poses(q: &[f64], qd: &[f64], poses: &mut [Pose]) {
-    for (k, p) in poses.iter_mut().enumerate() {
-        *p = Pose::of(BodyId::Body(k), q, qd);
-    }
-}
-
-/// The sine and cosine of each body's angle at the last [`fill_poses_reusing`], with the angle
-/// they belong to.
+/// The sine and cosine of each body's angle at the last [`fill_poses`], with the angle they
+/// belong to.
 #[derive(Debug, Clone)]
 pub struct Rotations(Vec<(u64, f64, f64)>);
 
 impl Rotations {
+    /// For `bodies` bodies, none known yet.
+    pub fn new(bodies: usize) -> Self {
+        // (A NaN angle is always recomputed, so no angle matches these entries.)
+        Self(vec![(f64::NAN.to_bits(), f64::NAN, f64::NAN); bodies])
+    }
+
     /// Takes `other`'s known sines and cosines (each stays tied to its angle's bits, so any
     /// solver's serve), when both have as many bodies.
     pub fn take_from(&mut self, other: &Rotations) {
@@ -56,19 +55,12 @@ impl Rotations {
     }
 }
 
-impl Rotations {
-    /// For `bodies` bodies, none known yet.
-    pub fn new(bodies: usize) -> Self {
-        // (A NaN angle is always recomputed, so no angle matches these entries.)
-        Self(vec![(f64::NAN.to_bits(), f64::NAN, f64::NAN); bodies])
-    }
-}
-
-/// [`fill_poses`], taking the sine and cosine of an angle whose bits have not changed since the
-/// last call from `rotations` (the same numbers: `sin_cos` of the same argument). In a position
-/// analysis a driven angle is exact after the first Newton correction and keeps its bits in
-/// every later iteration; `sin_cos` was ~4 % of a sweep of scenario A.
-pub fn fill_poses_reusing(q: &[f64], qd: &[f64], poses: &mut [Pose], rotations: &mut Rotations) {
+/// Fills `poses` (one per moving body, as [`Pose::of`]) from coordinates and velocities, taking the
+/// sine and cosine of an angle whose bits have not changed since the last call from `rotations`
+/// (the same numbers: `sin_cos` of the same argument). In a position analysis a driven angle is
+/// exact after the first Newton correction and keeps its bits in every later iteration; `sin_cos`
+/// was ~4 % of a sweep of scenario A.
+pub fn fill_poses(q: &[f64], qd: &[f64], poses: &mut [Pose], rotations: &mut Rotations) {
     for (k, (p, r)) in poses.iter_mut().zip(rotations.0.iter_mut()).enumerate() {
         let angle = q[3 * k + 2];
         if angle.to_bits() != r.0 || angle.is_nan() {
@@ -172,24 +164,23 @@ pub fn evaluate(mech: &Mechanism, t: f64, poses: &[Pose], out: ConstraintTerms<'
 mod tests {
     use super::*;
 
-    /// Reused sines and cosines are those `fill_poses` computes, bit for bit, through repeated,
+    /// Reused sines and cosines are those `Pose::of` computes, bit for bit, through repeated,
     /// changed, signed-zero and NaN angles.
     #[test]
     fn reused_rotations_equal_fresh_ones() {
         let angles = [0.3, 0.3, -0.0, 0.0, 0.0, f64::NAN, f64::NAN, 2.0, 0.3, 1e-300, 1e-300];
         let mut rotations = Rotations::new(2);
-        let (mut reused, mut fresh) = (vec![Pose::GROUND; 2], vec![Pose::GROUND; 2]);
+        let mut reused = vec![Pose::GROUND; 2];
         for (i, &a) in angles.iter().enumerate() {
             let q = [1.0, 2.0, a, 3.0, 4.0, angles[(i + 3) % angles.len()]];
             let qd = [0.1, 0.2, 0.3, 0.4, 0.5, i as f64];
-            fill_poses_reusing(&q, &qd, &mut reused, &mut rotations);
-            fill_poses(&q, &qd, &mut fresh);
+            fill_poses(&q, &qd, &mut reused, &mut rotations);
             let bits = |p: &Pose| {
                 [p.position.x, p.position.y, p.angle, p.cos, p.sin, p.velocity.x, p.velocity.y, p.angular_velocity]
                     .map(f64::to_bits)
             };
             for k in 0..2 {
-                assert_eq!(bits(&reused[k]), bits(&fresh[k]), "state {i}, body {k}");
+                assert_eq!(bits(&reused[k]), bits(&Pose::of(BodyId::Body(k), &q, &qd)), "state {i}, body {k}");
             }
         }
     }

@@ -232,7 +232,7 @@ impl Solver {
     /// Evaluates poses, constraint terms and the applied forces (gravity, loads) at `(t, q, q̇)`.
     pub fn set_state(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
         self.time = t;
-        constraints::fill_poses_reusing(q, qd, &mut self.poses, &mut self.rotations);
+        constraints::fill_poses(q, qd, &mut self.poses, &mut self.rotations);
         constraints::evaluate(
             mech,
             t,
