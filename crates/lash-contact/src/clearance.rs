@@ -409,25 +409,46 @@ impl ImpactTracker {
             self.impact.peak_force = force;
             self.impact.peak_time = t;
         }
-        if self.count >= 3 && !self.searched {
-            let [(t0, f0), (t1, f1), (t2, f2)] = self.samples;
-            if f1 >= f0 && f1 >= f2 && (f1 > f0 || f1 > f2) {
-                // Vertex of the parabola through the three samples.
-                let d0 = (f1 - f0) / (t1 - t0);
-                let d1 = (f2 - f1) / (t2 - t1);
-                let curv = (d1 - d0) / (t2 - t0);
-                if curv < 0.0 {
-                    let tv = 0.5 * (t0 + t1) - d0 / (2.0 * curv);
-                    if tv > t0 && tv < t2 {
-                        let fv = f1 + d0 * (tv - t1) + curv * (tv - t0) * (tv - t1);
-                        if fv > self.impact.peak_force {
-                            self.impact.peak_force = fv;
-                            self.impact.peak_time = tv;
-                        }
-                    }
-                }
-            }
+        if self.count >= 3
+            && !self.searched
+            && let Some((tv, fv)) = Self::vertex(self.samples)
+            && fv > self.impact.peak_force
+        {
+            self.impact.peak_force = fv;
+            self.impact.peak_time = tv;
         }
+    }
+
+    /// The vertex (time, force) of the parabola through three samples (t, F) when the middle one
+    /// is a peak and the vertex lies between the outer two.
+    #[inline]
+    pub(crate) fn vertex(samples: [(f64, f64); 3]) -> Option<(f64, f64)> {
+        let [(t0, f0), (t1, f1), (t2, f2)] = samples;
+        if !(f1 >= f0 && f1 >= f2 && (f1 > f0 || f1 > f2)) {
+            return None;
+        }
+        let d0 = (f1 - f0) / (t1 - t0);
+        let d1 = (f2 - f1) / (t2 - t1);
+        let curv = (d1 - d0) / (t2 - t0);
+        if curv >= 0.0 || curv.is_nan() {
+            return None;
+        }
+        let tv = 0.5 * (t0 + t1) - d0 / (2.0 * curv);
+        if !(tv > t0 && tv < t2) {
+            return None;
+        }
+        Some((tv, f1 + d0 * (tv - t1) + curv * (tv - t0) * (tv - t1)))
+    }
+
+    /// The tracker's numbers: the impact so far, the last three samples (t, F), how many samples
+    /// it took, and whether its peaks come from searches.
+    pub(crate) fn parts(&self) -> (Impact, [(f64, f64); 3], usize, bool) {
+        (self.impact, self.samples, self.count, self.searched)
+    }
+
+    /// A tracker from its numbers ([`ImpactTracker::parts`]).
+    pub(crate) fn from_parts(impact: Impact, samples: [(f64, f64); 3], count: usize, searched: bool) -> Self {
+        Self { impact, samples, count, searched }
     }
 
     /// Records a penetration seen inside a step.
