@@ -121,6 +121,7 @@ impl ReducedArgs {
                 lash_orchestrate::Execution::Sequential
             },
             error_controlled_micro: self.micro == MicroArg::Dopri5,
+            channels_only: false,
         }
     }
 }

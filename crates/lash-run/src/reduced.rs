@@ -39,6 +39,11 @@ pub struct ReducedOptions {
     pub execution: Execution,
     /// Error-controlled micro model (DOPRI5 with contact events) instead of fixed-step RK4.
     pub error_controlled_micro: bool,
+    /// Compute the written channels only: no channel statistics and no clearance summary (the
+    /// summary's `channels` and `clearances` are then empty), so nothing but the written channels
+    /// is evaluated at each sample. A sweep's runs keep their channels and nothing else.
+    #[serde(skip)]
+    pub channels_only: bool,
 }
 
 impl Default for ReducedOptions {
@@ -50,6 +55,7 @@ impl Default for ReducedOptions {
             coupling: Coupling::OneWay,
             execution: Execution::Sequential,
             error_controlled_micro: false,
+            channels_only: false,
         }
     }
 }
@@ -171,10 +177,11 @@ impl ReducedRun {
             })
             .map(|j| j.name.as_str())
             .collect();
-        // One signal per recorded channel; every joint's eccentricity and force magnitude always
-        // (summary).
+        // One signal per recorded channel; every joint's eccentricity and force magnitude for the
+        // summary (unless only the channels are wanted).
         let mut recorded: Vec<usize> = selected.clone();
-        for j in 0..joints.len() {
+        let summarised = if options.channels_only { 0 } else { joints.len() };
+        for j in 0..summarised {
             for name in ["eccentricity", "force"] {
                 let k = sources
                     .iter()
@@ -263,10 +270,11 @@ impl ReducedRun {
                 .expect("recorded")
         };
         // The clearance summary is the clearance joints' (a bushing has no impacts to count).
-        let joints = self.scenario.clearances.len();
+        let joints = if self.options.channels_only { 0 } else { self.scenario.clearances.len() };
         Recording {
             channels: self.sources.iter().map(|(c, _)| c.clone()).collect(),
             written: self.selected.len(),
+            statistics: !self.options.channels_only,
             summary: (0..joints).map(|j| (quantity(j, "eccentricity"), quantity(j, "force"))).collect(),
             measurements: self.scenario.output.measurements.clone(),
             stresses: {
@@ -402,6 +410,8 @@ pub(crate) fn master_options(
 pub(crate) struct Recording {
     pub channels: Vec<Channel>,
     pub written: usize,
+    /// Whether the channel statistics are kept.
+    pub statistics: bool,
     pub summary: Vec<(usize, usize)>,
     pub measurements: Vec<lash_scenario::schema::MeasurementSpec>,
     /// Recorded signals that are a clearance's normal force standing for its interface stress:
@@ -479,7 +489,9 @@ impl Observer for Recorder<'_, '_> {
             &self.mapped[..]
         };
         self.measurements.record(values);
-        self.stats.add(values);
+        if self.recording.statistics {
+            self.stats.add(values);
+        }
         for (j, &(ecc, force)) in self.recording.summary.iter().enumerate() {
             self.max_ecc[j] = self.max_ecc[j].max(values[ecc]);
             self.sum_force[j] += values[force];
@@ -633,7 +645,8 @@ fn summarise(
             sum_force[j] / m,
         ));
     }
-    let channels = stats.channel_stats(&recording.channels, samples);
+    let channels =
+        if recording.statistics { stats.channel_stats(&recording.channels, samples) } else { Default::default() };
     let max_constraint_error = channels.get("constraint_error").map_or(0.0, |c| c.max_abs);
     let integrator = match micro.integrator() {
         MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },

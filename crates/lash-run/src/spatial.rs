@@ -564,6 +564,7 @@ impl SpatialReducedRun {
         let recording = crate::reduced::Recording {
             channels: recorded.iter().map(|&i| sources[i].0.clone()).collect(),
             written: written.len(),
+            statistics: true,
             summary: (0..k)
                 .map(|j| {
                     let at = |name: &str| {

@@ -241,7 +241,14 @@ impl Simulation {
             }
             None => Vec::new(),
         };
-        let data = RunData { run_id: run.id, time: Vec::new(), columns: vec![Vec::new(); simulated.len()] };
+        // (Room for every row from the start: the run's samples are pushed one by one.)
+        let interval = if loggers.is_empty() { output_interval } else { 1.0 / plan.spec.output.sample_rate };
+        let rows = ((horizon / interval).ceil() as usize).saturating_add(2).min(1 << 24);
+        let data = RunData {
+            run_id: run.id,
+            time: Vec::with_capacity(rows),
+            columns: simulated.iter().map(|_| Vec::with_capacity(rows)).collect(),
+        };
         Ok((runner, Self { horizon, index, loggers, data }))
     }
 

@@ -150,7 +150,8 @@ impl Plan {
 
 /// Options of the reduced model for this sweep.
 pub fn reduced_options(spec: &SweepSpec) -> lash_run::ReducedOptions {
-    let mut options = lash_run::ReducedOptions::default();
+    // (A run's summary is not part of the dataset: only its channels are computed.)
+    let mut options = lash_run::ReducedOptions { channels_only: true, ..Default::default() };
     if let Some(r) = spec.reduced {
         options.macro_step = r.macro_step;
         options.micro_step = r.micro_step;
