@@ -143,7 +143,7 @@ mod vector {
         /// For a mask: whether every lane is set.
         #[inline(always)]
         pub fn all(self) -> bool {
-            self.0.iter().all(|v| v.to_bits() >> 63 == 1)
+            self.to_bitmask() == (1 << L) - 1
         }
         /// For a mask: bit l set where lane l is.
         #[inline(always)]
@@ -801,9 +801,13 @@ fn advance_lanes(
     let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
     // (As a mask for the lanes' arithmetic, formed again where a lane's mode changes.)
     let mut contact_mask = mask(&in_contact);
-    // The lanes stepped here (running, not by their models), as a mask for the trackers.
-    let mut stepped = X::ZERO;
-    let mut lanes_changed = true;
+    // The lanes stepped here (running, not by their models) as a mask, and whether any running
+    // lane is stepped by its model: formed again only where a lane changes.
+    let masks = |running: &[bool; L], by_model: &[bool; L]| {
+        (mask(running) & !mask(by_model), (0..L).any(|l| running[l] && by_model[l]))
+    };
+    let (mut stepped, mut any_by_model) = masks(&running, &by_model);
+    let mut lanes_changed = false;
     let mut onset: V = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
     // (The lanes of a sweep share their time: one conversion per step.)
     let shared = t.iter().all(|&x| x == t[0]);
@@ -813,19 +817,28 @@ fn advance_lanes(
         } else {
             std::array::from_fn(|l| Ticks(t[l].0 + i as i64 * step.0).seconds())
         };
-        for l in 0..L {
-            if running[l] && !by_model[l] && (kept.end_time[l] - now[l]).abs() >= 1e-12 {
-                // (A step end that is not this instant: possible only for times far from the
-                // origin; the model decides what to reuse.)
-                kept.scatter(l, models[l]);
-                by_model[l] = true;
-                lanes_changed = true;
+        if lanes_changed {
+            (stepped, any_by_model) = masks(&running, &by_model);
+            lanes_changed = false;
+        }
+        // (A step end that is not this instant: possible only for times far from the origin; the
+        // model decides what to reuse.)
+        let elsewhere = (stepped & (x(&kept.end_time) - x(&now)).abs().simd_ge(X::splat(1e-12))).to_bitmask();
+        if elsewhere != 0 {
+            for l in 0..L {
+                if elsewhere >> l & 1 == 1 {
+                    kept.scatter(l, models[l]);
+                    by_model[l] = true;
+                }
             }
+            (stepped, any_by_model) = masks(&running, &by_model);
         }
         // The models that take this step themselves, before the lanes overwrite their numbers.
-        for l in 0..L {
-            if running[l] && by_model[l] {
-                models[l].rk4_step(now[l], h);
+        if any_by_model {
+            for l in 0..L {
+                if running[l] && by_model[l] {
+                    models[l].rk4_step(now[l], h);
+                }
             }
         }
         let dt = |offset: f64| -> V { std::array::from_fn(|l| now[l] + offset - inputs.time[l]) };
@@ -910,10 +923,6 @@ fn advance_lanes(
         );
         end.store(&mut kept.states);
         let end_time: V = (x(&now) + X::splat(h)).into();
-        if lanes_changed {
-            stepped = mask(&running) & !mask(&by_model);
-            lanes_changed = false;
-        }
         kept.trackers.sample(stepped, x(&end_time), end.normal, end.delta);
         // (Every lane: those stepped by their models are gathered again below, failed ones are
         // no longer read.)
@@ -924,21 +933,23 @@ fn advance_lanes(
         kept.end_mass = finish;
         kept.end_inputs = [true; L];
         // Lanes stepped by their models come back into the lanes.
-        for l in 0..L {
-            if running[l] && by_model[l] {
-                let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
-                by_model[l] = !kept.gather(l, models[l], next);
-                in_contact[l] = models[l].joints[0].in_contact;
-                onset[l] = models[l].joints[0].onset_velocity;
-                contact_mask = mask(&in_contact);
-                lanes_changed = true;
+        if any_by_model {
+            for l in 0..L {
+                if running[l] && by_model[l] {
+                    let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
+                    by_model[l] = !kept.gather(l, models[l], next);
+                    in_contact[l] = models[l].joints[0].in_contact;
+                    onset[l] = models[l].joints[0].onset_velocity;
+                    contact_mask = mask(&in_contact);
+                    lanes_changed = true;
+                }
             }
         }
         // The penetration check of the model's loop (|e| finite: below infinity, and not NaN).
         let (delta, norm) = (x(&kept.states.delta), x(&kept.states.norm));
         let fine = delta.simd_le(x(&penetration_limit)) & norm.abs().simd_lt(X::splat(f64::INFINITY));
-        let bad = !fine.to_bitmask();
-        for l in 0..L {
+        let bad = !fine.to_bitmask() & ((1 << L) - 1);
+        for l in (0..L).filter(|_| bad != 0) {
             if bad >> l & 1 == 1 && running[l] {
                 kept.scatter(l, models[l]);
                 let message = models[l].check_penetration(0).err().unwrap_or_default();
