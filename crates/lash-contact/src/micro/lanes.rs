@@ -6,10 +6,11 @@
 //! Every lane computes exactly what [`InterfaceModel::rk4_step`] computes for its model, in the
 //! same order (results bit for bit the same; tested): the contact law's two paths (in contact,
 //! or in free flight with the onset velocity taken at a first indentation) and the gate of a
-//! joint inside its clearance are selections, not branches; what is rare and sequential — a
-//! contact opening or closing at the step end, the impact tracker's samples — is done lane by
-//! lane through the model's own code. A step that a lane cannot take this way (no kept step end
-//! to start from) is taken by the model itself.
+//! joint inside its clearance are selections, not branches, and so is the sampling of the open
+//! impacts at each step end; what is rare and sequential — a contact opening or closing at the
+//! step end, the parabola through an impact's peak — is done lane by lane through the model's own
+//! code. A step that a lane cannot take this way (no kept step end to start from) is taken by the
+//! model itself.
 //!
 //! Which models qualify ([`lane_laws`]): one planar revolute clearance joint without a bush, the
 //! hysteresis contact law (Hunt–Crossley, Lankarani–Nikravesh, Flores, Gonthier, …) with
