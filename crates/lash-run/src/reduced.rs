@@ -41,7 +41,8 @@ pub struct ReducedOptions {
     pub error_controlled_micro: bool,
     /// Compute the written channels only: no channel statistics and no clearance summary (the
     /// summary's `channels` and `clearances` are then empty), so nothing but the written channels
-    /// is evaluated at each sample. A sweep's runs keep their channels and nothing else.
+    /// is evaluated at each sample. A sweep's runs keep their channels and nothing else. (Planar
+    /// runs; the spatial reduced run keeps its statistics either way.)
     #[serde(skip)]
     pub channels_only: bool,
 }
