@@ -614,7 +614,9 @@ fn fmi_section(quick: bool) -> Result<(), CliError> {
 /// `lash bench sweep`: throughput of a sweep of scenario A in the reduced model (runs × 0.1 s,
 /// `slider.ax` at 10 kHz with noise, Latin hypercube over clearance and crank speed), executed
 /// with 1 and then 2 worker threads into temporary folders; the time split shows whether the
-/// dataset writer limits it.
+/// dataset writer limits it. "Per CPU s" divides by the process's CPU time over the sweep (every
+/// thread: the workers, the thread that assembles the dataset, the kernel's time writing files):
+/// the work per simulated second whatever the thread count.
 pub fn sweep(quick: bool) -> Result<(), CliError> {
     let runs = if quick { 40 } else { 200 };
     let dir = std::env::temp_dir().join(format!("lash-bench-sweep-{}", std::process::id()));
@@ -646,7 +648,7 @@ uniform = {{ low = 400.0, high = 600.0 }}
         "lash bench sweep: scenario A, reduced model, {runs} runs × 0.1 s, slider.ax at 10 kHz (+ noise), LHS over clearance and speed"
     );
     println!(
-        "  threads   runs side by side   wall [s]   runs/s   simulated s per wall s   per core   simulate [s]   write parts [s]   assemble [s]"
+        "  threads   runs side by side   wall [s]   runs/s   simulated s per wall s   per core   per CPU s   simulate [s]   write parts [s]   assemble [s]"
     );
     // One at a time (the workload as it was first measured) and side by side (eight runs per
     // worker, their micro models in vector lanes), alternating, each with 1 and 2 threads.
@@ -656,13 +658,16 @@ uniform = {{ low = 400.0, high = 600.0 }}
             let out = dir.join(format!("out-{threads}-{side_by_side}"));
             let options =
                 lash_sweep::ExecuteOptions { out, shard: None, threads: Some(threads), cancel: None, side_by_side };
+            let cpu = cpu_time::ProcessTime::now();
             let r = lash_sweep::execute(&plan, &options, &|_| {}).map_err(|e| CliError::Failure(e.to_string()))?;
+            let cpu_s = cpu.elapsed().as_secs_f64();
             let throughput = r.simulated_s / r.wall_s;
             println!(
-                "  {threads:7}   {side_by_side:16}   {:8.3}   {:6.1}   {throughput:22.1}   {:8.1}   {:12.3}   {:15.3}   {:12.3}",
+                "  {threads:7}   {side_by_side:16}   {:8.3}   {:6.1}   {throughput:22.1}   {:8.1}   {:9.1}   {:12.3}   {:15.3}   {:12.3}",
                 r.wall_s,
                 r.ran as f64 / r.wall_s,
                 throughput / threads as f64,
+                r.simulated_s / cpu_s,
                 r.simulate_s,
                 r.write_s,
                 r.assemble_s
