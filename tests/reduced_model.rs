@@ -192,3 +192,30 @@ fn runs_executed_together_equal_each_run_alone() {
     }
     assert!(impacts > 20, "the runs have impacts to compare ({impacts})");
 }
+
+/// A run that computes its channels only (as a sweep's runs do) writes the same rows, bit for bit,
+/// as a run that also keeps statistics and the clearance summary, and its summary says it kept
+/// neither.
+#[test]
+fn channels_only_writes_the_same_rows_and_no_statistics() {
+    let mut s = builtin::by_name("A").unwrap();
+    s.simulation.horizon = 0.02;
+    s.output.channels = vec!["slider.ax".into(), "crank_pivot.normal_force".into()];
+    let run =
+        |channels_only| rows(&mut ReducedRun::new(&s, ReducedOptions { channels_only, ..Default::default() }).unwrap());
+    let (full_summary, header, all) = run(false);
+    let (lean_summary, lean_header, lean) = run(true);
+    assert_eq!(header, lean_header);
+    assert_eq!(all.len(), lean.len());
+    assert!(all.len() > 100);
+    for (a, b) in all.iter().zip(&lean) {
+        assert_eq!(
+            a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+    }
+    assert!(!full_summary.channels.is_empty() && !full_summary.clearances.is_empty());
+    assert!(full_summary.clearances[0].impacts > 0, "the 20 ms should hold impacts");
+    assert!(lean_summary.channels.is_empty() && lean_summary.clearances.is_empty());
+    assert_eq!(lean_summary.samples, full_summary.samples);
+}
