@@ -5,11 +5,11 @@
 //!   channels with units, per-run status, error and timing;
 //! * `data.parquet` — one long table `run_id, t, <channels…>`, one row group per run, in run order;
 //! * `params.parquet` — `run_id, seed, status, <parameter paths…>`;
-//! * while a sweep runs: `parts/runs-<id>.parquet` (each worker's finished runs, one row group
-//!   each, in a file it closes — footer written, temporary name renamed — after 64 runs or about
-//!   a second of work, [`PartWriter`]) and `runs.jsonl` (one line per run in a closed part, or per
-//!   failed run, flushed): a killed sweep resumes from these and loses only the runs in flight and
-//!   those in the workers' open parts (at most about a second of each worker's work).
+//! * while a sweep runs: `parts/runs-<id>.parquet` (finished runs, one row group each, in a file
+//!   closed — footer written, temporary name renamed — after 64 runs or about a second of work,
+//!   [`PartWriter`]) and `runs.jsonl` (one line per run in a closed part, or per failed run,
+//!   flushed): a killed sweep resumes from these and loses only the runs in flight and those in
+//!   the open part (at most about a second of finished runs).
 
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray, UInt64Array};
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
@@ -196,7 +196,7 @@ fn close_buffered(writer: ArrowWriter<Buffered>) -> Result<(), String> {
     buffer.into_inner().map(drop).map_err(|e| e.error().to_string())
 }
 
-/// A part file being filled by one worker while a sweep runs: one row group per finished run,
+/// A part file being filled while a sweep runs (by the thread that assembles the dataset): one row group per finished run,
 /// written under a temporary name and renamed into place by [`PartWriter::close`] (a Parquet
 /// file is readable only once its footer is written). One file per run cost more than writing
 /// its rows: creating, renaming and finally deleting a file per run was ~10 % of a sweep of short

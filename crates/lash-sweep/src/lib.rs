@@ -338,11 +338,19 @@ fn simulate(plan: &Plan, runs: &[&RunSpec], channels: &[ChannelInfo]) -> Vec<Res
     results.into_iter().map(|r| r.expect("every run ends")).collect()
 }
 
-/// A worker's part is closed (and its runs journaled) once it holds this many runs…
+/// The open part is closed (and its runs journaled) once it holds this many runs…
 const PART_RUNS: usize = 64;
 /// …or once it is this old [s] (counting the run just finished as the time the next one will
-/// take): a kill loses at most about this much of each worker's work.
+/// take): a kill loses at most about this much of the runs finished.
 const PART_SECONDS: f64 = 1.0;
+
+/// A run handed by its worker to the assembler: its journal line (not yet pointing to a part),
+/// the simulated time and its rows (None: failed).
+struct Finished {
+    record: RunRecord,
+    simulated: f64,
+    batch: Option<RecordBatch>,
+}
 
 /// Where run `r`'s rows are kept while its sweep runs: its part and row group (a journal written
 /// by an earlier lash, without them: a file of its own).
@@ -453,8 +461,6 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         .open(out.join("runs.jsonl"))
         .map_err(|e| io(format!("cannot open the run journal: {e}")))?;
     let shared = Mutex::new(Shared { journal, records: done, simulated_s: 0.0 });
-    // Each worker's open part.
-    let parts: Vec<Mutex<Option<dataset::PartWriter>>> = (0..threads).map(|_| Mutex::new(None)).collect();
     let stop: AtomicBool = AtomicBool::new(false);
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
     let write_error: Mutex<Option<String>> = Mutex::new(None);
@@ -462,10 +468,12 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         .num_threads(threads)
         .build()
         .map_err(|e| SweepError::Input(format!("cannot start {threads} worker threads: {e}")))?;
-    // Workers simulate, write their run into their part (for resumption) and hand the data to this thread,
-    // which appends the runs to data.parquet in run order as they become available: assembling
-    // the dataset overlaps with the simulations instead of following them.
-    let (sender, receiver) = std::sync::mpsc::channel::<(u64, Option<RecordBatch>)>();
+    // Workers only simulate; they hand each finished run to this thread, which does every write:
+    // it keeps the run in the open part (for resumption; journaled once the part is closed) and
+    // appends the runs to data.parquet in run order as they become available, so that
+    // assembling the dataset overlaps with the simulations instead of following them, and a
+    // worker never waits on a file.
+    let (sender, receiver) = std::sync::mpsc::channel::<Finished>();
     let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv).map_err(io)?;
     // Runs finished by an earlier execution: where their rows are (None: failed).
     let earlier: BTreeMap<u64, Option<RunSource>> = shared
@@ -478,8 +486,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     let mut assemble_s = 0.0;
     let assembled: Result<(), String> = std::thread::scope(|scope| {
         let pending = &pending;
-        let (shared, stop, write_error, channels, schema, parts) =
-            (&shared, &stop, &write_error, &channels, &schema, &parts);
+        let (shared, stop, write_error, channels, schema) = (&shared, &stop, &write_error, &channels, &schema);
         scope.spawn(move || {
             pool.install(|| {
                 pending.par_chunks(group).for_each_with(sender, |sender, runs| {
@@ -491,9 +498,6 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
                     // The group's time, shared by its runs.
                     let simulate_s = t0.elapsed().as_secs_f64() / runs.len() as f64;
                     for (run, result) in runs.iter().zip(results) {
-                        if stop.load(Ordering::Relaxed) {
-                            return;
-                        }
                         let record = |status: &str, error, rows| RunRecord {
                             run_id: run.id,
                             seed: run.seed,
@@ -505,72 +509,37 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
                             part: None,
                             row_group: None,
                         };
-                        let fail = |e: String| {
-                            *write_error.lock().expect("lock") = Some(e);
-                            stop.store(true, Ordering::Relaxed);
-                        };
-                        let (simulated, data) = match result {
+                        let finished = match result {
                             Ok((data, horizon)) => {
                                 let rows = data.time.len() as u64;
-                                let batch = match data.into_batch(schema) {
-                                    Ok(b) => b,
-                                    Err(e) => return fail(e),
-                                };
-                                // Into this worker's part (one batch serves the part and the
-                                // assembler); the part is closed and journaled when it is full.
-                                let slot = &parts[rayon::current_thread_index().unwrap_or(0) % parts.len()];
-                                let mut part = slot.lock().expect("lock");
-                                let appended = match part.as_mut() {
-                                    Some(p) => Ok(p),
-                                    None => dataset::PartWriter::create(&out.join("parts"), run.id, schema)
-                                        .map(|p| part.insert(p)),
-                                }
-                                .and_then(|p| {
-                                    let written = p.append(&batch, record("ok", None, rows));
-                                    written.map(|()| p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS)
-                                });
-                                match appended {
-                                    Ok(true) => {
-                                        let closed = part.take().expect("open part").close();
-                                        if let Err(e) = closed.and_then(|records| append_journal(shared, records)) {
-                                            return fail(e);
-                                        }
+                                match data.into_batch(schema) {
+                                    Ok(batch) => Finished {
+                                        record: record("ok", None, rows),
+                                        simulated: horizon,
+                                        batch: Some(batch),
+                                    },
+                                    Err(e) => {
+                                        *write_error.lock().expect("lock") = Some(e);
+                                        stop.store(true, Ordering::Relaxed);
+                                        return;
                                     }
-                                    Ok(false) => {}
-                                    Err(e) => return fail(e),
                                 }
-                                drop(part);
-                                (horizon, Some(batch))
                             }
-                            Err(e) => {
-                                // Nothing to keep but the line.
-                                if let Err(e) = append_journal(shared, vec![record("failed", Some(e), 0)]) {
-                                    return fail(e);
-                                }
-                                (0.0, None)
-                            }
+                            Err(e) => Finished { record: record("failed", Some(e), 0), simulated: 0.0, batch: None },
                         };
-                        {
-                            let mut s = shared.lock().expect("lock");
-                            s.simulated_s += simulated;
+                        let ok = finished.batch.is_some();
+                        // (The assembler is gone only after a write error, which stops the sweep.)
+                        if sender.send(finished).is_err() {
+                            return;
                         }
-                        let ok = data.is_some();
-                        let _ = sender.send((run.id, data));
                         on_event(Event::Finished { ok });
                     }
                 });
-                // The parts still open (the last runs, or those finished before a stop) are
-                // closed and journaled.
-                for slot in parts.iter() {
-                    if let Some(part) = slot.lock().expect("lock").take()
-                        && let Err(e) = part.close().and_then(|records| append_journal(shared, records))
-                    {
-                        *write_error.lock().expect("lock") = Some(e);
-                    }
-                }
             })
         });
-        // The assembler: walks the shard's runs in order.
+        // The assembler: keeps each finished run in the open part and walks the shard's runs in
+        // order into the dataset.
+        let mut part: Option<dataset::PartWriter> = None;
         let mut waiting: BTreeMap<u64, Option<RecordBatch>> = BTreeMap::new();
         let mut cursor = 0;
         let mut advance = |waiting: &mut BTreeMap<u64, Option<RecordBatch>>,
@@ -593,14 +562,46 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             }
             Ok(())
         };
-        advance(&mut waiting, &mut writer)?;
-        for (id, data) in receiver {
-            waiting.insert(id, data);
-            let t = Instant::now();
+        let mut assemble = || -> Result<(), String> {
             advance(&mut waiting, &mut writer)?;
-            assemble_s += t.elapsed().as_secs_f64();
+            for Finished { record, simulated, batch } in &receiver {
+                let id = record.run_id;
+                match &batch {
+                    Some(batch) => {
+                        // Into the open part; the part is closed and its runs journaled when it is full.
+                        let simulate_s = record.simulate_s;
+                        let p = match part.as_mut() {
+                            Some(p) => p,
+                            None => part.insert(dataset::PartWriter::create(&out.join("parts"), id, schema)?),
+                        };
+                        p.append(batch, record)?;
+                        if p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS {
+                            append_journal(shared, part.take().expect("open part").close()?)?;
+                        }
+                    }
+                    // Nothing to keep but the line.
+                    None => append_journal(shared, vec![record])?,
+                }
+                shared.lock().expect("lock").simulated_s += simulated;
+                waiting.insert(id, batch);
+                let t = Instant::now();
+                advance(&mut waiting, &mut writer)?;
+                assemble_s += t.elapsed().as_secs_f64();
+            }
+            Ok(())
+        };
+        let assembled = assemble();
+        if assembled.is_err() {
+            stop.store(true, Ordering::Relaxed);
         }
-        Ok(())
+        // The part still open (the last runs, or those finished before a stop or a write
+        // error) is closed and journaled.
+        if let Some(p) = part.take()
+            && let Err(e) = p.close().and_then(|records| append_journal(shared, records))
+        {
+            *write_error.lock().expect("lock") = Some(e);
+        }
+        assembled
     });
     if let Some(e) = write_error.into_inner().expect("lock") {
         return Err(io(e));
