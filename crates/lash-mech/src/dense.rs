@@ -60,6 +60,21 @@ impl SmallCholesky {
         &mut self.a
     }
 
+    /// Takes the leading n × n block of `other`'s factor (of order ≥ n): the factor of the
+    /// leading block of the matrix `other` factored, bit for bit (column j of L depends only on
+    /// columns 0..=j of the matrix's rows at and below j, computed in the same order).
+    ///
+    /// # Panics
+    /// If `other` is of a lower order.
+    pub fn copy_leading_block(&mut self, other: &SmallCholesky) {
+        let (n, m) = (self.n, other.n);
+        assert!(m >= n, "the leading block of a smaller factor");
+        for i in 0..n {
+            self.a[i * n..i * n + i + 1].copy_from_slice(&other.a[i * m..i * m + i + 1]);
+        }
+        self.inv_diag.copy_from_slice(&other.inv_diag[..n]);
+    }
+
     /// Factors the lower triangle in place. Returns false if the matrix is not positive definite
     /// (numerically: a pivot ≤ 1e-14 × the largest diagonal entry).
     pub fn factor(&mut self) -> bool {

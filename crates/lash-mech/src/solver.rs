@@ -66,6 +66,9 @@ pub struct Solver {
     scratch: Scratch,
     schur: SmallCholesky,
     factored: bool,
+    /// The positions (x, y, θ of each body) at which [`Solver::share_factor`] gave this solver
+    /// its factor, until the next [`Solver::factor`] (empty: none).
+    shared_at: Vec<[f64; 3]>,
     time: f64,
     /// Work vectors of the position and velocity corrections (`kinematics`), kept between calls.
     pub(crate) correction: Correction,
@@ -212,6 +215,7 @@ impl Solver {
             },
             schur: SmallCholesky::new(mf),
             factored: false,
+            shared_at: Vec::new(),
             time: 0.0,
             correction: Correction::default(),
         }
@@ -222,6 +226,40 @@ impl Solver {
     /// computes none).
     pub fn share_rotations(&mut self, other: &Solver) {
         self.rotations.take_from(&other.rotations);
+    }
+
+    /// Whether, at any position, this solver's Schur complement S is the leading block of
+    /// `other`'s, entry for entry and bit for bit, so that its Cholesky factor is the leading
+    /// block of `other`'s ([`Solver::share_factor`]): `mech` (this solver's) has `other_mech`'s
+    /// bodies and first joints, and S's rows are rows of those joints only, the first rows of
+    /// `other`'s S, with the same coordinates pinned. So it is for the cut mechanism of a reduced
+    /// model (the ideal one without its clearance joints, which come last) when its drivers pin
+    /// the driven angles.
+    pub fn is_leading_block_of(&self, mech: &Mechanism, other: &Solver, other_mech: &Mechanism) -> bool {
+        let (st, ot) = (&self.structure, &other.structure);
+        let joint_rows: usize = mech.joints.iter().map(|j| j.equations()).sum();
+        let mf = st.free_rows.len();
+        mech.bodies == other_mech.bodies
+            && other_mech.joints.len() >= mech.joints.len()
+            && mech.joints[..] == other_mech.joints[..mech.joints.len()]
+            && st.free_inverse_mass == ot.free_inverse_mass
+            && st.free_rows.iter().all(|&r| r < joint_rows)
+            && ot.free_rows.len() >= mf
+            && ot.free_rows[..mf] == st.free_rows[..]
+    }
+
+    /// Takes the factor of S from `other` (see [`Solver::is_leading_block_of`], which the caller
+    /// has checked): the leading block of `other`'s factor, formed at `other`'s current
+    /// positions. The next [`Solver::factor`] uses it, instead of forming and factoring S, if
+    /// this solver's positions are then the same bits; otherwise it factors as usual. (A factor
+    /// that `other` would accept is accepted here: this S's diagonal is part of `other`'s, so its
+    /// singularity threshold is no higher.)
+    pub fn share_factor(&mut self, other: &Solver) {
+        self.shared_at.clear();
+        if other.factored {
+            self.schur.copy_leading_block(&other.schur);
+            self.shared_at.extend(other.poses.iter().map(|p| [p.position.x, p.position.y, p.angle]));
+        }
     }
 
     /// Diagonal of M⁻¹ (per coordinate).
@@ -287,6 +325,19 @@ impl Solver {
     /// Forms and factors S = Φ_q M⁻¹ Φ_qᵀ (over the rows that are not eliminated) at the current
     /// state.
     pub fn factor(&mut self) -> Result<(), MechError> {
+        if !self.shared_at.is_empty() {
+            let same = self.shared_at.len() == self.poses.len()
+                && self.shared_at.iter().zip(&self.poses).all(|(a, p)| {
+                    a[0].to_bits() == p.position.x.to_bits()
+                        && a[1].to_bits() == p.position.y.to_bits()
+                        && a[2].to_bits() == p.angle.to_bits()
+                });
+            self.shared_at.clear();
+            if same {
+                self.factored = true;
+                return Ok(());
+            }
+        }
         let st = &self.structure;
         let m = st.free_rows.len();
         let im = &st.free_inverse_mass;

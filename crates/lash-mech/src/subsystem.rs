@@ -264,6 +264,10 @@ pub struct MechanismSubsystem {
     last_prescribed: Option<Prescribed>,
     ideal_solver: Solver,
     cut_solver: Solver,
+    /// The cut mechanism's S is the leading block of the ideal one's
+    /// ([`Solver::is_leading_block_of`]): at a position where the ideal solver has just factored
+    /// (the velocity projection of a kinematic step), the cut solver takes its factor from it.
+    cut_factor_shared: bool,
     /// The effective terms at the current communication point.
     pub terms: Option<CoupledTerms>,
     /// Work storage of `refresh` (kept: a communication point allocates nothing).
@@ -434,13 +438,16 @@ impl MechanismSubsystem {
         let first = ideal.joints.len() - k;
         let offset_rows = (0..k).map(|j| ideal.joint_row(first + j)).collect();
         let coordinates = cut.coordinate_count();
+        let (ideal_solver, cut_solver) = (Solver::new(&ideal), Solver::new(&cut));
+        let cut_factor_shared = cut_solver.is_leading_block_of(&cut, &ideal_solver, &ideal);
         Self {
             name: name.to_string(),
             variables,
             offsets,
             values: vec![0.0; at],
-            ideal_solver: Solver::new(&ideal),
-            cut_solver: Solver::new(&cut),
+            ideal_solver,
+            cut_solver,
+            cut_factor_shared,
             cut,
             ideal,
             joints,
@@ -518,6 +525,10 @@ impl MechanismSubsystem {
             self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
         // (The ideal mechanism's solver was last set at this position: its sines and cosines serve.)
         self.cut_solver.share_rotations(&self.ideal_solver);
+        if self.cut_factor_shared {
+            // (And its factor, where the ideal one's was formed at this position.)
+            self.cut_solver.share_factor(&self.ideal_solver);
+        }
         coupled_effective_terms_into(&self.cut, &mut self.cut_solver, &self.joints, t, &self.q, &self.qd, &mut terms)
             .map_err(|e| e.to_string())?;
         let Some(mass) = terms.effective_mass.as_ref() else {

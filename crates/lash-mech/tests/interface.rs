@@ -279,3 +279,71 @@ fn terms_refreshed_in_place_equal_fresh_ones_bit_for_bit() {
         }
     }
 }
+
+/// The cut solver that takes its factor from the ideal one (the leading block of the ideal
+/// mechanism's factor, where both are at the same position) gives the terms a factor of its own
+/// gives, bit for bit; at another position it factors for itself; and it does use the shared
+/// factor (a Jacobian spoilt after the share does not reach it).
+#[test]
+fn a_cut_solver_sharing_the_ideal_factor_gives_the_same_terms_bit_for_bit() {
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let period = 2.0 * std::f64::consts::PI / OMEGA;
+    let cases: Vec<(Mechanism, Mechanism, Vec<ClearanceInterface>)> = ["crank_pivot", "rod_slider"]
+        .iter()
+        .map(|name| {
+            let (cut_m, ideal, iface) = cut(name);
+            (cut_m, ideal, vec![ClearanceInterface { interface: iface, journal_radius: 9.5e-3, bearing_radius: 1e-2 }])
+        })
+        .chain(std::iter::once(two_clearance_joints(9.5e-3, 10.0e-3)))
+        .collect();
+    for (cut_m, ideal, joints) in &cases {
+        let (mut s_ideal, mut s_cut, mut s_fresh) = (Solver::new(ideal), Solver::new(cut_m), Solver::new(cut_m));
+        assert!(s_cut.is_leading_block_of(cut_m, &s_ideal, ideal));
+        // Not the other way round, nor against a mechanism whose first joints differ.
+        assert!(!s_ideal.is_leading_block_of(ideal, &s_cut, cut_m));
+        let mut reordered = ideal.clone();
+        reordered.joints.rotate_left(1);
+        assert!(!s_cut.is_leading_block_of(cut_m, &Solver::new(&reordered), &reordered));
+        let (mut q, _) = kinematics::initial_guess(ideal);
+        let mut shared = CoupledTerms::zeros(q.len(), cut_m.constraint_count(), joints.len());
+        for i in 0..12 {
+            let t = period * ((i as f64 * 0.618_033_988_75).fract());
+            let mut qd = vec![0.0; q.len()];
+            kinematics::assemble_and_project(ideal, t, &mut q, &mut qd, &mut s_ideal, 1e-13).unwrap();
+            s_cut.share_rotations(&s_ideal);
+            s_cut.share_factor(&s_ideal);
+            coupled_effective_terms_into(cut_m, &mut s_cut, joints, t, &q, &qd, &mut shared).unwrap();
+            let fresh = coupled_effective_terms(cut_m, &mut s_fresh, joints, t, &q, &qd).unwrap();
+            assert_eq!(bits(shared.mobility.as_slice()), bits(fresh.mobility.as_slice()), "W at t = {t}");
+            assert_eq!(bits(&shared.free_accelerations), bits(&fresh.free_accelerations), "t = {t}");
+            assert_eq!(bits(&shared.free_lambda), bits(&fresh.free_lambda), "t = {t}");
+            for c in 0..3 * joints.len() {
+                assert_eq!(bits(&shared.gain[c]), bits(&fresh.gain[c]), "gain column {c} at t = {t}");
+            }
+            // A share at another position is not used: the terms at this one are still right.
+            let mut moved = q.clone();
+            moved[2] += 1e-3;
+            s_cut.share_factor(&s_ideal);
+            coupled_effective_terms_into(cut_m, &mut s_cut, joints, t, &moved, &qd, &mut shared).unwrap();
+            let fresh = coupled_effective_terms(cut_m, &mut s_fresh, joints, t, &moved, &qd).unwrap();
+            assert_eq!(bits(shared.mobility.as_slice()), bits(fresh.mobility.as_slice()), "moved, t = {t}");
+            // And a share at this position is what the factor is: a Jacobian spoilt after it
+            // (NaN in S were S formed) still factors.
+            s_cut.share_factor(&s_ideal);
+            s_cut.set_state(cut_m, t, &q, &qd);
+            for row in s_cut.jacobian.iter_mut() {
+                for block in row.iter_mut() {
+                    block.d = [f64::NAN; 3];
+                }
+            }
+            assert!(s_cut.factor().is_ok(), "the shared factor was not used at t = {t}");
+            s_cut.set_state(cut_m, t, &q, &qd);
+            for row in s_cut.jacobian.iter_mut() {
+                for block in row.iter_mut() {
+                    block.d = [f64::NAN; 3];
+                }
+            }
+            assert!(s_cut.factor().is_err(), "a share is used once only (t = {t})");
+        }
+    }
+}
