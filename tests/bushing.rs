@@ -368,7 +368,7 @@ fn reduced_meets_its_bounds(s: &lash_scenario::Scenario) -> Compared {
 struct Compared {
     full: lash_run::Summary,
     reduced: lash_run::Summary,
-    /// (full, reduced) [N].
+    /// (full, reduced) \[N\].
     peak_force: (f64, f64),
     /// Peak crank torques (full, reduced) [N m].
     peak_torque: (f64, f64),
@@ -416,8 +416,8 @@ fn a_body_on_a_curved_bushing_rests_at_the_curves_deflection() {
     assert!(e.contains("bushings[0].curve.forces") && e.contains("increasing"), "{e}");
 }
 
-/// F-flexible-imperfect with its bush's modulus `modulus` [Pa] and viscosities scaled so that c/k = `relaxation` [s], over
-/// `horizon` [s].
+/// F-flexible-imperfect with its bush's modulus `modulus` \[Pa\] and viscosities scaled so that c/k = `relaxation` \[s\], over
+/// `horizon` \[s\].
 fn damped_bush(modulus: f64, relaxation: f64, horizon: f64) -> lash_scenario::Scenario {
     let mut s = builtin::by_name("F-flexible-imperfect").unwrap();
     s.simulation.horizon = horizon;

@@ -50,9 +50,9 @@ pub struct Point {
     pub dy: [f64; 9],
     /// det J.
     pub det: f64,
-    /// Radius [m].
+    /// Radius \[m\].
     pub r: f64,
-    /// Angle [rad].
+    /// Angle \[rad\].
     pub theta: f64,
 }
 

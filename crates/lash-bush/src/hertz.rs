@@ -18,9 +18,9 @@ pub fn effective_radius(pin: f64, bore: f64) -> f64 {
 pub struct LineContact {
     /// Load per unit length F' [N/m].
     pub load_per_length: f64,
-    /// Contact half-width b = √(4 F' R* / (π E*)) [m].
+    /// Contact half-width b = √(4 F' R* / (π E*)) \[m\].
     pub half_width: f64,
-    /// Peak pressure p₀ = 2 F' / (π b) [Pa].
+    /// Peak pressure p₀ = 2 F' / (π b) \[Pa\].
     pub peak_pressure: f64,
 }
 
@@ -32,7 +32,7 @@ impl LineContact {
         Self { load_per_length, half_width, peak_pressure: 2.0 * load_per_length / (std::f64::consts::PI * half_width) }
     }
 
-    /// The pressure at distance `s` from the centre of the patch (arc length) [Pa].
+    /// The pressure at distance `s` from the centre of the patch (arc length) \[Pa\].
     pub fn pressure(&self, s: f64) -> f64 {
         let x = s / self.half_width;
         if x.abs() >= 1.0 { 0.0 } else { self.peak_pressure * (1.0 - x * x).sqrt() }

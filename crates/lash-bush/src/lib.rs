@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BushMaterial {
-    /// Young's modulus E [Pa].
+    /// Young's modulus E \[Pa\].
     pub young_modulus: f64,
     /// Poisson's ratio ν [-].
     pub poisson_ratio: f64,
@@ -62,7 +62,7 @@ impl BushMaterial {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Elastic {
-    /// Young's modulus E [Pa].
+    /// Young's modulus E \[Pa\].
     pub young_modulus: f64,
     /// Poisson's ratio ν [-].
     pub poisson_ratio: f64,
@@ -81,13 +81,13 @@ fn steel() -> Elastic {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BushSpec {
-    /// Pin (journal) radius R_pin [m].
+    /// Pin (journal) radius R_pin \[m\].
     pub pin_radius: f64,
-    /// Bore radius a [m] (a − R_pin is the radial clearance).
+    /// Bore radius a \[m\] (a − R_pin is the radial clearance).
     pub inner_radius: f64,
-    /// Outer radius b [m] (fixed in the bearing body).
+    /// Outer radius b \[m\] (fixed in the bearing body).
     pub outer_radius: f64,
-    /// Length L along the pin [m].
+    /// Length L along the pin \[m\].
     pub length: f64,
     /// The bush's material.
     pub material: BushMaterial,
@@ -170,7 +170,7 @@ impl BushSpec {
         plane_strain(m.bulk_viscosity - 2.0 * m.shear_viscosity / 3.0, m.shear_viscosity)
     }
 
-    /// The Hertz contact of load `load` [N] over the bush length.
+    /// The Hertz contact of load `load` \[N\] over the bush length.
     pub fn hertz(&self, load: f64) -> LineContact {
         let radius = hertz::effective_radius(self.pin_radius, self.inner_radius);
         let modulus = hertz::effective_modulus(
@@ -207,23 +207,23 @@ pub struct BondedPin {
 /// One Hertz-pressure load case.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PressureCase {
-    /// Load F [N].
+    /// Load F \[N\].
     pub load: f64,
-    /// Contact half-width b [m].
+    /// Contact half-width b \[m\].
     pub half_width: f64,
-    /// Peak Hertz pressure p₀ [Pa].
+    /// Peak Hertz pressure p₀ \[Pa\].
     pub peak_pressure: f64,
-    /// Work-conjugate displacement u = ∫ p u_r ds / F' [m].
+    /// Work-conjugate displacement u = ∫ p u_r ds / F' \[m\].
     pub displacement: f64,
     /// Secant stiffness F / u [N/m].
     pub stiffness: f64,
     /// Kelvin–Voigt damping on the static shape [N s/m].
     pub damping: f64,
-    /// Largest von Mises stress of the FE field [Pa].
+    /// Largest von Mises stress of the FE field \[Pa\].
     pub von_mises: f64,
-    /// Its depth below the bore [m].
+    /// Its depth below the bore \[m\].
     pub von_mises_depth: f64,
-    /// The half-space's (Hertz, McEwen) largest von Mises stress [Pa].
+    /// The half-space's (Hertz, McEwen) largest von Mises stress \[Pa\].
     pub von_mises_hertz: f64,
     /// FE correction of the Hertz stress: von_mises / von_mises_hertz.
     pub correction: f64,
@@ -277,7 +277,7 @@ fn bonded(spec: &BushSpec, mesh: &AnnulusMesh) -> Result<BondedPin, SolveError> 
     })
 }
 
-/// Characterises `spec` (checked first) for the Hertz loads `loads` [N].
+/// Characterises `spec` (checked first) for the Hertz loads `loads` \[N\].
 pub fn characterise(spec: &BushSpec, loads: &[f64]) -> Result<BushTable, SolveError> {
     let problems = spec.check("");
     if !problems.is_empty() {
@@ -389,7 +389,7 @@ fn largest_von_mises(model: &Annulus, u: &[[f64; 2]], contact: &LineContact, a: 
     (best, at)
 }
 
-/// The loads of a bush table when a file gives none [N].
+/// The loads of a bush table when a file gives none \[N\].
 pub const DEFAULT_LOADS: [f64; 7] = [100.0, 300.0, 1e3, 3e3, 1e4, 3e4, 5e4];
 
 fn default_loads() -> Vec<f64> {
@@ -402,7 +402,7 @@ fn default_loads() -> Vec<f64> {
 pub struct BushFile {
     /// The bush.
     pub bush: BushSpec,
-    /// Hertz loads [N] (the default set unless given).
+    /// Hertz loads \[N\] (the default set unless given).
     #[serde(default = "default_loads")]
     pub loads: Vec<f64>,
 }
@@ -462,7 +462,7 @@ impl InterfaceStress {
         Ok(model)
     }
 
-    /// The FE correction at normal force `force` [N].
+    /// The FE correction at normal force `force` \[N\].
     pub fn correction(&self, force: f64) -> f64 {
         let (l, c) = (&self.loads, &self.corrections);
         if force <= l[0] {
@@ -476,7 +476,7 @@ impl InterfaceStress {
         c[k] + s * (c[k + 1] - c[k])
     }
 
-    /// Largest von Mises stress at the interface [Pa] under normal force `force` [N] (0 without
+    /// Largest von Mises stress at the interface \[Pa\] under normal force `force` \[N\] (0 without
     /// contact).
     pub fn von_mises(&self, force: f64) -> f64 {
         if !(force > 0.0) {

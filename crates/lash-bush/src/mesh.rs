@@ -8,11 +8,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshOptions {
-    /// Size of the elements at the bore and at θ = 0 [m].
+    /// Size of the elements at the bore and at θ = 0 \[m\].
     pub first_size: f64,
     /// Growth factor of the element sizes away from the bore and from θ = 0 (≥ 1).
     pub growth: f64,
-    /// Largest angular span of an element [rad].
+    /// Largest angular span of an element \[rad\].
     pub max_angle: f64,
 }
 
@@ -72,9 +72,9 @@ fn graded(start: f64, length: f64, first: f64, growth: f64, cap: f64) -> Vec<f64
 /// and mid-points (the mid-point in r and θ of each element, so the curved edges are exact arcs).
 #[derive(Debug, Clone)]
 pub struct AnnulusMesh {
-    /// Element boundaries in r [m], from the bore a to the outer radius b.
+    /// Element boundaries in r \[m\], from the bore a to the outer radius b.
     pub radii: Vec<f64>,
-    /// Element boundaries in θ [rad], from −π to π (the same point: the ring closes).
+    /// Element boundaries in θ \[rad\], from −π to π (the same point: the ring closes).
     pub angles: Vec<f64>,
 }
 

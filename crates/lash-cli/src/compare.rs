@@ -6,10 +6,10 @@ use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun, Runner, Spatia
 use lash_scenario::AnyScenario;
 use std::path::Path;
 
-/// Pointwise errors are also reported over this first window, through the first impacts [s].
+/// Pointwise errors are also reported over this first window, through the first impacts \[s\].
 const FIRST_WINDOW: f64 = 2e-3;
 
-/// Upper end of the spectra drawn in the figures [Hz] (the reduced-interface-model papers show the low kilohertz range).
+/// Upper end of the spectra drawn in the figures \[Hz\] (the reduced-interface-model papers show the low kilohertz range).
 const FIGURE_MAX_FREQUENCY: f64 = 20_000.0;
 
 fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {

@@ -81,10 +81,10 @@ pub enum MicroArg {
 /// Settings of the reduced model.
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct ReducedArgs {
-    /// Reduced model: macro step h_m [s].
+    /// Reduced model: macro step h_m \[s\].
     #[arg(long, default_value_t = 1e-3)]
     macro_step: f64,
-    /// Reduced model: micro step h_r [s].
+    /// Reduced model: micro step h_r \[s\].
     #[arg(long, default_value_t = 1e-5)]
     micro_step: f64,
     /// Reduced model: interpolation of the macro terms across a macro step.
@@ -142,10 +142,10 @@ enum Command {
         /// Output directory (created if missing).
         #[arg(long)]
         out: std::path::PathBuf,
-        /// Override the horizon [s] (a system file: the stop time).
+        /// Override the horizon \[s\] (a system file: the stop time).
         #[arg(long)]
         horizon: Option<f64>,
-        /// System files: the communication step [s] (overrides the file's).
+        /// System files: the communication step \[s\] (overrides the file's).
         #[arg(long)]
         step: Option<f64>,
         /// File format of the time series: timeseries.csv or timeseries.parquet.
@@ -166,7 +166,7 @@ enum Command {
         /// Output directory.
         #[arg(long)]
         out: std::path::PathBuf,
-        /// Override the horizon [s].
+        /// Override the horizon \[s\].
         #[arg(long)]
         horizon: Option<f64>,
         #[command(flatten)]
@@ -292,7 +292,7 @@ enum FmuCommand {
         /// Run the FMU in a child process: a crash or a hang is reported, not inherited.
         #[arg(long)]
         isolate: bool,
-        /// With --isolate: the longest wait for one call [s].
+        /// With --isolate: the longest wait for one call \[s\].
         #[arg(long, default_value_t = 60.0)]
         timeout: f64,
     },

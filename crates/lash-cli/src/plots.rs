@@ -156,13 +156,13 @@ fn overlay(
     root.present().map_err(|e| fail(path, e))
 }
 
-/// One channel of the compared runs, sampled at `time` [s].
+/// One channel of the compared runs, sampled at `time` \[s\].
 pub struct Channel<'a> {
     /// Channel name.
     pub name: &'a str,
     /// Its unit.
     pub unit: &'a str,
-    /// Sample times [s].
+    /// Sample times \[s\].
     pub time: &'a [f64],
     /// The full model's samples.
     pub full: &'a [f64],
@@ -173,7 +173,7 @@ pub struct Channel<'a> {
 }
 
 /// Writes `<channel>.svg` (time series, crank angle on top when `crank_angle_deg` gives it from
-/// the time [s]) and `<channel>_spectrum.svg` (amplitude up to `max_frequency`, logarithmic) into
+/// the time \[s\]) and `<channel>_spectrum.svg` (amplitude up to `max_frequency`, logarithmic) into
 /// `dir`. Returns the files written.
 pub fn comparison_figures(
     dir: &Path,

@@ -13,11 +13,11 @@ use std::time::{Duration, Instant};
 /// the output (formatting and writing the rows, and the final flush), and the whole run.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Timing {
-    /// Simulation alone [s].
+    /// Simulation alone \[s\].
     pub simulation_s: f64,
-    /// Formatting and writing the CSV [s].
+    /// Formatting and writing the CSV \[s\].
     pub output_s: f64,
-    /// Both [s].
+    /// Both \[s\].
     pub total_s: f64,
 }
 

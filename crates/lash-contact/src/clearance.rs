@@ -6,7 +6,7 @@ use lash_mech::{BodyId, Pose, Vec2, perp};
 use serde::Serialize;
 
 /// A bush in series with a contact carries its damping as a state of its own (its deflection,
-/// [`ClearanceJoint::bush_damping`]) when its relaxation time c/k is at least this [s]; below, it
+/// [`ClearanceJoint::bush_damping`]) when its relaxation time c/k is at least this \[s\]; below, it
 /// follows its load quasi-statically. At 1e-7 s the loss factor ωc/k it leaves out is under 2 %
 /// for impacts longer than 20 µs (ω = π / duration), while a state that fast would hold an
 /// adaptive step near 1e-7 s through every contact.
@@ -20,15 +20,15 @@ pub struct ClearanceJoint {
     pub name: String,
     /// Body carrying the journal.
     pub journal_body: BodyId,
-    /// Journal centre on its body (local, from the centroid) [m].
+    /// Journal centre on its body (local, from the centroid) \[m\].
     pub journal_point: Vec2,
     /// Body carrying the bearing.
     pub bearing_body: BodyId,
-    /// Bearing centre on its body (local, from the centroid) [m].
+    /// Bearing centre on its body (local, from the centroid) \[m\].
     pub bearing_point: Vec2,
-    /// Journal radius R_J [m].
+    /// Journal radius R_J \[m\].
     pub journal_radius: f64,
-    /// Bearing radius R_B [m].
+    /// Bearing radius R_B \[m\].
     pub bearing_radius: f64,
     /// Normal contact law.
     pub law: NormalForce,
@@ -50,30 +50,30 @@ pub struct ClearanceJoint {
 /// Geometry, kinematics and forces of one clearance joint at one state.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct ContactState {
-    /// Journal centre [m].
+    /// Journal centre \[m\].
     pub journal_centre: Vec2,
-    /// Eccentricity e = r_J − r_B [m].
+    /// Eccentricity e = r_J − r_B \[m\].
     pub eccentricity: Vec2,
-    /// |e| [m].
+    /// |e| \[m\].
     pub eccentricity_norm: f64,
     /// Normal n = e/|e| (bearing centre → journal centre).
     pub normal: Vec2,
-    /// Penetration δ = |e| − c [m] (negative: free flight).
+    /// Penetration δ = |e| − c \[m\] (negative: free flight).
     pub penetration: f64,
     /// Penetration rate δ̇ = ė·n [m/s] (positive: approaching).
     pub penetration_rate: f64,
     /// Slip velocity v_t = ė·t + ω_J R_J − ω_B R_B [m/s].
     pub slip_velocity: f64,
-    /// Normal force F_N ≥ 0 [N].
+    /// Normal force F_N ≥ 0 \[N\].
     pub normal_force: f64,
-    /// Friction force F_T (signed like v_t) [N].
+    /// Friction force F_T (signed like v_t) \[N\].
     pub friction_force: f64,
-    /// Force on the journal f_J = −F_N n − F_T t [N].
+    /// Force on the journal f_J = −F_N n − F_T t \[N\].
     pub force_on_journal: Vec2,
 }
 
 impl ClearanceJoint {
-    /// Radial clearance c = R_B − R_J [m].
+    /// Radial clearance c = R_B − R_J \[m\].
     pub fn radial_clearance(&self) -> f64 {
         self.bearing_radius - self.journal_radius
     }
@@ -102,7 +102,7 @@ impl ClearanceJoint {
     }
 
     /// [`ClearanceJoint::evaluate`] for a joint whose bush has damping in series
-    /// (`bush_damping` > 0), with the bush's deflection `deflection` [m] as its state: returns the
+    /// (`bush_damping` > 0), with the bush's deflection `deflection` \[m\] as its state: returns the
     /// state and the deflection's rate ṡ. `penetration` and `penetration_rate` stay the approach
     /// δ, δ̇ of the journal to the undeflected bore; the contact's own indentation is δ − s.
     pub fn evaluate_damped(&self, journal: &Pose, bearing: &Pose, onset: f64, deflection: f64) -> (ContactState, f64) {
@@ -270,20 +270,20 @@ impl ClearanceJoint {
 /// One impact (a contact phase from located onset to located exit).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Impact {
-    /// Onset time [s].
+    /// Onset time \[s\].
     pub onset_time: f64,
     /// Approach velocity δ̇⁻ at onset [m/s].
     pub onset_velocity: f64,
-    /// Exit time [s] (NaN while open).
+    /// Exit time \[s\] (NaN while open).
     pub exit_time: f64,
-    /// Duration [s] (NaN while open).
+    /// Duration \[s\] (NaN while open).
     pub duration: f64,
-    /// Peak normal force [N] (adaptive methods: golden-section search on each step's continuous
+    /// Peak normal force \[N\] (adaptive methods: golden-section search on each step's continuous
     /// extension; RK4: parabola through the step-end samples).
     pub peak_force: f64,
-    /// Time of the peak [s].
+    /// Time of the peak \[s\].
     pub peak_time: f64,
-    /// Largest penetration [m].
+    /// Largest penetration \[m\].
     pub max_penetration: f64,
 }
 

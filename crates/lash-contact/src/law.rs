@@ -19,7 +19,7 @@ pub fn step(x: f64, x0: f64, h0: f64, x1: f64, h1: f64) -> f64 {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
-    /// Young's modulus E [Pa].
+    /// Young's modulus E \[Pa\].
     pub young_modulus: f64,
     /// Poisson's ratio ν [-].
     pub poisson_ratio: f64,
@@ -40,7 +40,7 @@ impl Material {
     }
 }
 
-/// Effective modulus E* with 1/E* = (1−ν_J²)/E_J + (1−ν_B²)/E_B [Pa].
+/// Effective modulus E* with 1/E* = (1−ν_J²)/E_J + (1−ν_B²)/E_B \[Pa\].
 pub fn effective_modulus(journal: &Material, bearing: &Material) -> f64 {
     1.0 / ((1.0 - journal.poisson_ratio.powi(2)) / journal.young_modulus
         + (1.0 - bearing.poisson_ratio.powi(2)) / bearing.young_modulus)
@@ -99,13 +99,13 @@ pub enum ContactLaw {
         exponent: f64,
         /// C_max [N s/m].
         max_damping: f64,
-        /// d_max [m], penetration at which full damping is reached.
+        /// d_max \[m\], penetration at which full damping is reached.
         damping_depth: f64,
     },
     /// Cylindrical line contact (Liu et al.): F = (π/2) E* L δ √(δ / (2(c + δ))), optionally times
     /// the Lankarani–Nikravesh hysteresis factor (1 + χ δ̇/δ̇⁻).
     Liu {
-        /// Axial contact length L [m].
+        /// Axial contact length L \[m\].
         length: f64,
         /// Restitution for the hysteresis factor; none means elastic.
         restitution: Option<f64>,
@@ -260,7 +260,7 @@ impl NormalForce {
 
     /// The normal force of this contact in series with a Kelvin–Voigt bush (stiffness
     /// `bush_stiffness` k_b [N/m], damping `bush_damping` c_b > 0 [N s/m], both massless) whose
-    /// deflection along the normal `deflection` s [m] is a state: the contact indents by
+    /// deflection along the normal `deflection` s \[m\] is a state: the contact indents by
     /// δ_c = δ − s at the rate δ̇_c = δ̇ − ṡ, and the bush carries what the contact carries,
     /// k_b s + c_b ṡ = F(δ_c, δ̇_c). With F = P + D δ̇_c (see
     /// [`NormalForce::elastic_and_damping`]) the balance is linear in ṡ:

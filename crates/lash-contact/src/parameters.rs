@@ -14,9 +14,9 @@ use crate::law::{ContactLaw, Material, NormalForce};
 /// The clearance joint as written by the user.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClearanceDefinition {
-    /// Journal radius R_J [m].
+    /// Journal radius R_J \[m\].
     pub journal_radius: f64,
-    /// Bearing radius R_B [m].
+    /// Bearing radius R_B \[m\].
     pub bearing_radius: f64,
     /// Contact law with its coefficients.
     pub contact: ContactLaw,

@@ -23,15 +23,15 @@ pub struct SphericalClearance {
     pub name: String,
     /// Body carrying the ball.
     pub journal_body: BodyId,
-    /// Ball centre on its body (body frame, from the centroid) [m].
+    /// Ball centre on its body (body frame, from the centroid) \[m\].
     pub journal_point: Vec3,
     /// Body carrying the socket.
     pub bearing_body: BodyId,
-    /// Socket centre on its body [m].
+    /// Socket centre on its body \[m\].
     pub bearing_point: Vec3,
-    /// Ball radius R_J [m].
+    /// Ball radius R_J \[m\].
     pub journal_radius: f64,
-    /// Socket radius R_B [m].
+    /// Socket radius R_B \[m\].
     pub bearing_radius: f64,
     /// Normal contact law.
     pub law: NormalForce,
@@ -46,30 +46,30 @@ pub struct SphericalClearance {
 /// Geometry, kinematics and forces of one spherical clearance joint at one state (world frame).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct SphericalContactState {
-    /// Ball centre [m].
+    /// Ball centre \[m\].
     pub journal_centre: Vec3,
-    /// Eccentricity e = r_J − r_B [m].
+    /// Eccentricity e = r_J − r_B \[m\].
     pub eccentricity: Vec3,
-    /// |e| [m].
+    /// |e| \[m\].
     pub eccentricity_norm: f64,
     /// Normal n = e/|e|.
     pub normal: Vec3,
-    /// Penetration δ = |e| − c [m] (negative: free flight).
+    /// Penetration δ = |e| − c \[m\] (negative: free flight).
     pub penetration: f64,
     /// Penetration rate δ̇ = ė·n [m/s] (positive: approaching).
     pub penetration_rate: f64,
     /// Slip velocity v_t of the ball's contact point relative to the socket's [m/s].
     pub slip_velocity: Vec3,
-    /// Normal force F_N ≥ 0 [N].
+    /// Normal force F_N ≥ 0 \[N\].
     pub normal_force: f64,
-    /// Friction force magnitude F_T ≥ 0 [N].
+    /// Friction force magnitude F_T ≥ 0 \[N\].
     pub friction_force: f64,
-    /// Force on the ball f_J [N].
+    /// Force on the ball f_J \[N\].
     pub force_on_journal: Vec3,
 }
 
 impl SphericalClearance {
-    /// Radial clearance c = R_B − R_J [m].
+    /// Radial clearance c = R_B − R_J \[m\].
     pub fn radial_clearance(&self) -> f64 {
         self.bearing_radius - self.journal_radius
     }

@@ -458,7 +458,7 @@ pub enum SubsystemError {
     /// The simulation failed (a blow-up, a singular system), naming time and quantity.
     #[error("at t = {t} s: {message}")]
     Simulation {
-        /// Time [s].
+        /// Time \[s\].
         t: f64,
         /// What happened.
         message: String,

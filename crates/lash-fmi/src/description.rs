@@ -21,7 +21,7 @@ pub struct ModelInfo {
     pub instantiation_token: String,
     /// One-line description.
     pub description: String,
-    /// Default experiment: (start, stop, step) [s].
+    /// Default experiment: (start, stop, step) \[s\].
     pub default_experiment: (f64, f64, f64),
 }
 

@@ -25,9 +25,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Mount {
-    /// Housing mass (bearing and sensors) [kg].
+    /// Housing mass (bearing and sensors) \[kg\].
     pub mass: f64,
-    /// Natural frequency of the mounted housing f_n [Hz].
+    /// Natural frequency of the mounted housing f_n \[Hz\].
     pub natural_frequency: f64,
     /// Damping ratio ζ [-].
     pub damping_ratio: f64,
@@ -53,7 +53,7 @@ impl Mount {
         2.0 * self.damping_ratio * (self.stiffness() * self.mass).sqrt()
     }
 
-    /// The housing's acceleration [m/s²] at the samples of `force` [N] (uniform step `dt`, linear
+    /// The housing's acceleration [m/s²] at the samples of `force` \[N\] (uniform step `dt`, linear
     /// between samples), starting at rest in its static position under the first sample.
     pub fn acceleration(&self, force: &[f64], dt: f64) -> Vec<f64> {
         let (m, k, c) = (self.mass, self.stiffness(), self.damping());
@@ -83,14 +83,14 @@ impl Mount {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Acquisition {
-    /// Logger sampling rate [Hz] (the simulation's output interval must divide its period).
+    /// Logger sampling rate \[Hz\] (the simulation's output interval must divide its period).
     pub sample_rate: f64,
-    /// Anti-alias low-pass cut-off (−3 dB) [Hz], below half the sampling rate.
+    /// Anti-alias low-pass cut-off (−3 dB) \[Hz\], below half the sampling rate.
     pub cutoff: f64,
     /// Butterworth order of the anti-alias filter (even: cascaded second-order sections).
     #[serde(default = "default_order")]
     pub order: usize,
-    /// Time from the run's start before the window of steady running begins [s].
+    /// Time from the run's start before the window of steady running begins \[s\].
     #[serde(default)]
     pub settle: f64,
 }
@@ -198,7 +198,7 @@ impl Logger {
 /// What a vibration analyser reports of one axis.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Vibration {
-    /// Frequency of the largest spectral line [Hz].
+    /// Frequency of the largest spectral line \[Hz\].
     pub peak_frequency: f64,
     /// Its amplitude (Hann-window corrected: a sine of amplitude A reads ≈ A).
     pub peak_amplitude: f64,

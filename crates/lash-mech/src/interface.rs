@@ -21,11 +21,11 @@ use nalgebra::{DMatrix, DVector, Matrix2};
 pub struct Interface {
     /// Body carrying the journal.
     pub journal_body: BodyId,
-    /// Journal centre (local, from the centroid) [m].
+    /// Journal centre (local, from the centroid) \[m\].
     pub journal_point: Vec2,
     /// Body carrying the bearing.
     pub bearing_body: BodyId,
-    /// Bearing centre (local, from the centroid) [m].
+    /// Bearing centre (local, from the centroid) \[m\].
     pub bearing_point: Vec2,
 }
 
@@ -34,12 +34,12 @@ pub struct Interface {
 pub struct EffectiveTerms {
     /// Mobility W = J A Jᵀ [1/kg] (interface acceleration per unit interface force).
     pub mobility: Matrix2<f64>,
-    /// Effective mass M̃ = W⁻¹ [kg]; `None` if W is singular (interface directions beyond the cut
+    /// Effective mass M̃ = W⁻¹ \[kg\]; `None` if W is singular (interface directions beyond the cut
     /// system's mobility: integrate ẅ = W f_c + a_free directly).
     pub effective_mass: Option<Matrix2<f64>>,
     /// Free interface acceleration a_free [m/s²] (f_c = 0).
     pub free_acceleration: Vec2,
-    /// Effective force f̃ = M̃ a_free [N] (zero when W is singular).
+    /// Effective force f̃ = M̃ a_free \[N\] (zero when W is singular).
     pub effective_force: Vec2,
     /// Generalized accelerations with f_c = 0.
     pub free_accelerations: Vec<f64>,
@@ -80,10 +80,10 @@ fn interface_rate(iface: &Interface, poses: &[Pose], x: &[f64]) -> Vec2 {
 pub struct ClearanceInterface {
     /// Journal and bearing centres.
     pub interface: Interface,
-    /// Journal radius R_J [m] (the friction force acts at the contact point, R_J from the journal
+    /// Journal radius R_J \[m\] (the friction force acts at the contact point, R_J from the journal
     /// centre).
     pub journal_radius: f64,
-    /// Bearing radius R_B [m].
+    /// Bearing radius R_B \[m\].
     pub bearing_radius: f64,
 }
 
@@ -102,11 +102,11 @@ pub struct ClearanceInterface {
 pub struct CoupledTerms {
     /// Mobility W = J A Jᵀ (n × n) [1/kg]; its off-diagonal 2 × 2 blocks couple the joints.
     pub mobility: DMatrix<f64>,
-    /// Effective mass M̃ = W⁻¹ [kg]; `None` when W is singular.
+    /// Effective mass M̃ = W⁻¹ \[kg\]; `None` when W is singular.
     pub effective_mass: Option<DMatrix<f64>>,
     /// Free interface accelerations a_free (n) [m/s²].
     pub free_acceleration: DVector<f64>,
-    /// Effective forces f̃ = M̃ a_free (n) [N] (zero when W is singular).
+    /// Effective forces f̃ = M̃ a_free (n) \[N\] (zero when W is singular).
     pub effective_force: DVector<f64>,
     /// W_T (n × k): interface accelerations per unit friction force F_T of each joint, through its
     /// moments alone [1/kg].

@@ -122,7 +122,7 @@ fn project_velocities(qd: &mut [f64], solver: &mut Solver, work: &mut Correction
 /// Position, velocity and acceleration of a body point (world frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointKinematics {
-    /// Position [m].
+    /// Position \[m\].
     pub position: Vec2,
     /// Velocity [m/s].
     pub velocity: Vec2,
@@ -146,7 +146,7 @@ pub fn point_kinematics(q: &[f64], qd: &[f64], qdd: &[f64], body: BodyId, local:
     }
 }
 
-/// Kinetic energy ½ q̇ᵀ M q̇ [J].
+/// Kinetic energy ½ q̇ᵀ M q̇ \[J\].
 pub fn kinetic_energy(mech: &Mechanism, qd: &[f64]) -> f64 {
     mech.bodies
         .iter()
@@ -158,7 +158,7 @@ pub fn kinetic_energy(mech: &Mechanism, qd: &[f64]) -> f64 {
         .sum()
 }
 
-/// Reaction force on body i of joint `k` [N] (world frame): −λ of its two rows (revolute), or
+/// Reaction force on body i of joint `k` \[N\] (world frame): −λ of its two rows (revolute), or
 /// for a prismatic joint the normal force −λ₂ v and the moment −λ₁ (returned as (fx, fy)).
 pub fn joint_reaction(mech: &Mechanism, solver: &Solver, k: usize) -> Vec2 {
     let row = mech.joint_row(k);

@@ -60,9 +60,9 @@ pub fn cross(a: Vec2, b: Vec2) -> f64 {
 /// Pose of a body (or of the ground) read from the coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
-    /// Centroid position [m].
+    /// Centroid position \[m\].
     pub position: Vec2,
-    /// Angle [rad].
+    /// Angle \[rad\].
     pub angle: f64,
     /// cos θ.
     pub cos: f64,

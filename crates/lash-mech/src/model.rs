@@ -18,13 +18,13 @@ pub enum BodyId {
 pub struct Body {
     /// Name used in outputs and errors.
     pub name: String,
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
     /// Moment of inertia about the centroid [kg m²].
     pub inertia: f64,
-    /// Initial guess of the centroid position [m] (assembly corrects it).
+    /// Initial guess of the centroid position \[m\] (assembly corrects it).
     pub position: Vec2,
-    /// Initial guess of the angle [rad].
+    /// Initial guess of the angle \[rad\].
     pub angle: f64,
     /// Initial guess of the centroid velocity [m/s] (velocity analysis corrects it).
     pub velocity: Vec2,
@@ -42,7 +42,7 @@ pub enum JointKind {
     Prismatic {
         /// Sliding direction in body j's frame (normalised on use).
         axis_j: Vec2,
-        /// Fixed relative angle θ_i − θ_j [rad].
+        /// Fixed relative angle θ_i − θ_j \[rad\].
         angle_offset: f64,
     },
 }
@@ -56,11 +56,11 @@ pub struct Joint {
     pub kind: JointKind,
     /// First body.
     pub body_i: BodyId,
-    /// Joint point on body i (local, from its centroid) [m].
+    /// Joint point on body i (local, from its centroid) \[m\].
     pub point_i: Vec2,
     /// Second body.
     pub body_j: BodyId,
-    /// Joint point on body j (local, from its centroid) [m].
+    /// Joint point on body j (local, from its centroid) \[m\].
     pub point_j: Vec2,
 }
 
@@ -77,7 +77,7 @@ impl Joint {
 pub enum Motion {
     /// f(t) = angle0 + ω t.
     ConstantSpeed {
-        /// Angle at t = 0 [rad].
+        /// Angle at t = 0 \[rad\].
         #[serde(default)]
         angle0: f64,
         /// Angular speed ω [rad/s].
@@ -90,16 +90,16 @@ pub enum Motion {
     },
     /// f(t) = angle0 + ω t + A sin(Ω t + φ): a speed ripple on a constant speed.
     Harmonic {
-        /// Angle at t = 0 of the mean motion [rad].
+        /// Angle at t = 0 of the mean motion \[rad\].
         #[serde(default)]
         angle0: f64,
         /// Mean angular speed ω [rad/s].
         omega: f64,
-        /// Ripple amplitude A [rad].
+        /// Ripple amplitude A \[rad\].
         amplitude: f64,
         /// Ripple circular frequency Ω [rad/s].
         frequency: f64,
-        /// Ripple phase φ [rad].
+        /// Ripple phase φ \[rad\].
         #[serde(default)]
         phase: f64,
     },
@@ -184,9 +184,9 @@ pub enum Load {
     Force {
         /// Loaded body.
         body: usize,
-        /// Point of application (local, from the centroid) [m].
+        /// Point of application (local, from the centroid) \[m\].
         point: Vec2,
-        /// Force in the world frame [N].
+        /// Force in the world frame \[N\].
         force: Vec2,
     },
     /// A constant torque about +z [N m].
@@ -213,11 +213,11 @@ pub enum Load {
     Bushing {
         /// Body carrying the first point (the journal's).
         body_i: BodyId,
-        /// Its point (local) [m].
+        /// Its point (local) \[m\].
         point_i: Vec2,
         /// Body carrying the second point (the bore's).
         body_j: BodyId,
-        /// Its point (local) [m].
+        /// Its point (local) \[m\].
         point_j: Vec2,
         /// Radial stiffness k [N/m].
         stiffness: f64,
@@ -236,9 +236,9 @@ pub enum Load {
 /// the last segment's power law beyond the last.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RadialCurve {
-    /// Deflections u_i [m], increasing, > 0.
+    /// Deflections u_i \[m\], increasing, > 0.
     pub deflections: Vec<f64>,
-    /// Forces F_i [N], increasing, > 0.
+    /// Forces F_i \[N\], increasing, > 0.
     pub forces: Vec<f64>,
 }
 
@@ -256,7 +256,7 @@ impl RadialCurve {
         (k, (y[k + 1] / y[k]).ln() / (x[k + 1] / x[k]).ln())
     }
 
-    /// F(u) [N] at deflection `u` ≥ 0 [m].
+    /// F(u) \[N\] at deflection `u` ≥ 0 \[m\].
     pub fn force(&self, u: f64) -> f64 {
         let (x, y) = (&self.deflections, &self.forces);
         if u <= x[0] {
@@ -266,7 +266,7 @@ impl RadialCurve {
         y[k] * (u / x[k]).powf(p)
     }
 
-    /// The deflection u [m] at which the force is `force` ≥ 0 [N] (the inverse of [`RadialCurve::force`]).
+    /// The deflection u \[m\] at which the force is `force` ≥ 0 \[N\] (the inverse of [`RadialCurve::force`]).
     pub fn deflection(&self, force: f64) -> f64 {
         let (x, y) = (&self.deflections, &self.forces);
         if force <= y[0] {
@@ -299,11 +299,11 @@ impl RadialCurve {
 /// The state of a bushing: separation d = p_i − p_j, its rate, and the force on body i.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BushingState {
-    /// Separation of the two points [m].
+    /// Separation of the two points \[m\].
     pub deflection: Vec2,
     /// Its rate [m/s].
     pub deflection_rate: Vec2,
-    /// Force on body i (−k d − c ḋ) [N].
+    /// Force on body i (−k d − c ḋ) \[N\].
     pub force: Vec2,
 }
 

@@ -37,7 +37,7 @@ pub enum Probe {
         name: String,
         /// Body.
         body: BodyId,
-        /// Point (local, from the centroid) [m].
+        /// Point (local, from the centroid) \[m\].
         point: Vec2,
     },
     /// Reaction of ideal joint `joint` of the cut mechanism on its first body: `name.reaction…`.
@@ -67,7 +67,7 @@ struct Prescribed {
     from: Vec<f64>,
     /// e then ė at the end (n each).
     to: Vec<f64>,
-    /// Mean friction force of each joint over the step [N].
+    /// Mean friction force of each joint over the step \[N\].
     friction: Vec<f64>,
 }
 
@@ -166,9 +166,9 @@ impl OdeSystem for MechanismOde<'_> {
 /// (scalars when k = 1).
 pub mod vr {
     lash_core::value_references! {
-        /// Output M̃ (n × n) [kg].
+        /// Output M̃ (n × n) \[kg\].
         EFFECTIVE_MASS,
-        /// Output f̃ (n) [N].
+        /// Output f̃ (n) \[N\].
         EFFECTIVE_FORCE,
         /// Output W = M̃⁻¹ (n × n) [1/kg].
         MOBILITY,
@@ -186,11 +186,11 @@ pub mod vr {
         BEARING_ANGULAR_ACCELERATION,
         /// Output max |Φ| of the macro's own constraints.
         CONSTRAINT_ERROR,
-        /// Input (two-way coupling): eccentricities at the end of the next step (n) [m].
+        /// Input (two-way coupling): eccentricities at the end of the next step (n) \[m\].
         ECCENTRICITY,
         /// Input (two-way coupling): their rates (n) [m/s].
         ECCENTRICITY_RATE,
-        /// Input (two-way coupling): each joint's mean friction force over the next step (k) [N].
+        /// Input (two-way coupling): each joint's mean friction force over the next step (k) \[N\].
         FRICTION_FORCE,
     }
 }

@@ -7,7 +7,7 @@ use rustfft::{FftPlanner, num_complex::Complex};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Frequency bands [Hz] of the band powers (the last one ends at the Nyquist frequency).
+/// Frequency bands \[Hz\] of the band powers (the last one ends at the Nyquist frequency).
 pub const BANDS: [(f64, f64); 4] = [(0.0, 500.0), (500.0, 2_000.0), (2_000.0, 10_000.0), (10_000.0, f64::INFINITY)];
 
 /// One-sided amplitude spectrum of a uniformly sampled signal (mean removed, Hann window,

@@ -15,13 +15,13 @@ pub struct AdaptiveOptions {
     pub rtol: f64,
     /// Absolute tolerance [state units: m, rad, m/s, rad/s].
     pub atol: f64,
-    /// First step tried [s].
+    /// First step tried \[s\].
     #[serde(default = "default_initial_step")]
     pub initial_step: f64,
-    /// Largest step allowed [s].
+    /// Largest step allowed \[s\].
     #[serde(default = "default_max_step")]
     pub max_step: f64,
-    /// Smallest step allowed before giving up [s]. A right side that jumps without an event (pure
+    /// Smallest step allowed before giving up \[s\]. A right side that jumps without an event (pure
     /// Coulomb friction at sticking) drives the step size down here instead of hanging the run.
     #[serde(default = "default_min_step")]
     pub min_step: f64,

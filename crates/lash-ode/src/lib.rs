@@ -113,7 +113,7 @@ pub trait OdeSystem {
 pub enum Method {
     /// Fixed-step classical Runge–Kutta 4.
     Rk4 {
-        /// Step size [s].
+        /// Step size \[s\].
         step: f64,
     },
     /// Error-controlled Dormand–Prince 5(4) with event location.

@@ -311,9 +311,9 @@ pub struct MasterStats {
     pub macro_steps: u64,
     /// Micro steps taken.
     pub micro_steps: u64,
-    /// Wall time in macro steps (their thread in threaded execution) [s].
+    /// Wall time in macro steps (their thread in threaded execution) \[s\].
     pub macro_seconds: f64,
-    /// Wall time in micro steps, input interpolation and observers [s].
+    /// Wall time in micro steps, input interpolation and observers \[s\].
     pub micro_seconds: f64,
     /// Set when a subsystem ended the run before the stop time without an error: which one
     /// ("macro" or "micro" for the interface master, the element's name for the connected one)
@@ -1343,7 +1343,7 @@ struct SignalTable {
     propagated: Vec<(usize, usize, usize)>,
     /// Number of loads (contact forces, then friction loads).
     loads: usize,
-    /// Macro step [s].
+    /// Macro step \[s\].
     step: f64,
     /// Per `hermite` entry: a, ȧ, b, ḃ of the current step.
     hermite_nodes: Vec<[f64; 4]>,

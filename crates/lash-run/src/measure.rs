@@ -28,9 +28,9 @@ pub struct AxisSummary {
 pub struct MeasurementSummary {
     /// Measurement name.
     pub name: String,
-    /// Logger rate [Hz].
+    /// Logger rate \[Hz\].
     pub sample_rate: f64,
-    /// Start of the window of steady running [s].
+    /// Start of the window of steady running \[s\].
     pub window_start: f64,
     /// Per axis.
     pub axes: Vec<AxisSummary>,

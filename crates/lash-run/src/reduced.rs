@@ -27,9 +27,9 @@ use lash_scenario::schema::Scenario;
 /// Step sizes, interpolation, coupling and execution of the reduced model.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ReducedOptions {
-    /// Macro step h_m [s].
+    /// Macro step h_m \[s\].
     pub macro_step: f64,
-    /// Micro step h_r [s] (the RK4 step, or the communication step of the error-controlled micro).
+    /// Micro step h_r \[s\] (the RK4 step, or the communication step of the error-controlled micro).
     pub micro_step: f64,
     /// Interpolation of the macro terms across a macro step.
     pub interpolation: Interpolation,

@@ -55,7 +55,7 @@ pub struct ChannelStats {
 pub struct ClearanceSummary {
     /// Joint name.
     pub name: String,
-    /// Radial clearance [m].
+    /// Radial clearance \[m\].
     pub radial_clearance: f64,
     /// Number of contact onsets (impacts).
     pub impacts: usize,
@@ -63,15 +63,15 @@ pub struct ClearanceSummary {
     pub impacts_per_cycle: Option<f64>,
     /// Fraction of the horizon spent in contact (from the located onsets and exits).
     pub contact_fraction: f64,
-    /// Largest eccentricity over the samples [m].
+    /// Largest eccentricity over the samples \[m\].
     pub max_eccentricity: f64,
-    /// Largest penetration over impacts [m].
+    /// Largest penetration over impacts \[m\].
     pub max_penetration: f64,
-    /// Largest normal force over impacts [N].
+    /// Largest normal force over impacts \[N\].
     pub peak_normal_force: f64,
-    /// Mean of |f_c| over the samples [N].
+    /// Mean of |f_c| over the samples \[N\].
     pub mean_contact_force: f64,
-    /// Median duration of the completed impacts [s] (none without a completed impact).
+    /// Median duration of the completed impacts \[s\] (none without a completed impact).
     pub median_impact_duration: Option<f64>,
     /// The first impacts (up to 20), with onset time, onset velocity, duration, peak force.
     pub first_impacts: Vec<Impact>,
@@ -176,17 +176,17 @@ pub struct Summary {
     pub model: &'static str,
     /// Integrator used.
     pub integrator: lash_ode::Method,
-    /// Start time [s].
+    /// Start time \[s\].
     pub start_time: f64,
-    /// Horizon [s].
+    /// Horizon \[s\].
     pub horizon: f64,
-    /// Output interval [s].
+    /// Output interval \[s\].
     pub output_interval: f64,
     /// Samples written.
     pub samples: u64,
-    /// CPU time of the integration (this thread) [s].
+    /// CPU time of the integration (this thread) \[s\].
     pub cpu_time_s: f64,
-    /// Wall time of the integration [s].
+    /// Wall time of the integration \[s\].
     pub wall_time_s: f64,
     /// Accepted steps.
     pub steps: u64,

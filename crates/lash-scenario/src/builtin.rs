@@ -17,13 +17,13 @@ use lash_mech::{Baumgarte, Motion};
 use lash_ode::{AdaptiveOptions, Method};
 use std::collections::BTreeMap;
 
-/// Crank length L1 [m].
+/// Crank length L1 \[m\].
 pub const CRANK_LENGTH: f64 = 0.05;
-/// Connecting-rod length L2 [m].
+/// Connecting-rod length L2 \[m\].
 pub const ROD_LENGTH: f64 = 0.12;
 /// Crank speed ω [rad/s] (5000 rpm).
 pub const CRANK_SPEED: f64 = 5000.0 * 2.0 * std::f64::consts::PI / 60.0;
-/// Bearing radius of both benchmarks [m].
+/// Bearing radius of both benchmarks \[m\].
 pub const BEARING_RADIUS: f64 = 0.010;
 
 /// Names of the built-in scenarios.
@@ -186,7 +186,7 @@ fn clearance(joint: &str, journal: &str, c: f64, friction: FrictionLaw) -> Clear
 
 const AMBROSIO: FrictionLaw = FrictionLaw::Ambrosio { coefficient: 0.01, v0: 1e-4, v1: 1e-3 };
 
-/// Scenario B with radial clearance `c` [m] at the rod–slider joint.
+/// Scenario B with radial clearance `c` \[m\] at the rod–slider joint.
 pub fn scenario_b(c: f64) -> Scenario {
     let name = if c == 0.5e-3 { "B".to_string() } else { format!("B-{}mm", c * 1e3) };
     let mut s = slider_crank(
@@ -198,7 +198,7 @@ pub fn scenario_b(c: f64) -> Scenario {
     s
 }
 
-/// Scenario A with radial clearance `c` [m] at the crank–ground joint.
+/// Scenario A with radial clearance `c` \[m\] at the crank–ground joint.
 pub fn scenario_a(c: f64) -> Scenario {
     let name = if c == 100e-6 { "A".to_string() } else { format!("A-{}um", (c * 1e6).round()) };
     let mut s = slider_crank(
@@ -232,19 +232,19 @@ pub fn scenario_c() -> Scenario {
 pub enum FJoint {
     /// Rigid and perfect: an ideal revolute joint.
     Ideal,
-    /// Rigid and imperfect: radial clearance c [m] (bore 10 mm + c around the 10 mm pin).
+    /// Rigid and imperfect: radial clearance c \[m\] (bore 10 mm + c around the 10 mm pin).
     Clearance(f64),
     /// Flexible and perfect: the bronze bush (bore 10 mm = pin, outer 20 mm, 32 mm long) by finite
     /// elements, no clearance.
     Bush,
-    /// Flexible and imperfect: radial clearance c [m] in the bronze bush (bore 10 mm + c), the
+    /// Flexible and imperfect: radial clearance c \[m\] in the bronze bush (bore 10 mm + c), the
     /// contact in series with the bush's structural stiffness.
     BushWithClearance(f64),
 }
 
 const BRONZE: lash_bush::BushMaterial = lash_bush::BushMaterial::TIN_BRONZE;
 
-/// The bronze bush of scenario F around its 10 mm pin, bore `bore` [m].
+/// The bronze bush of scenario F around its 10 mm pin, bore `bore` \[m\].
 pub fn scenario_f_bush(bore: f64) -> lash_bush::BushSpec {
     lash_bush::BushSpec { pin_radius: 0.010, inner_radius: bore, ..lash_bush::BushSpec::study() }
 }

@@ -26,15 +26,15 @@ use lash_mech::{Baumgarte, Motion};
 use lash_spatial::SpatialJointKind;
 use std::collections::BTreeMap;
 
-/// Crank radius r [m].
+/// Crank radius r \[m\].
 pub const E_CRANK_RADIUS: f64 = 0.05;
-/// Rod length L [m].
+/// Rod length L \[m\].
 pub const E_ROD_LENGTH: f64 = 0.25;
-/// Height h of the slider line above the crank axis [m].
+/// Height h of the slider line above the crank axis \[m\].
 pub const E_HEIGHT: f64 = 0.06;
-/// Lateral offset e of the slider line [m].
+/// Lateral offset e of the slider line \[m\].
 pub const E_OFFSET: f64 = 0.02;
-/// Socket radius [m].
+/// Socket radius \[m\].
 pub const E_SOCKET_RADIUS: f64 = 0.006;
 
 /// Names of the built-in spatial scenarios.
@@ -72,18 +72,18 @@ pub fn spatial_by_name(name: &str) -> Option<SpatialScenario> {
     Some(scenario_e(clearance, rpm, friction))
 }
 
-/// The initial crank angle θ0 = asin(e/r) [rad].
+/// The initial crank angle θ0 = asin(e/r) \[rad\].
 pub fn e_initial_angle() -> f64 {
     (E_OFFSET / E_CRANK_RADIUS).asin()
 }
 
-/// The slider's closed-form position x_s(θ) [m].
+/// The slider's closed-form position x_s(θ) \[m\].
 pub fn e_slider_position(theta: f64) -> f64 {
     let (r, l, h, e) = (E_CRANK_RADIUS, E_ROD_LENGTH, E_HEIGHT, E_OFFSET);
     r * theta.cos() + (l * l - h * h - (r * theta.sin() - e).powi(2)).sqrt()
 }
 
-/// Scenario E with radial clearance `clearance` [m] at both spherical joints, the crank at `rpm`,
+/// Scenario E with radial clearance `clearance` \[m\] at both spherical joints, the crank at `rpm`,
 /// with ADAMS stick–slip friction or frictionless.
 pub fn scenario_e(clearance: f64, rpm: f64, friction: bool) -> SpatialScenario {
     let (r, l, h, e) = (E_CRANK_RADIUS, E_ROD_LENGTH, E_HEIGHT, E_OFFSET);

@@ -6,7 +6,7 @@
 //! * [`builtin`]: scenarios A and B (and variants) by name; [`builtin_spatial`]: the spatial
 //!   slider-crank E and its variants.
 //! * [`spatial`]: spatial scenario files (`space = "spatial"`): schema, validation, channels.
-//! * [`channels`]: the output channels a scenario offers (names, units, what they sample).
+//! * [`channels`](mod@channels): the output channels a scenario offers (names, units, what they sample).
 //! * [`WithParameters`], [`paths`]: a scenario edited by named parameters or field paths.
 
 pub mod builtin;

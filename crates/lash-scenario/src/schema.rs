@@ -54,13 +54,13 @@ pub struct Scenario {
 pub struct BodySpec {
     /// Unique name ("ground" is reserved).
     pub name: String,
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
     /// Moment of inertia about the centroid [kg m²].
     pub inertia: f64,
-    /// Initial guess of the centroid position [m]; assembly makes it consistent.
+    /// Initial guess of the centroid position \[m\]; assembly makes it consistent.
     pub position: [f64; 2],
-    /// Initial guess of the angle [rad].
+    /// Initial guess of the angle \[rad\].
     #[serde(default)]
     pub angle: f64,
     /// Initial guess of the centroid velocity [m/s]; velocity analysis makes it consistent.
@@ -92,17 +92,17 @@ pub struct JointSpec {
     pub kind: JointType,
     /// First body.
     pub body1: String,
-    /// Joint point on body1 [m] (required: a joint placed at the body's origin by default would
+    /// Joint point on body1 \[m\] (required: a joint placed at the body's origin by default would
     /// hide a forgotten field).
     pub point1: [f64; 2],
     /// Second body.
     pub body2: String,
-    /// Joint point on body2 [m] (required).
+    /// Joint point on body2 \[m\] (required).
     pub point2: [f64; 2],
     /// Prismatic only: sliding axis in body2's frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 2]>,
-    /// Prismatic only: fixed angle θ1 − θ2 [rad].
+    /// Prismatic only: fixed angle θ1 − θ2 \[rad\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angle_offset: Option<f64>,
 }
@@ -134,10 +134,10 @@ pub enum LoadSpec {
     Force {
         /// Loaded body.
         body: String,
-        /// Point [m].
+        /// Point \[m\].
         #[serde(default)]
         point: [f64; 2],
-        /// Force [N].
+        /// Force \[N\].
         force: [f64; 2],
     },
     /// Constant torque about +z.
@@ -167,9 +167,9 @@ pub struct ClearanceSpec {
     pub joint: String,
     /// Which of that joint's bodies carries the journal (pin); the other has the bearing (hole).
     pub journal: String,
-    /// Journal radius R_J [m].
+    /// Journal radius R_J \[m\].
     pub journal_radius: f64,
-    /// Bearing radius R_B [m] (> R_J).
+    /// Bearing radius R_B \[m\] (> R_J).
     pub bearing_radius: f64,
     /// Journal material (name in `materials`), used for Hertz stiffness.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -210,7 +210,7 @@ pub struct BushingSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bush: Option<lash_bush::BushSpec>,
     /// The radial force as a curve of the deflection (instead of `stiffness` and `bush`): points
-    /// `deflections` [m] and `forces` [N], both increasing from the origin, joined by power laws.
+    /// `deflections` \[m\] and `forces` \[N\], both increasing from the origin, joined by power laws.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub curve: Option<lash_mech::RadialCurve>,
 }
@@ -243,7 +243,7 @@ pub struct SensorSpec {
     pub name: String,
     /// Body.
     pub body: String,
-    /// Point on the body [m].
+    /// Point on the body \[m\].
     #[serde(default)]
     pub point: [f64; 2],
 }
@@ -252,12 +252,12 @@ pub struct SensorSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SimulationSpec {
-    /// Start time [s].
+    /// Start time \[s\].
     #[serde(default)]
     pub start_time: f64,
-    /// Length of the run [s].
+    /// Length of the run \[s\].
     pub horizon: f64,
-    /// Output sampling interval [s].
+    /// Output sampling interval \[s\].
     pub output_interval: f64,
     /// Integration method.
     pub integrator: Method,
@@ -285,7 +285,7 @@ pub struct OutputSpec {
 pub struct MeasurementSpec {
     /// Name: the logged channels are `<name>.ax`, `<name>.ay` (and `<name>.az`).
     pub name: String,
-    /// The force channel driving each axis [N] (one to three).
+    /// The force channel driving each axis \[N\] (one to three).
     pub forces: Vec<String>,
     /// The housing and its mount.
     pub mount: lash_measure::Mount,

@@ -98,7 +98,7 @@ fn identity() -> [f64; 4] {
 pub struct SpatialBodySpec {
     /// Unique name ("ground" is reserved).
     pub name: String,
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
     /// Principal moments of inertia about the centroid along the body's x, y, z axes [kg m²].
     pub inertia: [f64; 3],
@@ -106,7 +106,7 @@ pub struct SpatialBodySpec {
     /// (the tensor's off-diagonal entries are −I_xy, …; default 0).
     #[serde(default)]
     pub products: [f64; 3],
-    /// Initial guess of the centroid position [m]; assembly makes it consistent.
+    /// Initial guess of the centroid position \[m\]; assembly makes it consistent.
     pub position: [f64; 3],
     /// Initial orientation as a unit quaternion (w, x, y, z) (normalised when read).
     #[serde(default = "identity")]
@@ -130,11 +130,11 @@ pub struct SpatialJointSpec {
     pub kind: SpatialJointKind,
     /// First body.
     pub body1: String,
-    /// Joint point on body1 [m].
+    /// Joint point on body1 \[m\].
     pub point1: [f64; 3],
     /// Second body.
     pub body2: String,
-    /// Joint point on body2 [m].
+    /// Joint point on body2 \[m\].
     pub point2: [f64; 3],
     /// Axis in body1's frame (all kinds but spherical).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -160,7 +160,7 @@ pub struct SpatialDriverSpec {
     pub name: String,
     /// The driven joint.
     pub joint: String,
-    /// Prescribed angle of reference2 about axis1, from reference1 [rad].
+    /// Prescribed angle of reference2 about axis1, from reference1 \[rad\].
     pub motion: Motion,
 }
 
@@ -172,10 +172,10 @@ pub enum SpatialLoadSpec {
     Force {
         /// Loaded body.
         body: String,
-        /// Point [m].
+        /// Point \[m\].
         #[serde(default)]
         point: [f64; 3],
-        /// Force [N].
+        /// Force \[N\].
         force: [f64; 3],
     },
     /// Constant torque in the world frame.
@@ -205,7 +205,7 @@ pub struct SpatialSensorSpec {
     pub name: String,
     /// Body.
     pub body: String,
-    /// Point on the body [m].
+    /// Point on the body \[m\].
     #[serde(default)]
     pub point: [f64; 3],
 }

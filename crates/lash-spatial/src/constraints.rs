@@ -27,7 +27,7 @@ use lash_mech::BodyId;
 /// A body's kinematic state in the world frame (the ground: the identity, at rest).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyFrame {
-    /// Centroid [m].
+    /// Centroid \[m\].
     pub position: Vec3,
     /// Orientation matrix A (body to world).
     pub rotation: Mat3,
@@ -68,9 +68,9 @@ pub struct Row {
 struct Side {
     body: Option<usize>,
     frame: BodyFrame,
-    /// A s' [m].
+    /// A s' \[m\].
     s: Vec3,
-    /// Origin r + A s' [m].
+    /// Origin r + A s' \[m\].
     origin: Vec3,
     /// Its velocity [m/s].
     origin_velocity: Vec3,

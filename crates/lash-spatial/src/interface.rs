@@ -28,15 +28,15 @@ use nalgebra::{DMatrix, DVector};
 pub struct SphericalInterface {
     /// Body carrying the ball.
     pub journal_body: BodyId,
-    /// Ball centre (body frame, from the centroid) [m].
+    /// Ball centre (body frame, from the centroid) \[m\].
     pub journal_point: Vec3,
     /// Body carrying the socket.
     pub bearing_body: BodyId,
-    /// Socket centre [m].
+    /// Socket centre \[m\].
     pub bearing_point: Vec3,
-    /// Ball radius R_J [m]: the arm of the friction force's torque on the ball's body.
+    /// Ball radius R_J \[m\]: the arm of the friction force's torque on the ball's body.
     pub journal_radius: f64,
-    /// Socket radius R_B [m]: the arm of its torque on the socket's body.
+    /// Socket radius R_B \[m\]: the arm of its torque on the socket's body.
     pub bearing_radius: f64,
 }
 
@@ -45,11 +45,11 @@ pub struct SphericalInterface {
 pub struct SpatialCoupledTerms {
     /// Mobility W = J G_f (n × n) [1/kg].
     pub mobility: DMatrix<f64>,
-    /// Effective mass M̃ = W⁻¹ [kg]; `None` when W is singular.
+    /// Effective mass M̃ = W⁻¹ \[kg\]; `None` when W is singular.
     pub effective_mass: Option<DMatrix<f64>>,
     /// Free interface accelerations a_free (n) [m/s²].
     pub free_acceleration: DVector<f64>,
-    /// Effective forces f̃ = M̃ a_free (n) [N] (zero when W is singular).
+    /// Effective forces f̃ = M̃ a_free (n) \[N\] (zero when W is singular).
     pub effective_force: DVector<f64>,
     /// W_τ (n × 3k): interface accelerations per unit friction load m = n × f of joint j (world
     /// x, y, z; columns 3j…3j+2), i.e. per torque pair R_J m on its ball body and −R_B m on its

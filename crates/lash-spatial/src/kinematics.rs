@@ -66,7 +66,7 @@ pub fn velocity_analysis(mech: &SpatialMechanism, t: f64, q: &[f64], v: &mut [f6
     Ok(())
 }
 
-/// Kinetic energy Σ ½ m |ṙ|² + ½ ω'ᵀ J' ω' [J].
+/// Kinetic energy Σ ½ m |ṙ|² + ½ ω'ᵀ J' ω' \[J\].
 pub fn kinetic_energy(mech: &SpatialMechanism, v: &[f64]) -> f64 {
     mech.bodies
         .iter()
@@ -79,7 +79,7 @@ pub fn kinetic_energy(mech: &SpatialMechanism, v: &[f64]) -> f64 {
         .sum()
 }
 
-/// Potential energy of gravity −Σ m g·r [J].
+/// Potential energy of gravity −Σ m g·r \[J\].
 pub fn potential_energy(mech: &SpatialMechanism, q: &[f64]) -> f64 {
     mech.bodies
         .iter()
@@ -105,7 +105,7 @@ pub fn angular_momentum(mech: &SpatialMechanism, q: &[f64], v: &[f64]) -> Vec3 {
 /// Position, velocity and acceleration of a body point (world frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpatialPoint {
-    /// Position [m].
+    /// Position \[m\].
     pub position: Vec3,
     /// Velocity [m/s].
     pub velocity: Vec3,

@@ -10,11 +10,11 @@ use serde::{Deserialize, Serialize};
 pub struct SpatialBody {
     /// Name used in outputs and errors.
     pub name: String,
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f64,
     /// Inertia tensor about the centroid in the body frame [kg m²] (symmetric positive definite).
     pub inertia: Mat3,
-    /// Initial centroid position in the world frame [m] (assembly corrects it).
+    /// Initial centroid position in the world frame \[m\] (assembly corrects it).
     pub position: Vec3,
     /// Initial orientation (body frame to world frame).
     pub orientation: Orientation,
@@ -46,7 +46,7 @@ impl SpatialBody {
 pub struct Marker {
     /// The body carrying it.
     pub body: BodyId,
-    /// Origin, from the centroid [m].
+    /// Origin, from the centroid \[m\].
     pub point: Vec3,
     /// z direction (the joint axis for revolute, cylindrical and translational joints).
     pub z: Vec3,
@@ -130,9 +130,9 @@ pub enum SpatialLoad {
     Force {
         /// Loaded body.
         body: usize,
-        /// Point of application [m].
+        /// Point of application \[m\].
         point: Vec3,
-        /// Force [N].
+        /// Force \[N\].
         force: Vec3,
     },
     /// A constant torque (world frame) [N m].

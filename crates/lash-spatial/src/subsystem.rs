@@ -30,7 +30,7 @@ pub enum SpatialProbe {
         name: String,
         /// Moving body index.
         body: usize,
-        /// Point (body frame, from the centroid) [m].
+        /// Point (body frame, from the centroid) \[m\].
         point: Vec3,
     },
     /// Reaction force of ideal joint `joint` of the cut mechanism on its body I: `name.reaction…`.
@@ -63,9 +63,9 @@ pub const MACRO_STABILISATION: f64 = 100.0;
 /// Fixed value references (probe variables follow in probe order).
 pub mod vr {
     lash_core::value_references! {
-        /// Output M̃ (n × n) [kg].
+        /// Output M̃ (n × n) \[kg\].
         EFFECTIVE_MASS,
-        /// Output f̃ (n) [N].
+        /// Output f̃ (n) \[N\].
         EFFECTIVE_FORCE,
         /// Output W = M̃⁻¹ (n × n) [1/kg].
         MOBILITY,

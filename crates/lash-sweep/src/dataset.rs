@@ -47,9 +47,9 @@ pub struct RunRecord {
     pub error: Option<String>,
     /// Rows written.
     pub rows: u64,
-    /// Wall time of the simulation [s].
+    /// Wall time of the simulation \[s\].
     pub simulate_s: f64,
-    /// Wall time of writing its part [s].
+    /// Wall time of writing its part \[s\].
     pub write_s: f64,
     /// Journal only: the part file (in `parts/`) that holds its rows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -160,7 +160,7 @@ fn properties() -> WriterProperties {
 pub struct RunData {
     /// Run id.
     pub run_id: u64,
-    /// Sample times [s].
+    /// Sample times \[s\].
     pub time: Vec<f64>,
     /// One vector per channel.
     pub columns: Vec<Vec<f64>>,
@@ -271,7 +271,7 @@ impl PartWriter {
 }
 
 /// One run's time series streamed into a Parquet file (`lash run --format parquet`): a column
-/// `t` [s] and one per channel, each with its unit in the field metadata, as the sweeps' tables;
+/// `t` \[s\] and one per channel, each with its unit in the field metadata, as the sweeps' tables;
 /// rows are buffered column by column and written as a row group every [`SeriesWriter::GROUP`]
 /// rows, so memory stays bounded however long the run.
 pub struct SeriesWriter {
@@ -620,7 +620,7 @@ pub fn read_params_table(dir: &Path) -> Result<ParamsTable, String> {
 pub struct DatasetArrays {
     /// Run ids, in the order of `values`.
     pub run_ids: Vec<u64>,
-    /// Sample times of every run [s].
+    /// Sample times of every run \[s\].
     pub time: Vec<f64>,
     /// (name, SI unit) of each channel, in the order of `values`' last axis.
     pub channels: Vec<(String, String)>,

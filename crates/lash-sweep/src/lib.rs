@@ -1,6 +1,6 @@
 //! Data generation at scale: parameter sweeps of a scenario into a Parquet dataset.
 //!
-//! * [`spec`]: the sweep file; [`plan`]: the runs (grid, random, Latin hypercube; seeds);
+//! * [`spec`]: the sweep file; [`plan`](mod@plan): the runs (grid, random, Latin hypercube; seeds);
 //! * [`execute`]: runs a sweep (or one shard of it) in parallel with rayon — every run is
 //!   independent and seeded from (sweep seed, run id), so results do not depend on the thread
 //!   count —, writes each finished run at once (resumable), and assembles the dataset;
@@ -91,15 +91,15 @@ pub struct Report {
     pub ran: u64,
     /// Failed (recorded), over the whole shard.
     pub failed: u64,
-    /// Wall time [s].
+    /// Wall time \[s\].
     pub wall_s: f64,
-    /// Sum over runs of simulation time [s] (all threads).
+    /// Sum over runs of simulation time \[s\] (all threads).
     pub simulate_s: f64,
-    /// Sum over runs of part-writing time [s] (all threads).
+    /// Sum over runs of part-writing time \[s\] (all threads).
     pub write_s: f64,
-    /// Time spent assembling data.parquet and params.parquet [s].
+    /// Time spent assembling data.parquet and params.parquet \[s\].
     pub assemble_s: f64,
-    /// Simulated mechanism time of the runs done now [s].
+    /// Simulated mechanism time of the runs done now \[s\].
     pub simulated_s: f64,
     /// Threads used.
     pub threads: usize,
@@ -340,7 +340,7 @@ fn simulate(plan: &Plan, runs: &[&RunSpec], channels: &[ChannelInfo]) -> Vec<Res
 
 /// The open part is closed (and its runs journaled) once it holds this many runs…
 const PART_RUNS: usize = 64;
-/// …or once it is this old [s] (counting the run just finished as the time the next one will
+/// …or once it is this old \[s\] (counting the run just finished as the time the next one will
 /// take): a kill loses at most about this much of the runs finished.
 const PART_SECONDS: f64 = 1.0;
 

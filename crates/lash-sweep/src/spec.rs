@@ -7,7 +7,7 @@
 //! sampling = "latin_hypercube"  # grid | random | latin_hypercube
 //! runs = 200                    # for random and latin_hypercube
 //! seed = 7
-//! horizon = 0.1                 # optional: overrides simulation.horizon [s]
+//! horizon = 0.1                 # optional: overrides simulation.horizon \[s\]
 //!
 //! [output]
 //! channels = ["slider.ax"]
@@ -97,7 +97,7 @@ pub struct Parameter {
 pub struct Output {
     /// Channel names (as in `lash run` outputs); at least one.
     pub channels: Vec<String>,
-    /// Sampling rate [Hz].
+    /// Sampling rate \[Hz\].
     pub sample_rate: f64,
     /// Standard deviation of additive Gaussian measurement noise per channel [channel units].
     #[serde(default)]
@@ -119,7 +119,7 @@ pub struct Output {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AntiAlias {
-    /// Cut-off (−3 dB) [Hz], below half the sample rate.
+    /// Cut-off (−3 dB) \[Hz\], below half the sample rate.
     pub cutoff: f64,
     /// Butterworth order (even).
     #[serde(default = "default_order")]
@@ -134,9 +134,9 @@ fn default_order() -> usize {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ReducedSteps {
-    /// Macro step h_m [s].
+    /// Macro step h_m \[s\].
     pub macro_step: f64,
-    /// Micro step h_r [s].
+    /// Micro step h_r \[s\].
     pub micro_step: f64,
 }
 
@@ -158,7 +158,7 @@ pub struct SweepSpec {
     /// Sweep seed: parameter sampling and every run's noise seed derive from it.
     #[serde(default)]
     pub seed: u64,
-    /// Overrides the base scenario's horizon [s].
+    /// Overrides the base scenario's horizon \[s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub horizon: Option<f64>,
     /// Reduced-model step sizes (defaults: 1e-3 s and 1e-5 s).

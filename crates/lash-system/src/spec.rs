@@ -9,12 +9,12 @@ use std::collections::BTreeMap;
 pub struct SystemSpec {
     /// Name (outputs, messages).
     pub name: String,
-    /// Start time [s].
+    /// Start time \[s\].
     #[serde(default)]
     pub start: f64,
-    /// Stop time [s].
+    /// Stop time \[s\].
     pub stop: f64,
-    /// Communication step [s].
+    /// Communication step \[s\].
     pub step: f64,
     /// Master algorithm.
     #[serde(default)]
@@ -42,7 +42,7 @@ pub struct InterfaceSpec {
     pub mechanism: String,
     /// The micro element (takes them, returns contact_force).
     pub clearance: String,
-    /// Micro step h_r [s]; the system's `step` is the macro step h_m.
+    /// Micro step h_r \[s\]; the system's `step` is the macro step h_m.
     pub micro_step: f64,
     /// Interpolation of the macro terms.
     #[serde(default)]
@@ -122,7 +122,7 @@ pub struct ElementSpec {
     /// element, the time and the signal, and the output so far is kept (FMUs only).
     #[serde(default)]
     pub isolate: bool,
-    /// With `isolate`: the longest wait for one call of the FMU [s] (default 60).
+    /// With `isolate`: the longest wait for one call of the FMU \[s\] (default 60).
     #[serde(default)]
     pub timeout: Option<f64>,
 }
@@ -205,7 +205,7 @@ pub struct ConnectionSpec {
 #[derive(Debug, Clone, PartialEq, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
-    /// Sampling interval [s], a multiple of the step (default: the step).
+    /// Sampling interval \[s\], a multiple of the step (default: the step).
     #[serde(default)]
     pub interval: Option<f64>,
     /// `element.variable` names (default: every output of every element).

@@ -18,7 +18,7 @@ pub enum SystemError {
     /// knows it).
     #[error("{}element {element:?}: {message}", t.map(|t| format!("at t = {t} s, ")).unwrap_or_default())]
     Simulation {
-        /// Time [s].
+        /// Time \[s\].
         t: Option<f64>,
         /// Element name.
         element: String,
@@ -65,9 +65,9 @@ type Parameters = Vec<(ValueReference, String, Setting)>;
 pub struct Stop {
     /// The element that stopped the run.
     pub element: String,
-    /// Time the element reached [s].
+    /// Time the element reached \[s\].
     pub reached_s: f64,
-    /// Time of the last recorded row [s].
+    /// Time of the last recorded row \[s\].
     pub last_row_s: f64,
     /// What happened, in words.
     pub reason: String,
@@ -84,7 +84,7 @@ pub struct RunSummary {
     pub steps: u64,
     /// Rows recorded.
     pub samples: u64,
-    /// Wall time [s].
+    /// Wall time \[s\].
     pub wall_time_s: f64,
     /// Set when an element ended the run before the stop time.
     pub stopped: Option<Stop>,

@@ -35,11 +35,11 @@ pub mod vr {
     pub const ACCELERATION: ValueReference = 0;
     /// Output: the sensor's reading [m/s²].
     pub const MEASURED: ValueReference = 1;
-    /// Parameter: natural frequency [Hz].
+    /// Parameter: natural frequency \[Hz\].
     pub const NATURAL_FREQUENCY: ValueReference = 2;
-    /// Parameter: damping ratio [1].
+    /// Parameter: damping ratio \[1\].
     pub const DAMPING_RATIO: ValueReference = 3;
-    /// Parameter: sensitivity [1].
+    /// Parameter: sensitivity \[1\].
     pub const SENSITIVITY: ValueReference = 4;
     /// Parameter: bias [m/s²].
     pub const BIAS: ValueReference = 5;

@@ -30,9 +30,9 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
 
     /// Name used in outputs and errors.
     fn name(&self) -> &str;
-    /// Journal (ball) radius R_J [m].
+    /// Journal (ball) radius R_J \[m\].
     fn journal_radius(&self) -> f64;
-    /// Radial clearance c [m].
+    /// Radial clearance c \[m\].
     fn radial_clearance(&self) -> f64;
     /// Discrete state: contact closed.
     fn in_contact(&self) -> bool;
@@ -74,7 +74,7 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     ) -> (Self::State, f64) {
         (self.evaluate::<true>(e, e_dot, omega_journal, omega_bearing, onset), 0.0)
     }
-    /// The relaxation time c/k of a bush damped in series [s] (infinite without one).
+    /// The relaxation time c/k of a bush damped in series \[s\] (infinite without one).
     fn relaxation_time(&self) -> f64 {
         f64::INFINITY
     }
@@ -90,19 +90,19 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     }
     /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
     fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
-    /// δ [m].
+    /// δ \[m\].
     fn penetration(s: &Self::State) -> f64;
     /// δ̇ [m/s].
     fn penetration_rate(s: &Self::State) -> f64;
-    /// F_N [N].
+    /// F_N \[N\].
     fn normal_force(s: &Self::State) -> f64;
-    /// F_T [N] (planar: signed like the slip; spherical: its magnitude).
+    /// F_T \[N\] (planar: signed like the slip; spherical: its magnitude).
     fn friction_force(s: &Self::State) -> f64;
-    /// |e| [m].
+    /// |e| \[m\].
     fn eccentricity_norm(s: &Self::State) -> f64;
     /// The slip (planar: v_t, signed; spherical: |v_t|) [m/s].
     fn slip(s: &Self::State) -> f64;
-    /// The force on the journal, component `i` [N].
+    /// The force on the journal, component `i` \[N\].
     fn force_component(s: &Self::State, i: usize) -> f64;
 }
 

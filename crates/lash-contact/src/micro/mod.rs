@@ -44,9 +44,9 @@ pub const MAX_FRICTION_LOADS: usize = 12;
 /// Which integrator the micro model uses.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub enum MicroIntegrator {
-    /// Classical RK4 with the given step [s]; a communication step is cut into whole steps.
+    /// Classical RK4 with the given step \[s\]; a communication step is cut into whole steps.
     Rk4 {
-        /// Step h_r [s].
+        /// Step h_r \[s\].
         step: f64,
     },
     /// DOPRI5 with event location of contact onset and exit.
@@ -870,7 +870,7 @@ impl InterfaceSubsystem {
         each_core!(&self.core, m => m.joints.iter().map(|j| j.name().to_string()).collect())
     }
 
-    /// Joint `j`'s radial clearance [m] (resolved after `initialize`).
+    /// Joint `j`'s radial clearance \[m\] (resolved after `initialize`).
     pub fn radial_clearance(&self, j: usize) -> f64 {
         each_core!(&self.core, m => m.joints[j].radial_clearance())
     }
@@ -899,7 +899,7 @@ impl InterfaceSubsystem {
         each_core!(&self.core, m => m.open_impacts(j, t))
     }
 
-    /// The stacked eccentricities w (n) [m].
+    /// The stacked eccentricities w (n) \[m\].
     pub fn eccentricity(&self) -> &[f64] {
         each_core!(&self.core, m => m.eccentricity.as_slice())
     }

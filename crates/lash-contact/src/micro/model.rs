@@ -33,11 +33,11 @@ pub const PLANAR_JOINT_COORDINATES: usize = 2;
 /// friction loads, R angular velocity components per side): values and rates.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InterfaceInputs<const N: usize, const M: usize, const R: usize> {
-    /// Effective mass M̃ [kg].
+    /// Effective mass M̃ \[kg\].
     pub effective_mass: SMatrix<f64, N, N>,
     /// dM̃/dt [kg/s].
     pub effective_mass_rate: SMatrix<f64, N, N>,
-    /// Effective force f̃ [N].
+    /// Effective force f̃ \[N\].
     pub effective_force: SVector<f64, N>,
     /// df̃/dt [N/s].
     pub effective_force_rate: SVector<f64, N>,
@@ -79,9 +79,9 @@ pub type PlanarInputs<const N: usize, const K: usize> = InterfaceInputs<N, K, K>
 /// Contact loads at one state: f_c on the journals (N) and the friction loads (M).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Loads<const N: usize, const M: usize> {
-    /// Contact forces on the journals, stacked [N].
+    /// Contact forces on the journals, stacked \[N\].
     pub contact: SVector<f64, N>,
-    /// Friction loads (planar: F_T [N]; spherical: n × F_T [N]).
+    /// Friction loads (planar: F_T \[N\]; spherical: n × F_T \[N\]).
     pub friction: SVector<f64, M>,
 }
 
@@ -481,11 +481,11 @@ fn evaluate_joint<J: MicroJoint, const SERIES: bool>(
 pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize> {
     /// Geometry, contact and friction laws of each joint (their discrete contact states too).
     pub joints: Vec<J>,
-    /// Eccentricities w, stacked [m].
+    /// Eccentricities w, stacked \[m\].
     pub eccentricity: SVector<f64, N>,
     /// Their rates ẇ [m/s].
     pub eccentricity_rate: SVector<f64, N>,
-    /// The deflection s of each joint's bush damped in series, along its normal [m] (0 for the
+    /// The deflection s of each joint's bush damped in series, along its normal \[m\] (0 for the
     /// other joints; [`MicroJoint::damped_in_series`]).
     pub bush_deflection: SVector<f64, K>,
     /// ∫ f_c dt on each journal since the start [N s].
@@ -498,7 +498,7 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
     pub states: Vec<J::State>,
     /// Inputs of the current step.
     pub inputs: InterfaceInputs<N, M, R>,
-    /// Time of `inputs` [s].
+    /// Time of `inputs` \[s\].
     pub input_time: f64,
     /// Inputs of the current step in mobility form (joints with [`MicroJoint::MOBILITY_FORM`];
     /// their W, a_free and G take the place of `inputs`' M̃, f̃ and H, which they leave unused).
