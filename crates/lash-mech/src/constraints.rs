@@ -101,6 +101,13 @@ pub struct ConstraintTerms<'a> {
 
 /// Evaluates Φ, Φ_qᵀ, ν and γ of all joints (then drivers) at time `t`.
 pub fn evaluate(mech: &Mechanism, t: f64, poses: &[Pose], out: ConstraintTerms<'_>) {
+    evaluate_as::<true>(mech, t, poses, out);
+}
+
+/// [`evaluate`], γ only if `GAMMA` (else `out.gamma` is left as it was): the same numbers for
+/// what is written.
+#[inline(always)]
+pub(crate) fn evaluate_as<const GAMMA: bool>(mech: &Mechanism, t: f64, poses: &[Pose], out: ConstraintTerms<'_>) {
     let ConstraintTerms { jacobian: jac, phi, nu, gamma } = out;
     let mut row = 0;
     for joint in &mech.joints {
@@ -117,32 +124,38 @@ pub fn evaluate(mech: &Mechanism, t: f64, poses: &[Pose], out: ConstraintTerms<'
                     [blk(joint.body_i, Vec2::new(1.0, 0.0), pai.x), blk(joint.body_j, Vec2::new(-1.0, 0.0), -paj.x)];
                 jac[row + 1] =
                     [blk(joint.body_i, Vec2::new(0.0, 1.0), pai.y), blk(joint.body_j, Vec2::new(0.0, -1.0), -paj.y)];
-                let g = ai * (wi * wi) - aj * (wj * wj);
                 phi[row] = d.x;
                 phi[row + 1] = d.y;
                 nu[row] = 0.0;
                 nu[row + 1] = 0.0;
-                gamma[row] = g.x;
-                gamma[row + 1] = g.y;
+                if GAMMA {
+                    let g = ai * (wi * wi) - aj * (wj * wj);
+                    gamma[row] = g.x;
+                    gamma[row + 1] = g.y;
+                }
             }
             JointKind::Prismatic { axis_j, angle_offset } => {
                 // Φ1 = θ_i − θ_j − θ0
                 jac[row] = [blk(joint.body_i, Vec2::zeros(), 1.0), blk(joint.body_j, Vec2::zeros(), -1.0)];
                 phi[row] = pi.angle - pj.angle - angle_offset;
                 nu[row] = 0.0;
-                gamma[row] = 0.0;
+                if GAMMA {
+                    gamma[row] = 0.0;
+                }
                 // Φ2 = v·d, v = A_j ⊥u (unit normal to the axis), d = r_i + a_i − r_j − a_j
                 let u = axis_j / axis_j.norm();
                 let v = pj.rotate(perp(u));
                 let d = pi.position + ai - pj.position - aj;
-                let d_dot = pi.velocity + perp(ai) * wi - pj.velocity - perp(aj) * wj;
                 let pv = perp(v);
                 jac[row + 1] =
                     [blk(joint.body_i, v, v.dot(&perp(ai))), blk(joint.body_j, -v, pv.dot(&d) - v.dot(&perp(aj)))];
                 phi[row + 1] = v.dot(&d);
                 nu[row + 1] = 0.0;
-                gamma[row + 1] =
-                    wj * wj * v.dot(&d) - 2.0 * wj * pv.dot(&d_dot) + wi * wi * v.dot(&ai) - wj * wj * v.dot(&aj);
+                if GAMMA {
+                    let d_dot = pi.velocity + perp(ai) * wi - pj.velocity - perp(aj) * wj;
+                    gamma[row + 1] =
+                        wj * wj * v.dot(&d) - 2.0 * wj * pv.dot(&d_dot) + wi * wi * v.dot(&ai) - wj * wj * v.dot(&aj);
+                }
             }
         }
         row += joint.equations();
@@ -154,7 +167,9 @@ pub fn evaluate(mech: &Mechanism, t: f64, poses: &[Pose], out: ConstraintTerms<'
         jac[row] = [blk(driver.body, Vec2::zeros(), 1.0), blk(driver.reference, Vec2::zeros(), -1.0)];
         phi[row] = pi.angle - pj.angle - f;
         nu[row] = fd;
-        gamma[row] = fdd;
+        if GAMMA {
+            gamma[row] = fdd;
+        }
         row += 1;
     }
     debug_assert_eq!(row, mech.constraint_count());

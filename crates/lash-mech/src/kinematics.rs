@@ -16,7 +16,9 @@ pub fn initial_guess(mech: &Mechanism) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Position analysis: Newton iterations with the mass-weighted minimum-norm correction
-/// Δq = −M⁻¹Φ_qᵀ(Φ_q M⁻¹ Φ_qᵀ)⁻¹Φ until max |Φ| ≤ `tol`. Returns the iterations spent.
+/// Δq = −M⁻¹Φ_qᵀ(Φ_q M⁻¹ Φ_qᵀ)⁻¹Φ until max |Φ| ≤ `tol`. Returns the iterations spent. The solver
+/// then holds Φ, Φ_q and ν of the assembled position, not γ nor the loads
+/// ([`Solver::set_configuration`]): a [`Solver::set_state`] comes before any acceleration solve.
 pub fn assemble(mech: &Mechanism, t: f64, q: &mut [f64], solver: &mut Solver, tol: f64) -> Result<usize, MechError> {
     with_correction(solver, q.len(), mech.constraint_count(), |solver, work| {
         assemble_with(mech, t, q, solver, tol, work)
@@ -62,7 +64,9 @@ fn assemble_with(
     let Correction { zeros, step, rhs: neg_phi, lambda } = work;
     const MAX_ITERATIONS: usize = 50;
     for it in 0..MAX_ITERATIONS {
-        solver.set_state(mech, t, q, zeros);
+        // (Φ, Φ_q and ν: a position analysis and the velocity projection after it need no γ
+        // nor loads.)
+        solver.set_configuration(mech, t, q, zeros);
         let residual = solver.constraint_error();
         if residual <= tol {
             return Ok(it);

@@ -269,9 +269,23 @@ impl Solver {
 
     /// Evaluates poses, constraint terms and the applied forces (gravity, loads) at `(t, q, q̇)`.
     pub fn set_state(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
+        self.set_terms::<true>(mech, t, q, qd);
+        self.set_loads(mech);
+    }
+
+    /// What a position analysis needs of [`Solver::set_state`]: the poses, Φ, Φ_q and ν (which
+    /// depend on `(t, q)` only; `qd` gives the poses' velocities), the same numbers; γ and the
+    /// applied forces are left as they were, stale until the next `set_state`.
+    pub fn set_configuration(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
+        self.set_terms::<false>(mech, t, q, qd);
+    }
+
+    /// The poses and the constraint terms (γ only if `GAMMA`).
+    #[inline(always)]
+    fn set_terms<const GAMMA: bool>(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
         self.time = t;
         constraints::fill_poses(q, qd, &mut self.poses, &mut self.rotations);
-        constraints::evaluate(
+        constraints::evaluate_as::<GAMMA>(
             mech,
             t,
             &self.poses,
@@ -282,6 +296,10 @@ impl Solver {
                 gamma: &mut self.gamma,
             },
         );
+    }
+
+    /// The applied forces (gravity, loads) at the poses held.
+    fn set_loads(&mut self, mech: &Mechanism) {
         for (k, b) in mech.bodies.iter().enumerate() {
             self.forces[3 * k] = b.mass * mech.gravity.x;
             self.forces[3 * k + 1] = b.mass * mech.gravity.y;
