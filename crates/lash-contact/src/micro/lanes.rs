@@ -696,11 +696,7 @@ impl Kept {
     /// Writes lane `l` back into its model (state, impulses, contact state and step end).
     fn scatter(&self, l: usize, m: &mut OneJoint) {
         m.located = false;
-        m.eccentricity = SVector::from([self.ex[l], self.ey[l]]);
-        m.eccentricity_rate = SVector::from([self.vx[l], self.vy[l]]);
-        m.impulse = SVector::from([self.impulse[0][l], self.impulse[1][l]]);
-        m.friction_impulse = SVector::from([self.friction_impulse[l]]);
-        m.states[0] = state_of(&self.states, l);
+        self.scatter_sampled(l, m);
         m.open[0] = self.trackers.get(l);
         let (mass, inv) = &self.end_mass;
         m.end = Some(StepEnd {
@@ -721,11 +717,26 @@ impl Kept {
             },
         });
     }
+
+    /// What a sample reads of lane `l` (the micro subsystem's outputs): (w, ẇ), the impulses and
+    /// the contact state — not the open impact nor the kept step end, which [`Kept::scatter`]
+    /// writes when the lane leaves the lanes.
+    #[inline]
+    fn scatter_sampled(&self, l: usize, m: &mut OneJoint) {
+        m.eccentricity = SVector::from([self.ex[l], self.ey[l]]);
+        m.eccentricity_rate = SVector::from([self.vx[l], self.vy[l]]);
+        m.impulse = SVector::from([self.impulse[0][l], self.impulse[1][l]]);
+        m.friction_impulse = SVector::from([self.friction_impulse[l]]);
+        m.states[0] = state_of(&self.states, l);
+    }
 }
 
 /// Advances `L` models (each [`lane_laws`] of kind `friction`, each at its own time `t[l]` with
 /// its inputs set) by `record.len()` RK4 steps of `step`, and after each flagged step calls
-/// `sample(lane, step index, model)` for every lane still running, in lane order. Like the
+/// `sample(lane, step index, model)` for every lane still running, in lane order (the model
+/// then holds the step's state, rates, impulses and contact state — what the micro subsystem's
+/// outputs read —; its open impact and kept step end are written back when the lane leaves the
+/// lanes, at the end or where it fails). Like the
 /// model's own loop, each lane's penetration is checked after each step; a lane that fails stops
 /// there (its outcome says where), the others go on.
 ///
@@ -963,7 +974,7 @@ fn advance_lanes(
             for l in 0..L {
                 if running[l] {
                     if !by_model[l] {
-                        kept.scatter(l, models[l]);
+                        kept.scatter_sampled(l, models[l]);
                     }
                     sample(l, i, models[l]);
                 }
