@@ -196,12 +196,12 @@ fn bush_section(reps: usize) -> Result<(), CliError> {
         let mut full = lash_run::FullRun::new(&s, BuildOptions::default());
         let (full_ms, summary) = time_runner(&mut full)?;
         // (The reduced run is ~1 ms: the median of five runs, each built afresh.)
-        let reduced = match lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()) {
-            Ok(_) => {
+        let runs: Result<Vec<_>, _> =
+            (0..5).map(|_| lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default())).collect();
+        let reduced = match runs {
+            Ok(runs) => {
                 let (mut walls, mut per_step) = (Vec::new(), Vec::new());
-                for _ in 0..5 {
-                    let mut r = lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default())
-                        .map_err(|e| CliError::Failure(e.to_string()))?;
+                for mut r in runs {
                     let (ms, summary) = time_runner(&mut r)?;
                     let master = summary.reduced.as_ref().map(|r| r.master.clone()).unwrap_or_default();
                     walls.push(ms);
