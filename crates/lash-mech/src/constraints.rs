@@ -37,7 +37,7 @@ pub fn pose_of(poses: &[Pose], id: BodyId) -> Pose {
 /// The sine and cosine of each body's angle at the last [`fill_poses`], with the angle they
 /// belong to.
 #[derive(Debug, Clone)]
-pub struct Rotations(Vec<(u64, f64, f64)>);
+pub struct Rotations(pub(crate) Vec<(u64, f64, f64)>);
 
 impl Rotations {
     /// For `bodies` bodies, none known yet.

@@ -60,6 +60,12 @@ impl SmallCholesky {
         &mut self.a
     }
 
+    /// The factor's storage (row-major L, n × n) and the reciprocals of its diagonal, for a
+    /// factor formed elsewhere by the same operations (`lanes`).
+    pub(crate) fn parts_mut(&mut self) -> (&mut [f64], &mut [f64]) {
+        (&mut self.a[..], &mut self.inv_diag[..])
+    }
+
     /// Takes the leading n × n block of `other`'s factor (of order ≥ n): the factor of the
     /// leading block of the matrix `other` factored, bit for bit (column j of L depends only on
     /// columns 0..=j of the matrix's rows at and below j, computed in the same order).

@@ -245,6 +245,15 @@ pub fn coupled_effective_terms_into(
         solver.solve_with(force, zero_gamma, &mut gain[2 * k + j], lambda);
         lambda_gain[2 * k + j].copy_from_slice(lambda.as_slice());
     }
+    coupled_rates_into(solver, joints, terms);
+    Ok(())
+}
+
+/// The part of [`coupled_effective_terms_into`] after its solves (q̈ and λ free, G and Λ in
+/// `terms`, the poses and velocities in `solver`): W, W_T, a_free, M̃ and f̃. (The solves may
+/// have been done elsewhere, e.g. in lanes with other mechanisms': `crate::lanes`.)
+pub fn coupled_rates_into(solver: &Solver, joints: &[ClearanceInterface], terms: &mut CoupledTerms) {
+    let k = joints.len();
     let dim = 2 * k;
     let poses = &solver.poses;
     // J̇ q̇ = −ω_J² a_J + ω_B² a_B.
@@ -277,7 +286,6 @@ pub fn coupled_effective_terms_into(
         Some(mt) => mt.mul_to(&terms.free_acceleration, &mut terms.effective_force),
         None => terms.effective_force.fill(0.0),
     }
-    Ok(())
 }
 
 /// [`invert`] into `out`, keeping its storage where the result is a 2 × 2 inverse again.

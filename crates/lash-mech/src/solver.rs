@@ -45,7 +45,7 @@ pub struct Solver {
     /// Body poses of the current state.
     pub poses: Vec<Pose>,
     /// The sines and cosines of the last poses' angles.
-    rotations: constraints::Rotations,
+    pub(crate) rotations: constraints::Rotations,
     /// Φ_q by rows (sparse body blocks).
     pub jacobian: Vec<JacobianRow>,
     /// Φ at the current state.
@@ -62,9 +62,9 @@ pub struct Solver {
     pub lambda: DVector<f64>,
     inverse_mass: Vec<f64>,
     gamma_hat: Vec<f64>,
-    structure: Structure,
+    pub(crate) structure: Structure,
     scratch: Scratch,
-    schur: SmallCholesky,
+    pub(crate) schur: SmallCholesky,
     factored: bool,
     /// The positions (x, y, θ of each body) at which [`Solver::share_factor`] gave this solver
     /// its factor, until the next [`Solver::factor`] (empty: none).
@@ -100,18 +100,18 @@ impl Correction {
 }
 
 /// Topology-fixed data of the Schur solve.
-struct Structure {
+pub(crate) struct Structure {
     /// Rows pinning one coordinate: (row, coordinate, coefficient ±1).
-    fixed: Vec<(usize, usize, f64)>,
+    pub(crate) fixed: Vec<(usize, usize, f64)>,
     /// Rows kept in S, in order (compact index → row).
-    free_rows: Vec<usize>,
+    pub(crate) free_rows: Vec<usize>,
     /// Pairs of Jacobian blocks that share a body — the structural non-zeros of S — as
     /// (flat block index in row a, flat block index in row b, index of S[a][b], coordinate offset).
-    pairs: Vec<(usize, usize, usize, usize)>,
+    pub(crate) pairs: Vec<(usize, usize, usize, usize)>,
     /// M⁻¹ with the pinned coordinates zeroed.
-    free_inverse_mass: Vec<f64>,
+    pub(crate) free_inverse_mass: Vec<f64>,
     /// Per row, the coordinate offsets of its two blocks (the ground maps to the padding slot n).
-    offsets: Vec<[usize; 2]>,
+    pub(crate) offsets: Vec<[usize; 2]>,
 }
 
 /// Buffers of one solve (coordinate-sized ones padded with three ground slots).
@@ -262,6 +262,19 @@ impl Solver {
         }
     }
 
+    /// What a position analysis in lanes leaves (`lanes`): the factor it wrote formed at the
+    /// current position, at time `t`.
+    pub(crate) fn set_factored_at(&mut self, t: f64) {
+        self.factored = true;
+        self.shared_at.clear();
+        self.time = t;
+    }
+
+    /// Whether the factorisation of S is the dense kernel's (no profile skipping).
+    pub(crate) fn dense_factor(&self) -> bool {
+        (0..self.schur.order()).all(|i| self.schur.first_column(i) == 0)
+    }
+
     /// Diagonal of M⁻¹ (per coordinate).
     pub fn inverse_mass(&self) -> &[f64] {
         &self.inverse_mass
@@ -284,6 +297,8 @@ impl Solver {
     #[inline(always)]
     fn set_terms<const GAMMA: bool>(&mut self, mech: &Mechanism, t: f64, q: &[f64], qd: &[f64]) {
         self.time = t;
+        // (A factor is of the poses it was formed at: none yet at these.)
+        self.factored = false;
         constraints::fill_poses(q, qd, &mut self.poses, &mut self.rotations);
         constraints::evaluate_as::<GAMMA>(
             mech,

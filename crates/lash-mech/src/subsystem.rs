@@ -274,6 +274,20 @@ pub struct MechanismSubsystem {
     work: RefreshWork,
     /// Steps and right-hand-side evaluations of the dynamic integration.
     pub integration_stats: lash_ode::Stats,
+    /// A kinematic step's motion analysed ahead, in lanes with other subsystems'
+    /// ([`kinematic_steps_ahead`]): the step (from, to) and the assembled constraint error, with
+    /// the coordinates and velocities in `ahead_q`, `ahead_qd`; the next `do_step` over that
+    /// step takes it instead of analysing.
+    ahead: Option<(Ticks, Ticks, f64)>,
+    ahead_q: Vec<f64>,
+    ahead_qd: Vec<f64>,
+    /// With `ahead`: the effective terms' solves were done too, at its end state (`terms` and
+    /// the cut solver hold them).
+    solved_ahead: bool,
+    /// The ideal mechanism's structure ([`crate::lanes::signature`]), and the cut one's for its
+    /// terms ([`crate::lanes::terms_signature`]): who goes in lanes with whom.
+    signature: Vec<u64>,
+    terms_signature: Option<Vec<u64>>,
 }
 
 impl MechanismSubsystem {
@@ -440,7 +454,11 @@ impl MechanismSubsystem {
         let coordinates = cut.coordinate_count();
         let (ideal_solver, cut_solver) = (Solver::new(&ideal), Solver::new(&cut));
         let cut_factor_shared = cut_solver.is_leading_block_of(&cut, &ideal_solver, &ideal);
+        let signature = crate::lanes::signature(&ideal, &ideal_solver);
+        let terms_signature = crate::lanes::terms_signature(&cut, &cut_solver, &joints, cut_factor_shared);
         Self {
+            signature,
+            terms_signature,
             name: name.to_string(),
             variables,
             offsets,
@@ -474,6 +492,10 @@ impl MechanismSubsystem {
             terms: None,
             work: RefreshWork::default(),
             integration_stats: lash_ode::Stats::default(),
+            ahead: None,
+            ahead_q: vec![0.0; coordinates],
+            ahead_qd: vec![0.0; coordinates],
+            solved_ahead: false,
         }
     }
 
@@ -505,32 +527,41 @@ impl MechanismSubsystem {
     /// Motion at `t` of a fully driven mechanism: position and velocity analysis. Returns the
     /// assembled position's constraint error (max |Φ|).
     fn kinematic_motion(&mut self, t: f64) -> Result<f64, String> {
-        // Second-order Taylor prediction from the last node: Newton then needs one or two
-        // iterations instead of several across a 30° step.
-        let h = t - self.time.seconds();
-        for k in 0..self.q.len() {
-            self.q[k] += h * self.qd[k] + 0.5 * h * h * self.qdd[k];
-        }
-        assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, 1e-13)
+        predict(&mut self.q, &self.qd, &self.qdd, t - self.time.seconds());
+        assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, ASSEMBLY_TOLERANCE)
             .map_err(|e| e.to_string())?;
         Ok(self.ideal_solver.constraint_error())
     }
 
     /// Terms and every output at the current state; `assembled_error`: the constraint error of a
-    /// position analysis just done at this state (else it is evaluated).
-    fn refresh(&mut self, assembled_error: Option<f64>) -> Result<(), String> {
+    /// position analysis just done at this state (else it is evaluated); `solved`: the terms'
+    /// solves were done at this state ahead ([`kinematic_steps_ahead`]), the cut solver holds it.
+    fn refresh(&mut self, assembled_error: Option<f64>, solved: bool) -> Result<(), String> {
         let t = self.time.seconds();
         let (k, n) = (self.joints.len(), 2 * self.joints.len());
         let mut terms =
             self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
-        // (The ideal mechanism's solver was last set at this position: its sines and cosines serve.)
-        self.cut_solver.share_rotations(&self.ideal_solver);
-        if self.cut_factor_shared {
-            // (And its factor, where the ideal one's was formed at this position.)
-            self.cut_solver.share_factor(&self.ideal_solver);
-        }
-        coupled_effective_terms_into(&self.cut, &mut self.cut_solver, &self.joints, t, &self.q, &self.qd, &mut terms)
+        if solved {
+            crate::interface::coupled_rates_into(&self.cut_solver, &self.joints, &mut terms);
+        } else {
+            // (The ideal mechanism's solver was last set at this position: its sines and cosines
+            // serve.)
+            self.cut_solver.share_rotations(&self.ideal_solver);
+            if self.cut_factor_shared {
+                // (And its factor, where the ideal one's was formed at this position.)
+                self.cut_solver.share_factor(&self.ideal_solver);
+            }
+            coupled_effective_terms_into(
+                &self.cut,
+                &mut self.cut_solver,
+                &self.joints,
+                t,
+                &self.q,
+                &self.qd,
+                &mut terms,
+            )
             .map_err(|e| e.to_string())?;
+        }
         let Some(mass) = terms.effective_mass.as_ref() else {
             return Err(format!(
                 "the interface mobility W = {} is singular: the cut mechanism cannot move the journals freely in \
@@ -707,7 +738,7 @@ impl Subsystem for MechanismSubsystem {
         if let Err(e) = r {
             return Err(self.simulation_error(format!("initial conditions: {e}")));
         }
-        if let Err(m) = self.refresh(Some(self.ideal_solver.constraint_error())) {
+        if let Err(m) = self.refresh(Some(self.ideal_solver.constraint_error()), false) {
             return Err(self.simulation_error(m));
         }
         self.phase = Phase::Stepping;
@@ -781,8 +812,17 @@ impl Subsystem for MechanismSubsystem {
             )));
         }
         let (t0, t1) = (t.seconds(), Ticks(t.0 + h.0).seconds());
+        let mut solved = false;
         let result = if self.kinematic {
-            self.kinematic_motion(t1).map(Some)
+            match self.ahead.take() {
+                Some((from, to, error)) if from == t && to == Ticks(t.0 + h.0) => {
+                    self.q.copy_from_slice(&self.ahead_q);
+                    self.qd.copy_from_slice(&self.ahead_qd);
+                    solved = std::mem::take(&mut self.solved_ahead);
+                    Ok(Some(error))
+                }
+                _ => self.kinematic_motion(t1).map(Some),
+            }
         } else {
             self.last_prescribed = (self.coupling == Coupling::TwoWay).then(|| Prescribed {
                 start: t0,
@@ -821,7 +861,7 @@ impl Subsystem for MechanismSubsystem {
         if self.coupling == Coupling::TwoWay {
             self.eccentricity.clone_from(&self.target);
         }
-        if let Err(m) = result.and_then(|assembled_error| self.refresh(assembled_error)) {
+        if let Err(m) = result.and_then(|assembled_error| self.refresh(assembled_error, solved)) {
             return Err(self.simulation_error(m));
         }
         Ok(StepOutcome::Completed)
@@ -829,6 +869,10 @@ impl Subsystem for MechanismSubsystem {
 
     fn time(&self) -> Ticks {
         self.time
+    }
+
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        Some(self)
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
@@ -850,6 +894,8 @@ impl Subsystem for MechanismSubsystem {
             .0
             .downcast_ref::<Snapshot>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not a mechanism subsystem's".into()))?;
+        self.ahead = None;
+        self.solved_ahead = false;
         self.q.clone_from(&s.q);
         self.qd.clone_from(&s.qd);
         self.time = s.time;
@@ -860,9 +906,91 @@ impl Subsystem for MechanismSubsystem {
         self.last_prescribed.clone_from(&s.last_prescribed);
         self.values.clone_from(&s.values);
         if self.phase == Phase::Stepping {
-            self.refresh(None).map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
+            self.refresh(None, false).map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
         }
         Ok(())
+    }
+}
+
+/// The position analysis's tolerance on max |Φ| at a kinematic step [m or rad].
+const ASSEMBLY_TOLERANCE: f64 = 1e-13;
+
+/// Second-order Taylor prediction of the coordinates `h` ahead from the last node: Newton then
+/// needs two or three corrections instead of several across a 30° step.
+fn predict(q: &mut [f64], qd: &[f64], qdd: &[f64], h: f64) {
+    for k in 0..q.len() {
+        q[k] += h * qd[k] + 0.5 * h * h * qdd[k];
+    }
+}
+
+/// Analyses ahead the next kinematic step, from `t` over `h`, of the fully driven mechanism
+/// subsystems among `subs` (those that are not are left alone), up to [`crate::lanes::LANES`] of
+/// one structure at a time in vector lanes ([`crate::lanes::assemble_and_project_lanes`]): the
+/// position and velocity analysis their `do_step(t, h)` would do, bit for bit, which that
+/// `do_step` then takes. A subsystem whose analysis does not end cleanly in lanes (or that has
+/// no partner of its structure) analyses in its `do_step` as usual, meeting the same error.
+pub fn kinematic_steps_ahead(
+    subs: &mut [&mut dyn Subsystem],
+    t: Ticks,
+    h: Ticks,
+    work: &mut crate::lanes::KinematicLanes,
+) {
+    use crate::lanes::{LANES, LaneInput, TermsInput, assemble_and_project_lanes, effective_solves_lanes};
+    let mut ready: Vec<&mut MechanismSubsystem> = subs
+        .iter_mut()
+        .filter_map(|s| s.as_any_mut().and_then(|a| a.downcast_mut::<MechanismSubsystem>()))
+        .filter(|m| m.kinematic && m.phase == Phase::Stepping && m.time == t && h.0 > 0)
+        .collect();
+    let to = Ticks(t.0 + h.0);
+    let t1 = to.seconds();
+    while ready.len() >= 2 {
+        // The first subsystem and those of its structure (up to LANES).
+        let mut group: Vec<&mut MechanismSubsystem> = Vec::with_capacity(LANES);
+        let mut rest = Vec::with_capacity(ready.len());
+        for m in ready {
+            let fits = group.len() < LANES && group.first().is_none_or(|g| g.signature == m.signature);
+            if fits { group.push(m) } else { rest.push(m) }
+        }
+        ready = rest;
+        if group.len() < 2 {
+            continue;
+        }
+        // The effective terms' solves too, in the same lanes, where every member's fit: then the
+        // analysed solvers' state but for their sines and cosines is not read before it is set
+        // again (the cut solvers hold what the terms need).
+        let solve =
+            group[0].terms_signature.is_some() && group.iter().all(|m| m.terms_signature == group[0].terms_signature);
+        let mut lanes: Vec<LaneInput<'_>> = group
+            .iter_mut()
+            .map(|m| {
+                let m = &mut **m;
+                m.ahead = None;
+                m.ahead_q.copy_from_slice(&m.q);
+                m.ahead_qd.copy_from_slice(&m.qd);
+                predict(&mut m.ahead_q, &m.qd, &m.qdd, t1 - m.time.seconds());
+                LaneInput { mech: &m.ideal, solver: &mut m.ideal_solver, q: &mut m.ahead_q, qd: &mut m.ahead_qd }
+            })
+            .collect();
+        let errors = assemble_and_project_lanes(&mut lanes, t1, ASSEMBLY_TOLERANCE, !solve, work);
+        drop(lanes);
+        if solve {
+            let done: Vec<bool> = errors.iter().map(Option::is_some).collect();
+            let mut lanes: Vec<TermsInput<'_>> = group
+                .iter_mut()
+                .map(|m| {
+                    let m = &mut **m;
+                    let terms = m.terms.get_or_insert_with(|| {
+                        CoupledTerms::zeros(m.q.len(), m.cut.constraint_count(), m.joints.len())
+                    });
+                    TermsInput { cut: &m.cut, solver: &mut m.cut_solver, joints: &m.joints, terms }
+                })
+                .collect();
+            effective_solves_lanes(&mut lanes, &done, t1, work);
+        }
+        for (m, error) in group.into_iter().zip(errors) {
+            m.ahead = error.map(|e| (t, to, e));
+            m.solved_ahead = solve && error.is_some();
+        }
     }
 }
 

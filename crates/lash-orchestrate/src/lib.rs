@@ -1084,6 +1084,13 @@ pub type GroupStep<'f> = dyn FnMut(
     ) -> Vec<lash_core::Steps>
     + 'f;
 
+/// What is done with the macro subsystems of runs stepped together before each of their macro
+/// steps (the same `t` and `h` for all): nothing, or work that their `do_step(t, h)` then takes
+/// instead of doing it alone — e.g. lash-mech's `kinematic_steps_ahead`, which analyses fully
+/// driven mechanisms in lanes. It must leave each subsystem's results as its own `do_step` would
+/// make them.
+pub type GroupAhead<'f> = dyn FnMut(&mut [&mut dyn Subsystem], Ticks, Ticks) + 'f;
+
 /// One run of [`InterfaceMaster::run_together`] between macro steps.
 struct Lane {
     p: Prepared,
@@ -1109,6 +1116,7 @@ impl<'a> InterfaceMaster<'a> {
         masters: &mut [InterfaceMaster<'a>],
         observers: &mut [&mut [(&mut dyn Observer, Ticks)]],
         step: &mut GroupStep<'_>,
+        ahead: &mut GroupAhead<'_>,
     ) -> Vec<Result<MasterStats, MasterError>> {
         assert_eq!(masters.len(), observers.len(), "one observer list per master");
         let o = masters.first().map(|m| m.options);
@@ -1178,33 +1186,45 @@ impl<'a> InterfaceMaster<'a> {
             // Each run: its macro step. (Timed for the group and shared, as the micro steps are:
             // two clock reads per run and macro step were ~1 % of a sweep of scenario A.)
             let started = Instant::now();
-            let mut stepping = 0;
-            for (i, (lane, m)) in lanes.iter_mut().zip(masters.iter_mut()).enumerate() {
-                let Some(l) = lane else { continue };
-                stepping += 1;
-                let stepped = (|| -> Result<(), MasterError> {
-                    while l.produced < (step_index + l.p.ahead).min(macro_steps) {
-                        let t = Ticks(o.start.0 + l.produced as i64 * o.macro_step.0);
-                        l.window.push_back(step_macro(
-                            &mut *m.macro_sub,
-                            &l.p.all_macro,
-                            l.p.width,
-                            t,
-                            o.macro_step,
-                            None,
-                            l.spare.take(),
-                        )?);
-                        l.produced += 1;
-                        l.p.stats.macro_steps += 1;
+            let stepping = lanes.iter().flatten().count();
+            // Macro step by macro step (the runs produce the same steps: same options), each
+            // preceded by the group's `ahead`.
+            loop {
+                let due = |l: &Lane| l.produced < (step_index + l.p.ahead).min(macro_steps);
+                let Some(produced) = lanes.iter().flatten().filter(|l| due(l)).map(|l| l.produced).min() else {
+                    break;
+                };
+                let t = Ticks(o.start.0 + produced as i64 * o.macro_step.0);
+                {
+                    let mut subs: Vec<&mut dyn Subsystem> = Vec::with_capacity(lanes.len());
+                    for (lane, m) in lanes.iter().zip(masters.iter_mut()) {
+                        if lane.as_ref().is_some_and(|l| due(l) && l.produced == produced) {
+                            subs.push(&mut *m.macro_sub);
+                        }
                     }
-                    Ok(())
-                })();
-                if let Err(e) = stepped {
-                    results[i] = Some(Self::ended(e, &mut l.p.stats));
-                    *lane = None;
+                    ahead(&mut subs, t, o.macro_step);
+                }
+                for (i, (lane, m)) in lanes.iter_mut().zip(masters.iter_mut()).enumerate() {
+                    let Some(l) = lane else { continue };
+                    if !due(l) || l.produced != produced {
+                        continue;
+                    }
+                    let stepped =
+                        step_macro(&mut *m.macro_sub, &l.p.all_macro, l.p.width, t, o.macro_step, None, l.spare.take());
+                    match stepped {
+                        Ok(frame) => {
+                            l.window.push_back(frame);
+                            l.produced += 1;
+                            l.p.stats.macro_steps += 1;
+                        }
+                        Err(e) => {
+                            results[i] = Some(Self::ended(e, &mut l.p.stats));
+                            *lane = None;
+                        }
+                    }
                 }
             }
-            let share = started.elapsed().as_secs_f64() / f64::from(stepping.max(1));
+            let share = started.elapsed().as_secs_f64() / (stepping.max(1) as f64);
             // Each run: its micro inputs for the interval.
             for (i, (lane, m)) in lanes.iter_mut().zip(masters.iter_mut()).enumerate() {
                 let Some(l) = lane else { continue };

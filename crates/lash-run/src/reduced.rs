@@ -586,7 +586,11 @@ pub(crate) fn run_reduced_together<'c, 's>(
         }
         let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = observers.iter_mut().map(|o| &mut o[..]).collect();
         let mut step = lash_contact::micro::do_steps_together;
-        let stats = InterfaceMaster::run_together(&mut masters, &mut lists, &mut step);
+        let mut work = lash_mech::lanes::KinematicLanes::default();
+        let mut ahead = |subs: &mut [&mut dyn Subsystem], t, h| {
+            lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);
+        };
+        let stats = InterfaceMaster::run_together(&mut masters, &mut lists, &mut step, &mut ahead);
         members.into_iter().zip(stats).collect()
     };
     let share = 1.0 / ran.len().max(1) as f64;
