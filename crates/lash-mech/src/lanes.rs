@@ -319,6 +319,8 @@ pub struct KinematicLanes {
     free_lambda: Vec<X>,
     gains: Vec<X>,
     lambda_gains: Vec<X>,
+    /// The copy of the lane code that runs.
+    code: LaneCode,
 }
 
 /// Sizes `v` to `len` numbers, zeros where it was of another length (padding slots, which
@@ -535,10 +537,71 @@ pub fn effective_solves_lanes(lanes: &mut [TermsInput<'_>], done: &[bool], t: f6
     }
 }
 
+/// Which compiled copy of the lane code runs: the widest the processor has (AVX-512, AVX2 or the
+/// baseline, picked at run time by `multiversion`), AVX2 where the processor has it, or the
+/// baseline. Every copy gives the same bits (plain IEEE arithmetic that the compiler widens, no
+/// fused multiply–adds); the choice is there for the tests that check it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LaneCode {
+    /// The widest copy the processor runs.
+    #[default]
+    Widest,
+    /// The AVX2 copy (the baseline where the processor has no AVX2).
+    Avx2,
+    /// The baseline copy.
+    Baseline,
+}
+
+impl KinematicLanes {
+    /// Work storage whose lane code is `code`'s copy.
+    pub fn with_code(code: LaneCode) -> Self {
+        Self { code, ..Self::default() }
+    }
+}
+
+/// [`analyse_lanes`] in the copy `w.code` picks.
+fn analyse(w: &mut KinematicLanes, mech: &Mechanism, st: &crate::solver::Structure, tol: f64) -> ([bool; LANES], X) {
+    #[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
+    fn widest(w: &mut KinematicLanes, mech: &Mechanism, st: &crate::solver::Structure, tol: f64) -> ([bool; LANES], X) {
+        analyse_lanes(w, mech, st, tol)
+    }
+    #[multiversion::multiversion(targets("x86_64+avx2"))]
+    fn avx2(w: &mut KinematicLanes, mech: &Mechanism, st: &crate::solver::Structure, tol: f64) -> ([bool; LANES], X) {
+        analyse_lanes(w, mech, st, tol)
+    }
+    match w.code {
+        LaneCode::Widest => widest(w, mech, st, tol),
+        LaneCode::Avx2 => avx2(w, mech, st, tol),
+        LaneCode::Baseline => analyse_lanes(w, mech, st, tol),
+    }
+}
+
+/// [`solves_lanes`] in the copy `w.code` picks.
+fn solves(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Structure, joints: &[[BodyId; 2]]) {
+    #[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
+    fn widest(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Structure, joints: &[[BodyId; 2]]) {
+        solves_lanes(w, cut, st, joints)
+    }
+    #[multiversion::multiversion(targets("x86_64+avx2"))]
+    fn avx2(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Structure, joints: &[[BodyId; 2]]) {
+        solves_lanes(w, cut, st, joints)
+    }
+    match w.code {
+        LaneCode::Widest => widest(w, cut, st, joints),
+        LaneCode::Avx2 => avx2(w, cut, st, joints),
+        LaneCode::Baseline => solves_lanes(w, cut, st, joints),
+    }
+}
+
 /// The analysis on the gathered lanes: Newton's corrections, then the velocity projection.
 /// Returns which lanes are done and their constraint errors.
-#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
-fn analyse(w: &mut KinematicLanes, mech: &Mechanism, st: &crate::solver::Structure, tol: f64) -> ([bool; LANES], X) {
+#[inline(always)]
+fn analyse_lanes(
+    w: &mut KinematicLanes,
+    mech: &Mechanism,
+    st: &crate::solver::Structure,
+    tol: f64,
+) -> ([bool; LANES], X) {
     let n = w.q.len();
     let stride = w.inv_diag.len();
     let (mut done, mut failed, mut error) = ([false; LANES], [false; LANES], ZERO);
@@ -598,8 +661,8 @@ fn analyse(w: &mut KinematicLanes, mech: &Mechanism, st: &crate::solver::Structu
 }
 
 /// The cut mechanism's solves at the analysed state (see [`effective_solves_lanes`]).
-#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
-fn solves(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Structure, joints: &[[BodyId; 2]]) {
+#[inline(always)]
+fn solves_lanes(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Structure, joints: &[[BodyId; 2]]) {
     let (n, m, k) = (w.q.len(), w.cut.phi.len(), joints.len());
     let stride = w.inv_diag.len();
     evaluate::<true>(&w.pose, &w.qd, &mut w.cut, cut);
