@@ -136,7 +136,12 @@ pub struct PointKinematics {
 
 /// Kinematics of the point `local` (from the centroid, body frame) of `body`.
 pub fn point_kinematics(q: &[f64], qd: &[f64], qdd: &[f64], body: BodyId, local: Vec2) -> PointKinematics {
-    let pose = Pose::of(body, q, qd);
+    point_kinematics_at(&Pose::of(body, q, qd), qdd, body, local)
+}
+
+/// [`point_kinematics`] with the body's pose given ([`Pose::of`] at q, q̇): the same numbers,
+/// without its sine and cosine taken again (a probe's several accelerations at one state).
+pub fn point_kinematics_at(pose: &Pose, qdd: &[f64], body: BodyId, local: Vec2) -> PointKinematics {
     let a = pose.rotate(local);
     let (acc, alpha) = match body {
         BodyId::Ground => (Vec2::zeros(), 0.0),

@@ -32,7 +32,7 @@ pub use interface::{
 };
 pub use kinematics::{
     PointKinematics, assemble, assemble_and_project, driver_torque, initial_guess, joint_reaction, kinetic_energy,
-    point_kinematics, velocity_analysis,
+    point_kinematics, point_kinematics_at, velocity_analysis,
 };
 pub use lash_core::Coupling;
 pub use model::{

@@ -19,11 +19,11 @@
 //! solve. Positions and velocities of probe points are exported with their time derivatives for
 //! Hermite interpolation. One KKT factorisation per communication point serves all of it.
 
-use crate::Vec2;
 use crate::interface::{ClearanceInterface, CoupledTerms, coupled_effective_terms_into};
-use crate::kinematics::{assemble_and_project, driver_torque, initial_guess, joint_reaction, point_kinematics};
+use crate::kinematics::{assemble_and_project, driver_torque, initial_guess, joint_reaction, point_kinematics_at};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
+use crate::{Pose, Vec2};
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{Coupling, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
@@ -231,8 +231,6 @@ struct RefreshWork {
     friction_moment_force: nalgebra::DMatrix<f64>,
     /// The interface loads of the macro's own motion [f; F_T].
     own: Vec<f64>,
-    /// A zero velocity vector.
-    zeros: Vec<f64>,
     /// One probe's gains.
     gains: Vec<f64>,
 }
@@ -643,9 +641,6 @@ impl MechanismSubsystem {
         };
         put(vr::CONSTRAINT_ERROR, &[phi]);
         let mut next = vr::FRICTION_FORCE + 1;
-        work.zeros.clear();
-        work.zeros.resize(self.q.len(), 0.0);
-        let zeros = &work.zeros;
         let g = n + k;
         work.gains.clear();
         work.gains.resize(2 * g, 0.0);
@@ -653,10 +648,13 @@ impl MechanismSubsystem {
         for p in &self.probes {
             match *p {
                 Probe::Point { body, point, .. } => {
-                    let own_kin = point_kinematics(&self.q, &self.qd, &self.qdd, body, point);
-                    let free = point_kinematics(&self.q, &self.qd, &terms.free_accelerations, body, point);
+                    // (One pose, one sine and cosine, for the five: at q̇ and at rest.)
+                    let pose = Pose::of(body, &self.q, &self.qd);
+                    let at_rest = Pose { velocity: Vec2::zeros(), angular_velocity: 0.0, ..pose };
+                    let own_kin = point_kinematics_at(&pose, &self.qdd, body, point);
+                    let free = point_kinematics_at(&pose, &terms.free_accelerations, body, point);
                     for (c, column) in terms.gain.iter().enumerate() {
-                        let a = point_kinematics(&self.q, zeros, column, body, point).acceleration;
+                        let a = point_kinematics_at(&at_rest, column, body, point).acceleration;
                         gains[c] = a.x;
                         gains[g + c] = a.y;
                     }
@@ -787,16 +785,29 @@ impl Subsystem for MechanismSubsystem {
             return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
         let n = 2 * self.joints.len();
-        let mut at = 0;
-        for &r in refs {
+        let input = |r: ValueReference| matches!(r, vr::ECCENTRICITY | vr::ECCENTRICITY_RATE | vr::FRICTION_FORCE);
+        let (mut at, mut i) = (0, 0);
+        while i < refs.len() {
+            let r = refs[i];
             let v = match r {
                 vr::ECCENTRICITY => &self.target[..n],
                 vr::ECCENTRICITY_RATE => &self.target[n..],
                 vr::FRICTION_FORCE => &self.friction[..],
-                _ => self.output(r),
+                _ => {
+                    // Consecutive outputs are one stretch of the values: one copy (a master
+                    // reads every output at every step).
+                    let mut last = i;
+                    while last + 1 < refs.len() && refs[last + 1] == refs[last] + 1 && !input(refs[last + 1]) {
+                        last += 1;
+                    }
+                    let stretch = &self.values[self.offsets[r as usize]..self.offsets[refs[last] as usize + 1]];
+                    i = last;
+                    stretch
+                }
             };
             values[at..at + v.len()].copy_from_slice(v);
             at += v.len();
+            i += 1;
         }
         Ok(())
     }

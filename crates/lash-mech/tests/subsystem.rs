@@ -168,9 +168,12 @@ fn variant(k: usize, clearances: &[&str], unreachable: bool) -> MechanismSubsyst
     s
 }
 
-/// Every output of `s`, as bits.
+/// Every variable of `s`, as bits — read one by one, and checked against one read of all of
+/// them (consecutive outputs are copied as one stretch, the inputs among them from their own
+/// storage).
 fn all_bits(s: &MechanismSubsystem) -> Vec<u64> {
-    s.variables()
+    let one_by_one: Vec<u64> = s
+        .variables()
         .iter()
         .flat_map(|v| {
             let mut out = vec![0.0; v.len()];
@@ -178,7 +181,12 @@ fn all_bits(s: &MechanismSubsystem) -> Vec<u64> {
             out
         })
         .map(f64::to_bits)
-        .collect()
+        .collect();
+    let refs: Vec<_> = s.variables().iter().map(|v| v.value_reference).collect();
+    let mut all = vec![0.0; one_by_one.len()];
+    s.get_f64(&refs, &mut all).unwrap();
+    assert_eq!(all.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), one_by_one, "one read of every variable");
+    one_by_one
 }
 
 #[test]
