@@ -696,19 +696,32 @@ fn solves_lanes(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Str
     };
     for (j, bodies) in joints.iter().enumerate() {
         let c = w.clearance[j];
-        for (i, e) in [(1.0, 0.0), (0.0, 1.0)].into_iter().enumerate() {
-            let (ex, ey) = (X::splat(e.0), X::splat(e.1));
+        // The columns of joint j: unit force along x, along y (2j, 2j + 1), friction (2k + j).
+        for (column, unit) in [(2 * j, Some((1.0, 0.0))), (2 * j + 1, Some((0.0, 1.0))), (2 * k + j, None)] {
             w.force.fill(ZERO);
-            for (side, sign) in [(0, 1.0), (1, -1.0)] {
-                if let BodyId::Body(b) = bodies[side] {
-                    let (ax, ay) = rotate(b, c[2 * side], c[2 * side + 1]);
-                    let sign = X::splat(sign);
-                    w.force[3 * b] = w.force[3 * b] + sign * ex;
-                    w.force[3 * b + 1] = w.force[3 * b + 1] + sign * ey;
-                    w.force[3 * b + 2] = w.force[3 * b + 2] + sign * (ax * ey - ay * ex);
+            match unit {
+                Some(e) => {
+                    let (ex, ey) = (X::splat(e.0), X::splat(e.1));
+                    for (side, sign) in [(0, 1.0), (1, -1.0)] {
+                        if let BodyId::Body(b) = bodies[side] {
+                            let (ax, ay) = rotate(b, c[2 * side], c[2 * side + 1]);
+                            let sign = X::splat(sign);
+                            w.force[3 * b] = w.force[3 * b] + sign * ex;
+                            w.force[3 * b + 1] = w.force[3 * b + 1] + sign * ey;
+                            w.force[3 * b + 2] = w.force[3 * b + 2] + sign * (ax * ey - ay * ex);
+                        }
+                    }
+                }
+                // The friction force's moments per unit F_T: −R_J on the journal body, +R_B on
+                // the bearing body.
+                None => {
+                    for (side, moment) in [(0, -c[4]), (1, c[5])] {
+                        if let BodyId::Body(b) = bodies[side] {
+                            w.force[3 * b + 2] = w.force[3 * b + 2] + moment;
+                        }
+                    }
                 }
             }
-            let column = 2 * j + i;
             kkt.solve(
                 Some(&w.force),
                 zero_gamma,
@@ -717,20 +730,6 @@ fn solves_lanes(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Str
                 Some((&mut w.lambda_gains[column * m..(column + 1) * m], &w.full_inverse_mass)),
             );
         }
-        w.force.fill(ZERO);
-        for (side, moment) in [(0, -c[4]), (1, c[5])] {
-            if let BodyId::Body(b) = bodies[side] {
-                w.force[3 * b + 2] = w.force[3 * b + 2] + moment;
-            }
-        }
-        let column = 2 * k + j;
-        kkt.solve(
-            Some(&w.force),
-            zero_gamma,
-            (&mut w.acc[..], &mut w.reaction[..], &mut w.lambda[..]),
-            &mut w.gains[column * n..(column + 1) * n],
-            Some((&mut w.lambda_gains[column * m..(column + 1) * m], &w.full_inverse_mass)),
-        );
     }
 }
 
