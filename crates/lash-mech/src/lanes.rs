@@ -141,17 +141,13 @@ pub struct LaneInput<'a> {
 /// only where numbers are read per lane (joint points and axes, offsets, masses, gravity, the
 /// drivers' motions). Computed once per mechanism; comparing two is one slice comparison.
 pub fn signature(mech: &Mechanism, solver: &Solver) -> Vec<u64> {
-    let body = |b: BodyId| match b {
-        BodyId::Body(k) => k as u64,
-        BodyId::Ground => u64::MAX,
-    };
     let st = &solver.structure;
     let mut v = vec![mech.bodies.len() as u64, mech.joints.len() as u64, mech.drivers.len() as u64];
     for j in &mech.joints {
-        v.extend([body(j.body_i), body(j.body_j), matches!(j.kind, JointKind::Prismatic { .. }) as u64]);
+        v.extend([body_code(j.body_i), body_code(j.body_j), matches!(j.kind, JointKind::Prismatic { .. }) as u64]);
     }
     for d in &mech.drivers {
-        v.extend([body(d.body), body(d.reference)]);
+        v.extend([body_code(d.body), body_code(d.reference)]);
     }
     v.push(solver.dense_factor() as u64);
     v.push(st.fixed.len() as u64);
@@ -171,6 +167,14 @@ pub fn signature(mech: &Mechanism, solver: &Solver) -> Vec<u64> {
     v
 }
 
+/// A body as a number of a signature.
+fn body_code(b: BodyId) -> u64 {
+    match b {
+        BodyId::Body(k) => k as u64,
+        BodyId::Ground => u64::MAX,
+    }
+}
+
 /// The signature under which a cut mechanism `cut` (solver `solver`, clearance joints `joints`)
 /// can have its effective terms' solves done in lanes ([`effective_solves_lanes`]) with others of
 /// the same: its S the leading block of the analysed mechanism's (`shared`:
@@ -181,14 +185,12 @@ pub fn terms_signature(
     joints: &[ClearanceInterface],
     shared: bool,
 ) -> Option<Vec<u64>> {
-    let body = |b: BodyId| match b {
-        BodyId::Body(k) => k as u64,
-        BodyId::Ground => u64::MAX,
-    };
     (shared && cut.loads.is_empty()).then(|| {
         let mut v = signature(cut, solver);
         v.push(joints.len() as u64);
-        v.extend(joints.iter().flat_map(|j| [body(j.interface.journal_body), body(j.interface.bearing_body)]));
+        v.extend(
+            joints.iter().flat_map(|j| [body_code(j.interface.journal_body), body_code(j.interface.bearing_body)]),
+        );
         v
     })
 }
@@ -210,8 +212,8 @@ struct Rows {
 }
 
 impl Rows {
-    /// Sized for `mech` (nothing allocated once sized).
-    fn size(&mut self, mech: &Mechanism) {
+    /// Sized for `mech` with its solver's structure `st` (nothing allocated once sized).
+    fn size(&mut self, mech: &Mechanism, st: &crate::solver::Structure) {
         let m = mech.constraint_count();
         // (Every number is written before it is read.)
         self.joint.resize(mech.joints.len(), [ZERO; 7]);
@@ -220,18 +222,10 @@ impl Rows {
         for v in [&mut self.phi, &mut self.nu, &mut self.gamma] {
             v.resize(m, ZERO);
         }
-        let slot = |b: BodyId| match b {
-            BodyId::Body(k) => k,
-            BodyId::Ground => Block::NONE,
-        };
+        // (The structure's coordinate offsets, the ground's the padding slot n.)
+        let n = mech.coordinate_count();
         self.row_bodies.clear();
-        for j in &mech.joints {
-            self.row_bodies.push([slot(j.body_i), slot(j.body_j)]);
-            self.row_bodies.push([slot(j.body_i), slot(j.body_j)]);
-        }
-        for d in &mech.drivers {
-            self.row_bodies.push([slot(d.body), slot(d.reference)]);
-        }
+        self.row_bodies.extend(st.offsets.iter().map(|o| o.map(|o| if o == n { Block::NONE } else { o / 3 })));
     }
 
     /// Lane `l`'s numbers: `mech`'s joints and its drivers' motion at `t`.
@@ -303,7 +297,7 @@ pub struct KinematicLanes {
     rhs: Vec<X>,
     step: Vec<X>,
     /// The cut mechanism's solves: M⁻¹ per coordinate, the body masses, gravity, Baumgarte's α
-    /// and β, the velocities padded, the load, γ̂, the multipliers.
+    /// and β, the velocities padded, the load, γ̂.
     full_inverse_mass: Vec<X>,
     mass: Vec<X>,
     gravity: [X; 2],
@@ -311,7 +305,6 @@ pub struct KinematicLanes {
     velocity: Vec<X>,
     force: Vec<X>,
     gamma_hat: Vec<X>,
-    multipliers: Vec<X>,
     /// Per clearance joint: journal point (x, y), bearing point (x, y), R_J, R_B.
     clearance: Vec<[X; 6]>,
     /// The solves' results: q̈ and λ with f_c = 0, then per column of G.
@@ -370,7 +363,7 @@ pub fn assemble_and_project_lanes(
     fit(&mut work.step, n);
     work.pose.resize(nb + 1, [ZERO; 5]);
     work.angle_bits.resize(nb, [0; LANES]);
-    work.ideal.size(mech);
+    work.ideal.size(mech, &first.solver.structure);
     // Gather; lanes past the last are copies of the first (computed, never returned).
     for l in 0..LANES {
         let lane = &lanes[if l < lanes.len() { l } else { 0 }];
@@ -456,23 +449,28 @@ pub struct TermsInput<'a> {
 /// [`assemble_and_project_lanes`] (the same lanes, in the same order, of one
 /// [`terms_signature`]), at their assembled state: the cut mechanism's state set, its factor the
 /// leading block of the analysed one's (as `Solver::share_factor` gives it), q̈ and λ with
-/// f_c = 0 and per unit interface load. Written where `done[l]`, bit for bit as the scalar
+/// f_c = 0 and per unit interface load. Written where the analysis is done (`analysed[l]`, the
+/// last analysis's result, is Some), bit for bit as the scalar
 /// solves leave them: the terms' q̈, λ, G and Λ, and of the cut solver what is read of it before
 /// it is set again — its poses and Φ_q (the rest of its state is stale); the terms' rates and
 /// inverse are then for [`crate::interface::coupled_rates_into`].
-pub fn effective_solves_lanes(lanes: &mut [TermsInput<'_>], done: &[bool], t: f64, work: &mut KinematicLanes) {
-    assert!(lanes.len() <= LANES && done.len() == lanes.len(), "one flag per lane, at most {LANES}");
+pub fn effective_solves_lanes(
+    lanes: &mut [TermsInput<'_>],
+    analysed: &[Option<f64>],
+    t: f64,
+    work: &mut KinematicLanes,
+) {
+    assert!(lanes.len() <= LANES && analysed.len() == lanes.len(), "one result per lane, at most {LANES}");
     let Some(first) = lanes.first() else { return };
     let cut = first.cut;
     let (n, m, nb, k) = (cut.coordinate_count(), cut.constraint_count(), cut.bodies.len(), first.joints.len());
     assert!(work.q.len() == n && work.pose.len() == nb + 1, "the lanes of the last analysis");
-    work.cut.size(cut);
+    work.cut.size(cut, &first.solver.structure);
     fit(&mut work.full_inverse_mass, n);
     fit(&mut work.mass, nb);
     fit(&mut work.velocity, n + 3);
     fit(&mut work.force, n);
     fit(&mut work.gamma_hat, m);
-    fit(&mut work.multipliers, m);
     fit(&mut work.free_accelerations, n);
     fit(&mut work.free_lambda, m);
     fit(&mut work.gains, 3 * k * n);
@@ -509,7 +507,7 @@ pub fn effective_solves_lanes(lanes: &mut [TermsInput<'_>], done: &[bool], t: f6
         first.joints.iter().map(|j| [j.interface.journal_body, j.interface.bearing_body]).collect();
     solves(work, cut, &first.solver.structure, &bodies);
     for (l, lane) in lanes.iter_mut().enumerate() {
-        if !done[l] {
+        if analysed[l].is_none() {
             continue;
         }
         // The cut solver's poses and Jacobian (what the rates and the reaction probes read);

@@ -273,15 +273,11 @@ pub struct MechanismSubsystem {
     /// Steps and right-hand-side evaluations of the dynamic integration.
     pub integration_stats: lash_ode::Stats,
     /// A kinematic step's motion analysed ahead, in lanes with other subsystems'
-    /// ([`kinematic_steps_ahead`]): the step (from, to) and the assembled constraint error, with
-    /// the coordinates and velocities in `ahead_q`, `ahead_qd`; the next `do_step` over that
-    /// step takes it instead of analysing.
-    ahead: Option<(Ticks, Ticks, f64)>,
+    /// ([`kinematic_steps_ahead`]), with the coordinates and velocities in `ahead_q`,
+    /// `ahead_qd`; the next `do_step` over that step takes it instead of analysing.
+    ahead: Option<Ahead>,
     ahead_q: Vec<f64>,
     ahead_qd: Vec<f64>,
-    /// With `ahead`: the effective terms' solves were done too, at its end state (`terms` and
-    /// the cut solver hold them).
-    solved_ahead: bool,
     /// The ideal mechanism's structure ([`crate::lanes::signature`]), and the cut one's for its
     /// terms ([`crate::lanes::terms_signature`]): who goes in lanes with whom.
     signature: Vec<u64>,
@@ -493,7 +489,6 @@ impl MechanismSubsystem {
             ahead: None,
             ahead_q: vec![0.0; coordinates],
             ahead_qd: vec![0.0; coordinates],
-            solved_ahead: false,
         }
     }
 
@@ -826,11 +821,11 @@ impl Subsystem for MechanismSubsystem {
         let mut solved = false;
         let result = if self.kinematic {
             match self.ahead.take() {
-                Some((from, to, error)) if from == t && to == Ticks(t.0 + h.0) => {
+                Some(a) if a.from == t && a.to == Ticks(t.0 + h.0) => {
                     self.q.copy_from_slice(&self.ahead_q);
                     self.qd.copy_from_slice(&self.ahead_qd);
-                    solved = std::mem::take(&mut self.solved_ahead);
-                    Ok(Some(error))
+                    solved = a.solved;
+                    Ok(Some(a.error))
                 }
                 _ => self.kinematic_motion(t1).map(Some),
             }
@@ -906,7 +901,6 @@ impl Subsystem for MechanismSubsystem {
             .downcast_ref::<Snapshot>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not a mechanism subsystem's".into()))?;
         self.ahead = None;
-        self.solved_ahead = false;
         self.q.clone_from(&s.q);
         self.qd.clone_from(&s.qd);
         self.time = s.time;
@@ -921,6 +915,19 @@ impl Subsystem for MechanismSubsystem {
         }
         Ok(())
     }
+}
+
+/// A kinematic step analysed ahead ([`kinematic_steps_ahead`]).
+#[derive(Debug, Clone, Copy)]
+struct Ahead {
+    /// The step, from and to.
+    from: Ticks,
+    to: Ticks,
+    /// The assembled constraint error (max |Φ|).
+    error: f64,
+    /// The effective terms' solves were done too, at its end state (`terms` and the cut solver
+    /// hold them).
+    solved: bool,
 }
 
 /// The position analysis's tolerance on max |Φ| at a kinematic step [m or rad].
@@ -985,7 +992,6 @@ pub fn kinematic_steps_ahead(
         let errors = assemble_and_project_lanes(&mut lanes, t1, ASSEMBLY_TOLERANCE, !solve, work);
         drop(lanes);
         if solve {
-            let done: Vec<bool> = errors.iter().map(Option::is_some).collect();
             let mut lanes: Vec<TermsInput<'_>> = group
                 .iter_mut()
                 .map(|m| {
@@ -996,11 +1002,10 @@ pub fn kinematic_steps_ahead(
                     TermsInput { cut: &m.cut, solver: &mut m.cut_solver, joints: &m.joints, terms }
                 })
                 .collect();
-            effective_solves_lanes(&mut lanes, &done, t1, work);
+            effective_solves_lanes(&mut lanes, &errors, t1, work);
         }
         for (m, error) in group.into_iter().zip(errors) {
-            m.ahead = error.map(|e| (t, to, e));
-            m.solved_ahead = solve && error.is_some();
+            m.ahead = error.map(|error| Ahead { from: t, to, error, solved: solve });
         }
     }
 }
