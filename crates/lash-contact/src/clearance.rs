@@ -181,7 +181,9 @@ impl ClearanceJoint {
         omega_bearing: f64,
     ) -> (Vec2, Vec2, f64, f64, f64, f64) {
         let norm = e.norm();
-        let n = if norm > 0.0 { e / norm } else { Vec2::new(1.0, 0.0) };
+        // (One division for both components, as the spherical joint does: the micro step's
+        // lanes are bound by the divider.)
+        let n = if norm > 0.0 { e * (1.0 / norm) } else { Vec2::new(1.0, 0.0) };
         let t = perp(n);
         let delta = norm - self.radial_clearance();
         let delta_dot = e_dot.dot(&n);
@@ -529,5 +531,58 @@ mod tests {
         assert!((s.normal_force - 1e4).abs() < 1e-6);
         assert!((s.force_on_journal.x + 1e4).abs() < 1e-6);
         assert!((s.force_on_journal.y + 1e3).abs() < 1e-6);
+    }
+
+    proptest::proptest! {
+        /// The stated bound of the one-division forms (the normal as e · (1/|e|), the
+        /// hysteresis factor as 1 + χ δ̇ · (1/max(δ̇⁻, floor))) against the quotients written out
+        /// (e/|e|, χ δ̇ / max(δ̇⁻, floor)): the normal within 2 ε per component, δ̇ within 4 ε |ė|,
+        /// the normal force within 8 ε of the size of its terms, K δ^1.5 (1 + χ (|δ̇| + |ė|) /
+        /// max(δ̇⁻, floor)) — rounding, not a different law.
+        #[test]
+        fn one_division_forms_stay_within_rounding_of_the_quotients(
+            angle in 0.0..std::f64::consts::TAU,
+            depth in -5e-5..5e-5f64,
+            (ux, uy) in (-3.0..3.0f64, -3.0..3.0f64),
+            onset in 0.0..2.0f64,
+            omega in -600.0..600.0f64,
+        ) {
+            let (stiffness, chi, floor) = (5e9, 0.6, 1e-4);
+            let joint = ClearanceJoint {
+                name: "j".into(),
+                journal_body: BodyId::Body(0),
+                journal_point: Vec2::zeros(),
+                bearing_body: BodyId::Ground,
+                bearing_point: Vec2::zeros(),
+                journal_radius: 0.0099,
+                bearing_radius: 0.01,
+                law: NormalForce::Hysteresis { stiffness, exponent: 1.5, chi, floor },
+                friction: FrictionLaw::Ambrosio { coefficient: 0.1, v0: 1e-4, v1: 1e-3 },
+                bush_stiffness: f64::INFINITY,
+                bush_damping: 0.0,
+                in_contact: true,
+                onset_velocity: onset,
+            };
+            let c = joint.radial_clearance();
+            let e = Vec2::new((c + depth) * angle.cos(), (c + depth) * angle.sin());
+            let e_dot = Vec2::new(ux, uy);
+            let s = joint.evaluate_relative(e, e_dot, omega, 0.0, onset);
+            let eps = f64::EPSILON;
+            let n = e / e.norm();
+            proptest::prop_assert!((s.normal - n).abs().max() <= 2.0 * eps, "{:?} against {:?}", s.normal, n);
+            let delta_dot = e_dot.dot(&n);
+            proptest::prop_assert!((s.penetration_rate - delta_dot).abs() <= 4.0 * eps * e_dot.norm());
+            let delta = e.norm() - c;
+            proptest::prop_assert_eq!(s.penetration, delta);
+            if delta > 0.0 {
+                let elastic = stiffness * delta.powf(1.5);
+                let quotient = (elastic * (1.0 + chi * delta_dot / onset.max(floor))).max(0.0);
+                let scale = elastic * (1.0 + chi * (delta_dot.abs() + e_dot.norm()) / onset.max(floor));
+                proptest::prop_assert!(
+                    (s.normal_force - quotient).abs() <= 8.0 * eps * scale,
+                    "{} against {quotient} (scale {scale})", s.normal_force
+                );
+            }
+        }
     }
 }

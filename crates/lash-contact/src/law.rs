@@ -183,6 +183,12 @@ pub enum NormalForce {
     },
 }
 
+/// 1 / max(δ̇⁻, floor): the reciprocal of the onset velocity the hysteresis laws divide by.
+#[inline(always)]
+pub fn onset_reciprocal(onset: f64, floor: f64) -> f64 {
+    1.0 / onset.max(floor)
+}
+
 impl NormalForce {
     /// Normal force for penetration `delta` > 0, rate `delta_dot` (> 0 approaching) and onset
     /// velocity `onset` (the δ̇ captured when this contact began). Clipped at 0.
@@ -195,7 +201,9 @@ impl NormalForce {
             NormalForce::Power { stiffness, exponent } => stiffness * pow(delta, exponent),
             NormalForce::KelvinVoigt { stiffness, damping } => stiffness * delta + damping * delta_dot,
             NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
-                stiffness * pow(delta, exponent) * (1.0 + chi * delta_dot / onset.max(floor))
+                // (χ δ̇ times the reciprocal of the onset velocity: a contact's reciprocal is one
+                // number for all its steps, which the micro step's lanes form once.)
+                stiffness * pow(delta, exponent) * (1.0 + chi * delta_dot * onset_reciprocal(onset, floor))
             }
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
                 stiffness * pow(delta, exponent) + step(delta, 0.0, 0.0, damping_depth, max_damping) * delta_dot

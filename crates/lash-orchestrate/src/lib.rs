@@ -1467,6 +1467,18 @@ impl SignalTable {
         if count >= 4 {
             return self.fill_propagated_by_fours(s, loads, out);
         }
+        if count == 1 {
+            // One signal (a sweep's one propagated channel): the same operations in the same
+            // order as the loops below, without their bookkeeping.
+            let mut sum = self.free[0] + self.free_change[0] * s;
+            for (c, &load) in loads[..self.loads].iter().enumerate() {
+                if load != 0.0 {
+                    sum += (self.gain[c] + self.gain_change[c] * s) * load;
+                }
+            }
+            out[self.propagated[0].0] = sum;
+            return;
+        }
         // Equal lengths, written out: the loops then compile to straight vector code.
         let sums = &mut self.sums[..count];
         let (free, free_change) = (&self.free[..count], &self.free_change[..count]);

@@ -31,7 +31,8 @@ pub struct Plan {
     pub text: String,
     /// The base scenario (planar or spatial), with the sweep's horizon and sampling applied.
     pub base: AnyScenario,
-    base_table: toml::Table,
+    /// The base prepared for the runs' edits.
+    edits: lash_scenario::paths::EditBase,
     /// Every run.
     pub runs: Vec<RunSpec>,
     /// Hex SHA-256 of the base scenario (as serialized TOML).
@@ -130,7 +131,8 @@ impl Plan {
         h.update([0]);
         h.update(scenario_toml.as_bytes());
         let sweep_hash = hex(&h.finalize());
-        Ok(Self { spec, text, base, base_table, runs, scenario_hash, sweep_hash })
+        let edits = lash_scenario::paths::EditBase::new(base_table);
+        Ok(Self { spec, text, base, edits, runs, scenario_hash, sweep_hash })
     }
 
     /// Parameter paths, in order.
@@ -141,7 +143,7 @@ impl Plan {
     /// The scenario of one run: the base with the run's values at their paths, validated.
     pub fn scenario(&self, run: &RunSpec) -> Result<AnyScenario, String> {
         let edits = self.spec.parameters.iter().map(|p| p.path.as_str()).zip(run.values.iter().copied());
-        lash_scenario::paths::edited_any(&self.base_table, edits).map_err(|e| match e {
+        self.edits.edited(edits).map_err(|e| match e {
             EditError::Path(m) => m,
             EditError::Invalid(p) => format!("invalid parameter combination: {p}"),
         })

@@ -22,7 +22,7 @@
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
 use crate::friction::FrictionLaw;
-use crate::law::NormalForce;
+use crate::law::{NormalForce, onset_reciprocal};
 use lash_core::Ticks;
 use lash_mech::Vec2;
 use nalgebra::{SMatrix, SVector};
@@ -317,9 +317,9 @@ impl Joint {
 
     /// The gated loads of a stage at (e, ė) ([`Joint::contact`], [`gated`]).
     #[inline(always)]
-    fn stage(&self, (ex, ey, vx, vy): (&V, &V, &V, &V), w: (&V, &V), in_contact: X, onset: &V) -> Stage {
+    fn stage(&self, (ex, ey, vx, vy): (&V, &V, &V, &V), w: (&V, &V), in_contact: X, reciprocal: &V) -> Stage {
         let (ex, ey) = (x(ex), x(ey));
-        let contact = self.contact((ex, ey, x(vx), x(vy)), self.geometry(ex, ey), w, in_contact, onset);
+        let contact = self.contact((ex, ey, x(vx), x(vy)), self.geometry(ex, ey), w, in_contact, reciprocal);
         gated(&contact, &self.clearance)
     }
 
@@ -331,9 +331,10 @@ impl Joint {
     }
 
     /// The contact of every lane at (e, ė) with the bodies' angular velocities, each lane in its
-    /// mode (`in_contact`, `onset`): [`ClearanceJoint::evaluate_relative_as`] as the micro model
-    /// calls it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where they
-    /// first indent. `geometry` is [`Joint::geometry`] at e. Kept in registers: a stage of the
+    /// mode (`in_contact`, and `reciprocal`: each lane's 1 / max(δ̇⁻, floor), formed where its
+    /// onset velocity changes): [`ClearanceJoint::evaluate_relative_as`] as the micro model calls
+    /// it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where they first
+    /// indent (their reciprocal formed here, the rare lanes' one division). `geometry` is [`Joint::geometry`] at e. Kept in registers: a stage of the
     /// step reads only its loads ([`gated`]), the step end is stored whole ([`Contact::store`]).
     #[inline(always)]
     fn contact(
@@ -342,21 +343,25 @@ impl Joint {
         (norm, delta): (X, X),
         (wj, wb): (&V, &V),
         in_contact: X,
-        onset: &V,
+        reciprocal: &V,
     ) -> Contact {
         let (zero, one, sign_bit) = (X::ZERO, X::ONE, X::splat(-0.0));
         let positive = norm.simd_gt(zero);
-        let nx = positive.select(ex / norm, one);
-        let ny = positive.select(ey / norm, zero);
+        let inverse = one / norm;
+        let nx = positive.select(ex * inverse, one);
+        let ny = positive.select(ey * inverse, zero);
         // t = (−n_y, n_x).
         let tx = ny ^ sign_bit;
         let delta_dot = u * nx + v * ny;
         let slip = (u * tx + v * nx) + x(wj) * x(&self.journal_radius) - x(wb) * x(&self.bearing_radius);
         // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
         let indenting = !in_contact & delta.simd_gt(zero);
-        let onset = indenting.select(delta_dot.max(zero), x(onset));
-        let f =
-            x(&self.stiffness) * (delta * delta.sqrt()) * (one + x(&self.chi) * delta_dot / onset.max(x(&self.floor)));
+        let reciprocal = if indenting.to_bitmask() == 0 {
+            x(reciprocal)
+        } else {
+            indenting.select(one / delta_dot.max(zero).max(x(&self.floor)), x(reciprocal))
+        };
+        let f = x(&self.stiffness) * (delta * delta.sqrt()) * (one + x(&self.chi) * delta_dot * reciprocal);
         let normal = delta.simd_le(zero).select(zero, f.max(zero));
         let sign = slip.simd_gt(zero).select(one, slip.simd_lt(zero).select(-one, zero));
         let coefficient = match self.friction {
@@ -820,7 +825,9 @@ fn advance_lanes(
     };
     let (mut stepped, mut any_by_model) = masks(&running, &by_model);
     let mut lanes_changed = false;
-    let mut onset: V = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
+    // Each lane's 1 / max(δ̇⁻, floor) (`onset_reciprocal`), formed again where its onset changes.
+    let mut reciprocal: V =
+        std::array::from_fn(|l| onset_reciprocal(models[l].joints[0].onset_velocity, joint.floor[l]));
     // (The lanes of a sweep share their time: one conversion per step.)
     let shared = t.iter().all(|&x| x == t[0]);
     for (i, &flag) in record.iter().enumerate() {
@@ -883,15 +890,15 @@ fn advance_lanes(
         let along = |a: &V, b: &V, f: f64| -> V { (x(a) + x(b) * X::splat(f)).into() };
         let (k2ex, k2ey) = (along(&v0x, &k1x, 0.5 * h), along(&v0y, &k1y, 0.5 * h));
         let (s2x, s2y) = (along(&e0x, &v0x, 0.5 * h), along(&e0y, &v0y, 0.5 * h));
-        let l2 = joint.stage((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), contact_mask, &onset);
+        let l2 = joint.stage((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), contact_mask, &reciprocal);
         let (k2x, k2y) = inputs.acceleration(&dt_half, &middle, &l2);
         let (k3ex, k3ey) = (along(&v0x, &k2x, 0.5 * h), along(&v0y, &k2y, 0.5 * h));
         let (s3x, s3y) = (along(&e0x, &k2ex, 0.5 * h), along(&e0y, &k2ey, 0.5 * h));
-        let l3 = joint.stage((&s3x, &s3y, &k3ex, &k3ey), (&w_half.0, &w_half.1), contact_mask, &onset);
+        let l3 = joint.stage((&s3x, &s3y, &k3ex, &k3ey), (&w_half.0, &w_half.1), contact_mask, &reciprocal);
         let (k3x, k3y) = inputs.acceleration(&dt_half, &middle, &l3);
         let (k4ex, k4ey) = (along(&v0x, &k3x, h), along(&v0y, &k3y, h));
         let (s4x, s4y) = (along(&e0x, &k3ex, h), along(&e0y, &k3ey, h));
-        let l4 = joint.stage((&s4x, &s4y, &k4ex, &k4ey), (&w_end.0, &w_end.1), contact_mask, &onset);
+        let l4 = joint.stage((&s4x, &s4y, &k4ex, &k4ey), (&w_end.0, &w_end.1), contact_mask, &reciprocal);
         let (k4x, k4y) = inputs.acceleration(&dt_end, &finish, &l4);
         let sixth = h / 6.0;
         let combine = |y0: &V, a: &V, b: &V, c: &V, d: &V| -> V {
@@ -922,7 +929,7 @@ fn advance_lanes(
             m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
             kept.trackers.set(l, m.open[0]);
             in_contact[l] = m.joints[0].in_contact;
-            onset[l] = m.joints[0].onset_velocity;
+            reciprocal[l] = onset_reciprocal(m.joints[0].onset_velocity, joint.floor[l]);
             contact_mask = mask(&in_contact);
         }
         // The step end's contact state (not gated), then the impact trackers.
@@ -931,7 +938,7 @@ fn advance_lanes(
             end_geometry,
             (&w_end.0, &w_end.1),
             contact_mask,
-            &onset,
+            &reciprocal,
         );
         end.store(&mut kept.states);
         let end_time: V = (x(&now) + X::splat(h)).into();
@@ -951,7 +958,7 @@ fn advance_lanes(
                     let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
                     by_model[l] = !kept.gather(l, models[l], next);
                     in_contact[l] = models[l].joints[0].in_contact;
-                    onset[l] = models[l].joints[0].onset_velocity;
+                    reciprocal[l] = onset_reciprocal(models[l].joints[0].onset_velocity, joint.floor[l]);
                     contact_mask = mask(&in_contact);
                     lanes_changed = true;
                 }
