@@ -334,8 +334,9 @@ impl Joint {
     /// mode (`in_contact`, and `reciprocal`: each lane's 1 / max(δ̇⁻, floor), formed where its
     /// onset velocity changes): [`ClearanceJoint::evaluate_relative_as`] as the micro model calls
     /// it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where they first
-    /// indent (their reciprocal formed here, the rare lanes' one division). `geometry` is [`Joint::geometry`] at e. Kept in registers: a stage of the
-    /// step reads only its loads ([`gated`]), the step end is stored whole ([`Contact::store`]).
+    /// indent (their reciprocal formed here, the rare lanes' one division). `geometry` is
+    /// [`Joint::geometry`] at e. Kept in registers: a stage of the step reads only its loads
+    /// ([`gated`]), the step end is stored whole ([`Contact::store`]).
     #[inline(always)]
     fn contact(
         &self,
