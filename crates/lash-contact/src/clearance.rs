@@ -503,25 +503,35 @@ mod tests {
         assert!((imp.peak_time - 0.37).abs() < 1e-9);
     }
 
-    #[test]
-    fn sign_conventions_of_a_pressed_journal() {
-        // Journal displaced +x by c + δ and moving further +x while spinning: normal force
-        // pushes it back (−x); slip v_t = ė·t + ω_J R_J, t = +y.
-        let joint = ClearanceJoint {
+    /// A rigid joint (no bush) of body 0's centre in a ground bearing of radius 10 mm, in contact.
+    fn pin(journal_radius: f64, law: NormalForce, friction: FrictionLaw, onset_velocity: f64) -> ClearanceJoint {
+        ClearanceJoint {
             name: "j".into(),
             journal_body: BodyId::Body(0),
             journal_point: Vec2::zeros(),
             bearing_body: BodyId::Ground,
             bearing_point: Vec2::zeros(),
-            journal_radius: 0.0095,
+            journal_radius,
             bearing_radius: 0.01,
-            law: NormalForce::Power { stiffness: 1e10, exponent: 1.0 },
-            friction: FrictionLaw::Coulomb { coefficient: 0.1 },
+            law,
+            friction,
             bush_stiffness: f64::INFINITY,
             bush_damping: 0.0,
             in_contact: true,
-            onset_velocity: 1.0,
-        };
+            onset_velocity,
+        }
+    }
+
+    #[test]
+    fn sign_conventions_of_a_pressed_journal() {
+        // Journal displaced +x by c + δ and moving further +x while spinning: normal force
+        // pushes it back (−x); slip v_t = ė·t + ω_J R_J, t = +y.
+        let joint = pin(
+            0.0095,
+            NormalForce::Power { stiffness: 1e10, exponent: 1.0 },
+            FrictionLaw::Coulomb { coefficient: 0.1 },
+            1.0,
+        );
         let q = [0.0005 + 1e-6, 0.0, 0.0];
         let qd = [0.3, 0.2, 10.0];
         let s = joint.evaluate(&Pose::of(BodyId::Body(0), &q, &qd), &Pose::GROUND, 1.0);
@@ -548,21 +558,12 @@ mod tests {
             omega in -600.0..600.0f64,
         ) {
             let (stiffness, chi, floor) = (5e9, 0.6, 1e-4);
-            let joint = ClearanceJoint {
-                name: "j".into(),
-                journal_body: BodyId::Body(0),
-                journal_point: Vec2::zeros(),
-                bearing_body: BodyId::Ground,
-                bearing_point: Vec2::zeros(),
-                journal_radius: 0.0099,
-                bearing_radius: 0.01,
-                law: NormalForce::Hysteresis { stiffness, exponent: 1.5, chi, floor },
-                friction: FrictionLaw::Ambrosio { coefficient: 0.1, v0: 1e-4, v1: 1e-3 },
-                bush_stiffness: f64::INFINITY,
-                bush_damping: 0.0,
-                in_contact: true,
-                onset_velocity: onset,
-            };
+            let joint = pin(
+                0.0099,
+                NormalForce::Hysteresis { stiffness, exponent: 1.5, chi, floor },
+                FrictionLaw::Ambrosio { coefficient: 0.1, v0: 1e-4, v1: 1e-3 },
+                onset,
+            );
             let c = joint.radial_clearance();
             let e = Vec2::new((c + depth) * angle.cos(), (c + depth) * angle.sin());
             let e_dot = Vec2::new(ux, uy);

@@ -31,18 +31,22 @@ pub fn edited_any<'a>(
         }
         Ok(table)
     };
-    let table = write()?;
-    let read = match crate::load::is_spatial(&table) {
-        Ok(false) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Planar),
-        Ok(true) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Spatial),
-        Err(_) => None,
-    };
-    if let Some(scenario) = read
+    if let Some(scenario) = read_in_one_go(write()?)
         && scenario.validate().is_empty()
     {
         return Ok(scenario);
     }
     crate::load::parse_any_table(write()?).map_err(EditError::Invalid)
+}
+
+/// A table read in one go as the scenario its `space` key says (unchecked), or None where it does
+/// not read.
+fn read_in_one_go(table: toml::Table) -> Option<crate::AnyScenario> {
+    match crate::load::is_spatial(&table) {
+        Ok(false) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Planar),
+        Ok(true) => toml::Value::Table(table).try_into().ok().map(crate::AnyScenario::Spatial),
+        Err(_) => None,
+    }
 }
 
 /// A base scenario prepared for many edits (the runs of a sweep): its table, and the typed
@@ -63,8 +67,8 @@ pub struct EditBase {
 impl EditBase {
     /// The base `table` (as [`edited_any`] takes it).
     pub fn new(table: toml::Table) -> Self {
-        let typed = match crate::load::is_spatial(&table) {
-            Ok(false) => toml::Value::Table(table.clone()).try_into().ok(),
+        let typed = match read_in_one_go(table.clone()) {
+            Some(crate::AnyScenario::Planar(s)) => Some(s),
             _ => None,
         };
         Self { table, typed }
