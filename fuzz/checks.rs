@@ -60,3 +60,24 @@ pub fn scenario(text: &str) -> bool {
     }
     true
 }
+
+/// An FMU archive (any bytes): unpacked into a scratch cache within the default limits, or
+/// refused. Never a panic or an abort, and nothing written beside the cache folder.
+pub fn fmu_archive(bytes: &[u8]) -> bool {
+    let dir = std::env::temp_dir().join(format!("lash-archive-fuzz-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let fmu = dir.join("a.fmu");
+    std::fs::write(&fmu, bytes).unwrap();
+    let unpacked = lash_fmi::import::unpack(&fmu, &dir.join("cache"));
+    let mut names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert!(names == ["a.fmu", "cache"] || names == ["a.fmu"], "written beside the cache: {names:?}");
+    if unpacked.is_err() {
+        let left = std::fs::read_dir(dir.join("cache").join("fmus")).map_or(0, |r| r.count());
+        assert_eq!(left, 0, "a refused archive left {left} folders in the cache");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    unpacked.is_ok()
+}

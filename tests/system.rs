@@ -900,3 +900,110 @@ fn isolated_fmus_survive_crashes_and_hangs() {
     assert_eq!(o.status.code(), None, "lash was ended by a signal");
     let _ = std::fs::remove_dir_all(out);
 }
+
+/// The process ids whose parent is `parent` and whose command line contains `needle`.
+fn children_of(parent: u32, needle: &str) -> Vec<u32> {
+    let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
+    entries
+        .flatten()
+        .filter_map(|e| e.file_name().to_str().and_then(|n| n.parse::<u32>().ok()))
+        .filter(|pid| {
+            let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+            // Fields after the command's closing parenthesis: state, parent id, …
+            let ppid = stat.rsplit_once(')').and_then(|(_, rest)| rest.split_whitespace().nth(1)?.parse::<u32>().ok());
+            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+            ppid == Some(parent) && String::from_utf8_lossy(&cmdline).replace('\0', " ").contains(needle)
+        })
+        .collect()
+}
+
+/// Whether `pid` still runs (a zombie that nobody reaped has ended).
+fn running(pid: u32) -> bool {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+    stat.rsplit_once(')').and_then(|(_, rest)| rest.split_whitespace().next()).is_some_and(|s| s != "Z" && s != "X")
+}
+
+/// An isolated FMU's host process ends with lash, however lash ends: SIGKILL (no handler runs),
+/// SIGTERM twice (the second one exits at once, with the FMU mid-call), SIGINT twice. The FMU
+/// hangs in its step, so lash itself never ends the host.
+#[test]
+fn an_isolated_fmus_host_dies_with_lash() {
+    let scratch = FmuScratch::new("hygiene");
+    let file = scratch.out.join("hang.toml");
+    std::fs::write(
+        &file,
+        "name = \"hang\"\nstop = 1.0\nstep = 0.01\n[[elements]]\nname = \"v\"\nfmu = \"vanderpol.fmu\"\nisolate = true\ntimeout = 600.0\nparameters = { fault = 3, fault_at = 0.05 }\n",
+    )
+    .unwrap();
+    for signals in [&["-KILL"][..], &["-TERM", "-TERM"], &["-INT", "-INT"]] {
+        let out = scratch.out.join(format!("out{}", signals[0]));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lash"))
+            .args(["run", file.to_str().unwrap(), "--quiet", "--out", out.to_str().unwrap()])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let waited = std::time::Instant::now();
+        let host = loop {
+            if let Some(&pid) = children_of(child.id(), "fmu host").first() {
+                break pid;
+            }
+            assert!(waited.elapsed().as_secs() < 60, "{signals:?}: no FMU host started");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        // Let the FMU reach its hang.
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        for signal in signals {
+            let ok = Command::new("kill").args([*signal, &child.id().to_string()]).status().unwrap().success();
+            assert!(ok, "{signals:?}: kill");
+            std::thread::sleep(std::time::Duration::from_millis(200));
+        }
+        let status = child.wait().unwrap();
+        assert!(!status.success(), "{signals:?}: lash ended with {status}");
+        let waited = std::time::Instant::now();
+        while running(host) {
+            assert!(waited.elapsed().as_secs() < 10, "{signals:?}: the FMU host {host} outlived lash by 10 s");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&scratch.out);
+}
+
+/// `lash fmu check` applies the checks `lash run` applies and says the same thing: an FMU whose
+/// description names two variables alike is refused by both, with one message (exit 2).
+#[test]
+fn fmu_check_refuses_what_run_refuses_with_the_same_words() {
+    use std::io::{Read, Write};
+    let scratch = FmuScratch::new("onecheck");
+    let good = scratch.out.join("oscillator.fmu");
+    let mut reader = zip::ZipArchive::new(std::fs::File::open(&good).unwrap()).unwrap();
+    let dup = scratch.out.join("dup.fmu");
+    let mut writer = zip::ZipWriter::new(std::fs::File::create(&dup).unwrap());
+    for k in 0..reader.len() {
+        let mut entry = reader.by_index(k).unwrap();
+        if entry.is_dir() {
+            continue;
+        }
+        let mut bytes = Vec::new();
+        entry.read_to_end(&mut bytes).unwrap();
+        if entry.name() == "modelDescription.xml" {
+            bytes = String::from_utf8(bytes).unwrap().replace("name=\"energy\"", "name=\"v\"").into_bytes();
+        }
+        writer.start_file(entry.name(), zip::write::SimpleFileOptions::default()).unwrap();
+        writer.write_all(&bytes).unwrap();
+    }
+    writer.finish().unwrap();
+    let check = lash(&["fmu", "check", dup.to_str().unwrap()]);
+    let system = scratch.out.join("dup.toml");
+    std::fs::write(&system, "name = \"d\"\nstop = 0.1\nstep = 0.01\n[[elements]]\nname = \"o\"\nfmu = \"dup.fmu\"\n")
+        .unwrap();
+    let run = lash(&["run", system.to_str().unwrap(), "--quiet", "--out", scratch.out.join("o").to_str().unwrap()]);
+    for (what, o) in [("fmu check", &check), ("run", &run)] {
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{what}: {err}");
+        assert!(err.contains("variable name \"v\" is used twice") && err.contains("dup.fmu"), "{what}: {err}");
+    }
+    let isolated = lash(&["fmu", "check", dup.to_str().unwrap(), "--isolate"]);
+    assert_eq!(isolated.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&isolated.stderr).contains("variable name \"v\" is used twice"));
+    let _ = std::fs::remove_dir_all(&scratch.out);
+}

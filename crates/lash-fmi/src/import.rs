@@ -269,6 +269,17 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
     if d.model_identifier.is_empty() {
         return Err("no CoSimulation element with a modelIdentifier (only co-simulation FMUs are imported)".into());
     }
+    // The identifier names the binary inside the archive: a C identifier (as the standard asks),
+    // so that it can never be a path that leaves `binaries/<platform>/`.
+    let mut chars = d.model_identifier.chars();
+    let c_identifier = chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if !c_identifier {
+        return Err(format!(
+            "modelIdentifier {:?} is not a C identifier (letters, digits and '_', not starting with a digit)",
+            d.model_identifier
+        ));
+    }
     Ok(d)
 }
 
@@ -318,35 +329,69 @@ fn resize(
 /// Unpacks `fmu` into `cache/fmus/<stem>-<SHA-256 of the archive, 16 hex digits>/` once and
 /// returns that folder: the same archive is unpacked once and reused by every later run (and by
 /// concurrent ones: each unpacks into its own temporary folder and the first rename wins); an
-/// edited archive gets a new folder.
+/// edited archive gets a new folder. The archive is untrusted: see [`crate::archive`] for what is
+/// refused and the limits ([`UnpackLimits::from_env`](crate::archive::UnpackLimits::from_env)).
+/// A failed unpack leaves nothing behind, and a folder left by a process that died while
+/// unpacking is removed, so that it cannot change the next answer.
 pub fn unpack(fmu: &Path, cache: &Path) -> Result<PathBuf, ImportError> {
     use sha2::Digest;
     let err = |m: String| ImportError::Archive { path: fmu.to_path_buf(), message: m };
+    let limits = crate::archive::UnpackLimits::from_env().map_err(&err)?;
+    let size = std::fs::metadata(fmu).map_err(|e| err(e.to_string()))?.len();
+    if size > limits.max_archive_bytes {
+        return Err(err(format!("{size} bytes, more than the {} an FMU archive may have", limits.max_archive_bytes)));
+    }
     let bytes = std::fs::read(fmu).map_err(|e| err(e.to_string()))?;
     let digest = sha2::Sha256::digest(&bytes);
     let hex: String = digest.iter().take(8).map(|b| format!("{b:02x}")).collect();
-    let stem = fmu.file_stem().and_then(|s| s.to_str()).unwrap_or("fmu");
+    let stem = fmu.file_stem().and_then(|s| s.to_str()).filter(|s| crate::archive::is_plain_name(s)).unwrap_or("fmu");
     let dir = cache.join("fmus").join(format!("{stem}-{hex}"));
-    if dir.join("modelDescription.xml").is_file() {
+    let complete = dir.join(COMPLETE_MARK);
+    if complete.is_file() {
         return Ok(dir);
     }
-    let mut archive =
-        zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(|e| err(format!("not a zip archive: {e}")))?;
+    remove_residue(&dir);
     let nonce = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
     let partial = dir.with_extension(format!("partial-{}-{nonce}", std::process::id()));
     std::fs::create_dir_all(&partial).map_err(|e| err(format!("cache folder {}: {e}", partial.display())))?;
-    if let Err(e) = archive.extract(&partial) {
+    let unpacked = crate::archive::unpack_into(&bytes, &partial, &limits)
+        .and_then(|()| std::fs::write(partial.join(COMPLETE_MARK), b"").map_err(|e| e.to_string()));
+    if let Err(m) = unpacked {
         let _ = std::fs::remove_dir_all(&partial);
-        return Err(err(format!("unpacking: {e}")));
+        return Err(err(m));
     }
     if std::fs::rename(&partial, &dir).is_err() {
         // Another run unpacked the same archive first: use its folder.
         let _ = std::fs::remove_dir_all(&partial);
-        if !dir.join("modelDescription.xml").is_file() {
+        if !complete.is_file() {
             return Err(err(format!("cannot move the unpacked FMU to {}", dir.display())));
         }
     }
     Ok(dir)
+}
+
+/// The file that marks an unpacked folder as complete (written last, before the rename).
+const COMPLETE_MARK: &str = ".lash-unpacked";
+
+/// Removes what an earlier unpack of the same archive left: the folder itself when it is not
+/// marked complete (made by an older lash or cut short), and `*.partial-<pid>-*` folders whose
+/// process no longer runs.
+fn remove_residue(dir: &Path) {
+    if dir.exists() {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+    let (Some(parent), Some(name)) = (dir.parent(), dir.file_name().and_then(|n| n.to_str())) else { return };
+    let Ok(entries) = std::fs::read_dir(parent) else { return };
+    let prefix = format!("{name}.partial-");
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else { continue };
+        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+        let alive = pid.is_some_and(|p| p == std::process::id() || Path::new(&format!("/proc/{p}")).exists());
+        if !alive {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
 }
 
 type Instantiate = unsafe extern "C" fn(
@@ -793,6 +838,9 @@ impl ImportedFmu {
             other => other,
         })?;
         imported.origin = fmu.to_path_buf();
+        // The checks every master applies to a subsystem, here once for `fmu check` and `run` alike.
+        lash_core::check_variable_table(&imported.description.variables)
+            .map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: m })?;
         Ok(imported)
     }
 
@@ -813,7 +861,10 @@ impl ImportedFmu {
         }
         let platform = if v3 { "x86_64-linux" } else { "linux64" };
         let lib_path = dir.join("binaries").join(platform).join(format!("{}.so", description.model_identifier));
-        if !lib_path.is_file() {
+        // Only a regular file of the unpacked archive is loaded (the unpacker makes no links;
+        // checked again here, without following one).
+        let regular = std::fs::symlink_metadata(&lib_path).is_ok_and(|m| m.file_type().is_file());
+        if !regular {
             let platforms: Vec<String> = std::fs::read_dir(dir.join("binaries"))
                 .map(|r| r.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect())
                 .unwrap_or_default();

@@ -102,6 +102,7 @@ fn read_message<T: for<'de> Deserialize<'de>>(r: &mut impl Read) -> std::io::Res
 /// The child's side: imports `fmu` (unpacked under `cache`) as `name` and answers requests on
 /// standard input and output until the parent closes them. Returns the process exit code.
 pub fn serve(fmu: &Path, cache: &Path, name: &str) -> i32 {
+    follow_parent();
     // Whole messages in one write each: a buffered writer over standard output, flushed per message.
     let (mut input, mut output) =
         (std::io::stdin().lock(), std::io::BufWriter::with_capacity(1 << 16, std::io::stdout().lock()));
@@ -165,6 +166,40 @@ pub fn serve(fmu: &Path, cache: &Path, name: &str) -> i32 {
         if write_message(&mut output, &reply).is_err() {
             return 1;
         }
+    }
+}
+
+/// The variable through which [`IsolatedFmu::spawn`] tells the host its parent's process id.
+const PARENT_VARIABLE: &str = "LASH_FMU_HOST_PARENT";
+
+/// How often the host looks whether its parent still runs.
+const PARENT_POLL: Duration = Duration::from_millis(50);
+
+/// Ends this host process as soon as the process that started it is gone, however it ended
+/// (a signal, a panic, `SIGKILL`): a thread compares the parent's process id with the one it
+/// started with (the orphan is re-parented to init or a subreaper) every [`PARENT_POLL`], and
+/// ends the process at once, without running exit handlers, since the FMU may be mid-call on
+/// the serving thread. A parent id not met at the start (the parent died before) ends it at once.
+fn follow_parent() {
+    let parent = std::os::unix::process::parent_id();
+    let expected = std::env::var(PARENT_VARIABLE).ok().and_then(|p| p.parse::<u32>().ok());
+    let end = || {
+        // SAFETY: `_exit` takes a status and never returns; it touches no Rust state.
+        unsafe { libc::_exit(3) }
+    };
+    if expected.is_some_and(|p| p != parent) {
+        end();
+    }
+    let watcher = std::thread::Builder::new().name("lash-fmu-host-parent".into()).spawn(move || {
+        loop {
+            std::thread::sleep(PARENT_POLL);
+            if std::os::unix::process::parent_id() != parent {
+                end();
+            }
+        }
+    });
+    if watcher.is_err() {
+        end();
     }
 }
 
@@ -236,6 +271,7 @@ impl IsolatedFmu {
     /// whose call has run longer than `timeout`, which ends the read.
     pub fn spawn(host: &Path, fmu: &Path, cache: &Path, name: &str, timeout: Duration) -> Result<Self, String> {
         let mut child = Command::new(host)
+            .env(PARENT_VARIABLE, std::process::id().to_string())
             .args(["fmu", "host"])
             .arg(fmu)
             .arg("--cache")

@@ -8,6 +8,7 @@
 //!   instance's state, catches panics, and reports errors through the importer's logger.
 //! * [`fmi2`]: the `fmi2Functions.h` symbols ([`export_fmi2!`]) over the same instances; arrays
 //!   become one scalar per element.
+//! * [`archive`]: an FMU archive unpacked as untrusted input (confined, sized, streamed).
 //! * [`import`]: any FMI 3.0 or 2.0 co-simulation FMU as a `Subsystem` (cached unpacking, lenient
 //!   description parsing, a typed function table loaded with libloading; FMI 2.0 array scalars
 //!   regrouped).
@@ -15,6 +16,7 @@
 //! This crate knows nothing of clearances: the physics crates implement `Subsystem`, an FMU crate
 //! under `fmus/` implements [`fmi3::Exportable`] and calls the macro.
 
+pub mod archive;
 pub mod description;
 pub mod fmi2;
 pub mod fmi3;
