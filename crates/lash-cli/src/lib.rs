@@ -14,6 +14,9 @@
 //! lash sweep merge <dir>... --out <dir>
 //! lash fmu pack [SCENARIO] --out <dir>  # FMI 3.0 and 2.0 FMUs of a scenario's subsystems
 //! lash fmu check <file.fmu>      # structure + smoke simulation of an FMI 3.0 or 2.0 FMU
+//! lash estimate prepare [A|C|setup.toml] --out prepared.json   # one-time preparation
+//! lash estimate <measured.csv> --prepared prepared.json [--out <dir>]  # clearance, worn joint, nuisances
+//! lash estimate validate --prepared prepared.json [--cases 200]  # held-out full-model cases
 //! ```
 //!
 //! Exit codes: 0 success, 1 simulation or output failure, 2 invalid input.
@@ -21,6 +24,7 @@
 mod bench;
 mod bush;
 mod compare;
+pub mod estimate;
 mod fmu;
 pub mod limits;
 mod output;
@@ -254,6 +258,97 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Diagnose a machine from its vibration: the clearance of each clearance joint, the worn
+    /// joint and the nuisances, with calibrated 90 % intervals, from a measured CSV or Parquet file.
+    #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+    Estimate {
+        #[command(subcommand)]
+        command: Option<EstimateCommand>,
+        /// The measured file: a time column `time [s]` and the setup's channels with units.
+        #[arg(required = true)]
+        measurement: Option<std::path::PathBuf>,
+        /// The prepared estimator (`lash estimate prepare`).
+        #[arg(long, required = true)]
+        prepared: Option<std::path::PathBuf>,
+        /// Folder for estimate.json and posterior.svg.
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+    },
+}
+
+/// `lash estimate …` subcommands.
+#[derive(Subcommand, Debug)]
+enum EstimateCommand {
+    /// One-time preparation for a setup (built-in A or C, or a setup TOML file): a reduced-model
+    /// sweep over the priors, the fit, a calibration on full-model runs; stored as JSON.
+    Prepare {
+        /// Built-in setup (A, C) or setup file.
+        #[arg(default_value = "A")]
+        setup: String,
+        /// The prepared estimator's file.
+        #[arg(long)]
+        out: std::path::PathBuf,
+        /// Reduced-model runs of the bank (default: the setup's).
+        #[arg(long)]
+        bank_runs: Option<u64>,
+        /// Full-model runs of the calibration (default: the setup's).
+        #[arg(long)]
+        calibration_runs: Option<u64>,
+        /// No progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Held-out cases from the converged full model, with seeds the preparation never used:
+    /// relative RMSE, interval coverage, worn-joint accuracy, time per estimate.
+    Validate {
+        /// The prepared estimator.
+        #[arg(long)]
+        prepared: std::path::PathBuf,
+        /// Held-out cases.
+        #[arg(long, default_value_t = 200)]
+        cases: u64,
+        /// Seed of the held-out runs and measurements.
+        #[arg(long, default_value_t = 20_261_128)]
+        seed: u64,
+        /// Held-out cases of the reduced model (the bank's own model) instead of the full one:
+        /// tells the method's error from the reduced model's.
+        #[arg(long)]
+        reduced: bool,
+        /// Folder for validation.json.
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+        /// No progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// One measurement of the converged full model as the setup's logger records it (CSV), to try
+    /// the estimator on a machine whose clearance you choose.
+    Emulate {
+        /// The prepared estimator (its setup).
+        #[arg(long)]
+        prepared: std::path::PathBuf,
+        /// Radial clearance of each clearance joint [m], comma-separated.
+        #[arg(long, value_delimiter = ',', required = true)]
+        clearance: Vec<f64>,
+        /// Crank speed [rad/s] (default: the scenario's).
+        #[arg(long)]
+        speed: Option<f64>,
+        /// Crank angle at the start [rad].
+        #[arg(long, default_value_t = 1.0)]
+        angle: f64,
+        /// Sensor gain.
+        #[arg(long, default_value_t = 1.0)]
+        gain: f64,
+        /// Signal-to-noise ratio [dB].
+        #[arg(long, default_value_t = 40.0)]
+        snr: f64,
+        /// Seed of the noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The CSV to write.
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
 }
 
 /// `lash sweep …` subcommands.
@@ -472,6 +567,23 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         Command::Sweep { command: None, file, out, shard, threads, side_by_side, quiet } => match (file, out) {
             (Some(file), Some(out)) => sweep::run(&file, &out, (shard.as_deref(), threads, side_by_side), quiet),
             _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
+        },
+        Command::Estimate { command: Some(command), .. } => match command {
+            EstimateCommand::Prepare { setup, out, bank_runs, calibration_runs, quiet } => {
+                estimate::prepare(&setup, &out, (bank_runs, calibration_runs), quiet)
+            }
+            EstimateCommand::Validate { prepared, cases, seed, reduced, out, quiet } => {
+                estimate::validate(&prepared, (cases, reduced), seed, out.as_deref(), quiet)
+            }
+            EstimateCommand::Emulate { prepared, clearance, speed, angle, gain, snr, seed, out } => {
+                let case =
+                    lash_estimate::prepare::Case { clearances: clearance, speed, angle0: angle, gain, snr, seed };
+                estimate::emulate(&prepared, &case, &out)
+            }
+        },
+        Command::Estimate { command: None, measurement, prepared, out } => match (measurement, prepared) {
+            (Some(m), Some(p)) => estimate::estimate(&m, &p, out.as_deref()),
+            _ => Err(CliError::Input("lash estimate: give a measured file and --prepared <file>".into())),
         },
         Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {
             let scenario = match scenario {

@@ -215,6 +215,80 @@ pub fn comparison_figures(
     Ok(vec![timeseries, spectrum_path])
 }
 
+/// The posterior of each clearance joint as a histogram of the estimate's draws (µm), with the
+/// median and the calibrated 90 % interval marked, one panel per joint.
+pub fn posterior_figure(
+    path: &Path,
+    estimator: &lash_estimate::Estimator,
+    e: &lash_estimate::Estimate,
+) -> Result<(), CliError> {
+    let joints = estimator.joints.len();
+    let root = SVGBackend::new(path, (900, 320 * joints as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| fail(path, e))?;
+    for (j, area) in root.split_evenly((joints, 1)).iter().enumerate() {
+        let u = &e.unknowns[j];
+        let (lo, hi) = (u.prior[0] * 1e6, u.prior[1] * 1e6);
+        let bins = 40usize;
+        let width = (hi - lo) / bins as f64;
+        let mut counts = vec![0u32; bins];
+        for d in &e.draws {
+            let k = (((d[j] * 1e6 - lo) / width).floor().max(0.0) as usize).min(bins - 1);
+            counts[k] += 1;
+        }
+        let top = f64::from(counts.iter().copied().max().unwrap_or(1).max(1)) * 1.15;
+        let worn =
+            e.worn.get(j).map(|(_, p)| format!(", worn with probability {:.0} %", 100.0 * p)).unwrap_or_default();
+        let mut chart = ChartBuilder::on(area)
+            .caption(
+                format!(
+                    "{}: {:.1} µm (90 % interval {:.1}–{:.1} µm{worn})",
+                    u.name,
+                    u.median * 1e6,
+                    u.low * 1e6,
+                    u.high * 1e6
+                ),
+                ("sans-serif", 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(lo..hi, 0.0..top)
+            .map_err(|e| fail(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc("radial clearance [µm] (the prior's range)")
+            .y_desc("posterior draws")
+            .draw()
+            .map_err(|e| fail(path, e))?;
+        chart
+            .draw_series(counts.iter().enumerate().map(|(k, &c)| {
+                let x0 = lo + k as f64 * width;
+                Rectangle::new([(x0, 0.0), (x0 + width, f64::from(c))], FULL.mix(0.6).filled())
+            }))
+            .map_err(|e| fail(path, e))?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(u.low * 1e6, 0.0), (u.low * 1e6, top)],
+                6,
+                4,
+                IDEAL.stroke_width(1),
+            ))
+            .map_err(|e| fail(path, e))?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(u.high * 1e6, 0.0), (u.high * 1e6, top)],
+                6,
+                4,
+                IDEAL.stroke_width(1),
+            ))
+            .map_err(|e| fail(path, e))?;
+        chart
+            .draw_series(LineSeries::new(vec![(u.median * 1e6, 0.0), (u.median * 1e6, top)], REDUCED.stroke_width(2)))
+            .map_err(|e| fail(path, e))?;
+    }
+    root.present().map_err(|e| fail(path, e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::engineering;

@@ -245,3 +245,32 @@ def test_ctrl_c_stops_a_sweep_which_then_resumes(tmp_path):
     report = lash.sweep(spec, out, threads=2)
     assert report["skipped"] > 0 and report["skipped"] + report["ran"] == 24 and report["failed"] == 0
     assert lash.Dataset(out).values.shape[0] == 24
+
+
+# Estimation.
+
+
+def test_estimate_in_python_equals_the_command_line_and_refuses_bad_files(tmp_path):
+    prepared = tmp_path / "A.json"
+    lash.prepare_estimator("A", prepared, bank_runs=150, calibration_runs=20)
+    measured = tmp_path / "m.csv"
+    lash.emulate_measurement(prepared, [200e-6], measured, snr=45.0)
+    answer = lash.estimate(measured, prepared)
+    out = tmp_path / "cli"
+    r = cli("estimate", str(measured), "--prepared", str(prepared), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    with open(out / "estimate.json") as f:
+        import json
+
+        from_cli = json.load(f)
+    assert answer["unknowns"] == from_cli["unknowns"]
+    c = answer["unknowns"][0]
+    assert c["name"] == "crank_pivot.clearance" and c["low"] <= c["median"] <= c["high"]
+    with pytest.raises(FileNotFoundError):
+        lash.estimate(tmp_path / "missing.csv", prepared)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time [s],slider.ax [V]\n0,1\n0.0001,2\n")
+    with pytest.raises(lash.ScenarioError, match="slider.ax"):
+        lash.estimate(bad, prepared)
+    with pytest.raises(lash.ScenarioError, match="not a built-in setup"):
+        lash.prepare_estimator("Z", tmp_path / "z.json")

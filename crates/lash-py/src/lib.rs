@@ -465,6 +465,59 @@ fn read_layout(py: Python<'_>, dir: PathBuf) -> PyResult<Vec<u64>> {
     Ok(layout.into_iter().map(|(id, _)| id).collect())
 }
 
+/// Prepares an estimator for a setup (built-in "A", "C" or a setup TOML file) into `out` (JSON):
+/// a reduced-model sweep over the priors, the fit, a calibration on full-model runs.
+#[pyfunction]
+#[pyo3(signature = (setup, out, bank_runs=None, calibration_runs=None, quiet=true))]
+fn prepare_estimator(
+    py: Python<'_>,
+    setup: String,
+    out: PathBuf,
+    bank_runs: Option<u64>,
+    calibration_runs: Option<u64>,
+    quiet: bool,
+) -> PyResult<()> {
+    let done = py.detach(|| lash_cli::estimate::prepare(&setup, &out, (bank_runs, calibration_runs), quiet));
+    done.map_err(|e| cli_error(py, e))
+}
+
+/// The estimate of a measured file (CSV or Parquet) with a prepared estimator, as JSON text:
+/// every unknown's median and 90 % interval, the worn-joint probabilities, the posterior draws.
+#[pyfunction]
+fn estimate_json(py: Python<'_>, measurement: PathBuf, prepared: PathBuf) -> PyResult<String> {
+    let result = py.detach(|| {
+        let estimator = lash_estimate::Estimator::load(&prepared)?;
+        let (estimate, notes) = lash_estimate::infer::estimate_file(&estimator, &measurement)?;
+        Ok::<_, lash_estimate::EstimateError>(serde_json::json!({ "estimate": estimate, "notes": notes }))
+    });
+    match result {
+        Ok(v) => Ok(v.to_string()),
+        Err(lash_estimate::EstimateError::Input(m)) => Err(input_error(py, m, &[])),
+        Err(e) => Err(SimulationError::new_err(e.to_string())),
+    }
+}
+
+/// Writes one emulated measurement of the converged full model (CSV, as the setup's logger
+/// records it) with the given clearances [m], to try an estimator on.
+#[pyfunction]
+#[pyo3(signature = (prepared, clearances, out, speed=None, angle=1.0, gain=1.0, snr=40.0, seed=1))]
+#[allow(clippy::too_many_arguments)]
+fn emulate_measurement(
+    py: Python<'_>,
+    prepared: PathBuf,
+    clearances: Vec<f64>,
+    out: PathBuf,
+    speed: Option<f64>,
+    angle: f64,
+    gain: f64,
+    snr: f64,
+    seed: u64,
+) -> PyResult<()> {
+    let case = lash_estimate::prepare::Case { clearances, speed, angle0: angle, gain, snr, seed };
+    let done = py.detach(|| lash_cli::estimate::emulate(&prepared, &case, &out));
+    done.map_err(|e| cli_error(py, e))
+}
+
 /// The module `lash._lash`.
 #[pymodule]
 fn _lash(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -477,6 +530,9 @@ fn _lash(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_params, m)?)?;
     m.add_function(wrap_pyfunction!(read_runs, m)?)?;
     m.add_function(wrap_pyfunction!(read_layout, m)?)?;
+    m.add_function(wrap_pyfunction!(prepare_estimator, m)?)?;
+    m.add_function(wrap_pyfunction!(estimate_json, m)?)?;
+    m.add_function(wrap_pyfunction!(emulate_measurement, m)?)?;
     m.add("ScenarioError", m.py().get_type::<ScenarioError>())?;
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

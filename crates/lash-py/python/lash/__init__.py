@@ -43,7 +43,10 @@ __all__ = [
     "ScenarioError",
     "SimulationError",
     "builtin_names",
+    "emulate_measurement",
+    "estimate",
     "load",
+    "prepare_estimator",
     "run",
     "sweep",
     "validate",
@@ -354,4 +357,54 @@ class Dataset:
     def __repr__(self) -> str:
         runs, samples, channels = len(self), len(self.time), len(self.channels)
         return f"<lash.Dataset {self.path!r}: {runs} runs × {samples} samples × {channels} channels, {len(self.failed)} failed>"
+
+
+def prepare_estimator(
+    setup: str,
+    out: PathLike,
+    *,
+    bank_runs: Optional[int] = None,
+    calibration_runs: Optional[int] = None,
+    quiet: bool = True,
+) -> None:
+    """Prepares an estimator once for ``setup`` (built-in ``"A"``, ``"C"`` or a setup TOML file) and
+    stores it as JSON in ``out``: a reduced-model sweep over the priors, the regression of every
+    unknown on the vibration features, and a calibration of the intervals on full-model runs
+    (``lash estimate prepare``). Raises ScenarioError for a bad setup."""
+    _lash.prepare_estimator(str(setup), os.fspath(out), bank_runs, calibration_runs, quiet)
+
+
+def estimate(measurement: PathLike, prepared: PathLike) -> Dict[str, Any]:
+    """Diagnoses a machine from a measured file (CSV or Parquet: ``time [s]`` and the setup's
+    channels with units) with an estimator made by :func:`prepare_estimator`.
+
+    Returns a dict: ``unknowns`` (per unknown ``name``, ``unit``, ``median``, ``low`` and ``high``
+    — the calibrated 5–95 % interval — and ``prior``), ``worn`` (with several clearance joints,
+    ``[joint, probability]`` pairs), ``crank_frequency`` [Hz], ``draws`` (the posterior sample,
+    one row per draw in the unknowns' order) and ``notes`` (what was done to the data). A bad file
+    raises ScenarioError naming the column and the problem; a missing one FileNotFoundError."""
+    path = os.fspath(measurement)
+    if not os.path.exists(path):
+        raise FileNotFoundError(path)
+    result = json.loads(_lash.estimate_json(path, os.fspath(prepared)))
+    answer = result["estimate"]
+    answer["notes"] = result["notes"]
+    return answer
+
+
+def emulate_measurement(
+    prepared: PathLike,
+    clearances: Sequence[float],
+    out: PathLike,
+    *,
+    speed: Optional[float] = None,
+    angle: float = 1.0,
+    gain: float = 1.0,
+    snr: float = 40.0,
+    seed: int = 1,
+) -> None:
+    """Writes one measurement of the converged full model as the prepared setup's logger records
+    it (CSV: ``time [s]`` and the setup's channels) — a machine whose clearances [m] you choose, to
+    try :func:`estimate` on (``lash estimate emulate``)."""
+    _lash.emulate_measurement(os.fspath(prepared), [float(c) for c in clearances], os.fspath(out), speed, angle, gain, snr, seed)
 

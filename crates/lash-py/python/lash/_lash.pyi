@@ -62,3 +62,21 @@ def read_runs(
     dir: Union[str, PathLike[str]], groups: List[int]
 ) -> Tuple[np.ndarray, np.ndarray, List[str], List[str], np.ndarray]: ...
 def read_layout(dir: Union[str, PathLike[str]]) -> List[int]: ...
+def prepare_estimator(
+    setup: str,
+    out: Union[str, PathLike[str]],
+    bank_runs: Optional[int] = None,
+    calibration_runs: Optional[int] = None,
+    quiet: bool = True,
+) -> None: ...
+def estimate_json(measurement: Union[str, PathLike[str]], prepared: Union[str, PathLike[str]]) -> str: ...
+def emulate_measurement(
+    prepared: Union[str, PathLike[str]],
+    clearances: List[float],
+    out: Union[str, PathLike[str]],
+    speed: Optional[float] = None,
+    angle: float = 1.0,
+    gain: float = 1.0,
+    snr: float = 40.0,
+    seed: int = 1,
+) -> None: ...

@@ -1,0 +1,201 @@
+//! `lash estimate`: clearance, worn joint and nuisances from a measured file
+//! ([`lash_estimate`]), its one-time preparation, its validation on held-out full-model cases,
+//! and the emulation of a measurement to try it on.
+
+use crate::CliError;
+use lash_estimate::{EstimateError, Estimator, Setup};
+use std::path::Path;
+
+fn cli(e: EstimateError) -> CliError {
+    match e {
+        EstimateError::Input(m) => CliError::Input(m),
+        EstimateError::Failure(m) => CliError::Failure(m),
+        EstimateError::Sweep(lash_sweep::SweepError::Input(m)) => CliError::Input(m),
+        EstimateError::Sweep(other) => CliError::Failure(other.to_string()),
+    }
+}
+
+/// Progress lines on standard error, about every tenth of a stage.
+fn progress(quiet: bool) -> impl Fn(&str, u64, u64) + Sync {
+    move |stage: &str, done: u64, total: u64| {
+        if !quiet && (done == total || done.is_multiple_of((total / 10).max(1))) {
+            eprintln!("  {stage}: {done}/{total} runs");
+        }
+    }
+}
+
+/// A scratch folder for the sweeps, next to `out`.
+fn work_folder(out: &Path) -> std::path::PathBuf {
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    parent.join(format!(".lash-estimate-work-{}", std::process::id()))
+}
+
+fn write(path: &Path, text: &str) -> Result<(), CliError> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| CliError::Failure(format!("{}: {e}", parent.display())))?;
+    }
+    lash_sweep::dataset::write_atomic(path, text.as_bytes()).map_err(CliError::Failure)
+}
+
+/// Reads a prepared estimator.
+pub fn load(path: &Path) -> Result<Estimator, CliError> {
+    Estimator::load(path).map_err(cli)
+}
+
+/// `lash estimate prepare [SETUP] --out FILE`.
+pub fn prepare(setup: &str, out: &Path, overrides: (Option<u64>, Option<u64>), quiet: bool) -> Result<(), CliError> {
+    let mut setup = Setup::load(setup).map_err(cli)?;
+    if let Some(n) = overrides.0 {
+        setup.bank_runs = n;
+    }
+    if let Some(n) = overrides.1 {
+        setup.calibration_runs = n;
+    }
+    setup.check().map_err(cli)?;
+    let work = work_folder(out);
+    if !quiet {
+        eprintln!(
+            "preparing an estimator for {}: {} reduced-model runs × {} measurements, {} full-model runs to calibrate",
+            setup.name, setup.bank_runs, setup.measurements_per_run, setup.calibration_runs
+        );
+    }
+    let result = lash_estimate::prepare::prepare(&setup, &work, &progress(quiet));
+    let _ = std::fs::remove_dir_all(&work);
+    let (estimator, report) = result.map_err(cli)?;
+    let json = serde_json::to_string(&estimator).map_err(|e| CliError::Failure(e.to_string()))?;
+    write(out, &json)?;
+    println!(
+        "{}: {} bank draws ({} runs failed) in {:.1} s, fit {:.1} s, {} calibration draws ({} failed) in {:.1} s",
+        out.display(),
+        report.bank_draws,
+        report.bank_failed,
+        report.bank_s,
+        report.fit_s,
+        report.calibration_draws,
+        report.calibration_failed,
+        report.calibration_s
+    );
+    for (u, c) in estimator.unknowns.iter().zip(&estimator.calibration) {
+        println!(
+            "  {:<24} calibration: median shift {:+.4}, interval × {:.3} ({} cases)",
+            u.name, c.shift, c.widen, c.cases
+        );
+    }
+    Ok(())
+}
+
+/// A value with its unit for people (µm for clearances).
+fn show(value: f64, unit: &str) -> String {
+    match unit {
+        "m" => format!("{:.1} µm", value * 1e6),
+        "" => format!("{value:.3}"),
+        u => format!("{value:.3} {u}"),
+    }
+}
+
+/// `lash estimate MEASUREMENT --prepared FILE [--out DIR]`.
+pub fn estimate(measurement: &Path, prepared: &Path, out: Option<&Path>) -> Result<(), CliError> {
+    let estimator = load(prepared)?;
+    let setup = &estimator.setup;
+    let (e, notes) = lash_estimate::infer::estimate_file(&estimator, measurement).map_err(cli)?;
+    let f0 = e.crank_frequency;
+    println!("{} (setup {}, crank at {:.2} Hz = {:.0} rpm):", measurement.display(), setup.name, f0, f0 * 60.0);
+    for note in &notes {
+        println!("  note: {note}");
+    }
+    for u in &e.unknowns {
+        println!(
+            "  {:<24} {:>12}   90 % interval {} – {}   (prior {} – {})",
+            u.name,
+            show(u.median, &u.unit),
+            show(u.low, &u.unit),
+            show(u.high, &u.unit),
+            show(u.prior[0], &u.unit),
+            show(u.prior[1], &u.unit)
+        );
+    }
+    if !e.worn.is_empty() {
+        let worn: Vec<String> = e.worn.iter().map(|(j, p)| format!("{j} {:.0} %", 100.0 * p)).collect();
+        println!("  worn joint: {}", worn.join(", "));
+    }
+    if let Some(out) = out {
+        let json = serde_json::to_string_pretty(&e).map_err(|err| CliError::Failure(err.to_string()))?;
+        write(&out.join("estimate.json"), &(json + "\n"))?;
+        crate::plots::posterior_figure(&out.join("posterior.svg"), &estimator, &e)?;
+        println!("  → {}/estimate.json, posterior.svg", out.display());
+    }
+    Ok(())
+}
+
+/// `lash estimate validate --prepared FILE [--cases N] [--seed S] [--out DIR]`.
+pub fn validate(
+    prepared: &Path,
+    (cases, reduced): (u64, bool),
+    seed: u64,
+    out: Option<&Path>,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let estimator = load(prepared)?;
+    if cases == 0 {
+        return Err(CliError::Input("--cases: at least one held-out case".into()));
+    }
+    let work = work_folder(out.unwrap_or(prepared));
+    let model = if reduced { lash_sweep::spec::ModelKind::Reduced } else { lash_sweep::spec::ModelKind::Full };
+    let result = lash_estimate::validate::validate(&estimator, (cases, model), seed, &work, &progress(quiet));
+    let _ = std::fs::remove_dir_all(&work);
+    let report = result.map_err(cli)?;
+    println!(
+        "{}: {} held-out {}-model cases (seed {}, {} runs failed), simulated in {:.1} s",
+        report.setup,
+        report.cases,
+        if reduced { "reduced" } else { "full" },
+        report.seed,
+        report.failed_runs,
+        report.simulation_s
+    );
+    println!("  {:<24} {:>12} {:>12} {:>10}", "unknown", "RMSE", "prior RMSE", "coverage");
+    for u in &report.unknowns {
+        let fmt = |v: f64| if u.relative { format!("{:.1} %", 100.0 * v) } else { format!("{v:.4}") };
+        println!("  {:<24} {:>12} {:>12} {:>9.1} %", u.name, fmt(u.rmse), fmt(u.prior_rmse), 100.0 * u.coverage);
+    }
+    println!(
+        "  worn joint's clearance: relative RMSE {:.1} %, 90 % interval coverage {:.1} %",
+        100.0 * report.worn_clearance_rmse,
+        100.0 * report.worn_clearance_coverage
+    );
+    if let Some(a) = report.worn_joint_accuracy {
+        println!("  worn joint found: {:.1} % of cases", 100.0 * a);
+    }
+    println!("  wall time per estimate (features + inference): {:.1} ms", 1e3 * report.seconds_per_estimate);
+    if let Some(out) = out {
+        let json = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
+        write(&out.join("validation.json"), &(json + "\n"))?;
+    }
+    Ok(())
+}
+
+/// `lash estimate emulate --prepared FILE --clearance C[,C…] --out FILE.csv`: one measurement of the
+/// converged full model, as the setup's logger would record it.
+pub fn emulate(prepared: &Path, case: &lash_estimate::prepare::Case, out: &Path) -> Result<(), CliError> {
+    let estimator = load(prepared)?;
+    let setup = &estimator.setup;
+    let work = work_folder(out);
+    let result = lash_estimate::prepare::emulate(setup, case, &work);
+    let _ = std::fs::remove_dir_all(&work);
+    let channels = result.map_err(cli)?;
+    let mut text = String::from("time [s]");
+    for c in &setup.channels {
+        text.push_str(&format!(",{} [{}]", c.name, c.unit));
+    }
+    text.push('\n');
+    for i in 0..channels[0].len() {
+        text.push_str(&format!("{}", i as f64 / setup.sample_rate));
+        for c in &channels {
+            text.push_str(&format!(",{}", c[i]));
+        }
+        text.push('\n');
+    }
+    write(out, &text)?;
+    println!("{}: {} samples at {} Hz of the full model", out.display(), channels[0].len(), setup.sample_rate);
+    Ok(())
+}

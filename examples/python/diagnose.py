@@ -1,0 +1,31 @@
+"""Diagnose a worn pin from a slider's accelerometer (docs/user-guide.md, "Diagnose a worn pin").
+
+    python examples/python/diagnose.py [measured.csv]
+
+Prepares an estimator for scenario A once (prepared-A.json, a few minutes), then answers for the
+measured file given — or, without one, for a measurement emulated from the converged full model
+at 180 µm of clearance.
+"""
+
+import os
+import sys
+
+import lash
+
+prepared = "prepared-A.json"
+if not os.path.exists(prepared):
+    print("preparing the estimator for scenario A (once; a few minutes)…")
+    lash.prepare_estimator("A", prepared, quiet=False)
+
+measured = sys.argv[1] if len(sys.argv) > 1 else "measured-180um.csv"
+if len(sys.argv) == 1:
+    lash.emulate_measurement(prepared, [180e-6], measured, snr=40.0)
+
+answer = lash.estimate(measured, prepared)
+for note in answer["notes"]:
+    print("note:", note)
+for u in answer["unknowns"]:
+    scale, unit = (1e6, "µm") if u["unit"] == "m" else (1.0, u["unit"])
+    print(f"{u['name']:<24} {u['median'] * scale:10.3f} {unit:5}  90 % interval {u['low'] * scale:.3f} – {u['high'] * scale:.3f}")
+for joint, p in answer["worn"]:
+    print(f"worn joint {joint}: probability {p:.2f}")

@@ -1,0 +1,116 @@
+//! `lash estimate` end to end on a small preparation: prepare (reduced-model bank, full-model
+//! calibration), emulate measurements of the converged full model at two clearances, estimate
+//! each (answer, estimate.json, posterior.svg), validate on held-out cases, and refuse bad input
+//! with exit 2. The estimator's accuracy and calibration are measured by `lash estimate validate`
+//! at full size (docs/validation.md), not here: this checks that every piece is connected and
+//! that more clearance reads as more clearance.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lash(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lash")).args(args).output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn scratch() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lash-estimate-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The clearance estimate of a measured file: (median, low, high) from estimate.json.
+fn clearance(dir: &Path, measured: &Path, prepared: &Path, tag: &str) -> (f64, f64, f64) {
+    let out = dir.join(tag);
+    let o = lash(&[
+        "estimate",
+        measured.to_str().unwrap(),
+        "--prepared",
+        prepared.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(printed.contains("crank_pivot.clearance") && printed.contains("90 % interval"), "{printed}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("estimate.json")).unwrap()).unwrap();
+    let svg = std::fs::read_to_string(out.join("posterior.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.contains("crank_pivot.clearance"));
+    let u = &json["unknowns"][0];
+    assert_eq!(u["name"], "crank_pivot.clearance");
+    let (m, lo, hi) = (u["median"].as_f64().unwrap(), u["low"].as_f64().unwrap(), u["high"].as_f64().unwrap());
+    assert!(50e-6 <= lo && lo <= m && m <= hi && hi <= 300e-6, "{lo} {m} {hi}");
+    (m, lo, hi)
+}
+
+#[test]
+fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
+    let dir = scratch();
+    let prepared = dir.join("A.json");
+    let p = prepared.to_str().unwrap();
+    let o =
+        lash(&["estimate", "prepare", "A", "--out", p, "--bank-runs", "240", "--calibration-runs", "24", "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut estimates = Vec::new();
+    for (tag, c) in [("small", "80e-6"), ("large", "260e-6")] {
+        let measured = dir.join(format!("{tag}.csv"));
+        let o = lash(&[
+            "estimate",
+            "emulate",
+            "--prepared",
+            p,
+            "--clearance",
+            c,
+            "--snr",
+            "45",
+            "--out",
+            measured.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        estimates.push(clearance(&dir, &measured, &prepared, tag));
+    }
+    assert!(estimates[1].0 > 1.5 * estimates[0].0, "260 µm reads as more play than 80 µm: {estimates:?}");
+    let o = lash(&[
+        "estimate",
+        "validate",
+        "--prepared",
+        p,
+        "--cases",
+        "6",
+        "--quiet",
+        "--out",
+        dir.join("val").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let printed = String::from_utf8_lossy(&o.stdout);
+    for part in ["6 held-out full-model cases", "coverage", "crank_pivot.clearance", "wall time per estimate"] {
+        assert!(printed.contains(part), "{part}: {printed}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("val/validation.json")).unwrap()).unwrap();
+    assert_eq!(report["cases"], 6);
+    // Bad input: exit 2 with the field named.
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "time [s],slider.ax [m/s^2]\n0,1\n0.0001,nan\n").unwrap();
+    let m = bad.to_str().unwrap();
+    for (args, expected) in [
+        (vec!["estimate", m, "--prepared", p], "\"slider.ax\""),
+        (vec!["estimate", m, "--prepared", "/nonexistent.json"], "--prepared /nonexistent.json"),
+        (vec!["estimate", "prepare", "Z", "--out", p], "not a built-in setup"),
+        (
+            vec!["estimate", "emulate", "--prepared", p, "--clearance", "1e-4,2e-4", "--out", m],
+            "--clearance: 2 values for 1",
+        ),
+        (vec!["estimate", "validate", "--prepared", p, "--cases", "0"], "--cases"),
+    ] {
+        let o = lash(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(expected), "{args:?}: {}", stderr(&o));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
