@@ -32,6 +32,7 @@ joint = "pin"
 [[sensors]]
 name = "block"
 body = "block"
+point = [0.0, 0.0]
 [simulation]
 horizon = 0.02
 output_interval = 1e-3

@@ -104,6 +104,7 @@ motion = { type = "constant_speed", omega = 523.5987755982989 }
 [[sensors]]
 name = "slider"
 body = "slider"
+point = [0.0, 0.0]
 [[clearances]]
 joint = "rod_slider"
 journal = "slider"

@@ -205,6 +205,20 @@ values = [0.01, 0.0098, 0.00995]
     assert_eq!(runs[1]["status"], "failed");
     assert!(runs[1]["error"].as_str().unwrap().contains("bearing_radius"), "{}", runs[1]["error"]);
     assert_eq!(runs[2]["status"], "ok");
+    // Shards merged into a dataset that holds the failure exit as the sweep does.
+    let shards: Vec<String> = (0..2)
+        .map(|i| {
+            let shard = dir.join(format!("shard{i}"));
+            let o = run_sweep(&file, &shard, &["--shard", &format!("{i}/2")]);
+            assert!(o.status.code().is_some(), "{}", stderr(&o));
+            shard.to_str().unwrap().to_string()
+        })
+        .collect();
+    let merged = dir.join("merged");
+    let o = lash(&["sweep", "merge", &shards[0], &shards[1], "--out", merged.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 of 3 runs failed"), "{}", stderr(&o));
+    assert!(merged.join("data.parquet").exists());
 }
 
 #[test]

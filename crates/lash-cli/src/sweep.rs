@@ -176,5 +176,16 @@ pub fn validate(file: &Path) -> Result<String, CliError> {
 pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<(), CliError> {
     let rows = lash_sweep::merge(inputs, out).map_err(map_error)?;
     eprintln!("merged {} shard folders: {rows} rows → {}", inputs.len(), out.display());
+    // As `lash sweep` does: a dataset with failed runs is complete but not all data.
+    let manifest = lash_sweep::dataset::Manifest::read(out).map_err(CliError::Failure)?;
+    let runs = manifest.map(|m| m.runs).unwrap_or_default();
+    let failed = runs.iter().filter(|r| r.status != "ok").count();
+    if failed > 0 {
+        return Err(CliError::Failure(format!(
+            "{failed} of {} runs failed; the merged dataset holds the others, and manifest.json and params.parquet \
+             list the failed runs with status \"failed\" and their errors",
+            runs.len()
+        )));
+    }
     Ok(())
 }

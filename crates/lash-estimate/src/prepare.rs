@@ -158,6 +158,9 @@ fn truth(setup: &Setup, r: &Resolved, values: &[f64], gain: f64, snr: f64) -> Ve
     t.push(values[joints]);
     t.extend_from_slice(&values[joints + 2..joints + 2 + setup.nuisance.len()]);
     t.extend([gain, snr]);
+    if joints > 1 {
+        t.push(t[..joints].iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    }
     t
 }
 

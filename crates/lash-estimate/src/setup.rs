@@ -189,7 +189,8 @@ pub struct Resolved {
     pub journal_radii: Vec<f64>,
     /// Nominal crank speed \[rad/s\].
     pub speed: f64,
-    /// The unknowns: clearances (one per joint), crank speed, the nuisances, sensor gain, SNR.
+    /// The unknowns: clearances (one per joint), crank speed, the nuisances, sensor gain, SNR
+    /// and, with several joints, the worn joint's clearance.
     pub unknowns: Vec<Unknown>,
 }
 
@@ -299,13 +300,17 @@ impl Setup {
         unknowns.extend(self.nuisance.iter().map(|n| linear(&n.name, "", n.low, n.high)));
         unknowns.push(linear("sensor_gain", "", 1.0 - self.gain_error, 1.0 + self.gain_error));
         unknowns.push(linear("snr", "dB", self.snr_db[0], self.snr_db[1]));
+        if joints.len() > 1 {
+            // The user's question with several joints: how much play has the worn one, whichever
+            // it is (a target of its own: each joint's clearance alone mixes worn and healthy).
+            unknowns.push(Unknown {
+                name: "worn.clearance".into(),
+                unit: "m".into(),
+                scale: Scale::Log,
+                low: self.clearance[0],
+                high: self.clearance[1],
+            });
+        }
         Ok(Resolved { scenario, joints, journal_radii, speed, unknowns })
-    }
-}
-
-impl Resolved {
-    /// Index of the first unknown after the clearances and the crank speed (the nuisances).
-    pub fn nuisance_start(&self) -> usize {
-        self.joints.len() + 1
     }
 }

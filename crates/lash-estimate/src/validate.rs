@@ -111,9 +111,11 @@ pub fn validate(
         .collect();
     let worn_of = |t: &[f64]| (0..joints).max_by(|&a, &b| t[a].total_cmp(&t[b])).unwrap_or(0);
     let (mut se, mut hit, mut right) = (0.0, 0usize, 0usize);
+    // With several joints the worn one's clearance is an unknown of its own (the last).
+    let worn_index = |j: usize| if joints > 1 { estimator.unknowns.len() - 1 } else { j };
     for (d, e) in held_out.iter().zip(&estimates) {
         let j = worn_of(&d.truth);
-        let (t, est) = (d.truth[j], &e.unknowns[j]);
+        let (t, est) = (d.truth[j], &e.unknowns[worn_index(j)]);
         se += ((est.median - t) / t).powi(2);
         hit += usize::from(est.low <= t && t <= est.high);
         let guess = (0..e.worn.len()).max_by(|&a, &b| e.worn[a].1.total_cmp(&e.worn[b].1)).unwrap_or(0);

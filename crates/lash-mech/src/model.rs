@@ -146,7 +146,7 @@ impl Motion {
                 p.finite("angle0", *angle0);
                 p.finite("omega", *omega);
                 p.finite("amplitude", *amplitude);
-                p.finite("frequency", *frequency);
+                p.non_negative("frequency", *frequency);
                 p.finite("phase", *phase);
             }
         }

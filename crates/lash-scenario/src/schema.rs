@@ -134,8 +134,8 @@ pub enum LoadSpec {
     Force {
         /// Loaded body.
         body: String,
-        /// Point \[m\].
-        #[serde(default)]
+        /// Point \[m\] (required: a point that defaulted to the body's origin would hide a
+        /// forgotten field).
         point: [f64; 2],
         /// Force \[N\].
         force: [f64; 2],
@@ -179,8 +179,8 @@ pub struct ClearanceSpec {
     pub bearing_material: Option<String>,
     /// Normal contact law.
     pub contact: ContactLaw,
-    /// Friction law (default: none).
-    #[serde(default)]
+    /// Friction law (required: write `friction = { law = "none" }` for a frictionless joint, so
+    /// that a forgotten block is an error and not a frictionless joint).
     pub friction: FrictionLaw,
     /// A flexible bush whose bore is the bearing (flexible-imperfect joint): its structural
     /// (bonded-pin) stiffness by finite elements acts in series with the contact law. Its
@@ -243,8 +243,7 @@ pub struct SensorSpec {
     pub name: String,
     /// Body.
     pub body: String,
-    /// Point on the body \[m\].
-    #[serde(default)]
+    /// Point on the body \[m\] (required).
     pub point: [f64; 2],
 }
 

@@ -172,8 +172,8 @@ pub enum SpatialLoadSpec {
     Force {
         /// Loaded body.
         body: String,
-        /// Point \[m\].
-        #[serde(default)]
+        /// Point \[m\] (required: a point that defaulted to the body's origin would hide a
+        /// forgotten field).
         point: [f64; 3],
         /// Force \[N\].
         force: [f64; 3],
@@ -205,8 +205,7 @@ pub struct SpatialSensorSpec {
     pub name: String,
     /// Body.
     pub body: String,
-    /// Point on the body \[m\].
-    #[serde(default)]
+    /// Point on the body \[m\] (required).
     pub point: [f64; 3],
 }
 
