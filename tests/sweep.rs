@@ -427,3 +427,28 @@ values = [450.0, 523.6]
     let differs = rows.iter().zip(&point).filter(|(r, p)| (r[clean] - **p).abs() > 1e-6).count();
     assert!(differs > 100, "{differs} of {} samples changed by the anti-alias filter", point.len());
 }
+
+/// A design too large to list is refused by `lash validate` as by `lash sweep`, before a run is
+/// listed (a grid of 2.4e14 points once aborted `validate` allocating them).
+#[test]
+fn validate_sizes_a_huge_design_before_listing_it() {
+    let dir = scratch("huge");
+    let file = dir.join("huge.toml");
+    let mut text = String::from(
+        "base = \"A\"\nsampling = \"grid\"\nhorizon = 0.01\n[output]\nchannels = [\"slider.ax\"]\nsample_rate = 10000.0\n",
+    );
+    for path in ["clearances[0].bearing_radius", "drivers[0].motion.omega", "clearances[0].contact.restitution"] {
+        text.push_str(&format!(
+            "[[parameters]]\npath = \"{path}\"\nlinspace = {{ start = 1.0, stop = 2.0, count = 62000 }}\n"
+        ));
+    }
+    std::fs::write(&file, text).unwrap();
+    for args in [
+        vec!["validate", file.to_str().unwrap()],
+        vec!["sweep", file.to_str().unwrap(), "--out", dir.join("o").to_str().unwrap(), "--quiet"],
+    ] {
+        let o = lash(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("memory"), "{args:?}: {}", stderr(&o));
+    }
+}

@@ -215,7 +215,7 @@ pub fn comparison_figures(
     Ok(vec![timeseries, spectrum_path])
 }
 
-/// The posterior of each clearance joint as a histogram of the estimate's draws (µm), with the
+/// The posterior of each clearance joint as a histogram of its calibrated draws (µm), with the
 /// median and the calibrated 90 % interval marked, one panel per joint.
 pub fn posterior_figure(
     path: &Path,
@@ -231,8 +231,8 @@ pub fn posterior_figure(
         let bins = 40usize;
         let width = (hi - lo) / bins as f64;
         let mut counts = vec![0u32; bins];
-        for d in &e.draws {
-            let k = (((d[j] * 1e6 - lo) / width).floor().max(0.0) as usize).min(bins - 1);
+        for d in &e.clearance_draws[j] {
+            let k = (((d * 1e6 - lo) / width).floor().max(0.0) as usize).min(bins - 1);
             counts[k] += 1;
         }
         let top = f64::from(counts.iter().copied().max().unwrap_or(1).max(1)) * 1.15;

@@ -49,9 +49,7 @@ pub fn execute(
     let at_once = workers.saturating_mul(side_by_side) as u64;
     let mut estimate =
         crate::limits::sweep_estimate(runs, at_once, horizon, o.sample_rate, o.channels.len(), o.clean, o.csv);
-    // The design and the journal: each run's values and its record.
-    let per_run = 8 * spec.parameters.len() as u64 + 128;
-    estimate.memory_bytes = estimate.memory_bytes.saturating_add(listed.saturating_mul(per_run));
+    estimate.memory_bytes = estimate.memory_bytes.saturating_add(design_bytes(&spec));
     crate::limits::check(
         &format!("lash sweep {}", file.display()),
         &estimate,
@@ -139,11 +137,25 @@ pub fn is_sweep(arg: &str) -> bool {
             .is_some_and(|t| t.get("base").is_some_and(toml::Value::is_str))
 }
 
+/// Bytes of a sweep's design and journal in memory: each run's values and its record.
+fn design_bytes(spec: &lash_sweep::SweepSpec) -> u64 {
+    spec.run_count().saturating_mul(8 * spec.parameters.len() as u64 + 128)
+}
+
 /// `lash validate` of a sweep file: the file and its base scenario, then every run's scenario
 /// (the base with the run's parameter values), as `lash sweep` would build them. Lists the first
 /// ten runs whose scenario is invalid.
 pub fn validate(file: &Path) -> Result<String, CliError> {
-    let plan = lash_sweep::load(file).map_err(map_error)?;
+    // Sized before the runs are listed, as `lash sweep` sizes them.
+    let (spec, text, base) = lash_sweep::read(file).map_err(map_error)?;
+    let design = crate::limits::Estimate { rows: 0, columns: 0, disk_bytes: 0, memory_bytes: design_bytes(&spec) };
+    crate::limits::check(
+        &format!("lash validate {}", file.display()),
+        &design,
+        file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")),
+        "fewer runs (a grid's runs are the product of its parameters' counts)",
+    )?;
+    let plan = lash_sweep::plan(file, (spec, text, base)).map_err(map_error)?;
     let mut bad = Vec::new();
     let mut count = 0;
     for run in &plan.runs {

@@ -95,8 +95,9 @@ pub struct Estimate {
     pub worn: Vec<(String, f64)>,
     /// Crank frequency the features were taken at \[Hz\].
     pub crank_frequency: f64,
-    /// The posterior draws (natural units, the unknowns' order), for figures.
-    pub draws: Vec<Vec<f64>>,
+    /// Per clearance joint, its posterior sample (natural units), mapped by the calibration as
+    /// its interval is: the sample's 5 % and 95 % quantiles are the reported interval.
+    pub clearance_draws: Vec<Vec<f64>>,
 }
 
 fn to_scale(u: &Unknown, v: f64) -> f64 {
@@ -228,18 +229,19 @@ impl Estimator {
     /// summary (the summary is the regression's best guess of it; conditioning on it alone keeps
     /// a sharply identified nuisance, the crank speed, from choosing the draws) — and the draws
     /// nearest in the clearances' summaries together.
-    fn raw(&self, features: &[f64]) -> (Vec<Raw>, Vec<usize>) {
+    fn raw(&self, features: &[f64]) -> (Vec<Raw>, Vec<Vec<f64>>, Vec<usize>) {
         let summaries = self.summaries(features);
-        let raw = (0..self.unknowns.len())
+        let samples: Vec<Vec<f64>> = (0..self.unknowns.len())
             .map(|k| {
                 let near = self.neighbours(&summaries, &[k]);
                 let mut v: Vec<f64> = near.iter().map(|&i| self.bank_truths[i][k]).collect();
                 v.sort_by(f64::total_cmp);
-                (quantile(&v, 0.5), quantile(&v, 0.05), quantile(&v, 0.95))
+                v
             })
             .collect();
+        let raw = samples.iter().map(|v| (quantile(v, 0.5), quantile(v, 0.05), quantile(v, 0.95))).collect();
         let clearances: Vec<usize> = (0..self.joints.len()).collect();
-        (raw, self.neighbours(&summaries, &clearances))
+        (raw, samples, self.neighbours(&summaries, &clearances))
     }
 
     /// The calibrated (median, low, high) on the estimation scale, within the prior.
@@ -252,7 +254,7 @@ impl Estimator {
 
     /// The estimate from a feature vector taken at crank frequency `f0`.
     pub fn estimate(&self, features: &[f64], f0: f64) -> Estimate {
-        let (raw, near) = self.raw(features);
+        let (raw, samples, near) = self.raw(features);
         let unknowns = raw
             .iter()
             .enumerate()
@@ -281,11 +283,17 @@ impl Estimator {
         } else {
             Vec::new()
         };
-        let draws = near
-            .iter()
-            .map(|&i| self.bank_truths[i].iter().zip(&self.unknowns).map(|(v, u)| from_scale(u, *v)).collect())
+        let clearance_draws = (0..joints)
+            .map(|k| {
+                let (u, c, median) = (&self.unknowns[k], self.calibration[k], raw[k].0);
+                let (lo, hi) = (to_scale(u, u.low), to_scale(u, u.high));
+                samples[k]
+                    .iter()
+                    .map(|v| from_scale(u, (median + c.shift + c.widen * (v - median)).clamp(lo, hi)))
+                    .collect()
+            })
             .collect();
-        Estimate { unknowns, worn, crank_frequency: f0, draws }
+        Estimate { unknowns, worn, crank_frequency: f0, clearance_draws }
     }
 
     /// Calibrates the medians and intervals on full-model draws: even-numbered draws give each

@@ -380,8 +380,8 @@ def estimate(measurement: PathLike, prepared: PathLike) -> Dict[str, Any]:
 
     Returns a dict: ``unknowns`` (per unknown ``name``, ``unit``, ``median``, ``low`` and ``high``
     — the calibrated 5–95 % interval — and ``prior``), ``worn`` (with several clearance joints,
-    ``[joint, probability]`` pairs), ``crank_frequency`` [Hz], ``draws`` (the posterior sample,
-    one row per draw in the unknowns' order) and ``notes`` (what was done to the data). A bad file
+    ``[joint, probability]`` pairs), ``crank_frequency`` [Hz], ``clearance_draws`` (per clearance
+    joint its calibrated posterior sample [m]) and ``notes`` (what was done to the data). A bad file
     raises ScenarioError naming the column and the problem; a missing one FileNotFoundError."""
     path = os.fspath(measurement)
     if not os.path.exists(path):
