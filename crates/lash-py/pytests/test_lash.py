@@ -212,8 +212,13 @@ def test_the_example_generates_a_dataset_and_fits_a_model(tmp_path):
 
 def interrupt_after(seconds):
     import _thread
+    import signal
     import threading
 
+    # The handler these tests rely on, installed here: a Python started with SIGINT ignored (in the
+    # background of a non-interactive shell, under some CI runners) has none, and interrupt_main
+    # then does nothing.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(seconds, _thread.interrupt_main)
     timer.start()
     return timer
