@@ -293,6 +293,25 @@ fn bad_system_files_are_clear_errors() {
         assert_eq!(o.status.code(), Some(2), "case {k}: {err}");
         assert!(err.contains(expected), "case {k}: expected {expected:?} in: {err}");
     }
+    // A micro step whose rows the master could not hold is refused by `validate` and `run` alike,
+    // before anything is allocated (1e-12 s once made `run` allocate 80 GB).
+    let tiny = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/systems/reduced-A.toml"))
+        .unwrap()
+        .replace("micro_step = 1e-5", "micro_step = 1e-12");
+    let file = out.join("tiny.toml");
+    std::fs::write(&file, tiny).unwrap();
+    for args in [
+        vec!["validate", file.to_str().unwrap()],
+        vec!["run", file.to_str().unwrap(), "--quiet", "--out", out.join("o").to_str().unwrap()],
+    ] {
+        let o = lash(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("interface.micro_step") && err.contains("1000000000 micro steps per macro step"),
+            "{args:?}: {err}"
+        );
+    }
     // A parameter the plugin refuses at initialization is a user error (exit 2) naming the field;
     // no output is left behind.
     let file = out.join("refused.toml");

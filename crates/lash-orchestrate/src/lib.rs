@@ -624,13 +624,7 @@ impl<'a> InterfaceMaster<'a> {
             lash_core::check_variable_table(sub.variables())
                 .map_err(|problem| MasterError::Variables { subsystem: sub.name().to_string(), problem })?;
         }
-        if o.micro_step.0 <= 0 || o.macro_step.exact_ratio(o.micro_step).is_none() {
-            return Err(MasterError::Settings(format!(
-                "macro step {} s is not a whole multiple of the micro step {} s",
-                o.macro_step.seconds(),
-                o.micro_step.seconds()
-            )));
-        }
+        check_step_ratio(o.macro_step, o.micro_step).map_err(MasterError::Settings)?;
         if Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).is_none_or(|n| n < 1) {
             return Err(MasterError::Settings(format!(
                 "the run from {} s to {} s is not a whole, positive number of macro steps of {} s",
@@ -1539,4 +1533,30 @@ impl SignalTable {
             out[at] = *v;
         }
     }
+}
+
+/// The most micro steps one macro step may hold: the master keeps a macro step's micro rows in
+/// one buffer, allocated before the run, so the ratio sizes memory.
+pub const MAX_MICRO_STEPS_PER_MACRO: i64 = 100_000;
+
+/// Checks that `macro_step` is a whole multiple of `micro_step`, at most
+/// [`MAX_MICRO_STEPS_PER_MACRO`] times it; returns the ratio. The one check of the step ratio, used
+/// by the master and by the system files (which report it before anything is built).
+pub fn check_step_ratio(macro_step: Ticks, micro_step: Ticks) -> Result<i64, String> {
+    let ratio = macro_step.exact_ratio(micro_step).ok_or_else(|| {
+        format!(
+            "macro step {} s is not a whole multiple of the micro step {} s",
+            macro_step.seconds(),
+            micro_step.seconds()
+        )
+    })?;
+    if ratio > MAX_MICRO_STEPS_PER_MACRO {
+        return Err(format!(
+            "micro step {} s: {ratio} micro steps per macro step of {} s, more than the {MAX_MICRO_STEPS_PER_MACRO} whose rows the master holds at once (a micro step below {} s is not supported at this macro step)",
+            micro_step.seconds(),
+            macro_step.seconds(),
+            macro_step.seconds() / MAX_MICRO_STEPS_PER_MACRO as f64
+        ));
+    }
+    Ok(ratio)
 }

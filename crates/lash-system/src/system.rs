@@ -698,6 +698,7 @@ fn interface_plan(
     if micro_step.0 <= 0 || step.0 % micro_step.0 != 0 {
         return Err(bad(format!("interface.micro_step: {} s must divide the step {} s", i.micro_step, step.seconds())));
     }
+    lash_orchestrate::check_step_ratio(step, micro_step).map_err(|m| bad(format!("interface.micro_step: {m}")))?;
     if interval.0 % micro_step.0 != 0 {
         return Err(bad(format!("output.interval: must be a multiple of the micro step {} s", i.micro_step)));
     }
