@@ -72,6 +72,7 @@ impl Default for UnpackLimits {
 const S_IFMT: u32 = 0o170000;
 const S_IFREG: u32 = 0o100000;
 const S_IFDIR: u32 = 0o040000;
+const S_IFLNK: u32 = 0o120000;
 
 /// The entry's path inside the archive as plain components: no root, no `..`, no `.`-only
 /// name, nothing empty; `None` when the name cannot be a path inside the folder.
@@ -122,17 +123,8 @@ pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(
         let path = plain_path(&name).ok_or_else(|| {
             format!("entry {name:?}: not a plain relative path (absolute, or leaving the archive's folder)")
         })?;
-        let mode = entry.unix_mode().map(|m| m & S_IFMT).filter(|&m| m != 0);
         let is_dir = entry.is_dir();
-        match mode {
-            None => {}
-            Some(S_IFDIR) if is_dir => {}
-            Some(S_IFREG) if !is_dir => {}
-            Some(_) if entry.is_symlink() => {
-                return Err(format!("entry {name:?}: a symbolic link (refused: an FMU's files are its own)"));
-            }
-            Some(m) => return Err(format!("entry {name:?}: not a regular file or folder (Unix mode {m:o})")),
-        }
+        check_kind(&name, entry.unix_mode(), is_dir)?;
         if !seen.insert(path.clone()) {
             return Err(format!(
                 "entry {name:?}: its name appears twice (another spelling of an earlier entry's path)"
@@ -155,34 +147,71 @@ pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(
             .create_new(true)
             .open(&target)
             .map_err(|e| format!("entry {name:?}: {e}"))?;
-        let mut entry_bytes = 0u64;
-        loop {
-            let n = entry.read(&mut buffer).map_err(|e| format!("entry {name:?}: {e}"))?;
-            if n == 0 {
-                break;
-            }
-            entry_bytes += n as u64;
-            written += n as u64;
-            if written > limits.max_total_bytes {
-                return Err(format!(
+        let stored = entry.compressed_size();
+        written += stream(&mut entry, &mut file, &mut buffer, (entry_cap, limits.max_total_bytes - written.min(limits.max_total_bytes)))
+            .map_err(|cap| match cap {
+                Cap::Total => format!(
                     "more than {} bytes unpacked (the limit, LASH_FMU_MAX_BYTES) at entry {name:?}: a zip bomb?",
                     limits.max_total_bytes
-                ));
-            }
-            if entry_bytes > entry_cap {
-                return Err(format!(
-                    "entry {name:?} unpacks to more than {} times its {} stored bytes (the limit, LASH_FMU_MAX_RATIO): a zip bomb?",
-                    limits.max_ratio,
-                    entry.compressed_size()
-                ));
-            }
-            file.write_all(&buffer[..n]).map_err(|e| format!("entry {name:?}: {e}"))?;
-        }
+                ),
+                Cap::Ratio => format!(
+                    "entry {name:?} unpacks to more than {} times its {stored} stored bytes (the limit, LASH_FMU_MAX_RATIO): a zip bomb?",
+                    limits.max_ratio
+                ),
+                Cap::Io(e) => format!("entry {name:?}: {e}"),
+            })?;
     }
     if !description {
         return Err("no modelDescription.xml at the archive's top level".into());
     }
     Ok(())
+}
+
+/// Refuses an entry that is not a regular file or a folder by its Unix mode (a link, a device, a
+/// FIFO, a socket); an entry without a mode is a file or a folder by its name.
+fn check_kind(name: &str, unix_mode: Option<u32>, is_dir: bool) -> Result<(), String> {
+    match unix_mode.map(|m| m & S_IFMT).filter(|&m| m != 0) {
+        None => Ok(()),
+        Some(S_IFDIR) if is_dir => Ok(()),
+        Some(S_IFREG) if !is_dir => Ok(()),
+        Some(S_IFLNK) => Err(format!("entry {name:?}: a symbolic link (refused: an FMU's files are its own)")),
+        Some(m) => Err(format!("entry {name:?}: not a regular file or folder (Unix mode {m:o})")),
+    }
+}
+
+/// Which cap a stream hit.
+enum Cap {
+    /// The entry's ratio cap.
+    Ratio,
+    /// What is left of the total.
+    Total,
+    /// Reading or writing failed.
+    Io(std::io::Error),
+}
+
+/// Copies `from` into `to` through `buffer`, at most `entry_cap` bytes and at most `total_left`;
+/// returns the bytes copied.
+fn stream(
+    from: &mut impl Read,
+    to: &mut impl Write,
+    buffer: &mut [u8],
+    (entry_cap, total_left): (u64, u64),
+) -> Result<u64, Cap> {
+    let mut copied = 0u64;
+    loop {
+        let n = from.read(buffer).map_err(Cap::Io)?;
+        if n == 0 {
+            return Ok(copied);
+        }
+        copied += n as u64;
+        if copied > total_left {
+            return Err(Cap::Total);
+        }
+        if copied > entry_cap {
+            return Err(Cap::Ratio);
+        }
+        to.write_all(&buffer[..n]).map_err(Cap::Io)?;
+    }
 }
 
 /// The number of central-directory records the end-of-central-directory record declares (its
