@@ -109,27 +109,32 @@ fn mutate_bytes(seed: &[u8], edits: &[Edit]) -> Vec<u8> {
     bytes
 }
 
+/// Runs `check_mutant` (a reader on its seed with the edits applied; whether it accepted) on
+/// `config.cases` lists of edits; a panic fails the test. Returns (tried, accepted).
+fn run_mutations(config: &Config, what: &str, check_mutant: impl Fn(&[Edit]) -> bool) -> (u32, u32) {
+    let (tried, accepted) = (std::cell::Cell::new(0u32), std::cell::Cell::new(0u32));
+    TestRunner::new(config.clone())
+        .run(&proptest::collection::vec(edit(), 1..4), |edits| {
+            let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check_mutant(&edits)));
+            prop_assert!(outcome.is_ok(), "{what} mutated by {edits:?} panicked");
+            tried.set(tried.get() + 1);
+            accepted.set(accepted.get() + u32::from(outcome.unwrap_or(false)));
+            Ok(())
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+    (tried.get(), accepted.get())
+}
+
 /// Runs `check` on mutations of every seed and on arbitrary text, `cases` inputs each. `check`
 /// says whether the reader accepted the input; at least `min_accepted` of the mutated inputs must
 /// be accepted, so that the fuzzing reaches past the first syntax check.
 fn fuzz(name: &str, seeds: &[String], cases: u32, min_accepted: f64, check: fn(&str) -> bool) {
-    let accepted = std::cell::Cell::new(0u32);
-    let tried = std::cell::Cell::new(0u32);
     let config = Config { cases, failure_persistence: None, rng_seed: RngSeed::Fixed(0x1a5b), ..Config::default() };
+    let (mut tried, mut accepted) = (0, 0);
     for (k, seed) in seeds.iter().enumerate() {
         assert!(check(seed), "{name}: seed {k} is refused:\n{seed}");
-        let mut runner = TestRunner::new(config.clone());
-        let strategy = proptest::collection::vec(edit(), 1..4);
-        runner
-            .run(&strategy, |edits| {
-                let text = mutate(seed, &edits);
-                let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(&text)));
-                prop_assert!(outcome.is_ok(), "{name}: seed {k} mutated by {edits:?} panicked on:\n{text}");
-                tried.set(tried.get() + 1);
-                accepted.set(accepted.get() + u32::from(outcome.unwrap_or(false)));
-                Ok(())
-            })
-            .unwrap_or_else(|e| panic!("{e}"));
+        let (t, a) = run_mutations(&config, &format!("{name}: seed {k}"), |edits| check(&mutate(seed, edits)));
+        (tried, accepted) = (tried + t, accepted + a);
     }
     let mut runner = TestRunner::new(config);
     runner
@@ -139,8 +144,8 @@ fn fuzz(name: &str, seeds: &[String], cases: u32, min_accepted: f64, check: fn(&
             Ok(())
         })
         .unwrap_or_else(|e| panic!("{e}"));
-    let share = f64::from(accepted.get()) / f64::from(tried.get().max(1));
-    eprintln!("{name}: {} of {} mutated inputs accepted", accepted.get(), tried.get());
+    let share = f64::from(accepted) / f64::from(tried.max(1));
+    eprintln!("{name}: {accepted} of {tried} mutated inputs accepted");
     assert!(share >= min_accepted, "{name}: only {share:.2} of the mutated inputs were accepted");
 }
 
@@ -201,18 +206,8 @@ fn fmu_archives() {
     assert!(checks::fmu_archive(&seed), "the seed archive is refused");
     let config =
         Config { cases: 400, failure_persistence: None, rng_seed: RngSeed::Fixed(0x1a5c), ..Config::default() };
-    let (tried, accepted) = (std::cell::Cell::new(0u32), std::cell::Cell::new(0u32));
-    let mut runner = TestRunner::new(config.clone());
-    runner
-        .run(&proptest::collection::vec(edit(), 1..4), |edits| {
-            let bytes = mutate_bytes(&seed, &edits);
-            let outcome = std::panic::catch_unwind(|| checks::fmu_archive(&bytes));
-            prop_assert!(outcome.is_ok(), "archive mutated by {edits:?} panicked");
-            tried.set(tried.get() + 1);
-            accepted.set(accepted.get() + u32::from(outcome.unwrap_or(false)));
-            Ok(())
-        })
-        .unwrap_or_else(|e| panic!("{e}"));
+    let (tried, accepted) =
+        run_mutations(&config, "the archive", |edits| checks::fmu_archive(&mutate_bytes(&seed, edits)));
     let mut runner = TestRunner::new(config);
     runner
         .run(&proptest::collection::vec(any::<u8>(), 0..600), |bytes| {
@@ -221,8 +216,8 @@ fn fmu_archives() {
             Ok(())
         })
         .unwrap_or_else(|e| panic!("{e}"));
-    eprintln!("FMU archives: {} of {} mutated archives unpacked", accepted.get(), tried.get());
+    eprintln!("FMU archives: {accepted} of {tried} mutated archives unpacked");
     // Most edits break a checksum or an offset (a refusal that read the entries); a few keep the
     // archive whole, which takes the fuzzing through the writing of files too.
-    assert!(accepted.get() >= tried.get() / 40, "too few mutated archives unpack for the fuzzing to reach the files");
+    assert!(accepted >= tried / 40, "too few mutated archives unpack for the fuzzing to reach the files");
 }

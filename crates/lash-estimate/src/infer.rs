@@ -61,6 +61,8 @@ pub struct Estimator {
     pub coefficients: Vec<Vec<f64>>,
     /// Residual spread of each regression (how well the features determine the unknown).
     pub summary_scale: Vec<f64>,
+    /// Spread of each summary over the bank (the scale of summary distances).
+    pub summary_spread: Vec<f64>,
     /// The bank's summaries (one vector per draw).
     pub bank_summaries: Vec<Vec<f64>>,
     /// The bank's truths on the estimation scale (one vector per draw).
@@ -178,7 +180,13 @@ impl Estimator {
                 r.sqrt().max(1e-12)
             })
             .collect();
-        let bank_summaries = (0..n).map(|i| fitted.row(i).iter().copied().collect()).collect();
+        let bank_summaries: Vec<Vec<f64>> = (0..n).map(|i| fitted.row(i).iter().copied().collect()).collect();
+        let summary_spread = (0..unknowns.len())
+            .map(|k| {
+                let mean = bank_summaries.iter().map(|b| b[k]).sum::<f64>() / n as f64;
+                (bank_summaries.iter().map(|b| (b[k] - mean).powi(2)).sum::<f64>() / n as f64).sqrt().max(1e-12)
+            })
+            .collect();
         Ok(Self {
             setup: setup.clone(),
             joints,
@@ -189,6 +197,7 @@ impl Estimator {
             feature_scale: scale,
             coefficients,
             summary_scale,
+            summary_spread,
             bank_summaries,
             bank_truths: truths,
         })
@@ -205,14 +214,7 @@ impl Estimator {
     /// Indices of the bank draws nearest to `summaries` in the summaries `dims`, each distance
     /// divided by that summary's spread over the bank.
     fn neighbours(&self, summaries: &[f64], dims: &[usize]) -> Vec<usize> {
-        let spread: Vec<f64> = dims
-            .iter()
-            .map(|&k| {
-                let n = self.bank_summaries.len() as f64;
-                let mean = self.bank_summaries.iter().map(|b| b[k]).sum::<f64>() / n;
-                (self.bank_summaries.iter().map(|b| (b[k] - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-12)
-            })
-            .collect();
+        let spread: Vec<f64> = dims.iter().map(|&k| self.summary_spread[k]).collect();
         let mut distance: Vec<(f64, usize)> = self
             .bank_summaries
             .iter()

@@ -167,7 +167,7 @@ fn sample_period(path: &Path, name: &str, time: &[f64]) -> Result<f64, EstimateE
     if time.len() < 2 {
         return Err(input(format!("{} samples: too few for a sample rate", time.len())));
     }
-    let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+    let steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
     if let Some(k) = steps.iter().position(|s| !(*s > 0.0)) {
         return Err(input(format!(
             "time stamps do not increase at sample {} ({} then {})",
@@ -188,7 +188,6 @@ fn sample_period(path: &Path, name: &str, time: &[f64]) -> Result<f64, EstimateE
             steps[k]
         )));
     }
-    steps.clear();
     Ok(dt)
 }
 

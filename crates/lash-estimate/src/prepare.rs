@@ -127,6 +127,8 @@ fn sweep_runs(
         }
     })?;
     let params = lash_sweep::dataset::read_params_table(dir).map_err(fail)?;
+    let values_of: std::collections::HashMap<u64, &Vec<f64>> =
+        params.rows.iter().map(|row| (row.run_id, &row.values)).collect();
     let layout = lash_sweep::dataset::read_layout(dir).map_err(fail)?;
     for batch in (0..layout.len()).collect::<Vec<_>>().chunks(64) {
         let arrays = lash_sweep::dataset::read_runs(dir, Some(batch)).map_err(fail)?;
@@ -138,7 +140,7 @@ fn sweep_runs(
             .iter()
             .enumerate()
             .map(|(k, &id)| {
-                let values = params.rows.iter().find(|row| row.run_id == id).map(|row| row.values.clone());
+                let values = values_of.get(&id).map(|v| (*v).clone());
                 let channels = (0..width)
                     .map(|c| (start..end).map(|s| arrays.values[(k * samples + s) * width + c]).collect())
                     .collect();
