@@ -20,7 +20,7 @@ pub fn model_description(xml: &str) -> bool {
 
 /// An SSP system structure description (`.ssd`).
 pub fn ssd(xml: &str) -> bool {
-    lash_system::ssp::parse_ssd(xml, &std::env::temp_dir(), None).is_ok()
+    lash_system::ssp::parse_ssd(xml, &std::env::temp_dir(), Default::default()).is_ok()
 }
 
 /// An SSP parameter value file (`.ssv`).

@@ -19,8 +19,16 @@ fn lash(args: &[&str]) -> std::process::Output {
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines();
-    let header =
-        lines.next().unwrap().split(',').map(|h| h.trim_matches('"').split(" [").next().unwrap().to_string()).collect();
+    // RFC 4180 header: a quoted name may hold commas (`"o.m[1,2] [kg]"`).
+    let mut header = Vec::new();
+    let (mut field, mut quoted) = (String::new(), false);
+    for c in lines.next().unwrap().chars().chain([',']) {
+        match c {
+            '"' => quoted = !quoted,
+            ',' if !quoted => header.push(std::mem::take(&mut field).split(" [").next().unwrap().to_string()),
+            c => field.push(c),
+        }
+    }
     let rows = lines.map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect()).collect();
     (header, rows)
 }
@@ -846,7 +854,7 @@ channels = ["b.blob_in_length", "b.blob_in_first"]
         assert_eq!(csv.0.len(), 2 + n, "{:?}", csv.0);
         let x = column(&csv, "o.x");
         for i in 0..n {
-            let modes = column(&csv, &format!("o.modes[{i}]"));
+            let modes = column(&csv, &format!("o.modes[{}]", i + 1));
             assert!(modes.iter().zip(&x).all(|(m, x)| m.to_bits() == ((i + 1) as f64 * x).to_bits()), "modes[{i}]");
         }
     }
@@ -1025,4 +1033,127 @@ fn fmu_check_refuses_what_run_refuses_with_the_same_words() {
     assert_eq!(isolated.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&isolated.stderr).contains("variable name \"v\" is used twice"));
     let _ = std::fs::remove_dir_all(&scratch.out);
+}
+
+/// FMI 2.0 names mean one thing: lash's own FMI 2.0 FMUs (arrays written as 1-based scalars
+/// `effective_mass[1,2]`) coupled by Gauss–Seidel, once array to array and once element by element
+/// in a shuffled order, give the same bits; the CSV columns are the FMU's own scalar names; an SSP
+/// whose connectors name the elements and which has no stop time runs with `--horizon` and equals
+/// both; a misspelt element gets a short "did you mean".
+#[test]
+fn fmi2_element_names_reach_connections_csv_and_ssp_as_spelled() {
+    let out = std::env::temp_dir().join(format!("lash-system-elements-{}", std::process::id()));
+    let o = lash(&["fmu", "pack", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let toml = |connections: &str| {
+        format!(
+            "name = \"elements\"\nstart = 0.0\nstop = 0.03\nstep = 1e-3\n\n\
+             [[elements]]\nname = \"mechanism\"\nfmu = \"lash_mechanism-fmi2.fmu\"\n\n\
+             [[elements]]\nname = \"joint\"\nfmu = \"lash_interface-fmi2.fmu\"\n\n{connections}\n\
+             [output]\nchannels = [\"joint.contact_force\", \"joint.eccentricity[2]\", \"mechanism.effective_force[1]\"]\n"
+        )
+    };
+    let connection =
+        |from: &str, to: &str| format!("[[connections]]\nfrom = \"mechanism.{from}\"\nto = \"joint.{to}\"\n");
+    let whole = [("effective_mass", "effective_mass"), ("effective_force", "effective_force")];
+    let elements = [
+        ("effective_force[2]", "effective_force[2]"),
+        ("effective_mass[2,1]", "effective_mass[2,1]"),
+        ("effective_mass[1,1]", "effective_mass[1,1]"),
+        ("effective_force[1]", "effective_force[1]"),
+        ("effective_mass[2,2]", "effective_mass[2,2]"),
+        ("effective_mass[1,2]", "effective_mass[1,2]"),
+    ];
+    let run = |tag: &str, text: &str, extra: &[&str]| {
+        let file = out.join(format!("{tag}.{}", if text.starts_with('<') { "ssd" } else { "toml" }));
+        std::fs::write(&file, text).unwrap();
+        let dir = out.join(tag);
+        let mut args = vec!["run", file.to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()];
+        args.extend(extra);
+        let o = lash(&args);
+        (o, dir)
+    };
+    let mut results = Vec::new();
+    for (tag, pairs) in [("whole", &whole[..]), ("elements", &elements[..])] {
+        let text = toml(&pairs.iter().map(|(f, t)| connection(f, t)).collect::<String>());
+        let (o, dir) = run(tag, &text, &[]);
+        assert!(o.status.success(), "{tag}: {}", String::from_utf8_lossy(&o.stderr));
+        results.push(read_csv(&dir.join("timeseries.csv")));
+    }
+    let header = [
+        "time",
+        "joint.contact_force[1]",
+        "joint.contact_force[2]",
+        "joint.eccentricity[2]",
+        "mechanism.effective_force[1]",
+    ];
+    assert_eq!(results[0].0, header, "the FMU's own scalar names");
+    let force = column(&results[0], "mechanism.effective_force[1]");
+    assert!(force.iter().any(|f| f.abs() > 1.0), "the mechanism is loaded: {force:?}");
+    // The SSP: the same couplings named by element, no stopTime, the step from libcosim's
+    // annotation.
+    let connectors: String = elements
+        .iter()
+        .map(|(f, t)| {
+            format!("<ssd:Connection startElement=\"mechanism\" startConnector=\"{f}\" endElement=\"joint\" endConnector=\"{t}\"/>\n")
+        })
+        .collect();
+    let ssd = format!(
+        "<?xml version=\"1.0\"?>\n<ssd:SystemStructureDescription name=\"elements\" version=\"1.0\" \
+         xmlns:ssd=\"http://ssp-standard.org/SSP1/SystemStructureDescription\" \
+         xmlns:ssc=\"http://ssp-standard.org/SSP1/SystemStructureCommon\">\n<ssd:System name=\"s\">\n\
+         <ssd:Annotations><ssc:Annotation type=\"org.open-simulation-platform\"><osp:SimulationInformation>\
+         <osp:FixedStepMaster description=\"FixedStepAlgorithm\" stepSize=\"1e-3\"/></osp:SimulationInformation>\
+         </ssc:Annotation></ssd:Annotations>\n<ssd:Elements>\n\
+         <ssd:Component name=\"mechanism\" source=\"lash_mechanism-fmi2.fmu\"/>\n\
+         <ssd:Component name=\"joint\" source=\"lash_interface-fmi2.fmu\"/>\n</ssd:Elements>\n\
+         <ssd:Connections>\n{connectors}</ssd:Connections>\n</ssd:System>\n\
+         <ssd:DefaultExperiment startTime=\"0.0\"/>\n</ssd:SystemStructureDescription>\n"
+    );
+    let (o, _) = run("ssp-no-stop", &ssd, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("no DefaultExperiment stopTime: add one, or pass --horizon"), "{err}");
+    let (o, dir) = run("ssp", &ssd, &["--horizon", "0.03"]);
+    assert!(o.status.success(), "ssp: {}", String::from_utf8_lossy(&o.stderr));
+    let ssp = read_csv(&dir.join("timeseries.csv"));
+    let names: Vec<&str> = ssp.0.iter().map(String::as_str).collect();
+    assert!(names.contains(&"joint.contact_force[1]") && names.contains(&"mechanism.effective_force[2]"), "{names:?}");
+    for other in [&results[1], &ssp] {
+        assert_eq!(other.1.len(), 31);
+        for name in &header[1..] {
+            let (a, b) = (column(&results[0], name), column(other, name));
+            assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{name} differs");
+        }
+    }
+    // A misspelt element: a few close names, not the whole list.
+    let text = toml(&connection("effective_mass[1,1]", "effective_mas[1,1]"));
+    let (o, _) = run("misspelt", &text, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("connections[0].to: element \"joint\" has no variable \"effective_mas[1,1]\" (did you mean \"effective_mass[1,1]\""), "{err}");
+    assert!(err.len() < 400, "{} bytes: {err}", err.len());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// An `.ssp` archive is untrusted like an FMU: an entry that leaves the archive's folder is
+/// refused by name (exit 2), and nothing is written beside it.
+#[test]
+fn an_ssp_archive_is_unpacked_confined() {
+    let out = std::env::temp_dir().join(format!("lash-system-ssp-confined-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let ssp = out.join("hostile.ssp");
+    let script = "import sys, zipfile\n\
+                  with zipfile.ZipFile(sys.argv[1], 'w') as z:\n\
+                  \x20   z.writestr('SystemStructure.ssd', '<ssd:SystemStructureDescription/>')\n\
+                  \x20   z.writestr('../escaped.txt', 'outside')\n";
+    let o = Command::new(fmpy_python()).args(["-c", script, ssp.to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = lash(&["run", ssp.to_str().unwrap(), "--quiet", "--out", out.join("run").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("entry \"../escaped.txt\": not a plain relative path"), "{err}");
+    let tmp = std::env::temp_dir();
+    assert!(!tmp.join("escaped.txt").exists() && !out.join("escaped.txt").exists(), "written outside");
+    let _ = std::fs::remove_dir_all(&out);
 }

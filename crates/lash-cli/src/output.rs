@@ -120,7 +120,7 @@ impl SeriesOutput {
         let file =
             std::fs::File::create(&partial).map_err(|e| io(&format!("cannot create {}", partial.display()), e))?;
         let mut writer = std::io::BufWriter::new(file);
-        writeln!(writer, "{}", header.join(",")).map_err(|e| io("writing the CSV header", e))?;
+        writeln!(writer, "{}", lash_core::csv_header(header)).map_err(|e| io("writing the CSV header", e))?;
         Ok(Self::with_sink(Sink::Csv(writer), partial, done))
     }
 

@@ -50,7 +50,8 @@ fn load(
 ) -> Result<lash_system::System, CliError> {
     let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let (mut spec, base) = if path.extension().is_some_and(|e| e == "ssd" || e == "ssp") {
-        lash_system::ssp::load(path, scratch, step).map_err(CliError::Input)?
+        let fallback = lash_system::ssp::Fallback { step, horizon: stop };
+        lash_system::ssp::load(path, scratch, fallback).map_err(CliError::Input)?
     } else {
         let text = std::fs::read_to_string(path).map_err(|e| input(e.to_string()))?;
         let spec = lash_system::spec::parse(&text).map_err(input)?;

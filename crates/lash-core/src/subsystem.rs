@@ -218,6 +218,49 @@ impl Variable {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// The name of element `e` (row-major position) in lash's one element syntax, the FMI 2.0
+    /// structured convention: 1-based indices in brackets, comma-separated (`m[1,2]` is row 1,
+    /// column 2). A scalar's only element is the variable's own name. CSV columns, system files and
+    /// SSP connectors all use these names, so FMI 2.0 `x[1]` and element 0 of an array `x` are the
+    /// same name for the same value.
+    pub fn element_name(&self, e: usize) -> String {
+        if self.shape.is_empty() {
+            return self.name.clone();
+        }
+        let mut rest = e;
+        let mut index = vec![0; self.shape.len()];
+        for (k, &d) in self.shape.iter().enumerate().rev() {
+            index[k] = rest % d.max(1) + 1;
+            rest /= d.max(1);
+        }
+        format!("{}[{}]", self.name, index.iter().map(usize::to_string).collect::<Vec<_>>().join(","))
+    }
+
+    /// The row-major position of the element spelled by 1-based `index` (see
+    /// [`Variable::element_name`]), or `None` when the index does not fit the shape.
+    pub fn element_position(&self, index: &[usize]) -> Option<usize> {
+        if index.len() != self.shape.len() || index.is_empty() {
+            return None;
+        }
+        index.iter().zip(&self.shape).try_fold(0, |at, (&i, &d)| (1..=d).contains(&i).then(|| at * d + i - 1))
+    }
+}
+
+/// Splits an element name `base[i]` or `base[i,j,…]` (1-based indices, no spaces, no leading
+/// zeros: the spelling [`Variable::element_name`] writes) into its base and indices; `None` for any
+/// other name.
+pub fn split_element_name(name: &str) -> Option<(&str, Vec<usize>)> {
+    let (base, rest) = name.split_once('[')?;
+    let inner = rest.strip_suffix(']')?;
+    let index = inner
+        .split(',')
+        .map(|i| {
+            let canonical = !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit()) && !i.starts_with('0');
+            canonical.then(|| i.parse::<usize>().ok()).flatten()
+        })
+        .collect::<Option<Vec<_>>>()?;
+    (!base.is_empty()).then_some((base, index))
 }
 
 /// Declares a subsystem's fixed value references, numbered by their position from 0 (no number
@@ -785,6 +828,32 @@ impl Phase {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn element_names_are_one_based_row_major_and_read_back() {
+        let mut t = VariableTable::new();
+        t.add("m", Causality::Output, Variability::Continuous, "1", "", &[2, 3], &[0.0; 6]);
+        t.add("v", Causality::Output, Variability::Continuous, "1", "", &[4], &[0.0; 4]);
+        t.add("s", Causality::Output, Variability::Continuous, "1", "", &[], &[0.0]);
+        let vars = t.into_checked_variables().unwrap();
+        let names: Vec<String> = (0..6).map(|e| vars[0].element_name(e)).collect();
+        assert_eq!(names, ["m[1,1]", "m[1,2]", "m[1,3]", "m[2,1]", "m[2,2]", "m[2,3]"]);
+        assert_eq!((vars[1].element_name(0), vars[1].element_name(3)), ("v[1]".into(), "v[4]".into()));
+        assert_eq!(vars[2].element_name(0), "s");
+        for (v, n) in [(&vars[0], 6), (&vars[1], 4)] {
+            for e in 0..n {
+                let name = v.element_name(e);
+                let (base, index) = split_element_name(&name).unwrap();
+                assert_eq!((base, v.element_position(&index)), (v.name.as_str(), Some(e)), "{name}");
+            }
+        }
+        assert_eq!(vars[0].element_position(&[3, 1]), None, "row 3 of 2");
+        assert_eq!(vars[0].element_position(&[0, 1]), None, "1-based");
+        assert_eq!(vars[1].element_position(&[1, 1]), None, "two indices for a vector");
+        for odd in ["x[0]", "x[01]", "x[1, 2]", "x[]", "[1]", "x[1]y", "x", "x[a]"] {
+            assert_eq!(split_element_name(odd), None, "{odd}: not the one element spelling");
+        }
+    }
 
     #[test]
     fn a_variable_added_out_of_its_declared_order_is_reported() {

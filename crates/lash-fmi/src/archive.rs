@@ -1,4 +1,4 @@
-//! Unpacking an FMU archive that nobody vouches for.
+//! Unpacking an FMU (or SSP) archive that nobody vouches for.
 //!
 //! An FMU is a zip archive from outside: its entries are written only inside one folder of the
 //! cache, as regular files and folders, streamed through a fixed buffer with a cap on the bytes
@@ -96,9 +96,15 @@ pub fn is_plain_name(name: &str) -> bool {
     !name.is_empty() && name != "." && name != ".." && !name.contains(['/', '\\', '\0'])
 }
 
-/// Unpacks the archive held in `bytes` into the empty folder `into` (created before), within
+/// Unpacks the FMU held in `bytes` into the empty folder `into` (created before), within
 /// `limits`. On error `into` may hold part of the archive: the caller removes it.
 pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(), String> {
+    unpack_archive_into(bytes, into, limits, "modelDescription.xml")
+}
+
+/// Unpacks any untrusted archive (an FMU, an SSP) as [`unpack_into`] does, requiring the file
+/// `required` at its top level.
+pub fn unpack_archive_into(bytes: &[u8], into: &Path, limits: &UnpackLimits, required: &str) -> Result<(), String> {
     let mut archive =
         zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(|e| format!("not a zip archive: {e}"))?;
     if archive.len() > limits.max_entries {
@@ -135,7 +141,7 @@ pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(
             std::fs::create_dir_all(&target).map_err(|e| format!("entry {name:?}: {e}"))?;
             continue;
         }
-        description |= path == Path::new("modelDescription.xml");
+        description |= path == Path::new(required);
         if let Some(parent) = target.parent() {
             std::fs::create_dir_all(parent).map_err(|e| format!("entry {name:?}: {e}"))?;
         }
@@ -162,7 +168,7 @@ pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(
             })?;
     }
     if !description {
-        return Err("no modelDescription.xml at the archive's top level".into());
+        return Err(format!("no {required} at the archive's top level"));
     }
     Ok(())
 }

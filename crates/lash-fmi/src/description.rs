@@ -182,24 +182,6 @@ pub fn fmi3(info: &ModelInfo, variables: &[Variable]) -> String {
     x
 }
 
-/// FMI 2.0 name of element `e` of `v` (structured convention, 1-based: `m[1,2]`).
-pub fn scalar_name(v: &Variable, e: usize) -> String {
-    match v.shape.as_slice() {
-        [] => v.name.clone(),
-        [_] => format!("{}[{}]", v.name, e + 1),
-        [_, cols] => format!("{}[{},{}]", v.name, e / cols + 1, e % cols + 1),
-        dims => {
-            let mut rest = e;
-            let mut idx = vec![0; dims.len()];
-            for (k, d) in dims.iter().enumerate().rev() {
-                idx[k] = rest % d + 1;
-                rest /= d;
-            }
-            format!("{}[{}]", v.name, idx.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(","))
-        }
-    }
-}
-
 /// The FMI 2.0 `modelDescription.xml` of a co-simulation FMU: one scalar per array element, value
 /// references numbered in variable order (the same order [`crate::fmi2`] maps back).
 pub fn fmi2(info: &ModelInfo, variables: &[Variable]) -> String {
@@ -246,7 +228,7 @@ pub fn fmi2(info: &ModelInfo, variables: &[Variable]) -> String {
             let _ = writeln!(
                 x,
                 r#"    <ScalarVariable name="{}" valueReference="{vr}" description="{}" causality="{}" variability="{}"{initial}>"#,
-                escape(&scalar_name(v, e)),
+                escape(&v.element_name(e)),
                 escape(&v.description),
                 causality(v.causality),
                 variability(v.variability),

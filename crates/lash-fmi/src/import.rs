@@ -2,9 +2,10 @@
 //! `modelDescription.xml` leniently, load the shared library with libloading into a typed
 //! function table, and wrap the instance as a [`Subsystem`] that any lash master can drive.
 //!
-//! FMI 2.0 has scalars only; exporters write arrays as `name[i]`, `name[i,j]` (lash's own FMI 2.0
-//! export does). Consecutive scalars of one base name are regrouped into one array variable
-//! (shape from the largest indices), so the same master code drives an FMU of either version.
+//! FMI 2.0 has scalars only; exporters write arrays as `name[1]`, `name[1,2]` (1-based, as lash's
+//! own FMI 2.0 export does). Consecutive scalars that spell one whole array are regrouped into an
+//! array variable whose element names are the scalars' own names (see `regroup`); any other
+//! scalar keeps its name as spelled.
 //!
 //! Every failure is a clear error naming the file and the problem: a missing archive entry, an
 //! unparsable description, a binary for another platform, a library that does not load, a missing
@@ -763,67 +764,80 @@ pub struct ImportedFmu {
 // SAFETY: the instance is only used through `&mut self` (one thread at a time), as FMI requires.
 unsafe impl Send for ImportedFmu {}
 
-/// Regroups FMI 2.0 scalars `base[i]`, `base[i,j]`, … (consecutive, same base) into array
-/// variables. Returns the variables (value reference = position) and each one's scalar refs.
+/// Regroups FMI 2.0 scalars `base[1]`, `base[1,1]`, … into array variables, so the same master
+/// code drives an FMU of either version. A run of consecutive scalars of one base (same causality,
+/// variability, kind and unit) becomes an array only when its 1-based indices fill the array's box
+/// exactly once each, spelled as [`Variable::element_name`] spells them; its elements are placed by
+/// their indices (row-major), not by their order in the file. Anything else (0-based names, gaps,
+/// `x[1, 2]`, a base that is also a variable's name) stays a scalar named exactly as spelled, so
+/// every element name lash prints is the FMU's own name for that value. Returns the variables
+/// (value reference = position) and each one's scalar refs.
 fn regroup(scalars: &[Variable]) -> (Vec<Variable>, Vec<Vec<u32>>) {
-    let split = |name: &str| -> Option<(String, Vec<usize>)> {
-        let (base, rest) = name.split_once('[')?;
-        let idx =
-            rest.strip_suffix(']')?.split(',').map(|i| i.trim().parse::<usize>().ok()).collect::<Option<Vec<_>>>()?;
-        Some((base.to_string(), idx))
-    };
+    let taken: std::collections::HashSet<&str> = scalars.iter().map(|v| v.name.as_str()).collect();
     let mut vars: Vec<Variable> = Vec::new();
     let mut refs: Vec<Vec<u32>> = Vec::new();
-    let mut open: Option<(String, Vec<usize>)> = None; // base of the group being built, max indices
-    for v in scalars {
-        let parsed = split(&v.name);
-        let joins = match (&parsed, &open, vars.last()) {
-            (Some((base, idx)), Some((open_base, max)), Some(last)) => {
-                base == open_base && idx.len() == max.len() && last.causality == v.causality && last.kind == v.kind
+    let mut i = 0;
+    while i < scalars.len() {
+        let first = &scalars[i];
+        let mut run = 1;
+        if let Some((base, index)) = lash_core::split_element_name(&first.name) {
+            while let Some(next) = scalars.get(i + run) {
+                let same = lash_core::split_element_name(&next.name)
+                    .is_some_and(|(b, ix)| b == base && ix.len() == index.len())
+                    && (next.causality, next.variability, next.kind, &next.unit)
+                        == (first.causality, first.variability, first.kind, &first.unit);
+                if !same {
+                    break;
+                }
+                run += 1;
             }
-            _ => false,
-        };
-        if joins {
-            let (_, idx) = parsed.expect("checked");
-            let (_, max) = open.as_mut().expect("checked");
-            for (m, i) in max.iter_mut().zip(&idx) {
-                *m = (*m).max(*i);
+            if !taken.contains(base)
+                && let Some((array, order)) = array_of(base, &scalars[i..i + run])
+            {
+                vars.push(Variable { value_reference: vars.len() as u32, ..array });
+                refs.push(order);
+                i += run;
+                continue;
             }
-            let last = vars.last_mut().expect("checked");
-            last.start.extend(v.start.iter().copied().take(1));
-            refs.last_mut().expect("checked").push(v.value_reference);
-            continue;
         }
-        // Close the previous group: its shape is the largest indices (if they fill it exactly).
-        if let (Some((_, max)), Some(last)) = (open.take(), vars.last_mut())
-            && max.iter().product::<usize>() == refs.last().map_or(0, Vec::len)
-        {
-            last.shape = max;
+        for v in &scalars[i..i + run] {
+            let mut var = v.clone();
+            var.value_reference = vars.len() as u32;
+            if var.start.is_empty() {
+                var.start = vec![0.0];
+            }
+            vars.push(var);
+            refs.push(vec![v.value_reference]);
         }
-        let mut var = v.clone();
-        var.value_reference = vars.len() as u32;
-        if var.start.is_empty() {
-            var.start = vec![0.0];
-        }
-        if let Some((base, idx)) = parsed {
-            var.name = base.clone();
-            open = Some((base, idx));
-        }
-        vars.push(var);
-        refs.push(vec![v.value_reference]);
-    }
-    if let (Some((_, max)), Some(last)) = (open.take(), vars.last_mut())
-        && max.iter().product::<usize>() == refs.last().map_or(0, Vec::len)
-    {
-        last.shape = max;
-    }
-    // A group whose indices did not fill a full array stays a flat list under its base name.
-    for (v, r) in vars.iter_mut().zip(&refs) {
-        if v.shape.is_empty() && r.len() > 1 {
-            v.shape = vec![r.len()];
-        }
+        i += run;
     }
     (vars, refs)
+}
+
+/// The array variable `base` whose elements are `run` (same base, same number of indices), with
+/// the elements' scalar refs in row-major order; `None` unless the indices fill the box exactly.
+fn array_of(base: &str, run: &[Variable]) -> Option<(Variable, Vec<u32>)> {
+    let indices: Vec<Vec<usize>> =
+        run.iter().map(|v| lash_core::split_element_name(&v.name).map(|(_, ix)| ix)).collect::<Option<_>>()?;
+    let mut shape = indices[0].clone();
+    for ix in &indices {
+        for (m, i) in shape.iter_mut().zip(ix) {
+            *m = (*m).max(*i);
+        }
+    }
+    if shape.iter().try_fold(1usize, |n, &d| n.checked_mul(d)) != Some(run.len()) {
+        return None;
+    }
+    let mut array = Variable { name: base.to_string(), shape, start: vec![0.0; run.len()], ..run[0].clone() };
+    let mut order = vec![None; run.len()];
+    for (v, ix) in run.iter().zip(&indices) {
+        let at = array.element_position(ix)?;
+        if order[at].replace(v.value_reference).is_some() {
+            return None; // an element named twice
+        }
+        array.start[at] = v.start.first().copied().unwrap_or(0.0);
+    }
+    Some((array, order.into_iter().collect::<Option<Vec<u32>>>()?))
 }
 
 impl ImportedFmu {
@@ -1731,27 +1745,46 @@ mod tests {
     }
 
     #[test]
-    fn fmi2_scalars_are_regrouped_into_arrays() {
-        let (vars, refs) = regroup(&[
+    fn fmi2_scalars_are_regrouped_into_arrays_whose_element_names_are_theirs() {
+        let spelled = [
+            // Column-major in the file: placed by index, not by order.
             scalar("m[1,1]", 10, Causality::Input),
-            scalar("m[1,2]", 11, Causality::Input),
             scalar("m[2,1]", 12, Causality::Input),
+            scalar("m[1,2]", 11, Causality::Input),
             scalar("m[2,2]", 13, Causality::Input),
             scalar("f[1]", 20, Causality::Output),
             scalar("f[2]", 21, Causality::Output),
             scalar("w", 30, Causality::Output),
             scalar("odd[1]", 40, Causality::Output),
             scalar("odd[3]", 41, Causality::Output),
-        ]);
+            scalar("zero[0]", 50, Causality::Output),
+            scalar("zero[1]", 51, Causality::Output),
+            scalar("w[1]", 60, Causality::Output),
+            scalar("twice[1]", 70, Causality::Output),
+            scalar("twice[1]", 71, Causality::Output),
+        ];
+        let (vars, refs) = regroup(&spelled);
         let names: Vec<&str> = vars.iter().map(|v| v.name.as_str()).collect();
-        assert_eq!(names, ["m", "f", "w", "odd"]);
+        assert_eq!(
+            names,
+            ["m", "f", "w", "odd[1]", "odd[3]", "zero[0]", "zero", "w[1]", "twice[1]", "twice[1]"],
+            "gaps, 0-based names, a base that is a variable's name and a repeated element stay as spelled \
+             (`zero[1]` alone is a whole array of one, element name `zero[1]`)"
+        );
         assert_eq!(vars[0].shape, vec![2, 2]);
+        assert_eq!(refs[0], vec![10, 11, 12, 13], "row-major by index");
         assert_eq!(vars[0].start, vec![10.0, 11.0, 12.0, 13.0]);
-        assert_eq!(refs[0], vec![10, 11, 12, 13]);
         assert_eq!(vars[1].shape, vec![2]);
         assert!(vars[2].shape.is_empty());
         assert_eq!(refs[2], vec![30]);
-        assert_eq!(vars[3].shape, vec![2], "indices that do not fill an array: a flat list");
-        assert_eq!(vars.iter().map(|v| v.value_reference).collect::<Vec<_>>(), [0, 1, 2, 3]);
+        // Every element name lash prints is the FMU's own name for that scalar.
+        let own: std::collections::HashMap<u32, &str> =
+            spelled.iter().map(|v| (v.value_reference, v.name.as_str())).collect();
+        for (v, r) in vars.iter().zip(&refs) {
+            for (e, native) in r.iter().enumerate() {
+                assert_eq!(v.element_name(e), own[native], "element {e} of {}", v.name);
+            }
+        }
+        assert_eq!(vars.iter().map(|v| v.value_reference).collect::<Vec<_>>(), (0..10).collect::<Vec<u32>>());
     }
 }

@@ -43,25 +43,70 @@ pub enum Carried {
     Bytes(Vec<u8>),
 }
 
-/// An output (or local) of one element feeding an input of another.
+/// One end of a connection, or a recorded quantity: a whole variable of an element, or a run of
+/// its elements (row-major positions `offset..offset + count`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Port {
+    /// The element (index into the master's elements).
+    pub element: usize,
+    /// The variable's value reference in that element.
+    pub value_reference: ValueReference,
+    /// The variable's number of elements (1 for a scalar).
+    pub len: usize,
+    /// The first element this port carries.
+    pub offset: usize,
+    /// How many elements it carries.
+    pub count: usize,
+}
+
+impl Port {
+    /// The whole variable `value_reference` (of `len` elements) of `element`.
+    pub fn whole(element: usize, value_reference: ValueReference, len: usize) -> Self {
+        Self { element, value_reference, len, offset: 0, count: len }
+    }
+
+    /// Element `offset` alone of a variable of `len` elements.
+    pub fn element_of(element: usize, value_reference: ValueReference, len: usize, offset: usize) -> Self {
+        Self { element, value_reference, len, offset, count: 1 }
+    }
+
+    fn is_whole(&self) -> bool {
+        self.offset == 0 && self.count == self.len
+    }
+}
+
+/// An output (or local) of one element feeding an input of another, whole or element by element
+/// (an input fed element by element keeps its start value, or the value the system gave it, in
+/// the elements nothing feeds, as libcosim does).
 #[derive(Debug, Clone)]
 pub struct Connection {
-    /// (element, value reference) of the source.
-    pub from: (usize, ValueReference),
-    /// (element, value reference) of the input.
-    pub to: (usize, ValueReference),
-    /// The value in transit (its variant says what is carried).
+    /// The source.
+    pub from: Port,
+    /// The input (as many elements as the source).
+    pub to: Port,
+    /// The value in transit (its variant says what is carried; numbers: the source's whole
+    /// variable).
     pub value: Carried,
 }
 
-/// A recorded variable: (element, value reference, number of elements).
-pub type Probe = (usize, ValueReference, usize);
+/// The values an input variable is set to: connections write their elements into it, the whole
+/// variable is set.
+struct StagedInput {
+    element: usize,
+    value_reference: ValueReference,
+    values: Vec<f64>,
+}
 
 /// The connected master over a set of elements.
 pub struct ConnectedMaster<'a> {
     elements: &'a mut [Element],
     connections: &'a mut [Connection],
-    probes: Vec<Probe>,
+    /// Per connection, the staged input it writes (numbers only).
+    staging: Vec<Option<usize>>,
+    inputs: Vec<StagedInput>,
+    probes: Vec<Port>,
+    /// A whole variable read for a probe of part of it.
+    scratch: Vec<f64>,
     names: Vec<String>,
     start: Ticks,
     stop: Ticks,
@@ -76,7 +121,7 @@ impl<'a> ConnectedMaster<'a> {
     pub fn new(
         elements: &'a mut [Element],
         connections: &'a mut [Connection],
-        probes: Vec<Probe>,
+        probes: Vec<Port>,
         names: Vec<String>,
         start: Ticks,
         stop: Ticks,
@@ -94,11 +139,59 @@ impl<'a> ConnectedMaster<'a> {
         if let Some(e) = elements.iter().find(|e| e.decimation < 1) {
             return Err(MasterError::Settings(format!("element {:?}: decimation must be ≥ 1", e.name)));
         }
-        let width: usize = probes.iter().map(|p| p.2).sum();
+        let width: usize = probes.iter().map(|p| p.count).sum();
         if width != names.len() {
             return Err(MasterError::Settings(format!("{} signal names for {width} recorded numbers", names.len())));
         }
-        Ok(Self { elements, connections, probes, names, start, stop, step, ordering })
+        let (staging, inputs) = Self::stage_inputs(elements, connections)?;
+        let scratch = vec![0.0; probes.iter().map(|p| p.len).max().unwrap_or(0)];
+        Ok(Self { elements, connections, staging, inputs, probes, scratch, names, start, stop, step, ordering })
+    }
+
+    /// One staged input per input variable fed with numbers, starting from its start values.
+    fn stage_inputs(
+        elements: &[Element],
+        connections: &[Connection],
+    ) -> Result<(Vec<Option<usize>>, Vec<StagedInput>), MasterError> {
+        let mut inputs: Vec<StagedInput> = Vec::new();
+        let mut staging = Vec::with_capacity(connections.len());
+        for c in connections {
+            let (from, to) = (c.from, c.to);
+            if !matches!(c.value, Carried::Numbers(_)) {
+                staging.push(None);
+                continue;
+            }
+            let fits = |p: Port| p.count >= 1 && p.offset + p.count <= p.len;
+            if from.count != to.count || !fits(from) || !fits(to) {
+                return Err(MasterError::Settings(format!(
+                    "a connection of {} element(s) at {} of {} into {} element(s) at {} of {}",
+                    from.count, from.offset, from.len, to.count, to.offset, to.len
+                )));
+            }
+            let at = inputs.iter().position(|i| (i.element, i.value_reference) == (to.element, to.value_reference));
+            let at = at.unwrap_or_else(|| {
+                let start = lash_core::subsystem::variable(elements[to.element].model.variables(), to.value_reference)
+                    .map(|v| v.start.clone())
+                    .filter(|s| s.len() == to.len)
+                    .unwrap_or_else(|| vec![0.0; to.len]);
+                inputs.push(StagedInput { element: to.element, value_reference: to.value_reference, values: start });
+                inputs.len() - 1
+            });
+            staging.push(Some(at));
+        }
+        Ok((staging, inputs))
+    }
+
+    /// Sets the value an input fed element by element holds where no connection writes (the
+    /// value the system gave it); `false` when the input is not staged.
+    pub fn preset_input(&mut self, element: usize, value_reference: ValueReference, values: &[f64]) -> bool {
+        match self.inputs.iter_mut().find(|i| (i.element, i.value_reference) == (element, value_reference)) {
+            Some(staged) if staged.values.len() == values.len() => {
+                staged.values.copy_from_slice(values);
+                true
+            }
+            _ => false,
+        }
     }
 
     fn fail(&self, k: usize, t: Ticks, source: SubsystemError) -> MasterError {
@@ -109,17 +202,23 @@ impl<'a> ConnectedMaster<'a> {
     fn gather(&mut self, only_to: Option<usize>, t: Ticks) -> Result<(), MasterError> {
         for c in 0..self.connections.len() {
             let (from, to) = (self.connections[c].from, self.connections[c].to);
-            if only_to.is_some_and(|k| k != to.0) {
+            if only_to.is_some_and(|k| k != to.element) {
                 continue;
             }
-            let source = &self.elements[from.0].model;
+            let source = &self.elements[from.element].model;
+            let vr = from.value_reference;
             let result = match &mut self.connections[c].value {
-                Carried::Text(text) => source.get_string(from.1).map(|s| *text = s),
-                Carried::Bytes(bytes) => source.get_binary(from.1).map(|b| *bytes = b),
-                Carried::Numbers(buffer) => source.get_f64(&[from.1], buffer),
+                Carried::Text(text) => source.get_string(vr).map(|s| *text = s),
+                Carried::Bytes(bytes) => source.get_binary(vr).map(|b| *bytes = b),
+                Carried::Numbers(buffer) => source.get_f64(&[vr], buffer).map(|()| {
+                    if let Some(i) = self.staging[c] {
+                        let carried = &buffer[from.offset..from.offset + from.count];
+                        self.inputs[i].values[to.offset..to.offset + to.count].copy_from_slice(carried);
+                    }
+                }),
             };
             if let Err(e) = result {
-                return Err(self.fail(from.0, t, e));
+                return Err(self.fail(from.element, t, e));
             }
         }
         Ok(())
@@ -129,16 +228,21 @@ impl<'a> ConnectedMaster<'a> {
     fn scatter(&mut self, k: usize, t: Ticks) -> Result<(), MasterError> {
         for c in 0..self.connections.len() {
             let to = self.connections[c].to;
-            if to.0 != k {
+            if to.element != k {
                 continue;
             }
             let target = &mut self.elements[k].model;
             let result = match &self.connections[c].value {
-                Carried::Text(text) => target.set_string(to.1, text),
-                Carried::Bytes(bytes) => target.set_binary(to.1, bytes),
-                Carried::Numbers(buffer) => target.set_f64(&[to.1], buffer),
+                Carried::Text(text) => target.set_string(to.value_reference, text),
+                Carried::Bytes(bytes) => target.set_binary(to.value_reference, bytes),
+                Carried::Numbers(_) => Ok(()),
             };
             if let Err(e) = result {
+                return Err(self.fail(k, t, e));
+            }
+        }
+        for input in self.inputs.iter().filter(|i| i.element == k) {
+            if let Err(e) = self.elements[k].model.set_f64(&[input.value_reference], &input.values) {
                 return Err(self.fail(k, t, e));
             }
         }
@@ -146,13 +250,22 @@ impl<'a> ConnectedMaster<'a> {
     }
 
     /// Reads the probes into `row`.
-    fn read(&self, t: Ticks, row: &mut [f64]) -> Result<(), MasterError> {
+    fn read(&mut self, t: Ticks, row: &mut [f64]) -> Result<(), MasterError> {
         let mut at = 0;
-        for &(k, vr, len) in &self.probes {
-            if let Err(e) = self.elements[k].model.get_f64(&[vr], &mut row[at..at + len]) {
-                return Err(self.fail(k, t, e));
+        for p in &self.probes {
+            let model = &self.elements[p.element].model;
+            let result = if p.is_whole() {
+                model.get_f64(&[p.value_reference], &mut row[at..at + p.count])
+            } else {
+                let whole = &mut self.scratch[..p.len];
+                model.get_f64(&[p.value_reference], whole).map(|()| {
+                    row[at..at + p.count].copy_from_slice(&whole[p.offset..p.offset + p.count]);
+                })
+            };
+            if let Err(e) = result {
+                return Err(self.fail(p.element, t, e));
             }
-            at += len;
+            at += p.count;
         }
         Ok(())
     }
@@ -351,13 +464,13 @@ mod tests {
         ];
         // u₀ = x₁, u₁ = x₀.
         let mut connections = vec![
-            Connection { from: (1, 1), to: (0, 0), value: Carried::Numbers(vec![0.0]) },
-            Connection { from: (0, 1), to: (1, 0), value: Carried::Numbers(vec![0.0]) },
+            Connection { from: Port::whole(1, 1, 1), to: Port::whole(0, 0, 1), value: Carried::Numbers(vec![0.0]) },
+            Connection { from: Port::whole(0, 1, 1), to: Port::whole(1, 0, 1), value: Carried::Numbers(vec![0.0]) },
         ];
         let mut master = ConnectedMaster::new(
             &mut elements,
             &mut connections,
-            vec![(0, 1, 1), (1, 1, 1)],
+            vec![Port::whole(0, 1, 1), Port::whole(1, 1, 1)],
             vec!["first.x".into(), "second.x".into()],
             Ticks::ZERO,
             Ticks(h.0 * 4),

@@ -43,7 +43,7 @@
 
 pub mod connected;
 
-pub use connected::{Carried, ConnectedMaster, Connection, Element, Ordering, Probe};
+pub use connected::{Carried, ConnectedMaster, Connection, Element, Ordering, Port};
 
 use crossbeam_channel::bounded;
 use lash_core::{Causality, Coupling, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};

@@ -415,7 +415,7 @@ impl DataWriter {
             let mut out = std::io::BufWriter::new(f);
             let header: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
             use std::io::Write;
-            writeln!(out, "{}", header.join(",")).map_err(|e| e.to_string())?;
+            writeln!(out, "{}", lash_core::csv_header(&header)).map_err(|e| e.to_string())?;
             Some(out)
         } else {
             None

@@ -4,9 +4,14 @@
 //! What is read: the system's components (`ssd:Component` with `source`, FMUs; a source ending in
 //! `.so` is a lash plugin), connections between component connectors, parameter bindings (inline
 //! `ssv:ParameterValues` or a `source` `.ssv` file: Real, Integer, Enumeration, Boolean and String values), and the default experiment's
-//! start and stop times. SSP has no communication step of its own: lash reads it from an
-//! `ssd:Annotation type="org.lash"` element `<lash:Step value="…"/>`, else from
-//! `DefaultExperiment`'s `lash:step` attribute, else the caller gives it.
+//! start and stop times (a file without a stop time takes the caller's horizon). SSP has no
+//! communication step of its own: lash reads it from an `ssd:Annotation type="org.lash"` element
+//! `<lash:Step value="…"/>`, else from `DefaultExperiment`'s `lash:step` attribute, else from the
+//! Open Simulation Platform's `<osp:FixedStepMaster stepSize="…"/>` (libcosim's annotation), else
+//! the caller gives it.
+//!
+//! Connectors name FMI variables exactly as their `modelDescription.xml` spells them; an FMI 2.0
+//! array element (`p_Crane.e[1]`) is one element of the array lash regroups.
 
 use crate::spec::{ConnectionSpec, ElementSpec, OutputSpec, ParameterValue, SystemSpec};
 use quick_xml::events::{BytesStart, Event};
@@ -69,29 +74,45 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, ParameterValue>, String> 
     Ok(out)
 }
 
+/// What the caller gives where the file is silent.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Fallback {
+    /// Communication step [s] when the file gives none.
+    pub step: Option<f64>,
+    /// Horizon [s] (stop − start) when the file has no stop time.
+    pub horizon: Option<f64>,
+}
+
 /// Reads an `.ssd` file (component sources and `.ssv` files relative to its folder), or an `.ssp`
-/// archive (unpacked under `cache`). `step` is used when the file does not give one.
-pub fn load(path: &Path, cache: &Path, step: Option<f64>) -> Result<(SystemSpec, PathBuf), String> {
+/// archive (unpacked under `cache`, confined and within the FMU archive limits).
+pub fn load(path: &Path, cache: &Path, fallback: Fallback) -> Result<(SystemSpec, PathBuf), String> {
     let (ssd, base) = if path.extension().is_some_and(|e| e == "ssp") {
+        // Untrusted like an FMU: confined to its folder, within the same limits.
+        let err = |m: String| format!("{}: {m}", path.display());
+        let limits = lash_fmi::archive::UnpackLimits::from_env().map_err(err)?;
+        let size = std::fs::metadata(path).map_err(|e| err(e.to_string()))?.len();
+        if size > limits.max_archive_bytes {
+            return Err(err(format!("{size} bytes, more than the {} an archive may have", limits.max_archive_bytes)));
+        }
+        let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
         let dir = cache.join(format!("ssp-{}", std::process::id()));
-        let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut archive =
-            zip::ZipArchive::new(file).map_err(|e| format!("{}: not a zip archive ({e})", path.display()))?;
-        archive.extract(&dir).map_err(|e| format!("{}: cannot unpack ({e})", path.display()))?;
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).map_err(|e| err(format!("{}: {e}", dir.display())))?;
+        lash_fmi::archive::unpack_archive_into(&bytes, &dir, &limits, "SystemStructure.ssd").map_err(err)?;
         (dir.join("SystemStructure.ssd"), dir)
     } else {
         (path.to_path_buf(), path.parent().unwrap_or(Path::new(".")).to_path_buf())
     };
     let xml = std::fs::read_to_string(&ssd).map_err(|e| format!("{}: {e}", ssd.display()))?;
-    let spec = parse_ssd(&xml, &base, step).map_err(|m| format!("{}: {m}", ssd.display()))?;
+    let spec = parse_ssd(&xml, &base, fallback).map_err(|m| format!("{}: {m}", ssd.display()))?;
     Ok((spec, base))
 }
 
 /// Parses the text of an `.ssd`.
-pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec, String> {
+pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpec, String> {
     let mut reader = quick_xml::Reader::from_str(xml);
     let mut name = String::from("system");
-    let (mut start, mut stop, mut file_step) = (0.0, None, None);
+    let (mut start, mut stop, mut file_step, mut osp_step) = (0.0, None, None, None);
     let mut elements: Vec<ElementSpec> = Vec::new();
     let mut connections = Vec::new();
     let mut in_component: Option<usize> = None;
@@ -152,6 +173,7 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
                 }
             }
             "Step" => file_step = number(attr(&e, "value"), "lash:Step value")?,
+            "FixedStepMaster" => osp_step = number(attr(&e, "stepSize"), "osp:FixedStepMaster stepSize")?,
             "Component" => {
                 let cname = attr(&e, "name").ok_or("a Component without a name")?;
                 let source = attr(&e, "source").ok_or_else(|| format!("component {cname:?}: no source"))?;
@@ -196,9 +218,12 @@ pub fn parse_ssd(xml: &str, base: &Path, step: Option<f64>) -> Result<SystemSpec
             _ => {}
         }
     }
-    let stop = stop.ok_or("no DefaultExperiment stopTime")?;
+    let stop = stop
+        .or(fallback.horizon.map(|h| start + h))
+        .ok_or("no DefaultExperiment stopTime: add one, or pass --horizon")?;
     let step = file_step
-        .or(step)
+        .or(osp_step)
+        .or(fallback.step)
         .ok_or("no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step")?;
     Ok(SystemSpec {
         name,

@@ -4,7 +4,7 @@ use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
 use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueKind, ValueReference, Variable};
 use lash_orchestrate::{
     Algorithm as _, Carried, ConnectedMaster, Connection, Element, InterfaceMaster, MasterError, MasterOptions,
-    Observer, Ordering, Signal,
+    Observer, Ordering, Port, Signal,
 };
 use std::path::Path;
 
@@ -101,7 +101,7 @@ pub struct System {
     step: Ticks,
     algorithm: Algorithm,
     output_every: i64,
-    channels: Vec<(usize, ValueReference, usize)>,
+    channels: Vec<Port>,
     header: Vec<String>,
     interface: Option<InterfacePlan>,
 }
@@ -267,19 +267,11 @@ impl System {
                 if names.contains(pname) {
                     continue;
                 }
-                let v = find(model.variables(), pname).ok_or_else(|| {
-                    let names: Vec<&str> = model
-                        .variables()
-                        .iter()
-                        .filter(|v| {
-                            matches!(
-                                v.causality,
-                                Causality::Parameter | Causality::Input | Causality::StructuralParameter
-                            )
-                        })
-                        .map(|v| v.name.as_str())
-                        .collect();
-                    bad(format!("{field}.parameters.{pname}: no such parameter (parameters and inputs: {names:?})"))
+                let (v, port) = resolve(model.variables(), pname, k).ok_or_else(|| {
+                    let settable = [Causality::Parameter, Causality::Input, Causality::StructuralParameter];
+                    let names = element_names(model.variables(), &settable);
+                    let hint = lash_core::did_you_mean(pname, names.iter().map(String::as_str));
+                    bad(format!("{field}.parameters.{pname}: no such parameter or input ({hint})"))
                 })?;
                 let text = match value {
                     crate::spec::ParameterValue::Text(t) => Some(t.clone()),
@@ -306,15 +298,21 @@ impl System {
                         )));
                     }
                     (kind, Some(values)) => {
-                        if values.len() != v.len() {
+                        if values.len() != port.count {
                             return Err(bad(format!(
                                 "{field}.parameters.{pname}: {} value(s) for {} element(s)",
                                 values.len(),
-                                v.len()
+                                port.count
                             )));
                         }
                         if let Some(problem) = values.iter().find_map(|&x| kind.check(x).err()) {
                             return Err(bad(format!("{field}.parameters.{pname}: {problem}")));
+                        }
+                        if port.count != port.len {
+                            // One element: the array is set whole, from its start values and the
+                            // other elements this system gives.
+                            set_element(&mut parameters, v, port.offset, values[0]);
+                            continue;
                         }
                         Setting::Numbers(values)
                     }
@@ -324,27 +322,20 @@ impl System {
             elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation) });
             element_parameters.push(parameters);
         }
-        let lookup = |field: &str,
-                      name: &str,
-                      want: &[Causality]|
-         -> Result<(usize, ValueReference, usize, ValueKind), SystemError> {
+        let lookup = |field: &str, name: &str, want: &[Causality]| -> Result<(Port, ValueKind), SystemError> {
             let (el, var) = split(field, name)?;
             let k =
                 elements.iter().position(|e| e.name == el).ok_or_else(|| bad(format!("{field}: no element {el:?}")))?;
-            let v = find(elements[k].model.variables(), var).ok_or_else(|| {
-                let names: Vec<&str> = elements[k]
-                    .model
-                    .variables()
-                    .iter()
-                    .filter(|v| want.contains(&v.causality))
-                    .map(|v| v.name.as_str())
-                    .collect();
-                bad(format!("{field}: element {el:?} has no variable {var:?} (candidates: {names:?})"))
+            let variables = elements[k].model.variables();
+            let (v, port) = resolve(variables, var, k).ok_or_else(|| {
+                let names = element_names(variables, want);
+                let hint = lash_core::did_you_mean(var, names.iter().map(String::as_str));
+                bad(format!("{field}: element {el:?} has no variable {var:?} ({hint})"))
             })?;
             if !want.contains(&v.causality) {
                 return Err(bad(format!("{field}: {name} is {:?}, expected {want:?}", v.causality)));
             }
-            Ok((k, v.value_reference, v.len(), v.kind))
+            Ok((port, v.kind))
         };
         if spec.algorithm == Algorithm::Interface {
             let plan = interface_plan(spec, &elements, start, stop, step, interval)?;
@@ -378,20 +369,21 @@ impl System {
         }
         let mut connections = Vec::new();
         for (k, c) in spec.connections.iter().enumerate() {
-            let from = lookup(&format!("connections[{k}].from"), &c.from, &[Causality::Output, Causality::Local])?;
-            let to = lookup(&format!("connections[{k}].to"), &c.to, &[Causality::Input])?;
-            if from.2 != to.2 {
+            let (from, from_kind) =
+                lookup(&format!("connections[{k}].from"), &c.from, &[Causality::Output, Causality::Local])?;
+            let (to, to_kind) = lookup(&format!("connections[{k}].to"), &c.to, &[Causality::Input])?;
+            if from.count != to.count {
                 return Err(bad(format!(
                     "connections[{k}]: {} has {} element(s), {} has {}",
-                    c.from, from.2, c.to, to.2
+                    c.from, from.count, c.to, to.count
                 )));
             }
             // Numbers connect across numeric kinds (the value passes as f64 and must fit the
             // input's kind when set); Strings connect to Strings; Binary and Clock not at all.
-            let value = match (from.3, to.3) {
-                (a, b) if a.is_numeric() && b.is_numeric() => Carried::Numbers(vec![0.0; from.2]),
-                (ValueKind::String, ValueKind::String) if from.2 == 1 => Carried::Text(String::new()),
-                (ValueKind::Binary, ValueKind::Binary) if from.2 == 1 => Carried::Bytes(Vec::new()),
+            let value = match (from_kind, to_kind) {
+                (a, b) if a.is_numeric() && b.is_numeric() => Carried::Numbers(vec![0.0; from.len]),
+                (ValueKind::String, ValueKind::String) if from.len == 1 => Carried::Text(String::new()),
+                (ValueKind::Binary, ValueKind::Binary) if from.len == 1 => Carried::Bytes(Vec::new()),
                 (a, b) => {
                     return Err(bad(format!(
                         "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers, String scalars to String scalars and Binary scalars to Binary scalars",
@@ -402,21 +394,25 @@ impl System {
                     )));
                 }
             };
-            if connections.iter().any(|x: &Connection| x.to == (to.0, to.1)) {
+            let overlaps = |x: &Connection| {
+                (x.to.element, x.to.value_reference) == (to.element, to.value_reference)
+                    && x.to.offset < to.offset + to.count
+                    && to.offset < x.to.offset + x.to.count
+            };
+            if connections.iter().any(overlaps) {
                 return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
             }
-            connections.push(Connection { from: (from.0, from.1), to: (to.0, to.1), value });
+            connections.push(Connection { from, to, value });
         }
         let mut channels = Vec::new();
         let mut header = vec!["time [s]".to_string()];
-        let mut add = |k: usize, v: &Variable, header: &mut Vec<String>| {
-            let name = format!("{}.{}", elements[k].name, v.name);
-            if v.len() == 1 && v.shape.is_empty() {
-                header.push(format!("{name} [{}]", v.unit));
-            } else {
-                header.extend((0..v.len()).map(|i| format!("{name}[{i}] [{}]", v.unit)));
-            }
-            channels.push((k, v.value_reference, v.len()));
+        let mut add = |port: Port, v: &Variable, header: &mut Vec<String>| {
+            let element = &elements[port.element].name;
+            header.extend(
+                (port.offset..port.offset + port.count)
+                    .map(|i| format!("{element}.{} [{}]", v.element_name(i), v.unit)),
+            );
+            channels.push(port);
         };
         if spec.output.channels.is_empty() {
             // Every numeric output (String, Binary and Clock outputs are not recorded).
@@ -427,13 +423,13 @@ impl System {
                     .iter()
                     .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
                 {
-                    add(k, v, &mut header);
+                    add(Port::whole(k, v.value_reference, v.len()), v, &mut header);
                 }
             }
         } else {
             for (i, name) in spec.output.channels.iter().enumerate() {
                 let field = format!("output.channels[{i}]");
-                let (k, vr, _, kind) = lookup(
+                let (port, kind) = lookup(
                     &field,
                     name,
                     &[Causality::Output, Causality::Local, Causality::Parameter, Causality::Input],
@@ -444,11 +440,18 @@ impl System {
                         kind.name()
                     )));
                 }
-                let v = lash_core::subsystem::variable(elements[k].model.variables(), vr)
-                    .ok_or_else(|| bad(format!("{field}: {name} has no variable for value reference {vr}")))?
+                let v = lash_core::subsystem::variable(elements[port.element].model.variables(), port.value_reference)
+                    .ok_or_else(|| {
+                        bad(format!("{field}: {name} has no variable for value reference {}", port.value_reference))
+                    })?
                     .clone();
-                add(k, &v, &mut header);
+                add(port, &v, &mut header);
             }
+        }
+        if let Some(twice) = header.iter().enumerate().find_map(|(i, h)| header[..i].contains(h).then_some(h)) {
+            return Err(bad(format!(
+                "output: column {twice:?} would be written twice (a variable is named like another's element)"
+            )));
         }
         Ok(Self {
             name: spec.name.clone(),
@@ -553,6 +556,14 @@ impl System {
                 ordering,
             )
             .map_err(|e| SystemError::Input(e.to_string()))?;
+            // An input fed element by element keeps the value the system gave it elsewhere.
+            for (k, parameters) in self.parameters.iter().enumerate() {
+                for (vr, _, setting) in parameters {
+                    if let Setting::Numbers(values) = setting {
+                        master.preset_input(k, *vr, values);
+                    }
+                }
+            }
             let mut observers: [(&mut dyn Observer, Ticks); 1] = [(&mut rows, Ticks(step.0 * self.output_every))];
             master.run(&mut observers)
         };
@@ -757,4 +768,42 @@ fn interface_plan(
 
 fn find<'a>(variables: &'a [Variable], name: &str) -> Option<&'a Variable> {
     variables.iter().find(|v| v.name == name)
+}
+
+/// The variable `name` of element `k`, whole, or one element of an array spelled
+/// `name[i]`, `name[i,j]` (1-based, see [`Variable::element_name`]).
+fn resolve<'a>(variables: &'a [Variable], name: &str, k: usize) -> Option<(&'a Variable, Port)> {
+    if let Some(v) = find(variables, name) {
+        return Some((v, Port::whole(k, v.value_reference, v.len())));
+    }
+    let (base, index) = lash_core::split_element_name(name)?;
+    let v = find(variables, base)?;
+    let at = v.element_position(&index)?;
+    Some((v, Port::element_of(k, v.value_reference, v.len(), at)))
+}
+
+/// Gives element `at` of array `v` the value `x` among `parameters` (a setting of the whole array,
+/// started from its start values when the system gives none yet).
+fn set_element(parameters: &mut Parameters, v: &Variable, at: usize, x: f64) {
+    let existing = parameters.iter_mut().find(|(vr, _, _)| *vr == v.value_reference);
+    if let Some((_, _, Setting::Numbers(values))) = existing {
+        values[at] = x;
+        return;
+    }
+    let mut values = if v.start.len() == v.len() { v.start.clone() } else { vec![0.0; v.len()] };
+    values[at] = x;
+    parameters.push((v.value_reference, v.name.clone(), Setting::Numbers(values)));
+}
+
+/// Every name [`resolve`] accepts among the variables of these causalities: whole variables and
+/// their elements.
+fn element_names(variables: &[Variable], want: &[Causality]) -> Vec<String> {
+    let mut names = Vec::new();
+    for v in variables.iter().filter(|v| want.contains(&v.causality)) {
+        names.push(v.name.clone());
+        if !v.shape.is_empty() {
+            names.extend((0..v.len()).map(|e| v.element_name(e)));
+        }
+    }
+    names
 }
