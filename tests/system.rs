@@ -1036,7 +1036,7 @@ fn fmu_check_refuses_what_run_refuses_with_the_same_words() {
 }
 
 /// FMI 2.0 names mean one thing: lash's own FMI 2.0 FMUs (arrays written as 1-based scalars
-/// `effective_mass[1,2]`) coupled by Gauss–Seidel, once array to array and once element by element
+/// `effective_mass[1,2]`) coupled by Jacobi, once array to array and once element by element
 /// in a shuffled order, give the same bits; the CSV columns are the FMU's own scalar names; an SSP
 /// whose connectors name the elements and which has no stop time runs with `--horizon` and equals
 /// both; a misspelt element gets a short "did you mean".
@@ -1047,7 +1047,7 @@ fn fmi2_element_names_reach_connections_csv_and_ssp_as_spelled() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let toml = |connections: &str| {
         format!(
-            "name = \"elements\"\nstart = 0.0\nstop = 0.03\nstep = 1e-3\n\n\
+            "name = \"elements\"\nstart = 0.0\nstop = 0.03\nstep = 1e-3\nalgorithm = \"jacobi\"\ninitialization = \"iterated\"\n\n\
              [[elements]]\nname = \"mechanism\"\nfmu = \"lash_mechanism-fmi2.fmu\"\n\n\
              [[elements]]\nname = \"joint\"\nfmu = \"lash_interface-fmi2.fmu\"\n\n{connections}\n\
              [output]\nchannels = [\"joint.contact_force\", \"joint.eccentricity[2]\", \"mechanism.effective_force[1]\"]\n"
@@ -1091,7 +1091,7 @@ fn fmi2_element_names_reach_connections_csv_and_ssp_as_spelled() {
     let force = column(&results[0], "mechanism.effective_force[1]");
     assert!(force.iter().any(|f| f.abs() > 1.0), "the mechanism is loaded: {force:?}");
     // The SSP: the same couplings named by element, no stopTime, the step from libcosim's
-    // annotation.
+    // annotation (which also means Jacobi with iterated initialization, as the TOML files say).
     let connectors: String = elements
         .iter()
         .map(|(f, t)| {
@@ -1155,5 +1155,96 @@ fn an_ssp_archive_is_unpacked_confined() {
     assert!(err.contains("entry \"../escaped.txt\": not a plain relative path"), "{err}");
     let tmp = std::env::temp_dir();
     assert!(!tmp.join("escaped.txt").exists() && !out.join("escaped.txt").exists(), "written outside");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The initial exchange, explained against libcosim (libcosimpy from PyPI): two feedthrough FMUs
+/// in a loop (tests/fmi/feedthrough: y = x + gain u, x = x_start + pull u until initialization
+/// ends), crossed by element. An SSP carrying libcosim's fixed-step annotation runs in lash as in
+/// libcosim (Jacobi, initial values iterated in initialization mode): the initial outputs equal
+/// the iteration worked out by hand, and every later sample equals libcosim's bit for bit. The
+/// same system with lash's ordered initialization starts elsewhere, and its first steps differ.
+/// lash sets parameter values before initialization mode, libcosimpy 0.0.6 in it.
+#[test]
+fn the_initial_exchange_matches_libcosim() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("lash-system-libcosim-{}", std::process::id()));
+    let ssp = out.join("ssp");
+    std::fs::create_dir_all(&ssp).unwrap();
+    let python = fmpy_python();
+    let build = root.join("tests/fmi/feedthrough/build.py");
+    let o = Command::new(&python).arg(&build).arg(ssp.join("feedthrough.fmu")).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ssd = std::fs::read_to_string(root.join("tests/fmi/feedthrough/SystemStructure.ssd")).unwrap();
+    std::fs::write(ssp.join("SystemStructure.ssd"), &ssd).unwrap();
+    let probes = ["a.y[1]", "a.y[2]", "b.y[1]", "b.y[2]"];
+    let script = root.join("tests/fmi/feedthrough/libcosim_run.py");
+    let reference = out.join("libcosim.csv");
+    let mut args: Vec<String> = vec![script.display().to_string(), ssp.display().to_string(), "10".into()];
+    args.extend([reference.display().to_string(), "10000000".into()]);
+    args.extend(probes.iter().map(|p| format!("{p}={}", if p.ends_with("[1]") { 2 } else { 3 })));
+    args.push("b.late_parameters=8".into());
+    let o = Command::new(&python).args(&args).output().unwrap();
+    assert!(o.status.success(), "libcosim: {}", String::from_utf8_lossy(&o.stderr));
+    let libcosim = read_fmpy_csv(&reference);
+    assert_eq!(libcosim.1.len(), 10);
+    let run = |tag: &str, file: &Path| {
+        let dir = out.join(tag);
+        let o = lash(&["run", file.to_str().unwrap(), "--quiet", "--out", dir.to_str().unwrap()]);
+        assert!(o.status.success(), "{tag}: {}", String::from_utf8_lossy(&o.stderr));
+        read_csv(&dir.join("timeseries.csv"))
+    };
+    let iterated = run("ssp", &ssp.join("SystemStructure.ssd"));
+    // lash sets b's three parameter values before initialization mode (where FMI 2.0 puts start
+    // values, as fmpy does); libcosimpy 0.0.6's libcosim sets them in it. This FMU takes either,
+    // so the results agree; one that reads its parameters on entering initialization would not.
+    assert!(column(&iterated, "b.late_parameters").iter().all(|&n| n == 0.0), "lash set parameters late");
+    assert!(column(&libcosim, "b.late_parameters").iter().all(|&n| n == 3.0), "libcosim's parameter timing changed");
+    // By hand: y = x_start + (pull + gain) u in initialization mode; round 1 passes the outputs
+    // at u = 0, round 2 those at the inputs round 1 gave; leaving, x = x_start + pull u.
+    let (a, b) = (([1.0, 2.0], 1.0, 0.5), ([1.0, -0.5], 2.0, 0.25)); // (x_start, pull, gain)
+    let y = |(xs, pull, gain): ([f64; 2], f64, f64), u: [f64; 2]| [0, 1].map(|i| xs[i] + (pull + gain) * u[i]);
+    let (mut ua, mut ub) = ([0.0; 2], [0.0; 2]);
+    for _ in 0..2 {
+        let (ya, yb) = (y(a, ua), y(b, ub));
+        (ua, ub) = ([yb[0], yb[1]], [ya[1], ya[0]]);
+    }
+    let start = |(xs, pull, gain): ([f64; 2], f64, f64), u: [f64; 2]| [0, 1].map(|i| xs[i] + pull * u[i] + gain * u[i]);
+    let expected = [start(a, ua), start(b, ub)].concat();
+    let at = |csv: &(Vec<String>, Vec<Vec<f64>>), k: usize| probes.map(|p| column(csv, p)[k]);
+    assert_eq!(at(&iterated, 0).to_vec(), expected, "the iterated initial outputs");
+    for k in 0..10 {
+        let theirs = probes.map(|p| column(&libcosim, p)[k]);
+        assert_eq!(
+            at(&iterated, k + 1).map(f64::to_bits),
+            theirs.map(f64::to_bits),
+            "t = {}: lash vs libcosim",
+            (k + 1) as f64 * 0.01
+        );
+    }
+    // The same system as a TOML file: Jacobi with iterated initialization equals the SSP run;
+    // with ordered initialization (lash's default) it starts elsewhere and the first step differs.
+    let toml = |initialization: &str| {
+        format!(
+            "name = \"loop\"\nstart = 0.0\nstop = 0.1\nstep = 0.01\nalgorithm = \"jacobi\"\ninitialization = \"{initialization}\"\n\n\
+             [[elements]]\nname = \"a\"\nfmu = \"feedthrough.fmu\"\n\n\
+             [[elements]]\nname = \"b\"\nfmu = \"feedthrough.fmu\"\n\
+             [elements.parameters]\ngain = 0.25\npull = 2.0\n\"x_start[2]\" = -0.5\n\n{}",
+            [("a.y[1]", "b.u[2]"), ("a.y[2]", "b.u[1]"), ("b.y[1]", "a.u[1]"), ("b.y[2]", "a.u[2]")]
+                .map(|(f, t)| format!("[[connections]]\nfrom = \"{f}\"\nto = \"{t}\"\n"))
+                .concat()
+        )
+    };
+    for initialization in ["iterated", "ordered"] {
+        let file = ssp.join(format!("{initialization}.toml"));
+        std::fs::write(&file, toml(initialization)).unwrap();
+        let csv = run(initialization, &file);
+        let same = (0..11).all(|k| at(&csv, k).map(f64::to_bits) == at(&iterated, k).map(f64::to_bits));
+        assert_eq!(same, initialization == "iterated", "{initialization}");
+        if initialization == "ordered" {
+            assert_ne!(at(&csv, 0), at(&iterated, 0), "the initial values differ");
+            assert_ne!(at(&csv, 1), probes.map(|p| column(&libcosim, p)[0]), "so does the first step");
+        }
+    }
     let _ = std::fs::remove_dir_all(&out);
 }

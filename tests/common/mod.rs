@@ -24,8 +24,8 @@ pub fn column(header: &[String], name: &str) -> usize {
     header.iter().position(|h| h.starts_with(&format!("{name} ["))).unwrap_or_else(|| panic!("no column {name}"))
 }
 
-/// The Python of target/fmpy-venv with fmpy 0.3.32 and pythonfmu 0.7.0 from PyPI, made on first
-/// use. Tests of one binary run in parallel threads: one makes it, the others wait.
+/// The Python of target/fmpy-venv with fmpy 0.3.32, pythonfmu 0.7.0 and libcosimpy 0.0.6 (the
+/// Open Simulation Platform's libcosim) from PyPI, made on first use. Tests of one binary run in parallel threads: one makes it, the others wait.
 pub fn fmpy_python() -> std::path::PathBuf {
     use std::process::Command;
     static MADE: std::sync::Mutex<()> = std::sync::Mutex::new(());
@@ -38,13 +38,13 @@ pub fn fmpy_python() -> std::path::PathBuf {
     }
     let has =
         |m: &str| Command::new(&python).args(["-c", &format!("import {m}")]).output().is_ok_and(|o| o.status.success());
-    if !has("fmpy") || !has("pythonfmu") {
+    if !has("fmpy") || !has("pythonfmu") || !has("libcosimpy") {
         let ok = Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32", "pythonfmu==0.7.0"])
+            .args(["-m", "pip", "install", "--quiet", "fmpy==0.3.32", "pythonfmu==0.7.0", "libcosimpy==0.0.6"])
             .status()
             .expect("pip")
             .success();
-        assert!(ok, "installing fmpy and pythonfmu from PyPI into {}", venv.display());
+        assert!(ok, "installing fmpy, pythonfmu and libcosimpy from PyPI into {}", venv.display());
     }
     python
 }

@@ -738,6 +738,12 @@ pub struct ImportedFmu {
     instance: *mut c_void,
     log: Box<Log>,
     time: Ticks,
+    /// The experiment set up and not yet begun: initialization mode is entered on the first call
+    /// that needs it, so every parameter value set after [`Subsystem::setup`] reaches the FMU in
+    /// its Instantiated state (where FMI puts start values, and where fmpy and libcosim set them).
+    experiment: Mutex<Option<(Ticks, Option<Ticks>)>>,
+    /// Initialization mode has been entered (the per-call check, without the lock).
+    begun: std::sync::atomic::AtomicBool,
     /// The FMU archive (or plugin library) it came from, named in every error.
     origin: PathBuf,
     /// Accessors of every type.
@@ -1068,6 +1074,8 @@ impl ImportedFmu {
             instance,
             log,
             time: Ticks::ZERO,
+            experiment: Mutex::new(None),
+            begun: std::sync::atomic::AtomicBool::new(false),
             origin: lib_path.to_path_buf(),
             typed,
             all_float64,
@@ -1090,6 +1098,31 @@ impl ImportedFmu {
     /// The FMI version imported ("3.0", "2.0").
     pub fn fmi_version(&self) -> &str {
         &self.description.fmi_version
+    }
+
+    /// Enters initialization mode once the experiment is set up, if it has not been entered yet.
+    fn enter_initialization(&self) -> Result<(), SubsystemError> {
+        use std::sync::atomic::Ordering::Relaxed;
+        if self.begun.load(Relaxed) {
+            return Ok(());
+        }
+        let Some((start, stop)) = self.experiment.lock().unwrap_or_else(|e| e.into_inner()).take() else {
+            return Ok(());
+        };
+        self.begun.store(true, Relaxed);
+        let (has_stop, stop) = (stop.is_some(), stop.map_or(0.0, Ticks::seconds));
+        match &self.api {
+            Api::V3 { functions: f, .. } => {
+                // SAFETY: a live instance.
+                let s = unsafe { (f.enter_init)(self.instance, false, 0.0, start.seconds(), has_stop, stop) };
+                self.check("fmi3EnterInitializationMode", s)
+            }
+            Api::V2 { functions: f, .. } => {
+                // SAFETY: a live instance.
+                let s = unsafe { (f.enter_init)(self.instance) };
+                self.check("fmi2EnterInitializationMode", s)
+            }
+        }
     }
 
     fn check(&self, call: &str, status: i32) -> Result<(), SubsystemError> {
@@ -1206,6 +1239,7 @@ impl ImportedFmu {
     /// Reads variables of any numeric kind, one typed call each (the path of FMUs that are not
     /// all Float64).
     fn get_numeric(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        self.enter_initialization()?;
         let poisoned = || SubsystemError::Other("importer scratch poisoned".into());
         let mut vrs = self.vr_scratch.lock().map_err(|_| poisoned())?;
         let mut bytes = self.bytes.lock().map_err(|_| poisoned())?;
@@ -1393,27 +1427,22 @@ impl Subsystem for ImportedFmu {
         &self.description.variables
     }
 
+    /// FMI 2.0: `fmi2SetupExperiment`. Initialization mode is entered later, by the first call
+    /// that needs it (see `enter_initialization`).
     fn setup(&mut self, start: Ticks, stop: Option<Ticks>) -> Result<(), SubsystemError> {
         self.time = start;
-        let (has_stop, stop) = (stop.is_some(), stop.map_or(0.0, Ticks::seconds));
-        match &self.api {
-            Api::V3 { functions: f, .. } => {
-                // SAFETY: a live instance.
-                let s = unsafe { (f.enter_init)(self.instance, false, 0.0, start.seconds(), has_stop, stop) };
-                self.check("fmi3EnterInitializationMode", s)
-            }
-            Api::V2 { functions: f, .. } => {
-                // SAFETY: a live instance.
-                let s = unsafe { (f.setup)(self.instance, 0, 0.0, start.seconds(), i32::from(has_stop), stop) };
-                self.check("fmi2SetupExperiment", s)?;
-                // SAFETY: a live instance.
-                let s = unsafe { (f.enter_init)(self.instance) };
-                self.check("fmi2EnterInitializationMode", s)
-            }
+        if let Api::V2 { functions: f, .. } = &self.api {
+            let (has_stop, stop) = (stop.is_some(), stop.map_or(0.0, Ticks::seconds));
+            // SAFETY: a live instance.
+            let s = unsafe { (f.setup)(self.instance, 0, 0.0, start.seconds(), i32::from(has_stop), stop) };
+            self.check("fmi2SetupExperiment", s)?;
         }
+        *self.experiment.lock().unwrap_or_else(|e| e.into_inner()) = Some((start, stop));
+        Ok(())
     }
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
+        self.enter_initialization()?;
         let (exit, call) = match &self.api {
             Api::V3 { functions: f, .. } => (f.exit_init, "fmi3ExitInitializationMode"),
             Api::V2 { functions, .. } => (functions.exit_init, "fmi2ExitInitializationMode"),
@@ -1448,6 +1477,7 @@ impl Subsystem for ImportedFmu {
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        self.enter_initialization()?;
         if !self.only_float64(refs) {
             return self.get_numeric(refs, values);
         }
@@ -1534,6 +1564,7 @@ impl Subsystem for ImportedFmu {
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
+        self.enter_initialization()?;
         let (get_state, call) = match &self.api {
             Api::V3 { functions: f, .. } => (f.get_state, "fmi3GetFMUState"),
             Api::V2 { functions, .. } => (functions.get_state, "fmi2GetFMUstate"),
@@ -1620,6 +1651,7 @@ impl Subsystem for ImportedFmu {
     }
 
     fn get_string(&self, vr: ValueReference) -> Result<String, SubsystemError> {
+        self.enter_initialization()?;
         let native = self.string_ref(vr)?;
         let (call, get) = self.typed.get(ValueKind::String)?;
         let mut text: *const c_char = std::ptr::null();
@@ -1657,6 +1689,7 @@ impl Subsystem for ImportedFmu {
     }
 
     fn get_binary(&self, vr: ValueReference) -> Result<Vec<u8>, SubsystemError> {
+        self.enter_initialization()?;
         let native = self.binary_ref(vr)?;
         let (get, _) =
             self.binary.ok_or_else(|| SubsystemError::Other(format!("{}: the FMU has no fmi3GetBinary", self.name)))?;

@@ -22,6 +22,21 @@ pub enum Ordering {
     Jacobi,
 }
 
+/// How the elements reach their initial values before the first step (both in the elements'
+/// FMI initialization mode).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Initialization {
+    /// In order: each element reads its inputs' sources (those before it already initialised,
+    /// those after it still at their start values) and leaves initialization mode. Exact for an
+    /// acyclic system written sources first.
+    #[default]
+    Ordered,
+    /// As libcosim's fixed-step master does: all elements stay in initialization mode while
+    /// inputs are set and outputs read, as many rounds as there are elements (so a value passes
+    /// along a chain of any order, and a loop is iterated that often), then all leave it together.
+    Iterated,
+}
+
 /// An element of a connected execution.
 pub struct Element {
     /// Unique name (errors and stop reports name it).
@@ -112,6 +127,7 @@ pub struct ConnectedMaster<'a> {
     stop: Ticks,
     step: Ticks,
     ordering: Ordering,
+    initialization: Initialization,
 }
 
 impl<'a> ConnectedMaster<'a> {
@@ -145,7 +161,51 @@ impl<'a> ConnectedMaster<'a> {
         }
         let (staging, inputs) = Self::stage_inputs(elements, connections)?;
         let scratch = vec![0.0; probes.iter().map(|p| p.len).max().unwrap_or(0)];
-        Ok(Self { elements, connections, staging, inputs, probes, scratch, names, start, stop, step, ordering })
+        let initialization = Initialization::default();
+        Ok(Self {
+            elements,
+            connections,
+            staging,
+            inputs,
+            probes,
+            scratch,
+            names,
+            start,
+            stop,
+            step,
+            ordering,
+            initialization,
+        })
+    }
+
+    /// The same master, reaching its initial values as `initialization` says.
+    pub fn with_initialization(mut self, initialization: Initialization) -> Self {
+        self.initialization = initialization;
+        self
+    }
+
+    /// Leaves every element's initialization mode with the inputs its sources give (see
+    /// [`Initialization`]).
+    fn initialize(&mut self) -> Result<(), MasterError> {
+        let start = self.start;
+        if self.initialization == Initialization::Iterated {
+            for _ in 0..self.elements.len() {
+                for k in 0..self.elements.len() {
+                    self.scatter(k, start)?;
+                }
+                self.gather(None, start)?;
+            }
+        }
+        for k in 0..self.elements.len() {
+            if self.initialization == Initialization::Ordered {
+                self.gather(Some(k), start)?;
+            }
+            self.scatter(k, start)?;
+            if let Err(source) = self.elements[k].model.initialize() {
+                return Err(MasterError::Initialization { element: k, name: self.elements[k].name.clone(), source });
+            }
+        }
+        Ok(())
     }
 
     /// One staged input per input variable fed with numbers, starting from its start values.
@@ -276,8 +336,8 @@ impl Algorithm for ConnectedMaster<'_> {
         self.names.clone()
     }
 
-    /// Initialises the elements in order (each after its inputs' sources), then steps to the
-    /// stop time. Observers are called at the start and at their intervals (whole multiples of
+    /// Initialises the elements (see [`Initialization`]), then steps to the stop time.
+    /// Observers are called at the start and at their intervals (whole multiples of
     /// the step); when an element ends the run early, every observer also gets the last
     /// communication point all elements completed.
     fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
@@ -295,13 +355,7 @@ impl Algorithm for ConnectedMaster<'_> {
                 }
             }
         }
-        for k in 0..self.elements.len() {
-            self.gather(Some(k), start)?;
-            self.scatter(k, start)?;
-            if let Err(source) = self.elements[k].model.initialize() {
-                return Err(MasterError::Initialization { element: k, name: self.elements[k].name.clone(), source });
-            }
-        }
+        self.initialize()?;
         let mut row = vec![0.0; self.names.len()];
         self.read(start, &mut row)?;
         for (obs, _) in observers.iter_mut() {
@@ -392,13 +446,25 @@ mod tests {
         u: f64,
         t: Ticks,
         stop_at: Option<StopAt>,
+        /// Takes its input into its initial state (x += u when leaving initialization), and its
+        /// output feeds it through until then (x + u).
+        pull: bool,
+        initialized: bool,
     }
 
     fn euler(x0: f64) -> Euler {
         let mut table = VariableTable::new();
         table.add("u", Causality::Input, Variability::Continuous, "1", "rate", &[], &[0.0]);
         table.add("x", Causality::Output, Variability::Continuous, "1", "state", &[], &[0.0]);
-        Euler { variables: table.into_variables(), x: x0, u: 0.0, t: Ticks::ZERO, stop_at: None }
+        Euler {
+            variables: table.into_variables(),
+            x: x0,
+            u: 0.0,
+            t: Ticks::ZERO,
+            stop_at: None,
+            pull: false,
+            initialized: false,
+        }
     }
 
     impl Subsystem for Euler {
@@ -413,6 +479,10 @@ mod tests {
             Ok(())
         }
         fn initialize(&mut self) -> Result<(), SubsystemError> {
+            if self.pull {
+                self.x += self.u;
+            }
+            self.initialized = true;
             Ok(())
         }
         fn set_f64(&mut self, _: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
@@ -420,7 +490,7 @@ mod tests {
             Ok(())
         }
         fn get_f64(&self, _: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-            values[0] = self.x;
+            values[0] = if self.pull && !self.initialized { self.x + self.u } else { self.x };
             Ok(())
         }
         fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
@@ -507,6 +577,52 @@ mod tests {
             assert!((seidel[k][1] - ga).abs() < 1e-15 && (seidel[k][2] - gb).abs() < 1e-15, "{k}: {:?}", seidel[k]);
         }
         assert!(seidel[4][2] > jacobi[4][2], "the orderings differ");
+    }
+
+    #[test]
+    fn ordered_and_iterated_initializations_in_closed_form() {
+        // Two elements in a loop (u_a = y_b, u_b = y_a) that take their input into their initial
+        // state and feed it through before: x_a = 1, x_b = 10.
+        let start = |initialization: Initialization| {
+            let h = Ticks::from_seconds(0.01).unwrap();
+            let (mut a, mut b) = (euler(1.0), euler(10.0));
+            (a.pull, b.pull) = (true, true);
+            let mut elements = vec![
+                Element { name: "a".into(), model: Box::new(a), decimation: 1 },
+                Element { name: "b".into(), model: Box::new(b), decimation: 1 },
+            ];
+            let carried = || Carried::Numbers(vec![0.0]);
+            let mut connections = vec![
+                Connection { from: Port::whole(1, 1, 1), to: Port::whole(0, 0, 1), value: carried() },
+                Connection { from: Port::whole(0, 1, 1), to: Port::whole(1, 0, 1), value: carried() },
+            ];
+            let probes = vec![Port::whole(0, 1, 1), Port::whole(1, 1, 1)];
+            let names = vec!["a.x".into(), "b.x".into()];
+            let mut master = ConnectedMaster::new(
+                &mut elements,
+                &mut connections,
+                probes,
+                names,
+                Ticks::ZERO,
+                h,
+                h,
+                Ordering::Jacobi,
+            )
+            .unwrap()
+            .with_initialization(initialization);
+            let mut first = None;
+            let mut observer = |_: Ticks, v: &[f64]| -> Result<(), String> {
+                first.get_or_insert([v[0], v[1]]);
+                Ok(())
+            };
+            master.run(&mut [(&mut observer, h)]).unwrap();
+            first.unwrap()
+        };
+        // Ordered: a reads b before b is initialised (10 + 0), then b reads a's initial 11.
+        assert_eq!(start(Initialization::Ordered), [11.0, 21.0]);
+        // Iterated, two rounds: round 1 passes the start outputs (u_a = 10, u_b = 1), round 2
+        // the fed-through ones (u_a = 10 + 1, u_b = 1 + 10); both then leave initialization.
+        assert_eq!(start(Initialization::Iterated), [12.0, 21.0]);
     }
 
     #[test]

@@ -43,7 +43,7 @@
 
 pub mod connected;
 
-pub use connected::{Carried, ConnectedMaster, Connection, Element, Ordering, Port};
+pub use connected::{Carried, ConnectedMaster, Connection, Element, Initialization, Ordering, Port};
 
 use crossbeam_channel::bounded;
 use lash_core::{Causality, Coupling, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};

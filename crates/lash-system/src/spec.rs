@@ -19,6 +19,9 @@ pub struct SystemSpec {
     /// Master algorithm.
     #[serde(default)]
     pub algorithm: Algorithm,
+    /// How the elements reach their initial values (Gauss–Seidel and Jacobi).
+    #[serde(default)]
+    pub initialization: Initialization,
     /// The subsystems, stepped in this order.
     pub elements: Vec<ElementSpec>,
     /// Output → input connections.
@@ -90,6 +93,19 @@ pub enum Algorithm {
     /// The reduced interface model's master over a mechanism and a clearance element (see
     /// [`InterfaceSpec`]).
     Interface,
+}
+
+/// How the elements of a Gauss–Seidel or Jacobi system reach their initial values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Initialization {
+    /// In file order, each element after reading its inputs' sources (exact for an acyclic
+    /// system written sources first).
+    #[default]
+    Ordered,
+    /// As libcosim: all elements in initialization mode, inputs set and outputs read for as many
+    /// rounds as there are elements, then all leave it.
+    Iterated,
 }
 
 /// One element of the system.

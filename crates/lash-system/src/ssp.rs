@@ -8,12 +8,14 @@
 //! communication step of its own: lash reads it from an `ssd:Annotation type="org.lash"` element
 //! `<lash:Step value="…"/>`, else from `DefaultExperiment`'s `lash:step` attribute, else from the
 //! Open Simulation Platform's `<osp:FixedStepMaster stepSize="…"/>` (libcosim's annotation), else
-//! the caller gives it.
+//! the caller gives it. A file with libcosim's annotation runs as libcosim runs it: Jacobi, with
+//! the initial values iterated in initialization mode ([`Initialization::Iterated`]); any other
+//! file runs Gauss–Seidel with ordered initialization, as a TOML system file does by default.
 //!
 //! Connectors name FMI variables exactly as their `modelDescription.xml` spells them; an FMI 2.0
 //! array element (`p_Crane.e[1]`) is one element of the array lash regroups.
 
-use crate::spec::{ConnectionSpec, ElementSpec, OutputSpec, ParameterValue, SystemSpec};
+use crate::spec::{Algorithm, ConnectionSpec, ElementSpec, Initialization, OutputSpec, ParameterValue, SystemSpec};
 use quick_xml::events::{BytesStart, Event};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -225,12 +227,19 @@ pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpe
         .or(osp_step)
         .or(fallback.step)
         .ok_or("no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step")?;
+    // A file written for libcosim (its fixed-step master's annotation) runs as libcosim runs it:
+    // Jacobi, the initial values iterated in initialization mode.
+    let (algorithm, initialization) = match osp_step {
+        Some(_) => (Algorithm::Jacobi, Initialization::Iterated),
+        None => Default::default(),
+    };
     Ok(SystemSpec {
         name,
         start,
         stop,
         step,
-        algorithm: Default::default(),
+        algorithm,
+        initialization,
         elements,
         connections,
         output: OutputSpec::default(),

@@ -3,8 +3,8 @@
 use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
 use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueKind, ValueReference, Variable};
 use lash_orchestrate::{
-    Algorithm as _, Carried, ConnectedMaster, Connection, Element, InterfaceMaster, MasterError, MasterOptions,
-    Observer, Ordering, Port, Signal,
+    Algorithm as _, Carried, ConnectedMaster, Connection, Element, Initialization, InterfaceMaster, MasterError,
+    MasterOptions, Observer, Ordering, Port, Signal,
 };
 use std::path::Path;
 
@@ -100,6 +100,7 @@ pub struct System {
     stop: Ticks,
     step: Ticks,
     algorithm: Algorithm,
+    initialization: crate::spec::Initialization,
     output_every: i64,
     channels: Vec<Port>,
     header: Vec<String>,
@@ -338,6 +339,11 @@ impl System {
             Ok((port, v.kind))
         };
         if spec.algorithm == Algorithm::Interface {
+            if spec.initialization != crate::spec::Initialization::Ordered {
+                return Err(bad(
+                    "initialization: only with algorithm = \"gauss_seidel\" or \"jacobi\" (the interface master initialises its two elements itself)".into(),
+                ));
+            }
             let plan = interface_plan(spec, &elements, start, stop, step, interval)?;
             let header = std::iter::once("time [s]".to_string())
                 .chain(plan.signals.iter().zip(&plan.units).map(|(s, u)| format!("{} [{u}]", s.name())))
@@ -351,6 +357,7 @@ impl System {
                 stop,
                 step,
                 algorithm: spec.algorithm,
+                initialization: spec.initialization,
                 output_every: 1,
                 channels: Vec::new(),
                 header,
@@ -462,6 +469,7 @@ impl System {
             stop,
             step,
             algorithm: spec.algorithm,
+            initialization: spec.initialization,
             output_every: interval.0 / step.0,
             channels,
             header,
@@ -555,7 +563,11 @@ impl System {
                 step,
                 ordering,
             )
-            .map_err(|e| SystemError::Input(e.to_string()))?;
+            .map_err(|e| SystemError::Input(e.to_string()))?
+            .with_initialization(match self.initialization {
+                crate::spec::Initialization::Ordered => Initialization::Ordered,
+                crate::spec::Initialization::Iterated => Initialization::Iterated,
+            });
             // An input fed element by element keeps the value the system gave it elsewhere.
             for (k, parameters) in self.parameters.iter().enumerate() {
                 for (vr, _, setting) in parameters {
