@@ -1248,3 +1248,26 @@ fn the_initial_exchange_matches_libcosim() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A system whose time series cannot fit is refused by `validate` and by `run` alike, with the
+/// figures, before anything is written.
+#[test]
+fn a_system_too_large_for_the_disk_is_refused_before_work() {
+    let out = std::env::temp_dir().join(format!("lash-system-huge-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let file = out.join("huge.toml");
+    let text = "name = \"huge\"\nstart = 0.0\nstop = 1e6\nstep = 1e-5\n\n[[elements]]\nname = \"mechanism\"\nbuiltin = \"lash_mechanism\"\n";
+    std::fs::write(&file, text).unwrap();
+    let target = out.join("run");
+    for args in [
+        vec!["validate", file.to_str().unwrap()],
+        vec!["run", file.to_str().unwrap(), "--out", target.to_str().unwrap()],
+    ] {
+        let o = lash(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("100000000001 rows") && err.contains("a shorter run (stop, or --horizon)"), "{err}");
+    }
+    assert!(!target.exists(), "nothing written");
+    let _ = std::fs::remove_dir_all(&out);
+}

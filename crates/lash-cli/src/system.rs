@@ -66,6 +66,26 @@ fn load(
     lash_system::System::new(&spec, &base, cache).map_err(|e| input(e.to_string()))
 }
 
+/// Refuses a system run whose output cannot fit in `out` (rows × columns of the time series),
+/// before anything is written.
+fn sized(system: &lash_system::System, path: &Path, out: &Path, format: crate::output::Format) -> Result<(), CliError> {
+    let rows = system.samples();
+    let columns = system.header().len() as u64;
+    let per_value = crate::limits::bytes_per_value(format);
+    let estimate = crate::limits::Estimate {
+        rows,
+        columns,
+        disk_bytes: rows.saturating_mul(columns).saturating_mul(per_value),
+        memory_bytes: 0,
+    };
+    crate::limits::check(
+        &format!("the system {}", path.display()),
+        &estimate,
+        out,
+        "a shorter run (stop, or --horizon), a longer output.interval or fewer output.channels",
+    )
+}
+
 /// `lash validate` of a system file: loads it as `lash run` would, without stepping it.
 pub fn validate(arg: &str) -> Result<String, CliError> {
     let path = Path::new(arg);
@@ -74,6 +94,9 @@ pub fn validate(arg: &str) -> Result<String, CliError> {
     let result = load(path, &cache, &scratch, None, None);
     let _ = std::fs::remove_dir_all(&scratch);
     let system = result?;
+    // Sized as `lash run` sizes it, against the file's folder.
+    let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    sized(&system, path, folder, crate::output::Format::Csv)?;
     Ok(format!("{arg}: valid (system; {} output channels)", system.header().len().saturating_sub(1)))
 }
 
@@ -88,6 +111,7 @@ fn run_in(
 ) -> Result<(), CliError> {
     let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let mut system = load(path, cache, scratch, step, stop)?;
+    sized(&system, path, out, format)?;
     let mut csv = SeriesOutput::create_as(out, system.header(), &["summary.json"], format)?;
     let result = system.run(&mut |row| csv.row(row));
     let summary = match result {

@@ -483,6 +483,14 @@ impl System {
     }
 
     /// Element `k`'s subsystem.
+    /// Rows the run records (its first sample included), from the start, stop and output
+    /// interval: what an output writer sizes before the run starts.
+    pub fn samples(&self) -> u64 {
+        let interval = self.interface.as_ref().map_or(self.step.0 * self.output_every, |plan| plan.interval.0);
+        u64::try_from((self.stop.0 - self.start.0) / interval.max(1)).map_or(u64::MAX, |n| n.saturating_add(1))
+    }
+
+    /// Element `k`'s subsystem.
     pub fn element(&self, k: usize) -> &dyn Subsystem {
         &*self.elements[k].model
     }
