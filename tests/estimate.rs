@@ -41,6 +41,14 @@ fn clearance(dir: &Path, measured: &Path, prepared: &Path, tag: &str) -> (f64, f
         serde_json::from_str(&std::fs::read_to_string(out.join("estimate.json")).unwrap()).unwrap();
     let svg = std::fs::read_to_string(out.join("posterior.svg")).unwrap();
     assert!(svg.contains("<svg") && svg.contains("crank_pivot.clearance"));
+    // The hidden signals: every sample of the window, the median inside its band.
+    let hidden = std::fs::read_to_string(out.join("hidden.csv")).unwrap();
+    let mut lines = hidden.lines();
+    assert!(lines.next().unwrap().starts_with("time [s],crank_pivot.force.median [N],crank_pivot.force.low [N]"));
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 10_000);
+    assert!(rows.iter().all(|r| r[2] <= r[1] && r[1] <= r[3] && r[5] <= r[4] && r[4] <= r[6]));
+    assert!(std::fs::read_to_string(out.join("hidden.svg")).unwrap().contains("crank_pivot.force"));
     let u = &json["unknowns"][0];
     assert_eq!(u["name"], "crank_pivot.clearance");
     let (m, lo, hi) = (u["median"].as_f64().unwrap(), u["low"].as_f64().unwrap(), u["high"].as_f64().unwrap());
@@ -94,6 +102,26 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("val/validation.json")).unwrap()).unwrap();
     assert_eq!(report["cases"], 6);
+    // The virtual sensor against the full model's own force on held-out cases at 40 dB.
+    let o = lash(&[
+        "estimate",
+        "validate",
+        "--prepared",
+        p,
+        "--hidden",
+        "40",
+        "--cases",
+        "4",
+        "--quiet",
+        "--out",
+        dir.join("hidden").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("hidden/hidden-validation.json")).unwrap()).unwrap();
+    assert_eq!(report["cases"], 4);
+    let rms_error = report["force_rms_error"][0].as_f64().unwrap();
+    assert!(rms_error < 0.15, "the contact force's RMS within 15 % even from a small bank: {report}");
     // Bad input: exit 2 with the field named.
     let bad = dir.join("bad.csv");
     std::fs::write(&bad, "time [s],slider.ax [m/s^2]\n0,1\n0.0001,nan\n").unwrap();

@@ -97,7 +97,7 @@ fn show(value: f64, unit: &str) -> String {
 pub fn estimate(measurement: &Path, prepared: &Path, out: Option<&Path>) -> Result<(), CliError> {
     let estimator = load(prepared)?;
     let setup = &estimator.setup;
-    let (e, notes) = lash_estimate::infer::estimate_file(&estimator, measurement).map_err(cli)?;
+    let (e, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, measurement).map_err(cli)?;
     let f0 = e.crank_frequency;
     println!("{} (setup {}, crank at {:.2} Hz = {:.0} rpm):", measurement.display(), setup.name, f0, f0 * 60.0);
     for note in &notes {
@@ -118,13 +118,44 @@ pub fn estimate(measurement: &Path, prepared: &Path, out: Option<&Path>) -> Resu
         let worn: Vec<String> = e.worn.iter().map(|(j, p)| format!("{j} {:.0} %", 100.0 * p)).collect();
         println!("  worn joint: {}", worn.join(", "));
     }
+    for (j, onsets) in hidden.onsets.iter().enumerate() {
+        let ([rms, rms_lo, rms_hi], [peak, peak_lo, peak_hi]) = (hidden.force_rms[j], hidden.force_peak[j]);
+        println!(
+            "  {:<24} RMS {rms:.0} N ({rms_lo:.0}–{rms_hi:.0}), peak {peak:.0} N ({peak_lo:.0}–{peak_hi:.0}), {} impact onsets",
+            hidden.signals[2 * j].name,
+            onsets.len()
+        );
+    }
     if let Some(out) = out {
         let json = serde_json::to_string_pretty(&e).map_err(|err| CliError::Failure(err.to_string()))?;
         write(&out.join("estimate.json"), &(json + "\n"))?;
         crate::plots::posterior_figure(&out.join("posterior.svg"), &estimator, &e)?;
-        println!("  → {}/estimate.json, posterior.svg", out.display());
+        write(&out.join("hidden.csv"), &hidden_csv(&hidden))?;
+        crate::plots::hidden_figure(&out.join("hidden.svg"), &hidden, f0)?;
+        println!("  → {}/estimate.json, posterior.svg, hidden.csv, hidden.svg", out.display());
     }
     Ok(())
+}
+
+/// The hidden signals as a table: time from the window's start, then per signal its median and
+/// band.
+fn hidden_csv(hidden: &lash_estimate::Hidden) -> String {
+    let mut header = vec!["time [s]".to_string()];
+    for b in &hidden.signals {
+        for part in ["median", "low", "high"] {
+            header.push(format!("{}.{part} [{}]", b.name, b.unit));
+        }
+    }
+    let mut text = lash_core::csv_header(&header) + "\n";
+    let n = hidden.signals.first().map_or(0, |b| b.median.len());
+    for i in 0..n {
+        text.push_str(&format!("{}", i as f64 / hidden.sample_rate));
+        for b in &hidden.signals {
+            text.push_str(&format!(",{},{},{}", b.median[i], b.low[i], b.high[i]));
+        }
+        text.push('\n');
+    }
+    text
 }
 
 /// `lash estimate validate --prepared FILE [--cases N] [--seed S] [--out DIR]`.
@@ -170,6 +201,64 @@ pub fn validate(
     if let Some(out) = out {
         let json = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
         write(&out.join("validation.json"), &(json + "\n"))?;
+    }
+    Ok(())
+}
+
+/// `lash estimate validate --prepared FILE --hidden SNR_DB [--cases N] [--seed S] [--out DIR]`.
+pub fn validate_hidden(
+    prepared: &Path,
+    cases: u64,
+    seed: u64,
+    snr_db: f64,
+    out: Option<&Path>,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let estimator = load(prepared)?;
+    if cases == 0 {
+        return Err(CliError::Input("--cases: at least one held-out case".into()));
+    }
+    if !(snr_db.is_finite() && snr_db > 0.0) {
+        return Err(CliError::Input(format!("--hidden: a signal-to-noise ratio in dB above 0, got {snr_db}")));
+    }
+    let r = lash_estimate::hidden::validate_hidden(&estimator, cases, seed, snr_db, &progress(quiet)).map_err(cli)?;
+    println!(
+        "{}: hidden signals of {} held-out full-model cases at {} dB (seed {}, {} left out)",
+        r.setup, r.cases, r.snr_db, r.seed, r.failed
+    );
+    let pct = |v: f64| format!("{:.1} %", 100.0 * v);
+    println!(
+        "  force RMS error: median {}, 90 % of cases ≤ {}; within 10 %: {} of joints",
+        pct(r.force_rms_error[0]),
+        pct(r.force_rms_error[1]),
+        pct(r.force_rms_within_10)
+    );
+    println!(
+        "  force peak error: median {}, 90 % of cases ≤ {}; within 20 %: {} of joints",
+        pct(r.force_peak_error[0]),
+        pct(r.force_peak_error[1]),
+        pct(r.force_peak_within_20)
+    );
+    println!(
+        "  the draws' 5–95 % range holds the true force RMS in {}, its peak in {} of joints",
+        pct(r.force_rms_coverage),
+        pct(r.force_peak_coverage)
+    );
+    println!(
+        "  5–95 % bands hold the true force at {} of samples, the eccentricity at {}",
+        pct(r.force_band_coverage),
+        pct(r.eccentricity_band_coverage)
+    );
+    println!(
+        "  impact onsets: {} true, {} of them found within two samples; {} of the onsets found are true",
+        r.impacts,
+        pct(r.impacts_found),
+        pct(r.onsets_true)
+    );
+    println!("  wall time per case (estimate, re-simulation, alignment): {:.2} s", r.seconds_per_case);
+    if let Some(out) = out {
+        let json = serde_json::to_string_pretty(&r).map_err(|e| CliError::Failure(e.to_string()))?;
+        write(&out.join("hidden-validation.json"), &(json + "\n"))?;
     }
     Ok(())
 }

@@ -314,6 +314,10 @@ enum EstimateCommand {
         /// tells the method's error from the reduced model's.
         #[arg(long)]
         reduced: bool,
+        /// Score the hidden signals instead (the virtual sensor: each joint's contact force and
+        /// eccentricity against the full model's, impact onsets), at this signal-to-noise ratio [dB].
+        #[arg(long, value_name = "SNR_DB", conflicts_with = "reduced")]
+        hidden: Option<f64>,
         /// Folder for validation.json.
         #[arg(long)]
         out: Option<std::path::PathBuf>,
@@ -572,7 +576,10 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             EstimateCommand::Prepare { setup, out, bank_runs, calibration_runs, quiet } => {
                 estimate::prepare(&setup, &out, (bank_runs, calibration_runs), quiet)
             }
-            EstimateCommand::Validate { prepared, cases, seed, reduced, out, quiet } => {
+            EstimateCommand::Validate { prepared, cases, seed, reduced: _, hidden: Some(snr), out, quiet } => {
+                estimate::validate_hidden(&prepared, cases, seed, snr, out.as_deref(), quiet)
+            }
+            EstimateCommand::Validate { prepared, cases, seed, reduced, hidden: None, out, quiet } => {
                 estimate::validate(&prepared, (cases, reduced), seed, out.as_deref(), quiet)
             }
             EstimateCommand::Emulate { prepared, clearance, speed, angle, gain, snr, seed, out } => {

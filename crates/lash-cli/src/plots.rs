@@ -289,6 +289,55 @@ pub fn posterior_figure(
     root.present().map_err(|e| fail(path, e))
 }
 
+/// The hidden signals of an estimate over the first three crank revolutions of the window: per
+/// signal (each joint's contact force, then its eccentricity) the draws' median and 5–95 % band,
+/// impact onsets marked on the force.
+pub fn hidden_figure(path: &Path, hidden: &lash_estimate::Hidden, crank_frequency: f64) -> Result<(), CliError> {
+    let n = hidden.signals.first().map_or(0, |b| b.median.len());
+    let shown = ((3.0 / crank_frequency * hidden.sample_rate).ceil() as usize).clamp(2, n.max(2)).min(n);
+    let root = SVGBackend::new(path, (900, 260 * hidden.signals.len() as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| fail(path, e))?;
+    let ms = |i: usize| 1e3 * i as f64 / hidden.sample_rate;
+    for (k, (band, area)) in hidden.signals.iter().zip(root.split_evenly((hidden.signals.len(), 1))).enumerate() {
+        let (scale, unit) = if band.unit == "m" { (1e6, "µm") } else { (1.0, band.unit.as_str()) };
+        let top = band.high[..shown].iter().fold(0.0f64, |a, &v| a.max(v * scale)) * 1.1 + 1e-12;
+        let mut chart = ChartBuilder::on(&area)
+            .caption(
+                format!("{} (median of {} posterior draws, 5–95 % band)", band.name, hidden.draws),
+                ("sans-serif", 16),
+            )
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..ms(shown), 0.0..top)
+            .map_err(|e| fail(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc("time from the window's start [ms]")
+            .y_desc(format!("[{unit}]"))
+            .draw()
+            .map_err(|e| fail(path, e))?;
+        let upper = (0..shown).map(|i| (ms(i), band.high[i] * scale));
+        let lower = (0..shown).rev().map(|i| (ms(i), band.low[i] * scale));
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                upper.chain(lower).collect::<Vec<_>>(),
+                REDUCED.mix(0.2).filled(),
+            )))
+            .map_err(|e| fail(path, e))?;
+        chart
+            .draw_series(LineSeries::new((0..shown).map(|i| (ms(i), band.median[i] * scale)), REDUCED.stroke_width(1)))
+            .map_err(|e| fail(path, e))?;
+        if k % 2 == 0 {
+            let onsets = hidden.onsets[k / 2].iter().filter(|&&i| i < shown);
+            chart
+                .draw_series(onsets.map(|&i| Circle::new((ms(i), 0.0), 4, FULL.filled())))
+                .map_err(|e| fail(path, e))?;
+        }
+    }
+    root.present().map_err(|e| fail(path, e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::engineering;

@@ -298,6 +298,29 @@ impl Estimator {
         Estimate { unknowns, worn, crank_frequency: f0, clearance_draws }
     }
 
+    /// A joint posterior sample: the bank draws nearest in the clearances' summaries, each a full
+    /// vector of unknowns (the order of [`Estimator::unknowns`]) with its clearances mapped by the
+    /// calibration as the reported intervals are.
+    pub fn posterior(&self, features: &[f64]) -> Vec<Vec<f64>> {
+        let (raw, _, near) = self.raw(features);
+        near.iter()
+            .map(|&i| {
+                // The bank keeps its truths on the estimation scale.
+                let mut draw = self.bank_truths[i].clone();
+                for (k, value) in draw.iter_mut().enumerate() {
+                    let u = &self.unknowns[k];
+                    if k < self.joints.len() {
+                        let (c, median) = (self.calibration[k], raw[k].0);
+                        let (lo, hi) = (to_scale(u, u.low), to_scale(u, u.high));
+                        *value = (median + c.shift + c.widen * (*value - median)).clamp(lo, hi);
+                    }
+                    *value = from_scale(u, *value);
+                }
+                draw
+            })
+            .collect()
+    }
+
     /// Calibrates the medians and intervals on full-model draws: even-numbered draws give each
     /// unknown's median shift, odd-numbered ones the conformal widening factor for 90 % coverage.
     pub fn calibrate(&mut self, draws: &[Draw]) -> Result<(), EstimateError> {
@@ -329,8 +352,12 @@ impl Estimator {
     }
 }
 
-/// A measured file's estimate: its features, the answer, and notes on what was done to the data.
-pub fn estimate_file(estimator: &Estimator, path: &std::path::Path) -> Result<(Estimate, Vec<String>), EstimateError> {
+/// A measured file read and checked as the setup expects it: the measurement, its crank
+/// frequency and its features.
+fn read_measured(
+    estimator: &Estimator,
+    path: &std::path::Path,
+) -> Result<(crate::Measurement, f64, Vec<f64>), EstimateError> {
     let setup = &estimator.setup;
     let expect = crate::measurement::Expect {
         channels: &setup.channels,
@@ -347,7 +374,24 @@ pub fn estimate_file(estimator: &Estimator, path: &std::path::Path) -> Result<(E
     let (f0, features) = crate::prepare::measured_features(setup, band, &m.channels).ok_or_else(|| {
         EstimateError::Input(format!("{}: no crank frequency found in {:.1}–{:.1} Hz", path.display(), band.0, band.1))
     })?;
+    Ok((m, f0, features))
+}
+
+/// A measured file's estimate: its features, the answer, and notes on what was done to the data.
+pub fn estimate_file(estimator: &Estimator, path: &std::path::Path) -> Result<(Estimate, Vec<String>), EstimateError> {
+    let (m, f0, features) = read_measured(estimator, path)?;
     Ok((estimator.estimate(&features, f0), m.notes))
+}
+
+/// As [`estimate_file`], with the hidden signals (each joint's contact force and eccentricity
+/// over the measured window, with bands: [`crate::hidden`]).
+pub fn estimate_file_hidden(
+    estimator: &Estimator,
+    path: &std::path::Path,
+) -> Result<(Estimate, crate::Hidden, Vec<String>), EstimateError> {
+    let (m, f0, features) = read_measured(estimator, path)?;
+    let hidden = crate::hidden::reconstruct(estimator, &features, f0, &m.channels[0])?;
+    Ok((estimator.estimate(&features, f0), hidden, m.notes))
 }
 
 impl Estimator {

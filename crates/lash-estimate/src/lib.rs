@@ -15,6 +15,8 @@
 //!   lanes, Parquet), each run measured several times with fresh gain and noise, the features;
 //!   a regression of every unknown on the features (the summaries); a calibration on a sweep of the
 //!   **full** model with seeds of its own (split-conformal widths, a median shift). Stored as JSON.
+//! * [`hidden`]: the virtual sensor: each joint's contact force and eccentricity over the measured
+//!   window with bands, from posterior draws simulated again and aligned with the measurement.
 //! * [`infer`]: an estimate: the summaries of the measurement, the bank's nearest draws in summary
 //!   space (approximate Bayesian computation), their quantiles, calibrated.
 //! * [`validate`]: held-out cases from the converged full model, with seeds the preparation never
@@ -22,12 +24,14 @@
 //!   speed off nominal, a random start in the cycle): RMSE, coverage, worn-joint accuracy, time.
 
 pub mod features;
+pub mod hidden;
 pub mod infer;
 pub mod measurement;
 pub mod prepare;
 pub mod setup;
 pub mod validate;
 
+pub use hidden::Hidden;
 pub use infer::{Estimate, Estimator, UnknownEstimate};
 pub use measurement::Measurement;
 pub use setup::Setup;

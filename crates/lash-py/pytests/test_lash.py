@@ -271,6 +271,12 @@ def test_estimate_in_python_equals_the_command_line_and_refuses_bad_files(tmp_pa
     assert answer["unknowns"] == from_cli["unknowns"]
     c = answer["unknowns"][0]
     assert c["name"] == "crank_pivot.clearance" and c["low"] <= c["median"] <= c["high"]
+    # The hidden signals: numpy arrays over the window, the same as the command line's table.
+    force = answer["hidden"]["signals"][0]
+    assert force["name"] == "crank_pivot.force" and force["median"].shape == (10_000,)
+    assert (force["low"] <= force["median"]).all() and (force["median"] <= force["high"]).all()
+    table = np.genfromtxt(out / "hidden.csv", delimiter=",", skip_header=1)
+    assert np.array_equal(table[:, 1], force["median"])
     with pytest.raises(FileNotFoundError):
         lash.estimate(tmp_path / "missing.csv", prepared)
     bad = tmp_path / "bad.csv"

@@ -487,8 +487,10 @@ fn prepare_estimator(
 fn estimate_json(py: Python<'_>, measurement: PathBuf, prepared: PathBuf) -> PyResult<String> {
     let result = py.detach(|| {
         let estimator = lash_estimate::Estimator::load(&prepared)?;
-        let (estimate, notes) = lash_estimate::infer::estimate_file(&estimator, &measurement)?;
-        Ok::<_, lash_estimate::EstimateError>(serde_json::json!({ "estimate": estimate, "notes": notes }))
+        let (estimate, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, &measurement)?;
+        Ok::<_, lash_estimate::EstimateError>(
+            serde_json::json!({ "estimate": estimate, "hidden": hidden, "notes": notes }),
+        )
     });
     match result {
         Ok(v) => Ok(v.to_string()),

@@ -381,13 +381,23 @@ def estimate(measurement: PathLike, prepared: PathLike) -> Dict[str, Any]:
     Returns a dict: ``unknowns`` (per unknown ``name``, ``unit``, ``median``, ``low`` and ``high``
     — the calibrated 5–95 % interval — and ``prior``), ``worn`` (with several clearance joints,
     ``[joint, probability]`` pairs), ``crank_frequency`` [Hz], ``clearance_draws`` (per clearance
-    joint its calibrated posterior sample [m]) and ``notes`` (what was done to the data). A bad file
-    raises ScenarioError naming the column and the problem; a missing one FileNotFoundError."""
+    joint its calibrated posterior sample [m]), ``hidden`` (the virtual sensor: ``sample_rate``
+    [Hz]; ``signals``, per joint its contact force [N] and eccentricity [m] at the measurement's
+    instants, each a dict of numpy arrays ``median``, ``low``, ``high`` — the 5–95 % band over the
+    posterior draws — with its ``name`` and ``unit``; per joint ``onsets`` (sample indices of impact
+    onsets), ``force_rms`` and ``force_peak`` as [median, low, high]) and ``notes`` (what was done
+    to the data). A bad file raises ScenarioError naming the column and the problem; a missing one
+    FileNotFoundError."""
     path = os.fspath(measurement)
     if not os.path.exists(path):
         raise FileNotFoundError(path)
     result = json.loads(_lash.estimate_json(path, os.fspath(prepared)))
     answer = result["estimate"]
+    hidden = result["hidden"]
+    for signal in hidden["signals"]:
+        for part in ("median", "low", "high"):
+            signal[part] = np.asarray(signal[part], dtype=float)
+    answer["hidden"] = hidden
     answer["notes"] = result["notes"]
     return answer
 

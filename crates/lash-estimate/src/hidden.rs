@@ -1,0 +1,503 @@
+//! Hidden signals: each clearance joint's contact force and eccentricity over the measured
+//! window, with bands — the virtual sensor.
+//!
+//! The reduced model maps each joint's contact force to every sensor through its propagation
+//! terms, so a simulation that reproduces the measured vibration carries the forces that made it.
+//! Draws of the posterior (clearances calibrated, nuisances from the same bank draws) are
+//! simulated again with the reduced model at the crank speed measured from the file itself; each
+//! run's sensor channel, passed through the logger's anti-alias filter, is aligned with the
+//! measurement by the lag (within one crank revolution, at the simulation's resolution) that
+//! correlates best — the sensor's gain does not matter, its start in the cycle is found — and the
+//! run's joint signals are read at the measurement's sample instants. Per sample, the draws'
+//! median and 5–95 % range are the estimate and its band. Impact onsets are where most draws
+//! begin a contact.
+
+use crate::EstimateError;
+use crate::infer::Estimator;
+use crate::setup::Resolved;
+use serde::{Deserialize, Serialize};
+
+/// Posterior draws simulated for the hidden signals.
+pub const DRAWS: usize = 24;
+
+/// One hidden signal over the measured window, at the measurement's sample instants.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Band {
+    /// `<joint>.force` (contact force magnitude) or `<joint>.eccentricity`.
+    pub name: String,
+    /// SI unit.
+    pub unit: String,
+    /// Median over the draws, per sample.
+    pub median: Vec<f64>,
+    /// 5 % quantile, per sample.
+    pub low: Vec<f64>,
+    /// 95 % quantile, per sample.
+    pub high: Vec<f64>,
+}
+
+/// The hidden signals of a measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hidden {
+    /// Sample rate of the signals (the measurement's) \[Hz\].
+    pub sample_rate: f64,
+    /// Per joint, its force then its eccentricity.
+    pub signals: Vec<Band>,
+    /// Per joint, the samples where most draws begin a contact (impact onsets).
+    pub onsets: Vec<Vec<usize>>,
+    /// Per joint, its force's RMS over the window: median and 5–95 % range of the draws' RMS.
+    pub force_rms: Vec<[f64; 3]>,
+    /// Per joint, its force's peak over the window: median and 5–95 % range of the draws' peaks.
+    pub force_peak: Vec<[f64; 3]>,
+    /// Draws simulated, and those whose run failed (left out).
+    pub draws: usize,
+    /// Draws whose run failed.
+    pub failed: usize,
+}
+
+/// One signal of every draw (a series per draw).
+type Series = Vec<Vec<f64>>;
+
+/// A run's signals at the simulation's output interval: the sensor channel filtered by the
+/// logger's anti-alias filter, then per joint force and eccentricity.
+struct Simulated {
+    sensor: Vec<f64>,
+    joints: Vec<(Vec<f64>, Vec<f64>)>,
+    dt: f64,
+}
+
+/// The scenario edits of one posterior draw (unknowns in the estimator's order), at crank
+/// frequency `f0`, the crank starting at angle 0.
+fn edits(estimator: &Estimator, r: &Resolved, draw: &[f64], f0: f64) -> Vec<(String, f64)> {
+    let joints = r.joints.len();
+    let mut e: Vec<(String, f64)> =
+        (0..joints).map(|j| (format!("clearances[{j}].bearing_radius"), r.journal_radii[j] + draw[j])).collect();
+    e.push(("drivers[0].motion.omega".into(), std::f64::consts::TAU * f0));
+    e.push(("drivers[0].motion.angle0".into(), 0.0));
+    for (k, n) in estimator.setup.nuisance.iter().enumerate() {
+        e.push((n.path.clone(), draw[joints + 1 + k]));
+    }
+    e
+}
+
+/// Simulates the draws with the reduced model (side by side in vector lanes), over the settle
+/// time, the window and two revolutions more (room for the alignment).
+fn simulate(
+    estimator: &Estimator,
+    r: &Resolved,
+    draws: &[Vec<f64>],
+    f0: f64,
+) -> Result<Vec<Option<Simulated>>, EstimateError> {
+    let setup = &estimator.setup;
+    let table = toml::Table::try_from(&r.scenario).map_err(|e| EstimateError::Failure(e.to_string()))?;
+    let base = lash_scenario::paths::EditBase::new(table);
+    let horizon = ((setup.settle + setup.window + 2.0 / f0) / setup.macro_step).ceil() * setup.macro_step;
+    let mut channels = vec![setup.channels[0].name.clone()];
+    for j in &r.joints {
+        channels.extend([format!("{j}.force"), format!("{j}.eccentricity")]);
+    }
+    let options = lash_run::ReducedOptions {
+        macro_step: setup.macro_step,
+        micro_step: setup.micro_step,
+        channels_only: true,
+        ..Default::default()
+    };
+    let mut runners = Vec::with_capacity(draws.len());
+    let mut dt = 0.0;
+    for draw in draws {
+        let e = edits(estimator, r, draw, f0);
+        let mut scenario = base
+            .edited(e.iter().map(|(p, v)| (p.as_str(), *v)))
+            .map_err(|e| EstimateError::Failure(format!("a posterior draw's scenario: {e:?}")))?;
+        scenario.simulation_mut().horizon = horizon;
+        scenario.output_mut().channels = channels.clone();
+        dt = scenario.simulation().output_interval;
+        runners.push(lash_run::runner(&scenario, lash_run::Model::Reduced(options)).map_err(EstimateError::Failure)?);
+    }
+    let mut rows: Vec<Vec<Vec<f64>>> = vec![Vec::new(); draws.len()];
+    let results = {
+        let mut keep: Vec<_> = rows
+            .iter_mut()
+            .map(|r| {
+                move |row: &[f64]| -> Result<(), String> {
+                    r.push(row.to_vec());
+                    Ok(())
+                }
+            })
+            .collect();
+        let sinks: Vec<lash_run::Sink<'_>> = keep.iter_mut().map(|s| s as lash_run::Sink<'_>).collect();
+        lash_run::execute_together(&mut runners, sinks)
+    };
+    let chain = lash_measure::Acquisition { sample_rate: 1.0 / dt, cutoff: setup.anti_alias, order: 4, settle: 0.0 };
+    let mut out = Vec::with_capacity(draws.len());
+    for (result, rows) in results.into_iter().zip(rows) {
+        let ok = result.is_ok() && rows.iter().all(|row| row.iter().all(|v| v.is_finite()));
+        if !ok {
+            out.push(None);
+            continue;
+        }
+        let column = |c: usize| rows.iter().map(|row| row[c]).collect::<Vec<f64>>();
+        let mut logger = chain.logger(dt).map_err(EstimateError::Failure)?;
+        let sensor = column(1).into_iter().filter_map(|x| logger.push(x)).collect();
+        let joints = (0..r.joints.len()).map(|j| (column(2 + 2 * j), column(3 + 2 * j))).collect();
+        out.push(Some(Simulated { sensor, joints, dt }));
+    }
+    Ok(out)
+}
+
+/// The fine-sample index where the measurement's first sample falls in `sim`: the lag, within
+/// one revolution after the settle time, whose samples correlate best with `measured` (each
+/// side's mean removed; the sensor's gain does not matter).
+fn align(sim: &Simulated, measured: &[f64], fs: f64, f0: f64, settle: f64) -> Option<usize> {
+    let every = (1.0 / (fs * sim.dt)).round() as usize;
+    let first = (settle / sim.dt).round() as usize;
+    let period = (1.0 / (f0 * sim.dt)).ceil() as usize;
+    let n = measured.len();
+    if first + period + (n - 1) * every >= sim.sensor.len() {
+        return None;
+    }
+    let mean_m = measured.iter().sum::<f64>() / n as f64;
+    let mut best = (f64::NEG_INFINITY, first);
+    for lag in first..first + period {
+        let (mut dot, mut sum, mut sq) = (0.0, 0.0, 0.0);
+        for (i, m) in measured.iter().enumerate() {
+            let y = sim.sensor[lag + i * every];
+            dot += (m - mean_m) * y;
+            sum += y;
+            sq += y * y;
+        }
+        let var = (sq - sum * sum / n as f64).max(1e-300);
+        let score = dot / var.sqrt();
+        if score > best.0 {
+            best = (score, lag);
+        }
+    }
+    Some(best.1)
+}
+
+/// The `q` quantile of `v` (sorted in place).
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let pos = q * (v.len() - 1) as f64;
+    let (i, frac) = (pos.floor() as usize, pos.fract());
+    v[i] + frac * (v[(i + 1).min(v.len() - 1)] - v[i])
+}
+
+/// Samples where a contact begins in the majority of `draws` (force > 0 after none).
+fn onsets(draws: &[Vec<f64>]) -> Vec<usize> {
+    let n = draws.first().map_or(0, Vec::len);
+    let contact = |i: usize| 2 * draws.iter().filter(|d| d[i] > 0.0).count() > draws.len();
+    (1..n).filter(|&i| contact(i) && !contact(i - 1)).collect()
+}
+
+/// The hidden signals of a measurement whose reference channel is `measured` (the first channel,
+/// at the setup's sample rate), whose features are `features`, taken at crank frequency `f0`.
+pub fn reconstruct(
+    estimator: &Estimator,
+    features: &[f64],
+    f0: f64,
+    measured: &[f64],
+) -> Result<Hidden, EstimateError> {
+    let setup = &estimator.setup;
+    let r = setup.resolve()?;
+    let posterior = estimator.posterior(features);
+    let step = (posterior.len() / DRAWS).max(1);
+    let chosen: Vec<Vec<f64>> = posterior.into_iter().step_by(step).take(DRAWS).collect();
+    let simulated = simulate(estimator, &r, &chosen, f0)?;
+    let fs = setup.sample_rate;
+    // Per joint: force draws and eccentricity draws, each a series at the measured instants.
+    let joints = r.joints.len();
+    let mut series: Vec<(Series, Series)> = vec![(Vec::new(), Vec::new()); joints];
+    let mut failed = 0;
+    for sim in &simulated {
+        let Some(lag) = sim.as_ref().and_then(|s| align(s, measured, fs, f0, setup.settle)) else {
+            failed += 1;
+            continue;
+        };
+        let sim = sim.as_ref().expect("aligned");
+        let every = (1.0 / (fs * sim.dt)).round() as usize;
+        let at = |x: &[f64]| (0..measured.len()).map(|i| x[lag + i * every]).collect::<Vec<f64>>();
+        for (j, (force, eccentricity)) in sim.joints.iter().enumerate() {
+            series[j].0.push(at(force));
+            series[j].1.push(at(eccentricity));
+        }
+    }
+    if series.first().is_none_or(|s| s.0.len() < DRAWS / 2) {
+        return Err(EstimateError::Failure(format!(
+            "the hidden signals: {failed} of {} posterior draws could not be simulated or aligned",
+            chosen.len()
+        )));
+    }
+    let band = |name: String, unit: &str, draws: &[Vec<f64>]| {
+        let n = measured.len();
+        let (mut median, mut low, mut high) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        let mut column = vec![0.0; draws.len()];
+        for i in 0..n {
+            column.iter_mut().zip(draws).for_each(|(c, d)| *c = d[i]);
+            median.push(quantile(&mut column, 0.5));
+            low.push(quantile(&mut column, 0.05));
+            high.push(quantile(&mut column, 0.95));
+        }
+        Band { name, unit: unit.into(), median, low, high }
+    };
+    // A summary of a signal (its RMS, its peak) is estimated from each draw's own: the median
+    // series is smoother than any draw, and its peak lower than theirs.
+    let summary = |draws: &[Vec<f64>], of: fn(&[f64]) -> f64| {
+        let mut v: Vec<f64> = draws.iter().map(|d| of(d)).collect();
+        [quantile(&mut v, 0.5), quantile(&mut v, 0.05), quantile(&mut v, 0.95)]
+    };
+    let mut signals = Vec::with_capacity(2 * joints);
+    let (mut found, mut force_rms, mut force_peak) = (Vec::new(), Vec::new(), Vec::new());
+    for (j, (force, eccentricity)) in series.iter().enumerate() {
+        signals.push(band(format!("{}.force", r.joints[j]), "N", force));
+        signals.push(band(format!("{}.eccentricity", r.joints[j]), "m", eccentricity));
+        found.push(onsets(force));
+        force_rms.push(summary(force, rms));
+        force_peak.push(summary(force, peak));
+    }
+    Ok(Hidden { sample_rate: fs, signals, onsets: found, force_rms, force_peak, draws: chosen.len(), failed })
+}
+
+/// How well the hidden signals follow the converged full model's (one figure per case and joint).
+#[derive(Debug, Clone, Serialize)]
+pub struct HiddenReport {
+    /// The setup.
+    pub setup: String,
+    /// Held-out full-model cases reconstructed (their runs and estimates succeeded).
+    pub cases: usize,
+    /// Cases left out (a failed full-model run, no crank frequency, or too few aligned draws).
+    pub failed: usize,
+    /// Seed of the held-out cases.
+    pub seed: u64,
+    /// Signal-to-noise ratio of the emulated measurements \[dB\].
+    pub snr_db: f64,
+    /// |RMS(estimate) − RMS(truth)| / RMS(truth) of each joint's force: median and 90 % quantile.
+    pub force_rms_error: [f64; 2],
+    /// Share of (case, joint) whose force RMS is within 10 %.
+    pub force_rms_within_10: f64,
+    /// |peak(estimate) − peak(truth)| / peak(truth): median and 90 % quantile.
+    pub force_peak_error: [f64; 2],
+    /// Share within 20 %.
+    pub force_peak_within_20: f64,
+    /// Share of (case, joint) whose true force RMS lies in the draws' 5–95 % range.
+    pub force_rms_coverage: f64,
+    /// Share of (case, joint) whose true force peak lies in the draws' 5–95 % range.
+    pub force_peak_coverage: f64,
+    /// Share of samples whose true force lies in the 5–95 % band.
+    pub force_band_coverage: f64,
+    /// Share of samples whose true eccentricity lies in its band.
+    pub eccentricity_band_coverage: f64,
+    /// True impact onsets (over all cases), and the share found within two samples.
+    pub impacts: usize,
+    /// Share of the true onsets with an estimated one within two samples.
+    pub impacts_found: f64,
+    /// Share of the estimated onsets with a true one within two samples.
+    pub onsets_true: f64,
+    /// Mean wall time of one case's hidden signals (estimate, re-simulation, alignment) \[s\].
+    pub seconds_per_case: f64,
+}
+
+/// One held-out case: its emulated measurement, and per joint the true force and eccentricity
+/// at the measurement's instants.
+struct Truth {
+    measured: Vec<f64>,
+    joints: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
+/// Case `i` of the held-out set: parameters drawn from the priors with a stream of `seed` of its
+/// own, the converged full model run, its sensor channel logged and measured at `snr_db`.
+fn held_out(estimator: &Estimator, r: &Resolved, seed: u64, i: u64, snr_db: f64) -> Option<Truth> {
+    use rand::{Rng, SeedableRng};
+    let setup = &estimator.setup;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x6869_6464_656e);
+    rng.set_stream(i);
+    let joints = r.joints.len();
+    let worn = rng.random_range(0..joints);
+    let mut edits: Vec<(String, f64)> = (0..joints)
+        .map(|j| {
+            let [low, high] = if j == worn { setup.clearance } else { setup.healthy.unwrap_or(setup.clearance) };
+            (format!("clearances[{j}].bearing_radius"), r.journal_radii[j] + rng.random_range(low..high))
+        })
+        .collect();
+    let w = &r.unknowns[joints];
+    edits.push(("drivers[0].motion.omega".into(), rng.random_range(w.low..w.high)));
+    edits.push(("drivers[0].motion.angle0".into(), rng.random_range(0.0..std::f64::consts::TAU)));
+    edits.extend(setup.nuisance.iter().map(|n| (n.path.clone(), rng.random_range(n.low..n.high))));
+    let gain = 1.0 + setup.gain_error * rng.random_range(-1.0..=1.0);
+    let table = toml::Table::try_from(&r.scenario).ok()?;
+    let mut scenario =
+        lash_scenario::paths::EditBase::new(table).edited(edits.iter().map(|(p, v)| (p.as_str(), *v))).ok()?;
+    scenario.simulation_mut().horizon = setup.settle + setup.window + 2.0 / setup.sample_rate;
+    let mut channels = vec![setup.channels[0].name.clone()];
+    for j in &r.joints {
+        channels.extend([format!("{j}.force"), format!("{j}.eccentricity")]);
+    }
+    scenario.output_mut().channels = channels;
+    let dt = scenario.simulation().output_interval;
+    let mut runner = lash_run::runner(&scenario, lash_run::Model::Full { ideal: false }).ok()?;
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    runner
+        .execute(
+            &mut |row: &[f64]| {
+                rows.push(row.to_vec());
+                Ok(())
+            },
+            &mut |_| {},
+        )
+        .ok()?;
+    let chain = lash_measure::Acquisition {
+        sample_rate: setup.sample_rate,
+        cutoff: setup.anti_alias,
+        order: 4,
+        settle: setup.settle,
+    };
+    let mut logger = chain.logger(dt).ok()?;
+    let n = (setup.window * setup.sample_rate).round() as usize;
+    let every = (1.0 / (setup.sample_rate * dt)).round() as usize;
+    let mut kept = Vec::with_capacity(n);
+    let mut instants = Vec::with_capacity(n);
+    for (k, row) in rows.iter().enumerate() {
+        if let Some(y) = logger.push(row[1]) {
+            kept.push(y);
+            instants.push(k);
+        }
+    }
+    if kept.len() < n || every == 0 {
+        return None;
+    }
+    kept.truncate(n);
+    instants.truncate(n);
+    let measured = crate::prepare::measure(&kept, gain, snr_db, &mut rng);
+    let at = |c: usize| instants.iter().map(|&k| rows[k][c]).collect::<Vec<f64>>();
+    Some(Truth { measured, joints: (0..joints).map(|j| (at(2 + 2 * j), at(3 + 2 * j))).collect() })
+}
+
+/// Relative error of `estimate` against `truth`.
+fn relative(estimate: f64, truth: f64) -> f64 {
+    (estimate - truth).abs() / truth.abs().max(1e-300)
+}
+
+/// Root mean square of a series.
+pub fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+/// Largest value of a series (0 for none).
+pub fn peak(x: &[f64]) -> f64 {
+    x.iter().copied().fold(0.0, f64::max)
+}
+
+/// Share of samples of `truth` inside `band`.
+fn inside(band: &Band, truth: &[f64]) -> (usize, usize) {
+    let hit = truth.iter().enumerate().filter(|&(i, &t)| band.low[i] <= t && t <= band.high[i]).count();
+    (hit, truth.len())
+}
+
+/// Scores the hidden signals on `cases` held-out full-model cases measured at `snr_db`.
+pub fn validate_hidden(
+    estimator: &Estimator,
+    cases: u64,
+    seed: u64,
+    snr_db: f64,
+    progress: crate::prepare::Progress<'_>,
+) -> Result<HiddenReport, EstimateError> {
+    use rayon::prelude::*;
+    let setup = &estimator.setup;
+    let r = setup.resolve()?;
+    let band_hz = crate::prepare::speed_band_hz(&r);
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let results: Vec<Option<(Truth, Hidden, f64)>> = (0..cases)
+        .into_par_iter()
+        .map(|i| {
+            let truth = held_out(estimator, &r, seed, i, snr_db);
+            let clock = std::time::Instant::now();
+            let hidden = truth.as_ref().and_then(|t| {
+                let (f0, features) =
+                    crate::prepare::measured_features(setup, band_hz, std::slice::from_ref(&t.measured))?;
+                reconstruct(estimator, &features, f0, &t.measured).ok()
+            });
+            let seconds = clock.elapsed().as_secs_f64();
+            progress("hidden signals", done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, cases);
+            truth.zip(hidden).map(|(t, h)| (t, h, seconds))
+        })
+        .collect();
+    let ok: Vec<&(Truth, Hidden, f64)> = results.iter().flatten().collect();
+    if ok.is_empty() {
+        return Err(EstimateError::Failure("no held-out case could be reconstructed".into()));
+    }
+    let (mut rms_errors, mut peak_errors) = (Vec::new(), Vec::new());
+    let (mut force_in, mut ecc_in, mut samples, mut rms_in, mut peak_in) = (0, 0, 0, 0, 0);
+    let (mut impacts, mut found, mut onsets, mut real) = (0, 0, 0, 0);
+    for (truth, hidden, _) in &ok {
+        for (j, (force, eccentricity)) in truth.joints.iter().enumerate() {
+            let (f, e) = (&hidden.signals[2 * j], &hidden.signals[2 * j + 1]);
+            let (truth_rms, truth_peak) = (rms(force), peak(force));
+            rms_errors.push(relative(hidden.force_rms[j][0], truth_rms));
+            peak_errors.push(relative(hidden.force_peak[j][0], truth_peak));
+            rms_in += usize::from((hidden.force_rms[j][1]..=hidden.force_rms[j][2]).contains(&truth_rms));
+            peak_in += usize::from((hidden.force_peak[j][1]..=hidden.force_peak[j][2]).contains(&truth_peak));
+            force_in += inside(f, force).0;
+            ecc_in += inside(e, eccentricity).0;
+            samples += force.len();
+            let true_onsets: Vec<usize> = (1..force.len()).filter(|&i| force[i] > 0.0 && force[i - 1] <= 0.0).collect();
+            let near = |a: &[usize], b: usize| a.iter().any(|&x| x.abs_diff(b) <= 2);
+            impacts += true_onsets.len();
+            found += true_onsets.iter().filter(|&&t| near(&hidden.onsets[j], t)).count();
+            onsets += hidden.onsets[j].len();
+            real += hidden.onsets[j].iter().filter(|&&o| near(&true_onsets, o)).count();
+        }
+    }
+    let quantiles = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+        [q(0.5), q(0.9)]
+    };
+    let share = |v: &[f64], limit: f64| v.iter().filter(|&&e| e <= limit).count() as f64 / v.len() as f64;
+    let ratio = |a: usize, b: usize| if b == 0 { f64::NAN } else { a as f64 / b as f64 };
+    Ok(HiddenReport {
+        setup: setup.name.clone(),
+        cases: ok.len(),
+        failed: results.len() - ok.len(),
+        seed,
+        snr_db,
+        force_rms_within_10: share(&rms_errors, 0.1),
+        force_rms_coverage: ratio(rms_in, rms_errors.len()),
+        force_peak_coverage: ratio(peak_in, peak_errors.len()),
+        force_rms_error: quantiles(&mut rms_errors),
+        force_peak_within_20: share(&peak_errors, 0.2),
+        force_peak_error: quantiles(&mut peak_errors),
+        force_band_coverage: ratio(force_in, samples),
+        eccentricity_band_coverage: ratio(ecc_in, samples),
+        impacts,
+        impacts_found: ratio(found, impacts),
+        onsets_true: ratio(real, onsets),
+        seconds_per_case: ok.iter().map(|c| c.2).sum::<f64>() / ok.len() as f64,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_alignment_finds_a_shift_and_ignores_the_gain() {
+        // A two-tone "sensor" at 1e-5 s, measured from fine sample 12 345 on every 10th sample,
+        // with a gain of 0.7 and an offset: the lag found is that sample.
+        let (dt, f0) = (1e-5, 83.0);
+        let signal =
+            |t: f64| (std::f64::consts::TAU * f0 * t).sin() + 0.4 * (2.0 * std::f64::consts::TAU * f0 * t).cos();
+        let sensor: Vec<f64> = (0..60_000).map(|i| signal(i as f64 * dt)).collect();
+        let measured: Vec<f64> = (0..3000).map(|i| 0.7 * sensor[12_345 + 10 * i] + 3.0).collect();
+        let sim = Simulated { sensor, joints: Vec::new(), dt };
+        assert_eq!(align(&sim, &measured, 1e4, f0, 0.115), Some(12_345));
+    }
+
+    #[test]
+    fn onsets_are_where_most_draws_begin_a_contact() {
+        let draws = vec![
+            vec![0.0, 0.0, 1.0, 1.0, 0.0, 2.0],
+            vec![0.0, 1.0, 1.0, 1.0, 0.0, 0.0],
+            vec![0.0, 0.0, 3.0, 0.0, 0.0, 1.0],
+        ];
+        assert_eq!(onsets(&draws), vec![2, 5]);
+    }
+}
