@@ -608,3 +608,29 @@ fn a_run_written_as_parquet_holds_the_csv_values_bit_for_bit() {
     assert!(o.status.success());
     assert!(pq_dir.join("timeseries.csv").exists() && !pq_dir.join("timeseries.parquet").exists());
 }
+
+/// A reader that stops early (`lash scenarios | head -1`) ends lash quietly (exit 141, as a Unix
+/// tool on SIGPIPE), without a panic report; and every built-in's listed description says what
+/// sets it apart from its siblings (no two alike).
+#[test]
+fn a_closed_pipe_ends_lash_quietly_and_descriptions_differ() {
+    // lash starts after the reader has gone (a shell waits, then becomes lash), so its first
+    // line meets a closed pipe.
+    let mut child = std::process::Command::new("sh")
+        .args(["-c", &format!("sleep 0.3; exec {:?} scenarios", env!("CARGO_BIN_EXE_lash"))])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(141), "{err}");
+    let o = lash(&["scenarios"]);
+    let listed = String::from_utf8_lossy(&o.stdout);
+    let descriptions: Vec<&str> = listed.lines().map(|l| l[30..].trim()).collect();
+    for (i, d) in descriptions.iter().enumerate() {
+        assert!(!descriptions[..i].contains(d), "two built-ins read {d:?}");
+    }
+}

@@ -29,3 +29,14 @@ for u in answer["unknowns"]:
     print(f"{u['name']:<24} {u['median'] * scale:10.3f} {unit:5}  90 % interval {u['low'] * scale:.3f} – {u['high'] * scale:.3f}")
 for joint, p in answer["worn"]:
     print(f"worn joint {joint}: probability {p:.2f}")
+
+# What the pin sees: the hidden signals, re-simulated from the posterior and aligned with the
+# measurement (numpy arrays over the window, median and 5–95 % band).
+hidden = answer["hidden"]
+for j, force in enumerate(hidden["signals"][0::2]):
+    rms, low, high = hidden["force_rms"][j]
+    peak = hidden["force_peak"][j]
+    print(
+        f"{force['name']}: RMS {rms:.0f} N ({low:.0f}–{high:.0f}), peak {peak[0]:.0f} N ({peak[1]:.0f}–{peak[2]:.0f}), "
+        f"{len(hidden['onsets'][j])} impact onsets; first samples {force['median'][:3].round(0)} N"
+    )

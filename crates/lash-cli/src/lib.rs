@@ -436,6 +436,7 @@ pub fn load_scenario(arg: &str) -> Result<lash_scenario::Scenario, CliError> {
 
 /// Runs the command line with the process arguments.
 pub fn main() -> ExitCode {
+    quiet_on_broken_pipe();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -454,6 +455,24 @@ pub fn main() -> ExitCode {
             }
         }
     }
+}
+
+/// A reader that stops reading (`lash scenarios | head -3`) ends lash quietly, as a Unix tool ends
+/// on SIGPIPE (exit 141), instead of a panic report from `println!`.
+fn quiet_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(141);
+        }
+        default(info);
+    }));
 }
 
 /// A scenario (built-in or file, planar or spatial) with a `--horizon` override, validated again.

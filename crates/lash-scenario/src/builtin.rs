@@ -67,6 +67,11 @@ pub fn by_name(name: &str) -> Option<Scenario> {
         "B-frictionless" => {
             let mut s = scenario_b(0.5e-3);
             s.name = "B-frictionless".into();
+            s.description = s.description.replacen(
+                "at the rod–slider joint:",
+                "at the rod–slider joint, frictionless (no friction law):",
+                1,
+            );
             s.clearances[0].friction = FrictionLaw::None;
             s
         }
@@ -191,8 +196,11 @@ pub fn scenario_b(c: f64) -> Scenario {
     let name = if c == 0.5e-3 { "B".to_string() } else { format!("B-{}mm", c * 1e3) };
     let mut s = slider_crank(
         &name,
-        "Benchmark slider-crank (Flores-type, scenario B): clearance at the rod–slider joint; the journal is \
-         the slider pin, the bearing is in the rod's small end.",
+        &format!(
+            "Benchmark slider-crank (Flores-type, scenario B), {} mm radial clearance at the rod–slider joint: \
+             the journal is the slider pin, the bearing is in the rod's small end.",
+            c * 1e3
+        ),
     );
     s.clearances.push(clearance("rod_slider", "slider", c, AMBROSIO));
     s
@@ -203,9 +211,12 @@ pub fn scenario_a(c: f64) -> Scenario {
     let name = if c == 100e-6 { "A".to_string() } else { format!("A-{}um", (c * 1e6).round()) };
     let mut s = slider_crank(
         &name,
-        "The reduced-interface-model papers' case (scenario A): clearance at the crank–ground joint; the bearing is fixed \
-         to the ground at the origin, the journal is the crank's pivot pin; the crank's absolute \
-         angle is prescribed.",
+        &format!(
+            "The reduced-interface-model papers' case (scenario A), {} µm radial clearance at the crank–ground \
+             joint, 5000 rpm: the bearing is fixed to the ground at the origin, the journal is the crank's \
+             pivot pin; the crank's absolute angle is prescribed.",
+            (c * 1e6).round()
+        ),
     );
     s.clearances.push(clearance("crank_pivot", "crank", c, AMBROSIO));
     s
@@ -272,8 +283,9 @@ pub fn scenario_f(joint: FJoint) -> Scenario {
     let mut s = slider_crank(
         &name,
         &format!(
-            "Flexible-bush crank–slider (scenario F), 3000 rpm: crank 0.14 m, rod 0.32 m, slider 2.2 kg; the \
-             rod–slider joint (piston pin in a tin-bronze bush in the rod's small end) {what}."
+            "Flexible-bush crank–slider (scenario F), 3000 rpm, rod–slider joint {what}: crank 0.14 m, rod \
+             0.32 m, slider 2.2 kg; the rod–slider joint is the piston pin in a tin-bronze bush in the rod's \
+             small end."
         ),
     );
     let (l1, l2) = (0.14, 0.32);

@@ -55,6 +55,7 @@ pub fn spatial_by_name(name: &str) -> Option<SpatialScenario> {
     if name == "E" {
         let mut s = scenario_e(0.5e-3, 250.0, true);
         s.name = "E".into();
+        s.description = format!("The default spatial case, E-0.5mm-250rpm under a short name. {}", s.description);
         return Some(s);
     }
     let rest = name.strip_prefix("E-")?;
