@@ -193,6 +193,25 @@ def test_a_sweep_gives_a_dataset_whose_runs_equal_single_runs(tmp_path):
     for (xa, ya), (xb, yb) in zip(data.batches(3, seed=9), lazy.batches(3, seed=9)):
         assert np.array_equal(xa, xb) and np.array_equal(ya, yb)
     assert lazy._values is None  # nothing but the batches was read
+    # Map-style: dataset[i] is run i's (inputs, values), eager or read lazily; a DataLoader takes it.
+    for k in range(len(data)):
+        for d in (data, lazy):
+            x, y = d[k]
+            assert np.array_equal(x, data.inputs[k]) and np.array_equal(y, data.values[k])
+    assert np.array_equal(data[-1][1], data.values[3])
+    with pytest.raises(IndexError):
+        data[4]
+    with pytest.raises(FileNotFoundError):
+        lash.Dataset(tmp_path / "no-such-sweep")
+    try:
+        import torch
+    except ImportError:
+        torch = None
+    if torch is not None:
+        loader = torch.utils.data.DataLoader(data, batch_size=2, shuffle=False)
+        batches = list(loader)
+        assert len(batches) == 2 and tuple(batches[0][1].shape) == (2, 201, 2)
+        assert np.array_equal(batches[1][1].numpy(), data.values[2:4])
     assert np.array_equal(lazy.values, data.values) and np.array_equal(lazy.time, data.time)
     # Run again: everything is complete, nothing runs; the failures are still reported.
     report = lash.sweep(spec, out, allow_failures=True)

@@ -244,6 +244,8 @@ class Dataset:
 
     def __init__(self, path: PathLike, *, lazy: bool = False):
         self.path: str = os.fspath(path)
+        if not os.path.isdir(self.path):
+            raise FileNotFoundError(f"{self.path}: no such dataset folder (a sweep's --out)")
         self.lazy: bool = lazy
         self._values: Optional[np.ndarray] = None
         if lazy:
@@ -316,6 +318,24 @@ class Dataset:
 
     def __len__(self) -> int:
         return len(self.run_ids)
+
+    def __getitem__(self, index: int) -> Tuple[np.ndarray, np.ndarray]:
+        """Run ``index`` (in :attr:`run_ids` order) as (inputs, values): its parameters and its
+        samples × channels — a map-style dataset, so a PyTorch ``DataLoader`` takes it as it is::
+
+            loader = torch.utils.data.DataLoader(lash.Dataset("out/sweep"), batch_size=32, shuffle=True)
+            for inputs, values in loader: ...   # tensors: batch × parameters, batch × samples × channels
+
+        A lazy dataset reads the one run from the file."""
+        n = len(self)
+        if not isinstance(index, (int, np.integer)):
+            raise TypeError(f"a run index is an integer, got {type(index).__name__}")
+        k = int(index) + n if index < 0 else int(index)
+        if not 0 <= k < n:
+            raise IndexError(f"run index {index} out of range for {n} runs")
+        if self._values is not None:
+            return self.inputs[k], self._values[k]
+        return self.inputs[k], _lash.read_runs(self.path, [k])[4][0]
 
     def batches(
         self,
