@@ -1,6 +1,6 @@
 //! A loaded system and its master.
 
-use crate::spec::{Algorithm, ElementSource, InterfaceSpec, SystemSpec};
+use crate::spec::{Algorithm, ElementSource, ElementSpec, InterfaceSpec, SystemSpec};
 use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueKind, ValueReference, Variable};
 use lash_orchestrate::{
     Algorithm as _, Carried, ConnectedMaster, Connection, Element, Initialization, InterfaceMaster, MasterError,
@@ -121,6 +121,11 @@ fn ticks(field: &str, seconds: f64) -> Result<Ticks, SystemError> {
     Ticks::from_seconds(seconds).map_err(|e| SystemError::Input(format!("{field}: {e}")))
 }
 
+/// A user error (exit 2) with its message.
+fn bad(message: String) -> SystemError {
+    SystemError::Input(message)
+}
+
 /// `element.variable` split at the first dot.
 fn split<'a>(field: &str, name: &'a str) -> Result<(&'a str, &'a str), SystemError> {
     name.split_once('.')
@@ -181,7 +186,6 @@ impl System {
     /// Loads every element of `spec` (paths relative to `base`; FMUs unpacked under `cache`) and
     /// checks names, connections, parameters, steps and channels. Every error names its field.
     pub fn new(spec: &SystemSpec, base: &Path, cache: &Path) -> Result<Self, SystemError> {
-        let bad = |m: String| SystemError::Input(m);
         if spec.elements.is_empty() {
             return Err(bad("elements: a system needs at least one element".into()));
         }
@@ -236,108 +240,12 @@ impl System {
                 load(&source, &e.name, cache, isolation).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
             lash_core::check_variable_table(model.variables())
                 .map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
-            // Structural parameters first (FMI 3.0 configuration mode): they size arrays, so the
-            // other parameters and every connection are checked against the new shapes.
             let mut model = model;
-            let (mut refs, mut values, mut names) = (Vec::new(), Vec::new(), Vec::new());
-            for (pname, value) in &e.parameters {
-                let Some(v) = find(model.variables(), pname) else { continue };
-                if v.causality != Causality::StructuralParameter {
-                    continue;
-                }
-                let number = match value.values().as_deref() {
-                    Some([x]) => *x,
-                    _ => {
-                        return Err(bad(format!(
-                            "{field}.parameters.{pname}: a structural parameter takes one number"
-                        )));
-                    }
-                };
-                v.kind.check(number).map_err(|p| bad(format!("{field}.parameters.{pname}: {p}")))?;
-                refs.push(v.value_reference);
-                values.push(number);
-                names.push(pname.clone());
-            }
-            if !refs.is_empty() {
-                model.configure(&refs, &values).map_err(|err| {
-                    bad(format!("{field}.parameters ({}): structural parameters {names:?} refused: {err}", e.name))
-                })?;
-            }
-            let mut parameters = Vec::new();
-            for (pname, value) in &e.parameters {
-                if names.contains(pname) {
-                    continue;
-                }
-                let (v, port) = resolve(model.variables(), pname, k).ok_or_else(|| {
-                    let settable = [Causality::Parameter, Causality::Input, Causality::StructuralParameter];
-                    let names = element_names(model.variables(), &settable);
-                    let hint = lash_core::did_you_mean(pname, names.iter().map(String::as_str));
-                    bad(format!("{field}.parameters.{pname}: no such parameter or input ({hint})"))
-                })?;
-                let text = match value {
-                    crate::spec::ParameterValue::Text(t) => Some(t.clone()),
-                    _ => None,
-                };
-                let setting = match (v.kind, value.values()) {
-                    (ValueKind::String, None) => Setting::Text(text.unwrap_or_default()),
-                    (ValueKind::String, Some(_)) => {
-                        return Err(bad(format!("{field}.parameters.{pname}: a String parameter takes text")));
-                    }
-                    (ValueKind::Binary, None) => Setting::Bytes(
-                        hex_bytes(&text.unwrap_or_default())
-                            .map_err(|m| bad(format!("{field}.parameters.{pname}: {m}")))?,
-                    ),
-                    (ValueKind::Binary, Some(_)) => {
-                        return Err(bad(format!(
-                            "{field}.parameters.{pname}: a Binary parameter takes hexadecimal text (\"0a1b\")"
-                        )));
-                    }
-                    (kind, None) => {
-                        return Err(bad(format!(
-                            "{field}.parameters.{pname}: a {} parameter takes a number, not text",
-                            kind.name()
-                        )));
-                    }
-                    (kind, Some(values)) => {
-                        if values.len() != port.count {
-                            return Err(bad(format!(
-                                "{field}.parameters.{pname}: {} value(s) for {} element(s)",
-                                values.len(),
-                                port.count
-                            )));
-                        }
-                        if let Some(problem) = values.iter().find_map(|&x| kind.check(x).err()) {
-                            return Err(bad(format!("{field}.parameters.{pname}: {problem}")));
-                        }
-                        if port.count != port.len {
-                            // One element: the array is set whole, from its start values and the
-                            // other elements this system gives.
-                            set_element(&mut parameters, v, port.offset, values[0]);
-                            continue;
-                        }
-                        Setting::Numbers(values)
-                    }
-                };
-                parameters.push((v.value_reference, pname.clone(), setting));
-            }
+            let structural = configure_structural(&field, e, &mut *model)?;
+            let parameters = parameter_settings(&field, k, e, &*model, &structural)?;
             elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation) });
             element_parameters.push(parameters);
         }
-        let lookup = |field: &str, name: &str, want: &[Causality]| -> Result<(Port, ValueKind), SystemError> {
-            let (el, var) = split(field, name)?;
-            let k =
-                elements.iter().position(|e| e.name == el).ok_or_else(|| bad(format!("{field}: no element {el:?}")))?;
-            let variables = elements[k].model.variables();
-            let (v, port) = resolve(variables, var, k).ok_or_else(|| {
-                let names = element_names(variables, want);
-                let hint = lash_core::did_you_mean(var, names.iter().map(String::as_str));
-                bad(format!("{field}: element {el:?} has no variable {var:?} ({hint})"))
-            })?;
-            if !want.contains(&v.causality) {
-                return Err(bad(format!("{field}: {name} is {:?}, expected {want:?}", v.causality)));
-            }
-            Ok((port, v.kind))
-        };
         if spec.algorithm == Algorithm::Interface {
             if spec.initialization != crate::spec::Initialization::Ordered {
                 return Err(bad(
@@ -374,92 +282,8 @@ impl System {
         if spec.interface.is_some() {
             return Err(bad("interface: only with algorithm = \"interface\"".into()));
         }
-        let mut connections = Vec::new();
-        for (k, c) in spec.connections.iter().enumerate() {
-            let (from, from_kind) =
-                lookup(&format!("connections[{k}].from"), &c.from, &[Causality::Output, Causality::Local])?;
-            let (to, to_kind) = lookup(&format!("connections[{k}].to"), &c.to, &[Causality::Input])?;
-            if from.count != to.count {
-                return Err(bad(format!(
-                    "connections[{k}]: {} has {} element(s), {} has {}",
-                    c.from, from.count, c.to, to.count
-                )));
-            }
-            // Numbers connect across numeric kinds (the value passes as f64 and must fit the
-            // input's kind when set); Strings connect to Strings; Binary and Clock not at all.
-            let value = match (from_kind, to_kind) {
-                (a, b) if a.is_numeric() && b.is_numeric() => Carried::Numbers(vec![0.0; from.len]),
-                (ValueKind::String, ValueKind::String) if from.len == 1 => Carried::Text(String::new()),
-                (ValueKind::Binary, ValueKind::Binary) if from.len == 1 => Carried::Bytes(Vec::new()),
-                (a, b) => {
-                    return Err(bad(format!(
-                        "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers, String scalars to String scalars and Binary scalars to Binary scalars",
-                        c.from,
-                        a.name(),
-                        c.to,
-                        b.name()
-                    )));
-                }
-            };
-            let overlaps = |x: &Connection| {
-                (x.to.element, x.to.value_reference) == (to.element, to.value_reference)
-                    && x.to.offset < to.offset + to.count
-                    && to.offset < x.to.offset + x.to.count
-            };
-            if connections.iter().any(overlaps) {
-                return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
-            }
-            connections.push(Connection { from, to, value });
-        }
-        let mut channels = Vec::new();
-        let mut header = vec!["time [s]".to_string()];
-        let mut add = |port: Port, v: &Variable, header: &mut Vec<String>| {
-            let element = &elements[port.element].name;
-            header.extend(
-                (port.offset..port.offset + port.count)
-                    .map(|i| format!("{element}.{} [{}]", v.element_name(i), v.unit)),
-            );
-            channels.push(port);
-        };
-        if spec.output.channels.is_empty() {
-            // Every numeric output (String, Binary and Clock outputs are not recorded).
-            for k in 0..elements.len() {
-                for v in elements[k]
-                    .model
-                    .variables()
-                    .iter()
-                    .filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
-                {
-                    add(Port::whole(k, v.value_reference, v.len()), v, &mut header);
-                }
-            }
-        } else {
-            for (i, name) in spec.output.channels.iter().enumerate() {
-                let field = format!("output.channels[{i}]");
-                let (port, kind) = lookup(
-                    &field,
-                    name,
-                    &[Causality::Output, Causality::Local, Causality::Parameter, Causality::Input],
-                )?;
-                if !kind.is_numeric() {
-                    return Err(bad(format!(
-                        "{field}: {name} is a {} variable; the time series records numbers only",
-                        kind.name()
-                    )));
-                }
-                let v = lash_core::subsystem::variable(elements[port.element].model.variables(), port.value_reference)
-                    .ok_or_else(|| {
-                        bad(format!("{field}: {name} has no variable for value reference {}", port.value_reference))
-                    })?
-                    .clone();
-                add(port, &v, &mut header);
-            }
-        }
-        if let Some(twice) = header.iter().enumerate().find_map(|(i, h)| header[..i].contains(h).then_some(h)) {
-            return Err(bad(format!(
-                "output: column {twice:?} would be written twice (a variable is named like another's element)"
-            )));
-        }
+        let connections = connect(spec, &elements)?;
+        let (channels, header) = recorded(spec, &elements)?;
         Ok(Self {
             name: spec.name.clone(),
             elements,
@@ -701,7 +525,6 @@ fn interface_plan(
     step: Ticks,
     interval: Ticks,
 ) -> Result<InterfacePlan, SystemError> {
-    let bad = |m: String| SystemError::Input(m);
     let i: &InterfaceSpec = spec
         .interface
         .as_ref()
@@ -784,6 +607,212 @@ fn interface_plan(
         execution: i.execution,
     };
     Ok(InterfacePlan { mechanism, clearance, options, signals, units, interval })
+}
+
+/// Sets an element's structural parameters (FMI 3.0 configuration mode) before anything else:
+/// they size arrays, so the other parameters and every connection are checked against the new
+/// shapes. Returns their names.
+fn configure_structural(field: &str, e: &ElementSpec, model: &mut dyn Subsystem) -> Result<Vec<String>, SystemError> {
+    let (mut refs, mut values, mut names): (Vec<ValueReference>, Vec<f64>, Vec<String>) =
+        (Vec::new(), Vec::new(), Vec::new());
+    for (pname, value) in &e.parameters {
+        let Some(v) = find(model.variables(), pname) else { continue };
+        if v.causality != Causality::StructuralParameter {
+            continue;
+        }
+        let number = match value.values().as_deref() {
+            Some([x]) => *x,
+            _ => {
+                return Err(bad(format!("{field}.parameters.{pname}: a structural parameter takes one number")));
+            }
+        };
+        v.kind.check(number).map_err(|p| bad(format!("{field}.parameters.{pname}: {p}")))?;
+        refs.push(v.value_reference);
+        values.push(number);
+        names.push(pname.clone());
+    }
+    if !refs.is_empty() {
+        model.configure(&refs, &values).map_err(|err| {
+            bad(format!("{field}.parameters ({}): structural parameters {names:?} refused: {err}", e.name))
+        })?;
+    }
+    Ok(names)
+}
+
+/// An element's parameter (and input) settings from the system file, each checked against its
+/// variable; `structural` ones are already set.
+fn parameter_settings(
+    field: &str,
+    k: usize,
+    e: &ElementSpec,
+    model: &dyn Subsystem,
+    structural: &[String],
+) -> Result<Parameters, SystemError> {
+    let mut parameters = Vec::new();
+    for (pname, value) in &e.parameters {
+        if structural.contains(pname) {
+            continue;
+        }
+        let (v, port) = resolve(model.variables(), pname, k).ok_or_else(|| {
+            let settable = [Causality::Parameter, Causality::Input, Causality::StructuralParameter];
+            let names = element_names(model.variables(), &settable);
+            let hint = lash_core::did_you_mean(pname, names.iter().map(String::as_str));
+            bad(format!("{field}.parameters.{pname}: no such parameter or input ({hint})"))
+        })?;
+        let text = match value {
+            crate::spec::ParameterValue::Text(t) => Some(t.clone()),
+            _ => None,
+        };
+        let setting = match (v.kind, value.values()) {
+            (ValueKind::String, None) => Setting::Text(text.unwrap_or_default()),
+            (ValueKind::String, Some(_)) => {
+                return Err(bad(format!("{field}.parameters.{pname}: a String parameter takes text")));
+            }
+            (ValueKind::Binary, None) => Setting::Bytes(
+                hex_bytes(&text.unwrap_or_default()).map_err(|m| bad(format!("{field}.parameters.{pname}: {m}")))?,
+            ),
+            (ValueKind::Binary, Some(_)) => {
+                return Err(bad(format!(
+                    "{field}.parameters.{pname}: a Binary parameter takes hexadecimal text (\"0a1b\")"
+                )));
+            }
+            (kind, None) => {
+                return Err(bad(format!(
+                    "{field}.parameters.{pname}: a {} parameter takes a number, not text",
+                    kind.name()
+                )));
+            }
+            (kind, Some(values)) => {
+                if values.len() != port.count {
+                    return Err(bad(format!(
+                        "{field}.parameters.{pname}: {} value(s) for {} element(s)",
+                        values.len(),
+                        port.count
+                    )));
+                }
+                if let Some(problem) = values.iter().find_map(|&x| kind.check(x).err()) {
+                    return Err(bad(format!("{field}.parameters.{pname}: {problem}")));
+                }
+                if port.count != port.len {
+                    // One element: the array is set whole, from its start values and the
+                    // other elements this system gives.
+                    set_element(&mut parameters, v, port.offset, values[0]);
+                    continue;
+                }
+                Setting::Numbers(values)
+            }
+        };
+        parameters.push((v.value_reference, pname.clone(), setting));
+    }
+    Ok(parameters)
+}
+
+/// The element port and kind of `name` (`element.variable` or `element.variable[i,j]`), which
+/// must have one of the causalities `want`; errors name `field` and the closest names.
+fn lookup(elements: &[Element], field: &str, name: &str, want: &[Causality]) -> Result<(Port, ValueKind), SystemError> {
+    let (el, var) = split(field, name)?;
+    let k = elements.iter().position(|e| e.name == el).ok_or_else(|| bad(format!("{field}: no element {el:?}")))?;
+    let variables = elements[k].model.variables();
+    let (v, port) = resolve(variables, var, k).ok_or_else(|| {
+        let names = element_names(variables, want);
+        let hint = lash_core::did_you_mean(var, names.iter().map(String::as_str));
+        bad(format!("{field}: element {el:?} has no variable {var:?} ({hint})"))
+    })?;
+    if !want.contains(&v.causality) {
+        return Err(bad(format!("{field}: {name} is {:?}, expected {want:?}", v.causality)));
+    }
+    Ok((port, v.kind))
+}
+
+/// The system's connections, each checked: sizes, kinds, one source per input element.
+fn connect(spec: &SystemSpec, elements: &[Element]) -> Result<Vec<Connection>, SystemError> {
+    let lookup = |field: &str, name: &str, want: &[Causality]| lookup(elements, field, name, want);
+    let mut connections = Vec::new();
+    for (k, c) in spec.connections.iter().enumerate() {
+        let (from, from_kind) =
+            lookup(&format!("connections[{k}].from"), &c.from, &[Causality::Output, Causality::Local])?;
+        let (to, to_kind) = lookup(&format!("connections[{k}].to"), &c.to, &[Causality::Input])?;
+        if from.count != to.count {
+            return Err(bad(format!(
+                "connections[{k}]: {} has {} element(s), {} has {}",
+                c.from, from.count, c.to, to.count
+            )));
+        }
+        // Numbers connect across numeric kinds (the value passes as f64 and must fit the
+        // input's kind when set); Strings connect to Strings; Binary and Clock not at all.
+        let value = match (from_kind, to_kind) {
+            (a, b) if a.is_numeric() && b.is_numeric() => Carried::Numbers(vec![0.0; from.len]),
+            (ValueKind::String, ValueKind::String) if from.len == 1 => Carried::Text(String::new()),
+            (ValueKind::Binary, ValueKind::Binary) if from.len == 1 => Carried::Bytes(Vec::new()),
+            (a, b) => {
+                return Err(bad(format!(
+                    "connections[{k}]: {} is {}, {} is {}: lash connects numbers to numbers, String scalars to String scalars and Binary scalars to Binary scalars",
+                    c.from,
+                    a.name(),
+                    c.to,
+                    b.name()
+                )));
+            }
+        };
+        let overlaps = |x: &Connection| {
+            (x.to.element, x.to.value_reference) == (to.element, to.value_reference)
+                && x.to.offset < to.offset + to.count
+                && to.offset < x.to.offset + x.to.count
+        };
+        if connections.iter().any(overlaps) {
+            return Err(bad(format!("connections[{k}].to: {} is already connected", c.to)));
+        }
+        connections.push(Connection { from, to, value });
+    }
+    Ok(connections)
+}
+
+/// The recorded ports and the time series' header (time first), every name checked.
+fn recorded(spec: &SystemSpec, elements: &[Element]) -> Result<(Vec<Port>, Vec<String>), SystemError> {
+    let lookup = |field: &str, name: &str, want: &[Causality]| lookup(elements, field, name, want);
+    let mut channels = Vec::new();
+    let mut header = vec!["time [s]".to_string()];
+    let mut add = |port: Port, v: &Variable, header: &mut Vec<String>| {
+        let element = &elements[port.element].name;
+        header.extend(
+            (port.offset..port.offset + port.count).map(|i| format!("{element}.{} [{}]", v.element_name(i), v.unit)),
+        );
+        channels.push(port);
+    };
+    if spec.output.channels.is_empty() {
+        // Every numeric output (String, Binary and Clock outputs are not recorded).
+        for k in 0..elements.len() {
+            for v in
+                elements[k].model.variables().iter().filter(|v| v.causality == Causality::Output && v.kind.is_numeric())
+            {
+                add(Port::whole(k, v.value_reference, v.len()), v, &mut header);
+            }
+        }
+    } else {
+        for (i, name) in spec.output.channels.iter().enumerate() {
+            let field = format!("output.channels[{i}]");
+            let (port, kind) =
+                lookup(&field, name, &[Causality::Output, Causality::Local, Causality::Parameter, Causality::Input])?;
+            if !kind.is_numeric() {
+                return Err(bad(format!(
+                    "{field}: {name} is a {} variable; the time series records numbers only",
+                    kind.name()
+                )));
+            }
+            let v = lash_core::subsystem::variable(elements[port.element].model.variables(), port.value_reference)
+                .ok_or_else(|| {
+                    bad(format!("{field}: {name} has no variable for value reference {}", port.value_reference))
+                })?
+                .clone();
+            add(port, &v, &mut header);
+        }
+    }
+    if let Some(twice) = header.iter().enumerate().find_map(|(i, h)| header[..i].contains(h).then_some(h)) {
+        return Err(bad(format!(
+            "output: column {twice:?} would be written twice (a variable is named like another's element)"
+        )));
+    }
+    Ok((channels, header))
 }
 
 fn find<'a>(variables: &'a [Variable], name: &str) -> Option<&'a Variable> {
