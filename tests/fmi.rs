@@ -424,8 +424,8 @@ fn broken_fmus_are_clear_errors_naming_the_fmu_and_the_cause() {
     std::fs::create_dir_all(&out).unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let good = out.join("vanderpol.fmu");
-    let build = root.join("tests/fmi/vanderpol/build.py");
-    let o = Command::new("python3").arg(&build).arg(&good).output().unwrap();
+    let build = root.join("tests/fmi/build_c_fmu.py");
+    let o = Command::new("python3").arg(&build).arg(root.join("tests/fmi/vanderpol")).arg(&good).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let empty_c = out.join("empty.c");
     std::fs::write(&empty_c, "int not_an_fmu(void) { return 0; }\n").unwrap();

@@ -103,7 +103,8 @@ fn third_party_fmus_and_a_plugin_in_a_system_file() {
         );
     };
     // The third-party FMUs: a C FMU built here with cc, and one built by pythonfmu.
-    run_py(&[root.join("tests/fmi/vanderpol/build.py").to_str().unwrap(), "vanderpol.fmu"]);
+    let build = root.join("tests/fmi/build_c_fmu.py");
+    run_py(&[build.to_str().unwrap(), root.join("tests/fmi/vanderpol").to_str().unwrap(), "vanderpol.fmu"]);
     run_py(&[
         "-m",
         "pythonfmu",
@@ -516,10 +517,9 @@ impl FmuScratch {
         std::fs::create_dir_all(&out).unwrap();
         let scratch = Self { out, python: fmpy_python() };
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        for (script, fmu) in
-            [("tests/fmi/oscillator/build.py", "oscillator.fmu"), ("tests/fmi/vanderpol/build.py", "vanderpol.fmu")]
-        {
-            scratch.py(&[root.join(script).to_str().unwrap(), fmu]);
+        let build = root.join("tests/fmi/build_c_fmu.py");
+        for (folder, fmu) in [("tests/fmi/oscillator", "oscillator.fmu"), ("tests/fmi/vanderpol", "vanderpol.fmu")] {
+            scratch.py(&[build.to_str().unwrap(), root.join(folder).to_str().unwrap(), fmu]);
         }
         scratch
     }
@@ -1172,8 +1172,9 @@ fn the_initial_exchange_matches_libcosim() {
     let ssp = out.join("ssp");
     std::fs::create_dir_all(&ssp).unwrap();
     let python = fmpy_python();
-    let build = root.join("tests/fmi/feedthrough/build.py");
-    let o = Command::new(&python).arg(&build).arg(ssp.join("feedthrough.fmu")).output().unwrap();
+    let build = root.join("tests/fmi/build_c_fmu.py");
+    let folder = root.join("tests/fmi/feedthrough");
+    let o = Command::new(&python).arg(&build).arg(&folder).arg(ssp.join("feedthrough.fmu")).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let ssd = std::fs::read_to_string(root.join("tests/fmi/feedthrough/SystemStructure.ssd")).unwrap();
     std::fs::write(ssp.join("SystemStructure.ssd"), &ssd).unwrap();

@@ -7,32 +7,13 @@
  * loop reach different initial values under an ordered and an iterated initialization, so a run
  * tells which one a master does. late_parameters counts the parameter values set in
  * initialization mode rather than before it (where FMI puts start values). Value references:
- * 0-1 u[1..2], 2-3 y[1..2], 4 gain, 5 pull, 6-7 x_start[1..2], 8 late_parameters. Self-contained:
- * the fmi2 types are declared here. */
+ * 0-1 u[1..2], 2-3 y[1..2], 4 gain, 5 pull, 6-7 x_start[1..2], 8 late_parameters. The fmi2 types
+ * come from ../fmi2_types.h. */
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef void *fmi2Component;
-typedef void *fmi2ComponentEnvironment;
-typedef void *fmi2FMUstate;
-typedef unsigned int fmi2ValueReference;
-typedef double fmi2Real;
-typedef int fmi2Integer;
-typedef int fmi2Boolean;
-typedef char fmi2Char;
-typedef const fmi2Char *fmi2String;
-typedef char fmi2Byte;
-typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
-typedef enum { fmi2ModelExchange, fmi2CoSimulation } fmi2Type;
-typedef enum { fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime, fmi2Terminated } fmi2StatusKind;
-typedef struct {
-    void (*logger)(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void (*stepFinished)(fmi2ComponentEnvironment, fmi2Status);
-    fmi2ComponentEnvironment componentEnvironment;
-} fmi2CallbackFunctions;
+#include "../fmi2_types.h"
 
 #define GUID "{3f0d6a52-7c1e-4d2b-9a61-feedf0000a0a}"
 #define SOLVER_STEP 1e-3

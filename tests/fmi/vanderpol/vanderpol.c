@@ -8,32 +8,13 @@
  * output: doStep calls), 5 positive (Boolean output: x0 > 0), 6 label (String parameter), 7 fault and
  * 8 fault_at (parameters: from the step that starts at fault_at on, fault 1 calls abort(), 2
  * dereferences a null pointer, 3 loops for ever: the misbehaving FMUs of the isolation tests).
- * Self-contained: the fmi2 types are declared here. */
+ * The fmi2 types come from ../fmi2_types.h. */
 #include <signal.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef void *fmi2Component;
-typedef void *fmi2ComponentEnvironment;
-typedef void *fmi2FMUstate;
-typedef unsigned int fmi2ValueReference;
-typedef double fmi2Real;
-typedef int fmi2Integer;
-typedef int fmi2Boolean;
-typedef char fmi2Char;
-typedef const fmi2Char *fmi2String;
-typedef char fmi2Byte;
-typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
-typedef enum { fmi2ModelExchange, fmi2CoSimulation } fmi2Type;
-typedef enum { fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime, fmi2Terminated } fmi2StatusKind;
-typedef struct {
-    void (*logger)(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void (*stepFinished)(fmi2ComponentEnvironment, fmi2Status);
-    fmi2ComponentEnvironment componentEnvironment;
-} fmi2CallbackFunctions;
+#include "../fmi2_types.h"
 
 #define GUID "{8c4e810f-3df3-4a00-8276-176fa3c9f000}"
 #define SOLVER_STEP 1e-3
