@@ -79,9 +79,9 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, ParameterValue>, String> 
 /// What the caller gives where the file is silent.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Fallback {
-    /// Communication step [s] when the file gives none.
+    /// Communication step \[s\] when the file gives none.
     pub step: Option<f64>,
-    /// Horizon [s] (stop − start) when the file has no stop time.
+    /// Horizon \[s\] (stop − start) when the file has no stop time.
     pub horizon: Option<f64>,
 }
 
