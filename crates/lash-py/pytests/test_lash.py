@@ -160,6 +160,7 @@ def test_a_sweep_gives_a_dataset_whose_runs_equal_single_runs(tmp_path):
         lash.sweep(spec, out, threads=2, progress=lambda done, total, failed: seen.append((done, total, failed)))
     assert e.value.report["failed"] == 2 and e.value.report["runs"] == 6
     assert seen[-1] == (6, 6, 2) and all(a <= b for a, b in zip(seen, seen[1:]))
+    assert [d for d, _, _ in seen] == [1, 2, 3, 4, 5, 6], "once per run, in order"
     data = lash.Dataset(out)
     assert data.values.shape == (4, 201, 2) and data.channels == ["slider.ax", "crank_pivot.force"]
     assert data.units == {"slider.ax": "m/s^2", "crank_pivot.force": "N"}

@@ -317,9 +317,8 @@ fn validate_sweep(py: Python<'_>, file: PathBuf) -> PyResult<String> {
 /// there; returns the report as JSON (failed runs are counted in it and listed in the dataset).
 /// The sweep runs on a thread of its own while this (the main) thread checks Python's signals
 /// every 50 ms: Ctrl-C stops it — runs in flight finish, the folder stays resumable — and
-/// raises KeyboardInterrupt. `progress(done, total, failed)` is called from this thread when the
-/// counts move (at most every 50 ms, and once at the end); an exception it raises stops the
-/// sweep the same way.
+/// raises KeyboardInterrupt. `progress(done, total, failed)` is called from this thread once per
+/// finished run, in order; an exception it raises stops the sweep the same way.
 #[pyfunction]
 #[pyo3(signature = (file, out, threads = None, shard = None, progress = None))]
 fn sweep(
@@ -332,18 +331,17 @@ fn sweep(
 ) -> PyResult<String> {
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
     let cancel = std::sync::Arc::new(AtomicBool::new(false));
-    // Runs of the shard, runs done (with those done before), runs failed now: for `progress`.
-    let (total, done, failed) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
+    // Runs of the shard and runs done before this call: for `progress`; each finished run comes
+    // through `finished` (its outcome), so `progress` is called once per run, in order.
+    let (total, before) = (AtomicU64::new(0), AtomicU64::new(0));
+    let (finished_tx, finished_rx) = crossbeam_channel::unbounded::<bool>();
     let on_event = |e: lash_sweep::Event| match e {
         lash_sweep::Event::Start { total: t, done: d } => {
             total.store(t, Relaxed);
-            done.store(d, Relaxed);
+            before.store(d, Relaxed);
         }
         lash_sweep::Event::Finished { ok } => {
-            done.fetch_add(1, Relaxed);
-            if !ok {
-                failed.fetch_add(1, Relaxed);
-            }
+            let _ = finished_tx.send(ok);
         }
     };
     let (done_tx, done_rx) = crossbeam_channel::bounded::<()>(1);
@@ -358,24 +356,30 @@ fn sweep(
             }
         });
         let mut interrupted: Option<PyErr> = None;
-        let mut shown = (u64::MAX, u64::MAX);
-        let mut show = |interrupted: &mut Option<PyErr>| {
-            let now = (done.load(Relaxed), failed.load(Relaxed));
+        let (mut done, mut failed) = (0u64, 0u64);
+        let mut show = |ok: bool, interrupted: &mut Option<PyErr>| {
+            done += 1;
+            failed += u64::from(!ok);
             if let Some(callback) = &progress
-                && now != shown
                 && interrupted.is_none()
+                && let Err(e) = callback.call1((before.load(Relaxed) + done, total.load(Relaxed), failed))
             {
-                shown = now;
-                if let Err(e) = callback.call1((now.0, total.load(Relaxed), now.1)) {
-                    cancel.store(true, Relaxed);
-                    *interrupted = Some(e);
-                }
+                cancel.store(true, Relaxed);
+                *interrupted = Some(e);
             }
         };
         loop {
-            let finished = py.detach(|| done_rx.recv_timeout(std::time::Duration::from_millis(50)));
-            if !matches!(finished, Err(crossbeam_channel::RecvTimeoutError::Timeout)) {
-                break;
+            let woke = py.detach(|| {
+                crossbeam_channel::select! {
+                    recv(finished_rx) -> ok => Some(ok.ok()),
+                    recv(done_rx) -> _ => None,
+                    default(std::time::Duration::from_millis(50)) => Some(None),
+                }
+            });
+            match woke {
+                None => break,
+                Some(Some(ok)) => show(ok, &mut interrupted),
+                Some(None) => {}
             }
             if interrupted.is_none()
                 && let Err(e) = py.check_signals()
@@ -383,10 +387,11 @@ fn sweep(
                 cancel.store(true, Relaxed);
                 interrupted = Some(e);
             }
-            show(&mut interrupted);
         }
         let report = py.detach(|| worker.join());
-        show(&mut interrupted);
+        while let Ok(ok) = finished_rx.try_recv() {
+            show(ok, &mut interrupted);
+        }
         (report, interrupted)
     });
     let report = report.map_err(|_| SimulationError::new_err("the sweep's thread panicked"))?;

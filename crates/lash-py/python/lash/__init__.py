@@ -213,8 +213,8 @@ def sweep(
     ``threads``: worker threads (default one per core); ``shard``: ``"i/N"`` runs only that
     shard. When runs fail the dataset still holds the others and lists the failed runs with
     their errors; unless ``allow_failures``, :class:`RunsFailed` is raised then.
-    ``progress(done, total, failed)`` is called as runs finish (at most every 50 ms, and at the
-    end): a progress bar's hook. Ctrl-C (or an exception from ``progress``) stops the sweep;
+    ``progress(done, total, failed)`` is called once per finished run, in order (``done`` counts
+    the runs of earlier calls too): a progress bar's hook. Ctrl-C (or an exception from ``progress``) stops the sweep;
     the runs in flight finish and calling ``sweep`` again resumes it.
     """
     report = json.loads(_lash.sweep(os.fspath(file), os.fspath(out), threads, shard, progress))
