@@ -156,9 +156,15 @@ class Run:
     def to_pandas(self) -> "Any":
         """The channels as a pandas DataFrame indexed by ``time`` [s]; units in ``.attrs["units"]``.
 
-        The DataFrame is built on the same memory (pandas may copy if you write to it).
+        The DataFrame is built on the same memory (pandas may copy if you write to it). Needs
+        pandas: ``pip install "./crates/lash-py[pandas]"``.
         """
-        import pandas as pd
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError(
+                'Run.to_pandas needs pandas: pip install pandas (or install lash with its extra, "lash[pandas]")'
+            ) from None
 
         df = pd.DataFrame(self.values, columns=self.channels, index=pd.Index(self.time, name="time"), copy=False)
         df.attrs["units"] = {c: self.units[c] for c in self.channels}
