@@ -1100,12 +1100,20 @@ impl ImportedFmu {
         &self.description.fmi_version
     }
 
-    /// Enters initialization mode once the experiment is set up, if it has not been entered yet.
+    /// Enters initialization mode once the experiment is set up, if it has not been entered yet
+    /// (every call that reads values checks: one load once it has).
+    #[inline]
     fn enter_initialization(&self) -> Result<(), SubsystemError> {
-        use std::sync::atomic::Ordering::Relaxed;
-        if self.begun.load(Relaxed) {
+        if self.begun.load(std::sync::atomic::Ordering::Relaxed) {
             return Ok(());
         }
+        self.begin()
+    }
+
+    /// The first entry into initialization mode (see `enter_initialization`).
+    #[cold]
+    fn begin(&self) -> Result<(), SubsystemError> {
+        use std::sync::atomic::Ordering::Relaxed;
         let Some((start, stop)) = self.experiment.lock().unwrap_or_else(|e| e.into_inner()).take() else {
             return Ok(());
         };
@@ -1239,7 +1247,6 @@ impl ImportedFmu {
     /// Reads variables of any numeric kind, one typed call each (the path of FMUs that are not
     /// all Float64).
     fn get_numeric(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        self.enter_initialization()?;
         let poisoned = || SubsystemError::Other("importer scratch poisoned".into());
         let mut vrs = self.vr_scratch.lock().map_err(|_| poisoned())?;
         let mut bytes = self.bytes.lock().map_err(|_| poisoned())?;
