@@ -158,6 +158,14 @@ fn hidden_csv(hidden: &lash_estimate::Hidden) -> String {
     text
 }
 
+/// The prepared estimator of a validation, and its number of held-out cases checked.
+fn held_out_estimator(prepared: &Path, cases: u64) -> Result<Estimator, CliError> {
+    if cases == 0 {
+        return Err(CliError::Input("--cases: at least one held-out case".into()));
+    }
+    load(prepared)
+}
+
 /// `lash estimate validate --prepared FILE [--cases N] [--seed S] [--out DIR]`.
 pub fn validate(
     prepared: &Path,
@@ -166,10 +174,7 @@ pub fn validate(
     out: Option<&Path>,
     quiet: bool,
 ) -> Result<(), CliError> {
-    let estimator = load(prepared)?;
-    if cases == 0 {
-        return Err(CliError::Input("--cases: at least one held-out case".into()));
-    }
+    let estimator = held_out_estimator(prepared, cases)?;
     let work = work_folder(out.unwrap_or(prepared));
     let model = if reduced { lash_sweep::spec::ModelKind::Reduced } else { lash_sweep::spec::ModelKind::Full };
     let result = lash_estimate::validate::validate(&estimator, (cases, model), seed, &work, &progress(quiet));
@@ -214,10 +219,7 @@ pub fn validate_hidden(
     out: Option<&Path>,
     quiet: bool,
 ) -> Result<(), CliError> {
-    let estimator = load(prepared)?;
-    if cases == 0 {
-        return Err(CliError::Input("--cases: at least one held-out case".into()));
-    }
+    let estimator = held_out_estimator(prepared, cases)?;
     if !(snr_db.is_finite() && snr_db > 0.0) {
         return Err(CliError::Input(format!("--hidden: a signal-to-noise ratio in dB above 0, got {snr_db}")));
     }

@@ -174,12 +174,10 @@ fn align(sim: &Simulated, measured: &[f64], fs: f64, f0: f64, settle: f64) -> Op
     Some(best.1)
 }
 
-/// The `q` quantile of `v` (sorted in place).
+/// The `q` quantile of `v` (sorted in place; [`crate::infer`]'s interpolation).
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(f64::total_cmp);
-    let pos = q * (v.len() - 1) as f64;
-    let (i, frac) = (pos.floor() as usize, pos.fract());
-    v[i] + frac * (v[(i + 1).min(v.len() - 1)] - v[i])
+    crate::infer::quantile(v, q)
 }
 
 /// Samples where a contact begins in the majority of `draws` (force > 0 after none).

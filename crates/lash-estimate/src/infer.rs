@@ -117,7 +117,7 @@ fn from_scale(u: &Unknown, v: f64) -> f64 {
 }
 
 /// The `q` quantile of sorted values (linear between order statistics).
-fn quantile(sorted: &[f64], q: f64) -> f64 {
+pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
     let pos = q * (sorted.len() - 1) as f64;
     let (i, frac) = (pos.floor() as usize, pos.fract());
     let next = sorted[(i + 1).min(sorted.len() - 1)];
