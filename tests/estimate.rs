@@ -61,8 +61,20 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
     let dir = scratch();
     let prepared = dir.join("A.json");
     let p = prepared.to_str().unwrap();
-    let o =
-        lash(&["estimate", "prepare", "A", "--out", p, "--bank-runs", "240", "--calibration-runs", "24", "--quiet"]);
+    let o = lash(&[
+        "estimate",
+        "prepare",
+        "A",
+        "--out",
+        p,
+        "--bank-runs",
+        "240",
+        "--calibration-runs",
+        "24",
+        "--hidden-runs",
+        "8",
+        "--quiet",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let mut estimates = Vec::new();
     for (tag, c) in [("small", "80e-6"), ("large", "260e-6")] {
@@ -140,5 +152,74 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(expected), "{args:?}: {}", stderr(&o));
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Scenario E end to end on a small preparation: the spatial mechanism's two spherical joints
+/// seen by the guide housing's accelerometer at 500 Hz (its force through the mount, the orders
+/// read in the envelope). A measurement of the converged full model with the rod–slider ball worn
+/// is estimated: every unknown answered with an interval inside its prior, the joints' worn
+/// probabilities summing to one, the hidden signals written for both joints.
+#[test]
+fn a_spatial_housing_accelerometer_is_estimated() {
+    let dir = std::env::temp_dir().join(format!("lash-estimate-e-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let prepared = dir.join("E.json");
+    let p = prepared.to_str().unwrap();
+    let o = lash(&[
+        "estimate",
+        "prepare",
+        "E",
+        "--out",
+        p,
+        "--bank-runs",
+        "300",
+        "--calibration-runs",
+        "20",
+        "--hidden-runs",
+        "6",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let measured = dir.join("worn.csv");
+    let o = lash(&[
+        "estimate",
+        "emulate",
+        "--prepared",
+        p,
+        "--clearance",
+        "30e-6,450e-6",
+        "--snr",
+        "45",
+        "--out",
+        measured.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let header = std::fs::read_to_string(&measured).unwrap();
+    assert!(header.starts_with("time [s],housing.ay [m/s^2],housing.az [m/s^2]"), "{}", &header[..80]);
+    let out = dir.join("answer");
+    let o = lash(&["estimate", measured.to_str().unwrap(), "--prepared", p, "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("estimate.json")).unwrap()).unwrap();
+    for u in json["unknowns"].as_array().unwrap() {
+        let (lo, m, hi) = (u["low"].as_f64().unwrap(), u["median"].as_f64().unwrap(), u["high"].as_f64().unwrap());
+        let (a, b) = (u["prior"][0].as_f64().unwrap(), u["prior"][1].as_f64().unwrap());
+        assert!(a <= lo && lo <= m && m <= hi && hi <= b, "{u}");
+    }
+    let worn: f64 = json["worn"].as_array().unwrap().iter().map(|w| w[1].as_f64().unwrap()).sum();
+    assert!((worn - 1.0).abs() < 1e-9, "{}", json["worn"]);
+    // The hidden signals: each column what its header says (a runner orders its own columns).
+    let hidden = std::fs::read_to_string(out.join("hidden.csv")).unwrap();
+    let header: Vec<&str> = hidden.lines().next().unwrap().split(',').collect();
+    let rows: Vec<Vec<f64>> =
+        hidden.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 500);
+    let column = |name: &str| header.iter().position(|h| h.starts_with(name)).unwrap_or_else(|| panic!("{name}"));
+    let (force, eccentricity) = (column("rod_slider.force.median"), column("rod_slider.eccentricity.median"));
+    let mean_force = rows.iter().map(|r| r[force]).sum::<f64>() / 500.0;
+    assert!(mean_force > 1.0, "the worn ball carries the rod's load: {mean_force} N");
+    assert!(rows.iter().all(|r| r[eccentricity].abs() < 1e-3), "eccentricities are below a millimetre");
     let _ = std::fs::remove_dir_all(&dir);
 }

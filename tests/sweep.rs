@@ -454,3 +454,60 @@ fn validate_sizes_a_huge_design_before_listing_it() {
         assert!(stderr(&o).contains(what), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// A sweep logs a scenario's emulated housing accelerometer (`housing.ay`) from its force through
+/// each run's own mount, as `lash run` measures it: the same samples (after the settle time, mean
+/// removed) at a mount frequency the sweep varies.
+#[test]
+fn a_sweep_logs_the_housing_accelerometer_as_a_run_measures_it() {
+    let dir = scratch("housing");
+    let file = dir.join("sweep.toml");
+    std::fs::write(
+        &file,
+        r#"base = "E-0.5mm-250rpm"
+model = "full"
+sampling = "grid"
+horizon = 0.3
+[output]
+channels = ["housing.ay", "slider_guide.fy"]
+sample_rate = 500.0
+anti_alias = { cutoff = 200.0 }
+csv = true
+[[parameters]]
+path = "output.measurements[0].mount.natural_frequency"
+values = [120.0]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_sweep(&file, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m: serde_json::Value = serde_json::from_slice(&bytes(out.join("manifest.json"))).unwrap();
+    assert_eq!(m["channels"][0]["unit"], "m/s^2");
+    let csv = std::fs::read_to_string(out.join("data.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let (t, ay) =
+        (header.iter().position(|h| *h == "t").unwrap(), header.iter().position(|h| *h == "housing.ay").unwrap());
+    let rows: Vec<Vec<f64>> =
+        csv.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap_or(f64::NAN)).collect()).collect();
+    let swept: Vec<f64> = rows.iter().filter(|r| r[t] >= 0.24 - 1e-9).map(|r| r[ay]).collect();
+    let mean = swept.iter().sum::<f64>() / swept.len() as f64;
+    // The scenario with that mount, run and measured by `lash run`.
+    let shown = lash(&["show", "E-0.5mm-250rpm"]);
+    let text = String::from_utf8(shown.stdout)
+        .unwrap()
+        .replace("natural_frequency = 150.0", "natural_frequency = 120.0")
+        .replace("horizon = 0.48", "horizon = 0.3");
+    let scenario = dir.join("E.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let o = lash(&["run", scenario.to_str().unwrap(), "--out", dir.join("run").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let measured = std::fs::read_to_string(dir.join("run").join("measurement_housing.csv")).unwrap();
+    let logged: Vec<f64> = measured.lines().skip(1).map(|l| l.split(',').nth(2).unwrap().parse().unwrap()).collect();
+    assert_eq!(logged.len(), swept.len());
+    let scale = logged.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    assert!(scale > 1.0, "the housing vibrates: {scale} m/s²");
+    for (a, b) in swept.iter().zip(&logged) {
+        assert!((a - mean - b).abs() < 1e-9 * scale, "{a} − {mean} against {b}");
+    }
+}

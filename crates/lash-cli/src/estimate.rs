@@ -42,21 +42,33 @@ pub fn load(path: &Path) -> Result<Estimator, CliError> {
     Estimator::load(path).map_err(cli)
 }
 
+/// Sizes of a preparation that override the setup's (None: the setup's).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Sizes {
+    /// Reduced-model runs of the bank.
+    pub bank_runs: Option<u64>,
+    /// Full-model runs of the unknowns' calibration.
+    pub calibration_runs: Option<u64>,
+    /// Full-model cases of the hidden signals' band calibration.
+    pub hidden_runs: Option<u64>,
+}
+
 /// `lash estimate prepare [SETUP] --out FILE`.
-pub fn prepare(setup: &str, out: &Path, overrides: (Option<u64>, Option<u64>), quiet: bool) -> Result<(), CliError> {
+pub fn prepare(setup: &str, out: &Path, sizes: Sizes, quiet: bool) -> Result<(), CliError> {
     let mut setup = Setup::load(setup).map_err(cli)?;
-    if let Some(n) = overrides.0 {
-        setup.bank_runs = n;
-    }
-    if let Some(n) = overrides.1 {
-        setup.calibration_runs = n;
-    }
+    setup.bank_runs = sizes.bank_runs.unwrap_or(setup.bank_runs);
+    setup.calibration_runs = sizes.calibration_runs.unwrap_or(setup.calibration_runs);
+    setup.hidden_calibration_runs = sizes.hidden_runs.unwrap_or(setup.hidden_calibration_runs);
     setup.check().map_err(cli)?;
     let work = work_folder(out);
     if !quiet {
         eprintln!(
-            "preparing an estimator for {}: {} reduced-model runs × {} measurements, {} full-model runs to calibrate",
-            setup.name, setup.bank_runs, setup.measurements_per_run, setup.calibration_runs
+            "preparing an estimator for {}: {} reduced-model runs × {} measurements, {} full-model runs to calibrate, {} to calibrate the hidden signals",
+            setup.name,
+            setup.bank_runs,
+            setup.measurements_per_run,
+            setup.calibration_runs,
+            setup.hidden_calibration_runs
         );
     }
     let result = lash_estimate::prepare::prepare(&setup, &work, &progress(quiet));
@@ -80,6 +92,14 @@ pub fn prepare(setup: &str, out: &Path, overrides: (Option<u64>, Option<u64>), q
             "  {:<24} calibration: median shift {:+.4}, interval × {:.3} ({} cases)",
             u.name, c.shift, c.widen, c.cases
         );
+    }
+    if let Some(c) = &estimator.hidden_calibration {
+        for (joint, f) in estimator.joints.iter().zip(&c.factors) {
+            println!(
+                "  {joint:<24} hidden signals: force band × {:.2}, eccentricity band × {:.2}, RMS range × {:.2}, peak range × {:.2} ({} cases, {:.1} s)",
+                f[0], f[1], f[2], f[3], c.cases, report.hidden_s
+            );
+        }
     }
     Ok(())
 }
@@ -117,6 +137,13 @@ pub fn estimate(measurement: &Path, prepared: &Path, out: Option<&Path>) -> Resu
     if !e.worn.is_empty() {
         let worn: Vec<String> = e.worn.iter().map(|(j, p)| format!("{j} {:.0} %", 100.0 * p)).collect();
         println!("  worn joint: {}", worn.join(", "));
+    }
+    if hidden.calibration_cases > 0 {
+        println!("  hidden signals (90 % bands calibrated on {} full-model cases):", hidden.calibration_cases);
+    } else {
+        println!(
+            "  hidden signals (bands: the posterior draws' spread, not calibrated — an estimator prepared before bands were calibrated):"
+        );
     }
     for (j, onsets) in hidden.onsets.iter().enumerate() {
         let ([rms, rms_lo, rms_hi], [peak, peak_lo, peak_hi]) = (hidden.force_rms[j], hidden.force_peak[j]);
@@ -241,13 +268,17 @@ pub fn validate_hidden(
         pct(r.force_peak_error[1]),
         pct(r.force_peak_within_20)
     );
+    let calibrated = match &estimator.hidden_calibration {
+        Some(c) => format!("calibrated on {} full-model cases", c.cases),
+        None => "the draws' own spread, not calibrated".to_string(),
+    };
     println!(
-        "  the draws' 5–95 % range holds the true force RMS in {}, its peak in {} of joints",
+        "  90 % ranges ({calibrated}) hold the true force RMS in {}, its peak in {} of joints",
         pct(r.force_rms_coverage),
         pct(r.force_peak_coverage)
     );
     println!(
-        "  5–95 % bands hold the true force at {} of samples, the eccentricity at {}",
+        "  90 % bands hold the true force at {} of samples, the eccentricity at {}",
         pct(r.force_band_coverage),
         pct(r.eccentricity_band_coverage)
     );

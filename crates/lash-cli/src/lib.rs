@@ -279,10 +279,10 @@ enum Command {
 /// `lash estimate …` subcommands.
 #[derive(Subcommand, Debug)]
 enum EstimateCommand {
-    /// One-time preparation for a setup (built-in A or C, or a setup TOML file): a reduced-model
+    /// One-time preparation for a setup (built-in A, C or E, or a setup TOML file): a reduced-model
     /// sweep over the priors, the fit, a calibration on full-model runs; stored as JSON.
     Prepare {
-        /// Built-in setup (A, C) or setup file.
+        /// Built-in setup (A, C, E) or setup file.
         #[arg(default_value = "A")]
         setup: String,
         /// The prepared estimator's file.
@@ -294,6 +294,9 @@ enum EstimateCommand {
         /// Full-model runs of the calibration (default: the setup's).
         #[arg(long)]
         calibration_runs: Option<u64>,
+        /// Full-model cases of the hidden signals' band calibration (default: the setup's; 0: none).
+        #[arg(long)]
+        hidden_runs: Option<u64>,
         /// No progress lines.
         #[arg(long)]
         quiet: bool,
@@ -592,8 +595,8 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
         },
         Command::Estimate { command: Some(command), .. } => match command {
-            EstimateCommand::Prepare { setup, out, bank_runs, calibration_runs, quiet } => {
-                estimate::prepare(&setup, &out, (bank_runs, calibration_runs), quiet)
+            EstimateCommand::Prepare { setup, out, bank_runs, calibration_runs, hidden_runs, quiet } => {
+                estimate::prepare(&setup, &out, estimate::Sizes { bank_runs, calibration_runs, hidden_runs }, quiet)
             }
             EstimateCommand::Validate { prepared, cases, seed, reduced: _, hidden: Some(snr), out, quiet } => {
                 estimate::validate_hidden(&prepared, cases, seed, snr, out.as_deref(), quiet)

@@ -5,8 +5,9 @@
 //! terms, so a simulation that reproduces the measured vibration carries the forces that made it.
 //! Draws of the posterior (clearances calibrated, nuisances from the same bank draws) are
 //! simulated again with the reduced model at the crank speed measured from the file itself; each
-//! run's sensor channel, passed through the logger's anti-alias filter, is aligned with the
-//! measurement by the lag (within one crank revolution, at the simulation's resolution) that
+//! run's sensor channel (a housing accelerometer's: its force through the draw's mount), passed
+//! through the logger's anti-alias filter, is aligned with the measurement (with an envelope
+//! setup, envelope with envelope) by the lag (within one crank revolution, at the simulation's resolution) that
 //! correlates best — the sensor's gain does not matter, its start in the cycle is found — and the
 //! run's joint signals are read at the measurement's sample instants. Per sample, the draws'
 //! median and 5–95 % range are the estimate and its band. Impact onsets are where most draws
@@ -52,6 +53,139 @@ pub struct Hidden {
     pub draws: usize,
     /// Draws whose run failed.
     pub failed: usize,
+    /// Full-model cases the bands were calibrated on (0: the draws' own spread, not calibrated).
+    #[serde(default)]
+    pub calibration_cases: usize,
+}
+
+/// How the hidden signals' bands are widened to hold the converged full model's truth: split
+/// conformal, as the unknowns' intervals (docs/theory.md §10). Each factor multiplies the
+/// distances from the median to the band's edges.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BandCalibration {
+    /// Per joint: the factors of its force band, its eccentricity band (per sample), its force
+    /// RMS range and its force peak range (per case).
+    pub factors: Vec<[f64; 4]>,
+    /// Full-model cases behind them.
+    pub cases: usize,
+}
+
+/// Share of truths a calibrated band holds.
+const BAND_COVERAGE: f64 = 0.9;
+
+/// The edges of `(median, low, high)` widened by `factor` (the signals are magnitudes: ≥ 0).
+fn widen(median: f64, low: f64, high: f64, factor: f64) -> (f64, f64) {
+    ((median - factor * (median - low)).max(0.0), median + factor * (high - median))
+}
+
+/// How far outside `(median, low, high)` the truth lies, in units of the band's half-width on its
+/// side (≤ 1: inside). `floor` keeps a band of zero width (every draw equal) finite.
+fn score(median: f64, low: f64, high: f64, truth: f64, floor: f64) -> f64 {
+    if truth >= median {
+        (truth - median) / (high - median).max(floor)
+    } else {
+        (median - truth) / (median - low).max(floor)
+    }
+}
+
+/// The ⌈0.9 (n + 1)⌉-th smallest score (split conformal).
+fn conformal(scores: &mut [f64]) -> f64 {
+    scores.sort_by(f64::total_cmp);
+    let k = ((BAND_COVERAGE * (scores.len() + 1) as f64).ceil() as usize).clamp(1, scores.len().max(1)) - 1;
+    scores.get(k).copied().unwrap_or(1.0)
+}
+
+impl BandCalibration {
+    /// Widens the bands and ranges of `hidden`.
+    pub fn apply(&self, hidden: &mut Hidden) {
+        for (j, f) in self.factors.iter().enumerate() {
+            for (band, factor) in hidden.signals[2 * j..2 * j + 2].iter_mut().zip(&f[..2]) {
+                for i in 0..band.median.len() {
+                    (band.low[i], band.high[i]) = widen(band.median[i], band.low[i], band.high[i], *factor);
+                }
+            }
+            for (range, factor) in [(&mut hidden.force_rms[j], f[2]), (&mut hidden.force_peak[j], f[3])] {
+                (range[1], range[2]) = widen(range[0], range[1], range[2], factor);
+            }
+        }
+        hidden.calibration_cases = self.cases;
+    }
+
+    /// The factors from uncalibrated reconstructions of full-model cases and their truths.
+    fn from_cases(cases: &[(Truth, Hidden)]) -> Self {
+        let joints = cases.first().map_or(0, |(t, _)| t.joints.len());
+        let factors = (0..joints)
+            .map(|j| {
+                let mut per_sample = [Vec::new(), Vec::new()];
+                let (mut rms_scores, mut peak_scores) = (Vec::new(), Vec::new());
+                for (truth, hidden) in cases {
+                    let (force, eccentricity) = &truth.joints[j];
+                    for (k, signal) in [force, eccentricity].into_iter().enumerate() {
+                        let band = &hidden.signals[2 * j + k];
+                        let floor = 1e-3 * rms(&band.median).max(1e-300);
+                        per_sample[k].extend(
+                            signal
+                                .iter()
+                                .enumerate()
+                                .map(|(i, &t)| score(band.median[i], band.low[i], band.high[i], t, floor)),
+                        );
+                    }
+                    let ([m, l, h], [pm, pl, ph]) = (hidden.force_rms[j], hidden.force_peak[j]);
+                    rms_scores.push(score(m, l, h, rms(force), 1e-3 * m.max(1e-300)));
+                    peak_scores.push(score(pm, pl, ph, peak(force), 1e-3 * pm.max(1e-300)));
+                }
+                let [forces, eccentricities] = &mut per_sample;
+                [conformal(forces), conformal(eccentricities), conformal(&mut rms_scores), conformal(&mut peak_scores)]
+            })
+            .collect();
+        Self { factors, cases: cases.len() }
+    }
+}
+
+/// Calibrates the hidden signals' bands of `estimator` on `cases` full-model cases (seeds of
+/// their own, SNRs spread over the prior), reconstructed as a user's measurement is.
+pub fn calibrate_bands(
+    estimator: &mut Estimator,
+    cases: u64,
+    progress: crate::prepare::Progress<'_>,
+) -> Result<(), EstimateError> {
+    use rayon::prelude::*;
+    estimator.hidden_calibration = None;
+    if cases == 0 {
+        return Ok(());
+    }
+    let setup = &estimator.setup;
+    let r = setup.resolve()?;
+    let band_hz = crate::prepare::speed_band_hz(&r);
+    let seed = setup.seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ 0x0062_616e_6463_616c;
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let frozen: &Estimator = estimator;
+    let reconstructed: Vec<(Truth, Hidden)> = (0..cases)
+        .into_par_iter()
+        .filter_map(|i| {
+            let snr = setup.snr_db[0] + (setup.snr_db[1] - setup.snr_db[0]) * (i as f64 + 0.5) / cases as f64;
+            let case = held_out(frozen, &r, seed, i, snr).and_then(|t| {
+                let (f0, features) = crate::prepare::measured_features(setup, band_hz, &t.measured)?;
+                let hidden = reconstruct(frozen, &features, f0, &t.measured[0]).ok()?;
+                Some((t, hidden))
+            });
+            progress(
+                "Hidden-signal calibration (full model)",
+                done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                cases,
+            );
+            case
+        })
+        .collect();
+    let needed = (cases as usize).div_ceil(2).max(5);
+    if reconstructed.len() < needed {
+        return Err(EstimateError::Failure(format!(
+            "the hidden signals' calibration: {} of {cases} full-model cases could be reconstructed ({needed} needed)",
+            reconstructed.len()
+        )));
+    }
+    estimator.hidden_calibration = Some(BandCalibration::from_cases(&reconstructed));
+    Ok(())
 }
 
 /// One signal of every draw (a series per draw).
@@ -63,6 +197,45 @@ struct Simulated {
     sensor: Vec<f64>,
     joints: Vec<(Vec<f64>, Vec<f64>)>,
     dt: f64,
+}
+
+/// How a run carries each of the sensor channels `names`: the runner channel, and for a
+/// measurement's logged axis (`housing.ay`) the mount its force drives. The scenario's own
+/// measurement is taken out (the runner need not emulate it after the run).
+fn sensors_of(
+    scenario: &mut lash_scenario::AnyScenario,
+    names: &[String],
+) -> Vec<(String, Option<lash_measure::Mount>)> {
+    let measurements = std::mem::take(&mut scenario.output_mut().measurements);
+    names
+        .iter()
+        .map(|channel| match lash_sweep::plan::measured_force(&measurements, channel) {
+            Some(force) => {
+                let mount = measurements.iter().find(|m| m.channel_names().contains(channel)).map(|m| m.mount);
+                (force.to_string(), mount)
+            }
+            None => (channel.clone(), None),
+        })
+        .collect()
+}
+
+/// The sensor's signal at the simulation's output interval `dt` from its runner channel:
+/// through the mount (if any), then the logger's anti-alias filter; with an envelope setup, its
+/// envelope (what the alignment compares).
+fn sensor_signal(
+    setup: &crate::setup::Setup,
+    column: &[f64],
+    mount: Option<lash_measure::Mount>,
+    dt: f64,
+) -> Result<Vec<f64>, EstimateError> {
+    let chain = lash_measure::Acquisition { sample_rate: 1.0 / dt, cutoff: setup.anti_alias, order: 4, settle: 0.0 };
+    let mut logger = chain.logger(dt).map_err(EstimateError::Failure)?;
+    let driven = match mount {
+        Some(m) => m.acceleration(column, dt),
+        None => column.to_vec(),
+    };
+    let filtered: Vec<f64> = driven.into_iter().filter_map(|x| logger.push(x)).collect();
+    Ok(if setup.envelope { crate::features::envelope(&filtered) } else { filtered })
 }
 
 /// The scenario edits of one posterior draw (unknowns in the estimator's order), at crank
@@ -79,6 +252,30 @@ fn edits(estimator: &Estimator, r: &Resolved, draw: &[f64], f0: f64) -> Vec<(Str
     e
 }
 
+/// The channels a run records: the sensors', then each joint's force and eccentricity.
+fn joint_channels(sensors: Vec<String>, r: &Resolved) -> Vec<String> {
+    let mut channels = sensors;
+    for j in &r.joints {
+        channels.extend([format!("{j}.force"), format!("{j}.eccentricity")]);
+    }
+    channels
+}
+
+/// Where each of `channels` is in the rows of `runner` (a runner orders its columns its own way:
+/// the spatial one by body, joint and clearance).
+fn columns(runner: &dyn lash_run::Runner, channels: &[String]) -> Result<Vec<usize>, EstimateError> {
+    let header = runner.header();
+    channels
+        .iter()
+        .map(|c| {
+            header
+                .iter()
+                .position(|h| h.split(" [").next() == Some(c.as_str()))
+                .ok_or_else(|| EstimateError::Failure(format!("the run does not record {c}")))
+        })
+        .collect()
+}
+
 /// Simulates the draws with the reduced model (side by side in vector lanes), over the settle
 /// time, the window and two revolutions more (room for the alignment).
 fn simulate(
@@ -91,10 +288,6 @@ fn simulate(
     let table = toml::Table::try_from(&r.scenario).map_err(|e| EstimateError::Failure(e.to_string()))?;
     let base = lash_scenario::paths::EditBase::new(table);
     let horizon = ((setup.settle + setup.window + 2.0 / f0) / setup.macro_step).ceil() * setup.macro_step;
-    let mut channels = vec![setup.channels[0].name.clone()];
-    for j in &r.joints {
-        channels.extend([format!("{j}.force"), format!("{j}.eccentricity")]);
-    }
     let options = lash_run::ReducedOptions {
         macro_step: setup.macro_step,
         micro_step: setup.micro_step,
@@ -102,6 +295,8 @@ fn simulate(
         ..Default::default()
     };
     let mut runners = Vec::with_capacity(draws.len());
+    let mut mounts = Vec::with_capacity(draws.len());
+    let mut indices = Vec::with_capacity(draws.len());
     let mut dt = 0.0;
     for draw in draws {
         let e = edits(estimator, r, draw, f0);
@@ -109,9 +304,14 @@ fn simulate(
             .edited(e.iter().map(|(p, v)| (p.as_str(), *v)))
             .map_err(|e| EstimateError::Failure(format!("a posterior draw's scenario: {e:?}")))?;
         scenario.simulation_mut().horizon = horizon;
+        let (sensor, mount) = sensors_of(&mut scenario, &[setup.channels[0].name.clone()]).remove(0);
+        mounts.push(mount);
+        let channels = joint_channels(vec![sensor], r);
         scenario.output_mut().channels = channels.clone();
         dt = scenario.simulation().output_interval;
-        runners.push(lash_run::runner(&scenario, lash_run::Model::Reduced(options)).map_err(EstimateError::Failure)?);
+        let runner = lash_run::runner(&scenario, lash_run::Model::Reduced(options)).map_err(EstimateError::Failure)?;
+        indices.push(columns(runner.as_ref(), &channels)?);
+        runners.push(runner);
     }
     let mut rows: Vec<Vec<Vec<f64>>> = vec![Vec::new(); draws.len()];
     let results = {
@@ -127,18 +327,16 @@ fn simulate(
         let sinks: Vec<lash_run::Sink<'_>> = keep.iter_mut().map(|s| s as lash_run::Sink<'_>).collect();
         lash_run::execute_together(&mut runners, sinks)
     };
-    let chain = lash_measure::Acquisition { sample_rate: 1.0 / dt, cutoff: setup.anti_alias, order: 4, settle: 0.0 };
     let mut out = Vec::with_capacity(draws.len());
-    for (result, rows) in results.into_iter().zip(rows) {
+    for (((result, rows), mount), index) in results.into_iter().zip(rows).zip(mounts).zip(indices) {
         let ok = result.is_ok() && rows.iter().all(|row| row.iter().all(|v| v.is_finite()));
         if !ok {
             out.push(None);
             continue;
         }
-        let column = |c: usize| rows.iter().map(|row| row[c]).collect::<Vec<f64>>();
-        let mut logger = chain.logger(dt).map_err(EstimateError::Failure)?;
-        let sensor = column(1).into_iter().filter_map(|x| logger.push(x)).collect();
-        let joints = (0..r.joints.len()).map(|j| (column(2 + 2 * j), column(3 + 2 * j))).collect();
+        let column = |c: usize| rows.iter().map(|row| row[index[c]]).collect::<Vec<f64>>();
+        let sensor = sensor_signal(setup, &column(0), mount, dt)?;
+        let joints = (0..r.joints.len()).map(|j| (column(1 + 2 * j), column(2 + 2 * j))).collect();
         out.push(Some(Simulated { sensor, joints, dt }));
     }
     Ok(out)
@@ -202,12 +400,14 @@ pub fn reconstruct(
     let chosen: Vec<Vec<f64>> = posterior.into_iter().step_by(step).take(DRAWS).collect();
     let simulated = simulate(estimator, &r, &chosen, f0)?;
     let fs = setup.sample_rate;
+    // What the alignment compares: the measured channel, or its envelope (as the runs' sensor).
+    let reference = if setup.envelope { crate::features::envelope(measured) } else { measured.to_vec() };
     // Per joint: force draws and eccentricity draws, each a series at the measured instants.
     let joints = r.joints.len();
     let mut series: Vec<(Series, Series)> = vec![(Vec::new(), Vec::new()); joints];
     let mut failed = 0;
     for sim in &simulated {
-        let Some(lag) = sim.as_ref().and_then(|s| align(s, measured, fs, f0, setup.settle)) else {
+        let Some(lag) = sim.as_ref().and_then(|s| align(s, &reference, fs, f0, setup.settle)) else {
             failed += 1;
             continue;
         };
@@ -252,7 +452,20 @@ pub fn reconstruct(
         force_rms.push(summary(force, rms));
         force_peak.push(summary(force, peak));
     }
-    Ok(Hidden { sample_rate: fs, signals, onsets: found, force_rms, force_peak, draws: chosen.len(), failed })
+    let mut hidden = Hidden {
+        sample_rate: fs,
+        signals,
+        onsets: found,
+        force_rms,
+        force_peak,
+        draws: chosen.len(),
+        failed,
+        calibration_cases: 0,
+    };
+    if let Some(c) = &estimator.hidden_calibration {
+        c.apply(&mut hidden);
+    }
+    Ok(hidden)
 }
 
 /// How well the hidden signals follow the converged full model's (one figure per case and joint).
@@ -297,12 +510,13 @@ pub struct HiddenReport {
 /// One held-out case: its emulated measurement, and per joint the true force and eccentricity
 /// at the measurement's instants.
 struct Truth {
-    measured: Vec<f64>,
+    /// Every measured channel (the first is the reference).
+    measured: Vec<Vec<f64>>,
     joints: Vec<(Vec<f64>, Vec<f64>)>,
 }
 
 /// Case `i` of the held-out set: parameters drawn from the priors with a stream of `seed` of its
-/// own, the converged full model run, its sensor channel logged and measured at `snr_db`.
+/// own, the converged full model run, its sensor channels logged and measured at `snr_db`.
 fn held_out(estimator: &Estimator, r: &Resolved, seed: u64, i: u64, snr_db: f64) -> Option<Truth> {
     use rand::{Rng, SeedableRng};
     let setup = &estimator.setup;
@@ -325,18 +539,36 @@ fn held_out(estimator: &Estimator, r: &Resolved, seed: u64, i: u64, snr_db: f64)
     let mut scenario =
         lash_scenario::paths::EditBase::new(table).edited(edits.iter().map(|(p, v)| (p.as_str(), *v))).ok()?;
     scenario.simulation_mut().horizon = setup.settle + setup.window + 2.0 / setup.sample_rate;
-    let mut channels = vec![setup.channels[0].name.clone()];
-    for j in &r.joints {
-        channels.extend([format!("{j}.force"), format!("{j}.eccentricity")]);
-    }
-    scenario.output_mut().channels = channels;
+    let names: Vec<String> = setup.channels.iter().map(|c| c.name.clone()).collect();
+    let (sensors, mounts): (Vec<String>, Vec<_>) = sensors_of(&mut scenario, &names).into_iter().unzip();
+    let (logged, instants, at) = logged_full_run(setup, scenario, sensors, &mounts, r)?;
+    let measured = logged.iter().map(|x| crate::prepare::measure(x, gain, snr_db, &mut rng)).collect();
+    let truth = |c: usize| instants.iter().map(|&k| at[c][k]).collect::<Vec<f64>>();
+    Some(Truth { measured, joints: (0..joints).map(|j| (truth(2 * j), truth(2 * j + 1))).collect() })
+}
+
+/// Runs the converged full model of `scenario` recording `sensors` and the joints' signals; returns
+/// the sensors as the logger keeps them over the window (each through its mount, if any), the
+/// kept samples' row indices, and each joint signal (force, eccentricity per joint) at every row.
+#[allow(clippy::type_complexity)]
+fn logged_full_run(
+    setup: &crate::setup::Setup,
+    mut scenario: lash_scenario::AnyScenario,
+    sensors: Vec<String>,
+    mounts: &[Option<lash_measure::Mount>],
+    r: &Resolved,
+) -> Option<(Vec<Vec<f64>>, Vec<usize>, Vec<Vec<f64>>)> {
+    let count = sensors.len();
+    let channels = joint_channels(sensors, r);
+    scenario.output_mut().channels = channels.clone();
     let dt = scenario.simulation().output_interval;
     let mut runner = lash_run::runner(&scenario, lash_run::Model::Full { ideal: false }).ok()?;
+    let index = columns(runner.as_ref(), &channels).ok()?;
     let mut rows: Vec<Vec<f64>> = Vec::new();
     runner
         .execute(
             &mut |row: &[f64]| {
-                rows.push(row.to_vec());
+                rows.push(index.iter().map(|&i| row[i]).collect());
                 Ok(())
             },
             &mut |_| {},
@@ -348,25 +580,31 @@ fn held_out(estimator: &Estimator, r: &Resolved, seed: u64, i: u64, snr_db: f64)
         order: 4,
         settle: setup.settle,
     };
-    let mut logger = chain.logger(dt).ok()?;
     let n = (setup.window * setup.sample_rate).round() as usize;
-    let every = (1.0 / (setup.sample_rate * dt)).round() as usize;
-    let mut kept = Vec::with_capacity(n);
+    let mut logged = Vec::with_capacity(count);
     let mut instants = Vec::with_capacity(n);
-    for (k, row) in rows.iter().enumerate() {
-        if let Some(y) = logger.push(row[1]) {
-            kept.push(y);
-            instants.push(k);
+    for (c, mount) in mounts.iter().enumerate() {
+        let mut logger = chain.logger(dt).ok()?;
+        let mut response = mount.map(|m| m.response(dt));
+        let mut kept = Vec::with_capacity(n);
+        for (k, row) in rows.iter().enumerate() {
+            let value = response.as_mut().map_or(row[c], |m| m.push(row[c]));
+            if let Some(y) = logger.push(value) {
+                kept.push(y);
+                if c == 0 {
+                    instants.push(k);
+                }
+            }
         }
+        if kept.len() < n {
+            return None;
+        }
+        kept.truncate(n);
+        logged.push(kept);
     }
-    if kept.len() < n || every == 0 {
-        return None;
-    }
-    kept.truncate(n);
     instants.truncate(n);
-    let measured = crate::prepare::measure(&kept, gain, snr_db, &mut rng);
-    let at = |c: usize| instants.iter().map(|&k| rows[k][c]).collect::<Vec<f64>>();
-    Some(Truth { measured, joints: (0..joints).map(|j| (at(2 + 2 * j), at(3 + 2 * j))).collect() })
+    let joint_signals = (count..channels.len()).map(|c| rows.iter().map(|row| row[c]).collect()).collect();
+    Some((logged, instants, joint_signals))
 }
 
 /// Relative error of `estimate` against `truth`.
@@ -409,9 +647,8 @@ pub fn validate_hidden(
             let truth = held_out(estimator, &r, seed, i, snr_db);
             let clock = std::time::Instant::now();
             let hidden = truth.as_ref().and_then(|t| {
-                let (f0, features) =
-                    crate::prepare::measured_features(setup, band_hz, std::slice::from_ref(&t.measured))?;
-                reconstruct(estimator, &features, f0, &t.measured).ok()
+                let (f0, features) = crate::prepare::measured_features(setup, band_hz, &t.measured)?;
+                reconstruct(estimator, &features, f0, &t.measured[0]).ok()
             });
             let seconds = clock.elapsed().as_secs_f64();
             progress("hidden signals", done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, cases);
@@ -475,6 +712,67 @@ pub fn validate_hidden(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Cases whose truth is the median plus Gaussian noise of unit spread, with raw bands of
+    /// ±`half` around the median.
+    fn gaussian_cases(count: u64, half: f64, stream: u64) -> Vec<(Truth, Hidden)> {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        rng.set_stream(stream);
+        (0..count)
+            .map(|c| {
+                let median: Vec<f64> = (0..500).map(|i| 10.0 + (i as f64 * 0.01 + c as f64).sin()).collect();
+                let mut noisy = || -> Vec<f64> {
+                    median
+                        .iter()
+                        .map(|m| {
+                            let unit: f64 = StandardNormal.sample(&mut rng);
+                            m + unit
+                        })
+                        .collect()
+                };
+                let (force, eccentricity) = (noisy(), noisy());
+                let band = |name: &str| Band {
+                    name: name.into(),
+                    unit: String::new(),
+                    median: median.clone(),
+                    low: median.iter().map(|m| m - half).collect(),
+                    high: median.iter().map(|m| m + half).collect(),
+                };
+                let (r, p) = (rms(&force), peak(&force));
+                let hidden = Hidden {
+                    sample_rate: 1.0,
+                    signals: vec![band("f"), band("e")],
+                    onsets: vec![Vec::new()],
+                    force_rms: [[r, r - 0.01, r + 0.01]].to_vec(),
+                    force_peak: [[p, p - 0.01, p + 0.01]].to_vec(),
+                    draws: DRAWS,
+                    failed: 0,
+                    calibration_cases: 0,
+                };
+                (Truth { measured: Vec::new(), joints: vec![(force, eccentricity)] }, hidden)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn calibrated_bands_hold_ninety_percent_of_gaussian_truths() {
+        // Raw bands of ±0.8225 σ hold 59 % of the samples; the 90 % band of a unit Gaussian is
+        // ±1.645 σ, so the factor is 2 (closed form), and fresh cases are then held 90 % of the time.
+        let calibration = BandCalibration::from_cases(&gaussian_cases(40, 0.8225, 1));
+        let [force, eccentricity, ..] = calibration.factors[0];
+        assert!((force - 2.0).abs() < 0.06 && (eccentricity - 2.0).abs() < 0.06, "{force} {eccentricity}");
+        let (mut held, mut total) = (0, 0);
+        for (truth, mut hidden) in gaussian_cases(40, 0.8225, 2) {
+            calibration.apply(&mut hidden);
+            assert_eq!(hidden.calibration_cases, 40);
+            let (h, n) = inside(&hidden.signals[0], &truth.joints[0].0);
+            (held, total) = (held + h, total + n);
+        }
+        let coverage = held as f64 / total as f64;
+        assert!((0.88..=0.92).contains(&coverage), "{coverage}");
+    }
 
     #[test]
     fn the_alignment_finds_a_shift_and_ignores_the_gain() {

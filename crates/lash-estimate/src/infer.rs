@@ -69,6 +69,10 @@ pub struct Estimator {
     pub bank_truths: Vec<Vec<f64>>,
     /// Per unknown, the calibration (identity before [`Estimator::calibrate`]).
     pub calibration: Vec<Calibration>,
+    /// The hidden signals' band calibration (None: the draws' own spread; an estimator
+    /// prepared before the bands were calibrated).
+    #[serde(default)]
+    pub hidden_calibration: Option<crate::hidden::BandCalibration>,
 }
 
 /// One unknown's estimate.
@@ -191,6 +195,7 @@ impl Estimator {
             setup: setup.clone(),
             joints,
             calibration: vec![Calibration { shift: 0.0, widen: 1.0, cases: 0 }; unknowns.len()],
+            hidden_calibration: None,
             unknowns,
             speed_band_hz,
             feature_mean: mean,

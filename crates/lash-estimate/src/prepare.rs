@@ -183,6 +183,10 @@ pub fn measure(clean: &[f64], gain: f64, snr: f64, rng: &mut ChaCha8Rng) -> Vec<
 
 /// The crank frequency and features of measured channels.
 pub fn measured_features(e: &Setup, band_hz: (f64, f64), channels: &[Vec<f64>]) -> Option<(f64, Vec<f64>)> {
+    if e.envelope {
+        let f0 = features::crank_frequency(&features::envelope(&channels[0]), e.sample_rate, band_hz)?;
+        return Some((f0, features::housing_features(channels, e.sample_rate, f0, e.anti_alias)));
+    }
     let f0 = features::crank_frequency(&channels[0], e.sample_rate, band_hz)?;
     Some((f0, features::features(channels, e.sample_rate, f0, e.anti_alias)))
 }
@@ -262,6 +266,9 @@ pub struct PrepareReport {
     pub calibration_s: f64,
     /// Wall time of the fit \[s\].
     pub fit_s: f64,
+    /// Wall time of the hidden signals' band calibration \[s\].
+    #[serde(default)]
+    pub hidden_s: f64,
 }
 
 /// Prepares an estimator for `setup`: the bank, the fit, the calibration. `work` holds the
@@ -293,6 +300,9 @@ pub fn prepare(
     estimator.calibrate(&calibration)?;
     (report.calibration_draws, report.calibration_failed, report.calibration_s) =
         (calibration.len(), failed, clock.elapsed().as_secs_f64());
+    let clock = std::time::Instant::now();
+    crate::hidden::calibrate_bands(&mut estimator, setup.hidden_calibration_runs, progress)?;
+    report.hidden_s = clock.elapsed().as_secs_f64();
     Ok((estimator, report))
 }
 

@@ -48,6 +48,11 @@ pub struct Setup {
     pub anti_alias: f64,
     /// Simulated time dropped at each run's start (the journal starts centred) \[s\].
     pub settle: f64,
+    /// Read the crank orders in each channel's envelope, not in its own lines: a housing
+    /// accelerometer on a soft mount passes a few per mille of the low orders and rings at its
+    /// resonance after each impact (docs/theory.md §10).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub envelope: bool,
     /// Length of measurement the estimate uses \[s\] (a longer file: its first `window` seconds).
     pub window: f64,
     /// Prior of a worn joint's radial clearance, uniform \[m\]: `[low, high]`.
@@ -79,14 +84,21 @@ pub struct Setup {
     pub measurements_per_run: u64,
     /// Full-model runs of the preparation's calibration.
     pub calibration_runs: u64,
+    /// Full-model cases on which the hidden signals' bands are calibrated (0: none).
+    #[serde(default = "default_hidden_runs")]
+    pub hidden_calibration_runs: u64,
     /// Bank draws kept as the posterior sample of an estimate.
     pub neighbours: usize,
     /// Seed of the preparation (the validation's seeds are derived apart from it).
     pub seed: u64,
 }
 
+fn default_hidden_runs() -> u64 {
+    60
+}
+
 /// The built-in setups.
-pub const NAMES: [&str; 2] = ["A", "C"];
+pub const NAMES: [&str; 3] = ["A", "C", "E"];
 
 /// A built-in setup by name.
 pub fn builtin(name: &str) -> Option<Setup> {
@@ -98,6 +110,7 @@ pub fn builtin(name: &str) -> Option<Setup> {
         sample_rate: 10_000.0,
         anti_alias: 4_000.0,
         settle: 0.1,
+        envelope: false,
         window: 1.0,
         clearance: [50e-6, 300e-6],
         healthy: None,
@@ -123,6 +136,7 @@ pub fn builtin(name: &str) -> Option<Setup> {
         bank_runs: 3000,
         measurements_per_run: 3,
         calibration_runs: 300,
+        hidden_calibration_runs: default_hidden_runs(),
         neighbours: 150,
         seed: 1,
     };
@@ -149,7 +163,49 @@ pub fn builtin(name: &str) -> Option<Setup> {
             });
             Some(s)
         }
+        "E" => Some(spatial_housing()),
         _ => None,
+    }
+}
+
+/// Scenario E: the spatial slider-crank's two spherical clearance joints, seen by the housing
+/// accelerometer of the guide (its mount's natural frequency and damping unknown within ±30 %),
+/// logged at 500 Hz behind a 200 Hz anti-alias filter as in the spatial vibration study.
+fn spatial_housing() -> Setup {
+    let nuisance =
+        |name: &str, path: &str, low: f64, high: f64| Nuisance { name: name.into(), path: path.into(), low, high };
+    Setup {
+        name: "E".into(),
+        description: "Scenario E (spatial, two spherical clearance joints): which one is worn and its clearance, from the guide housing's accelerometer at 500 Hz".into(),
+        base: "E".into(),
+        channels: ["housing.ay", "housing.az"]
+            .map(|c| SensorChannel { name: c.into(), unit: "m/s^2".into() })
+            .to_vec(),
+        sample_rate: 500.0,
+        anti_alias: 200.0,
+        // One revolution at 250 rpm: the balls start centred.
+        settle: 0.24,
+        envelope: true,
+        window: 1.0,
+        clearance: [100e-6, 600e-6],
+        healthy: Some([20e-6, 60e-6]),
+        speed_band: 0.1,
+        nuisance: vec![
+            nuisance("mount_frequency", "output.measurements[0].mount.natural_frequency", 105.0, 195.0),
+            nuisance("mount_damping", "output.measurements[0].mount.damping_ratio", 0.035, 0.065),
+            nuisance("friction", "clearances[0].friction.dynamic_coefficient", 0.05, 0.15),
+            nuisance("friction_2", "clearances[1].friction.dynamic_coefficient", 0.05, 0.15),
+        ],
+        gain_error: 0.05,
+        snr_db: [30.0, 60.0],
+        macro_step: 1e-3,
+        micro_step: 1e-5,
+        bank_runs: 3000,
+        measurements_per_run: 3,
+        calibration_runs: 300,
+        hidden_calibration_runs: default_hidden_runs(),
+        neighbours: 150,
+        seed: 1,
     }
 }
 
@@ -262,13 +318,11 @@ impl Setup {
         let input = |m: String| EstimateError::Input(format!("setup {:?}: {m}", self.name));
         let scenario = lash_scenario::any_by_name_or_file(&self.base).map_err(input)?;
         let table = toml::Table::try_from(&scenario).map_err(|e| input(e.to_string()))?;
-        let AnyScenario::Planar(planar) = &scenario else {
-            return Err(input("spatial scenarios are not estimated yet (planar clearance joints only)".into()));
-        };
-        if planar.clearances.is_empty() {
+        let clearances = scenario.clearances();
+        if clearances.is_empty() {
             return Err(input(format!("scenario {} has no clearance joint to estimate", self.base)));
         }
-        if planar.clearances.len() > 1 && self.healthy.is_none() {
+        if clearances.len() > 1 && self.healthy.is_none() {
             return Err(input("several clearance joints: give `healthy`, the range of the joints not worn".into()));
         }
         let speed = lash_scenario::paths::get_path(&table, "drivers[0].motion.omega")
@@ -276,8 +330,8 @@ impl Setup {
         for n in &self.nuisance {
             lash_scenario::paths::get_path(&table, &n.path).map_err(|e| input(format!("nuisance {}: {e}", n.name)))?;
         }
-        let joints: Vec<String> = planar.clearances.iter().map(|c| c.joint.clone()).collect();
-        let journal_radii = planar.clearances.iter().map(|c| c.journal_radius).collect();
+        let joints: Vec<String> = clearances.iter().map(|c| c.joint.clone()).collect();
+        let journal_radii = clearances.iter().map(|c| c.journal_radius).collect();
         let linear = |name: &str, unit: &str, low: f64, high: f64| Unknown {
             name: name.into(),
             unit: unit.into(),

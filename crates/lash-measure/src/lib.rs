@@ -56,6 +56,13 @@ impl Mount {
     /// The housing's acceleration [m/s²] at the samples of `force` \[N\] (uniform step `dt`, linear
     /// between samples), starting at rest in its static position under the first sample.
     pub fn acceleration(&self, force: &[f64], dt: f64) -> Vec<f64> {
+        let mut response = self.response(dt);
+        force.iter().map(|&f| response.push(f)).collect()
+    }
+
+    /// The mount as a stream for force samples every `dt` ([`MountResponse::push`]): what
+    /// [`Mount::acceleration`] computes, one sample at a time, holding only the housing's state.
+    pub fn response(&self, dt: f64) -> MountResponse {
         let (m, k, c) = (self.mass, self.stiffness(), self.damping());
         // State (x, v, F, Ḟ) with Ḟ constant over a step: d/dt = A (x, v, F, Ḟ).
         #[rustfmt::skip]
@@ -65,17 +72,36 @@ impl Mount {
             0.0, 0.0, 0.0, 1.0,
             0.0, 0.0, 0.0, 0.0,
         );
-        let step = (a * dt).exp();
-        let mut out = Vec::with_capacity(force.len());
-        let Some(&first) = force.first() else { return out };
-        let (mut x, mut v) = (first / k, 0.0);
-        out.push((first - c * v - k * x) / m);
-        for w in force.windows(2) {
-            let next = step * Vector4::new(x, v, w[0], (w[1] - w[0]) / dt);
-            (x, v) = (next[0], next[1]);
-            out.push((w[1] - c * v - k * x) / m);
-        }
-        out
+        MountResponse { step: (a * dt).exp(), dt, mass: m, stiffness: k, damping: c, state: None }
+    }
+}
+
+/// A mount driven sample by sample ([`Mount::response`]).
+#[derive(Debug, Clone)]
+pub struct MountResponse {
+    /// The exact transition of (x, v, F, Ḟ) over one step.
+    step: Matrix4<f64>,
+    dt: f64,
+    mass: f64,
+    stiffness: f64,
+    damping: f64,
+    /// Displacement, velocity and force of the last sample (None before the first).
+    state: Option<(f64, f64, f64)>,
+}
+
+impl MountResponse {
+    /// The housing's acceleration [m/s²] at the next force sample \[N\]; the first sample finds the
+    /// housing at rest in its static position under that force.
+    pub fn push(&mut self, force: f64) -> f64 {
+        let (x, v) = match self.state {
+            None => (force / self.stiffness, 0.0),
+            Some((x, v, previous)) => {
+                let next = self.step * Vector4::new(x, v, previous, (force - previous) / self.dt);
+                (next[0], next[1])
+            }
+        };
+        self.state = Some((x, v, force));
+        (force - self.damping * v - self.stiffness * x) / self.mass
     }
 }
 

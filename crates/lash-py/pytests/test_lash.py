@@ -277,7 +277,7 @@ def test_ctrl_c_stops_a_sweep_which_then_resumes(tmp_path):
 
 def test_estimate_in_python_equals_the_command_line_and_refuses_bad_files(tmp_path):
     prepared = tmp_path / "A.json"
-    lash.prepare_estimator("A", prepared, bank_runs=150, calibration_runs=20)
+    lash.prepare_estimator("A", prepared, bank_runs=150, calibration_runs=20, hidden_runs=8)
     measured = tmp_path / "m.csv"
     lash.emulate_measurement(prepared, [200e-6], measured, snr=45.0)
     answer = lash.estimate(measured, prepared)

@@ -470,10 +470,11 @@ fn read_layout(py: Python<'_>, dir: PathBuf) -> PyResult<Vec<u64>> {
     Ok(layout.into_iter().map(|(id, _)| id).collect())
 }
 
-/// Prepares an estimator for a setup (built-in "A", "C" or a setup TOML file) into `out` (JSON):
-/// a reduced-model sweep over the priors, the fit, a calibration on full-model runs.
+/// Prepares an estimator for a setup (built-in "A", "C", "E" or a setup TOML file) into `out`
+/// (JSON): a reduced-model sweep over the priors, the fit, a calibration on full-model runs, the
+/// hidden signals' bands calibrated on `hidden_runs` full-model cases.
 #[pyfunction]
-#[pyo3(signature = (setup, out, bank_runs=None, calibration_runs=None, quiet=true))]
+#[pyo3(signature = (setup, out, bank_runs=None, calibration_runs=None, quiet=true, hidden_runs=None))]
 fn prepare_estimator(
     py: Python<'_>,
     setup: String,
@@ -481,8 +482,10 @@ fn prepare_estimator(
     bank_runs: Option<u64>,
     calibration_runs: Option<u64>,
     quiet: bool,
+    hidden_runs: Option<u64>,
 ) -> PyResult<()> {
-    let done = py.detach(|| lash_cli::estimate::prepare(&setup, &out, (bank_runs, calibration_runs), quiet));
+    let sizes = lash_cli::estimate::Sizes { bank_runs, calibration_runs, hidden_runs };
+    let done = py.detach(|| lash_cli::estimate::prepare(&setup, &out, sizes, quiet));
     done.map_err(|e| cli_error(py, e))
 }
 

@@ -163,7 +163,11 @@ pub fn parse_shard(text: &str) -> Result<Shard, String> {
 /// noise), then, with `clean = true`, each again without noise as `<name>.clean`.
 fn channel_infos(plan: &Plan) -> Vec<ChannelInfo> {
     let all = plan.base.channels(false);
-    let unit = |name: &String| all.iter().find(|c| &c.name == name).map(|c| c.unit.to_string()).unwrap_or_default();
+    let measurements = &plan.base.output().measurements;
+    let unit = |name: &String| match plan::measured_force(measurements, name) {
+        Some(_) => "m/s^2".to_string(),
+        None => all.iter().find(|c| &c.name == name).map(|c| c.unit.to_string()).unwrap_or_default(),
+    };
     let measured = plan.spec.output.channels.iter().map(|name| ChannelInfo { name: name.clone(), unit: unit(name) });
     let clean = plan
         .spec
@@ -196,6 +200,8 @@ fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
 struct Simulation {
     horizon: f64,
     index: Vec<usize>,
+    /// Per channel, the mount its force drives (a measurement's logged axis) or None.
+    mounts: Vec<Option<lash_measure::MountResponse>>,
     loggers: Vec<lash_measure::Logger>,
     data: RunData,
 }
@@ -203,7 +209,9 @@ struct Simulation {
 impl Simulation {
     /// The runner of run `run` of `plan`, and what keeps its `channels`.
     fn new(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Box<dyn lash_run::Runner>, Self), String> {
-        let scenario = plan.scenario(run)?;
+        let mut scenario = plan.scenario(run)?;
+        // The runner samples the forces; the sweep emulates the measurement as they stream.
+        let measurements = std::mem::take(&mut scenario.output_mut().measurements);
         let (horizon, output_interval) = match &scenario {
             lash_scenario::AnyScenario::Planar(s) => (s.simulation.horizon, s.simulation.output_interval),
             lash_scenario::AnyScenario::Spatial(s) => (s.simulation.horizon, s.simulation.output_interval),
@@ -220,12 +228,17 @@ impl Simulation {
         let index: Vec<usize> = simulated
             .iter()
             .map(|c| {
-                header
-                    .iter()
-                    .position(|h| name_of(h) == c.name)
-                    .ok_or_else(|| format!("channel {} not produced", c.name))
+                let name = plan::measured_force(&measurements, &c.name).unwrap_or(&c.name);
+                header.iter().position(|h| name_of(h) == name).ok_or_else(|| format!("channel {name} not produced"))
             })
             .collect::<Result<_, _>>()?;
+        let mounts = simulated
+            .iter()
+            .map(|c| {
+                let spec = measurements.iter().find(|m| m.channel_names().contains(&c.name))?;
+                Some(spec.mount.response(output_interval))
+            })
+            .collect();
         // With an anti-alias filter the samples stream through the logger of each channel
         // (low-pass, decimation to the sample rate) as the run produces them: only the logged
         // rows are held.
@@ -249,27 +262,29 @@ impl Simulation {
             time: Vec::with_capacity(rows),
             columns: simulated.iter().map(|_| Vec::with_capacity(rows)).collect(),
         };
-        Ok((runner, Self { horizon, index, loggers, data }))
+        Ok((runner, Self { horizon, index, mounts, loggers, data }))
     }
 
     /// Keeps a row of the runner (its channels, or what their loggers log).
-    fn keep(index: &[usize], loggers: &mut [lash_measure::Logger], data: &mut RunData, row: &[f64]) {
-        if loggers.is_empty() {
+    fn keep(&mut self, row: &[f64]) {
+        let data = &mut self.data;
+        let mut logged = false;
+        for (k, (col, &i)) in data.columns.iter_mut().zip(&self.index).enumerate() {
+            let value = match &mut self.mounts[k] {
+                Some(mount) => mount.push(row[i]),
+                None => row[i],
+            };
+            let kept = match self.loggers.get_mut(k) {
+                Some(logger) => logger.push(value),
+                None => Some(value),
+            };
+            if let Some(y) = kept {
+                col.push(y);
+                logged = true;
+            }
+        }
+        if logged || data.columns.is_empty() {
             data.time.push(row[0]);
-            for (col, &i) in data.columns.iter_mut().zip(index) {
-                col.push(row[i]);
-            }
-        } else {
-            let mut logged = false;
-            for ((col, &i), logger) in data.columns.iter_mut().zip(index).zip(loggers.iter_mut()) {
-                if let Some(y) = logger.push(row[i]) {
-                    col.push(y);
-                    logged = true;
-                }
-            }
-            if logged {
-                data.time.push(row[0]);
-            }
         }
     }
 
@@ -320,9 +335,8 @@ fn simulate(plan: &Plan, runs: &[&RunSpec], channels: &[ChannelInfo]) -> Vec<Res
     let mut sinks: Vec<_> = simulations
         .iter_mut()
         .map(|s| {
-            let (index, loggers, data) = (&s.index[..], &mut s.loggers[..], &mut s.data);
             move |row: &[f64]| -> Result<(), String> {
-                Simulation::keep(index, loggers, data, row);
+                s.keep(row);
                 Ok(())
             }
         })

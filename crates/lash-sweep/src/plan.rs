@@ -79,10 +79,22 @@ impl Plan {
         }
         // The base itself (with the sweep's horizon and sampling) must be valid; the sweep's
         // channels are checked below under their own field names. Its own emulated measurements
-        // are the scenario's business, not the dataset's: a sweep samples channels.
-        base.output_mut().measurements.clear();
+        // are the scenario's business, not the dataset's: a sweep samples channels — unless a
+        // channel names one of their logged axes (`housing.ay`), which the sweep then logs from
+        // its force through each run's own mount (whose parameters the sweep may vary).
+        let measurements = std::mem::take(&mut base.output_mut().measurements);
         p.extend_prefixed("base", base.validate());
-        base.output_mut().channels = spec.output.channels.clone();
+        let mut simulated: Vec<String> = Vec::new();
+        for c in &spec.output.channels {
+            let name = measured_force(&measurements, c).unwrap_or(c).to_string();
+            if !simulated.contains(&name) {
+                simulated.push(name);
+            }
+        }
+        base.output_mut().channels = simulated;
+        if spec.output.channels.iter().any(|c| measured_force(&measurements, c).is_some()) {
+            base.output_mut().measurements = measurements.clone();
+        }
         if spec.model == ModelKind::Reduced && base.clearance_count() == 0 {
             p.push("model", "the reduced model needs at least one clearance joint; the base has none".to_string());
         }
@@ -100,7 +112,12 @@ impl Plan {
                 p.push(format!("parameters[{k}].path"), m);
             }
         }
-        let known: Vec<String> = base.channels(false).into_iter().map(|c| c.name).collect();
+        let known: Vec<String> = base
+            .channels(false)
+            .into_iter()
+            .map(|c| c.name)
+            .chain(measurements.iter().flat_map(|m| m.channel_names()))
+            .collect();
         for (i, c) in spec.output.channels.iter().enumerate() {
             if !known.iter().any(|k| k == c) {
                 p.push(
@@ -148,6 +165,17 @@ impl Plan {
             EditError::Invalid(p) => format!("invalid parameter combination: {p}"),
         })
     }
+}
+
+/// The force channel that drives `channel` when it is a logged axis of one of `measurements`
+/// (`housing.ay` → `slider_guide.fy`).
+pub fn measured_force<'a>(
+    measurements: &'a [lash_scenario::schema::MeasurementSpec],
+    channel: &str,
+) -> Option<&'a str> {
+    measurements
+        .iter()
+        .find_map(|m| m.channel_names().iter().position(|n| n == channel).map(|axis| m.forces[axis].as_str()))
 }
 
 /// Options of the reduced model for this sweep.

@@ -392,12 +392,14 @@ def prepare_estimator(
     bank_runs: Optional[int] = None,
     calibration_runs: Optional[int] = None,
     quiet: bool = True,
+    hidden_runs: Optional[int] = None,
 ) -> None:
-    """Prepares an estimator once for ``setup`` (built-in ``"A"``, ``"C"`` or a setup TOML file) and
-    stores it as JSON in ``out``: a reduced-model sweep over the priors, the regression of every
-    unknown on the vibration features, and a calibration of the intervals on full-model runs
-    (``lash estimate prepare``). Raises ScenarioError for a bad setup."""
-    _lash.prepare_estimator(str(setup), os.fspath(out), bank_runs, calibration_runs, quiet)
+    """Prepares an estimator once for ``setup`` (built-in ``"A"``, ``"C"``, ``"E"`` or a setup TOML
+    file) and stores it as JSON in ``out``: a reduced-model sweep over the priors, the regression of
+    every unknown on the vibration features, a calibration of the intervals on full-model runs and
+    of the hidden signals' bands on ``hidden_runs`` full-model cases (``lash estimate prepare``).
+    Raises ScenarioError for a bad setup."""
+    _lash.prepare_estimator(str(setup), os.fspath(out), bank_runs, calibration_runs, quiet, hidden_runs)
 
 
 def estimate(measurement: PathLike, prepared: PathLike) -> Dict[str, Any]:

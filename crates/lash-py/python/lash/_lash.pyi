@@ -68,6 +68,7 @@ def prepare_estimator(
     bank_runs: Optional[int] = None,
     calibration_runs: Optional[int] = None,
     quiet: bool = True,
+    hidden_runs: Optional[int] = None,
 ) -> None: ...
 def estimate_json(measurement: Union[str, PathLike[str]], prepared: Union[str, PathLike[str]]) -> str: ...
 def emulate_measurement(
