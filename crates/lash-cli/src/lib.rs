@@ -31,7 +31,7 @@ mod output;
 mod plots;
 mod run;
 pub mod sweep;
-mod system;
+pub mod system;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;

@@ -6,7 +6,8 @@ use lash_sweep::{Event, ExecuteOptions, SweepError};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-fn map_error(e: SweepError) -> CliError {
+/// A sweep error as the command line reports it.
+pub fn map_error(e: SweepError) -> CliError {
     match e {
         SweepError::Input(m) => CliError::Input(m),
         SweepError::Output(m) => CliError::Failure(m),
@@ -184,7 +185,19 @@ pub fn validate(file: &Path) -> Result<String, CliError> {
     ))
 }
 
-/// Merges shard folders.
+/// A sweep given as JSON (Python's dict) written as a sweep file's TOML text, its fields checked
+/// as a file's are.
+pub fn spec_toml_from_json(json: &str) -> Result<String, CliError> {
+    let spec: lash_sweep::SweepSpec =
+        serde_json::from_str(json).map_err(|e| CliError::Input(format!("invalid sweep: {e}")))?;
+    let problems = spec.check();
+    if !problems.is_empty() {
+        return Err(CliError::Input(format!("invalid sweep: {problems}")));
+    }
+    toml::to_string(&spec).map_err(|e| CliError::Failure(format!("the sweep as TOML: {e}")))
+}
+
+/// Merges shard folders (`lash sweep merge SHARD… --out DIR`).
 pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<(), CliError> {
     let rows = lash_sweep::merge(inputs, out).map_err(map_error)?;
     eprintln!("merged {} shard folders: {rows} rows → {}", inputs.len(), out.display());

@@ -100,6 +100,50 @@ pub fn validate(arg: &str) -> Result<String, CliError> {
     Ok(format!("{arg}: valid (system; {} output channels)", system.header().len().saturating_sub(1)))
 }
 
+/// Runs a system file into memory (Python's `lash.run("system.toml")`): every row goes to
+/// `on_row`; returns the header (`name [unit]`, time first) and the summary as JSON. Refused
+/// before anything runs when its rows cannot fit in memory; an FMU that ends the run before its
+/// stop time without being asked is an error, as for `lash run`.
+pub fn run_rows(
+    arg: &str,
+    (step, stop): (Option<f64>, Option<f64>),
+    on_row: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+) -> Result<(Vec<String>, String), CliError> {
+    let path = Path::new(arg);
+    let cache = lash_fmi::import::default_cache();
+    let scratch = std::env::temp_dir().join(format!("lash-system-py-{}", std::process::id()));
+    let loaded = load(path, &cache, &scratch, step, stop);
+    let result = loaded.and_then(|mut system| {
+        let header = system.header().to_vec();
+        let (rows, columns) = (system.samples(), header.len() as u64);
+        let estimate = crate::limits::Estimate {
+            rows,
+            columns,
+            disk_bytes: 0,
+            memory_bytes: rows.saturating_mul(columns).saturating_mul(8),
+        };
+        let advice = "a shorter run (stop), a longer output.interval or fewer output.channels";
+        crate::limits::check(&format!("the system {}", path.display()), &estimate, Path::new("."), advice)?;
+        let summary = system.run(on_row).map_err(|e| match e {
+            lash_system::SystemError::Input(m) => CliError::Input(format!("{}: {m}", path.display())),
+            other => CliError::Failure(format!("{}: {other}", path.display())),
+        })?;
+        if let Some(stop) = summary.stopped.as_ref().filter(|s| !s.requested) {
+            return Err(CliError::Failure(format!(
+                "{}: element {:?} {} before the stop time (at t = {} s)",
+                path.display(),
+                stop.element,
+                stop.reason,
+                stop.last_row_s
+            )));
+        }
+        let json = serde_json::to_string(&summary).map_err(|e| CliError::Failure(e.to_string()))?;
+        Ok((header, json))
+    });
+    let _ = std::fs::remove_dir_all(&scratch);
+    result
+}
+
 fn run_in(
     path: &Path,
     out: &Path,

@@ -305,3 +305,64 @@ def test_estimate_in_python_equals_the_command_line_and_refuses_bad_files(tmp_pa
         lash.estimate(bad, prepared)
     with pytest.raises(lash.ScenarioError, match="not a built-in setup"):
         lash.prepare_estimator("Z", tmp_path / "z.json")
+
+
+# What the command line reaches, Python reaches.
+
+
+def test_reduced_model_options_and_system_files_run_as_on_the_command_line(tmp_path):
+    r = lash.run("A", "reduced", horizon=0.01, interpolation="hermite", coupling="two_way", micro="dopri5")
+    out = tmp_path / "options"
+    done = cli(
+        "run", "A", "--model", "reduced", "--horizon", "0.01", "--interpolation", "hermite",
+        "--coupling", "two-way", "--micro", "dopri5", "--out", str(out), "--quiet",
+    )
+    assert done.returncode == 0, done.stderr
+    assert np.array_equal(r.samples, read_csv(out / "timeseries.csv")[1])
+    assert not np.array_equal(r.samples, lash.run("A", "reduced", horizon=0.01).samples)
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.run("A", "reduced", interpolation="spline")
+    assert e.value.problems[0][0] == "interpolation"
+    # A system file: the built-in mechanism and interface coupled by the interface master.
+    system = os.path.join(ROOT, "examples", "systems", "reduced-A.toml")
+    s = lash.run(system, horizon=0.01)
+    done = cli("run", system, "--horizon", "0.01", "--out", str(tmp_path / "system"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    header, table = read_csv(tmp_path / "system" / "timeseries.csv")
+    assert [h.split(" [")[0] for h in header] == ["time", *s.channels]
+    assert np.array_equal(s.samples, table) and s.summary["system"] == "reduced-A"
+    with pytest.raises(lash.ScenarioError, match="system file"):
+        lash.run(system, channels=["joint.contact_force"])
+
+
+def test_sweeps_from_a_dict_or_a_design_table_and_merged_shards(tmp_path):
+    design = {
+        "clearances[0].bearing_radius": np.array([0.01005, 0.0101, 0.01002]),
+        "drivers[0].motion.omega": [450.0, 500.0, 523.6],
+    }
+    output = {"channels": ["slider.ax"], "sample_rate": 10000.0}
+    report = lash.design_sweep("A", design, tmp_path / "design", output=output, horizon=0.01)
+    assert report["runs"] == 3 and report["failed"] == 0
+    data = lash.Dataset(tmp_path / "design")
+    np.testing.assert_array_equal(data.inputs, np.column_stack([design[p] for p in data.parameters]))
+    # Row i is the run of design row i.
+    values = dict(zip(data.parameters, data.inputs[1]))
+    values["simulation.output_interval"] = 1e-4
+    single = lash.run(lash.load("A").with_values(values), "reduced", horizon=0.01)
+    np.testing.assert_array_equal(data.values[1, :, 0], single["slider.ax"])
+    # The same sweep as a dict, run as two shards and merged: the one-machine dataset.
+    spec = {
+        "base": "A",
+        "sampling": "rows",
+        "horizon": 0.01,
+        "output": output,
+        "parameters": [{"path": p, "values": list(map(float, v))} for p, v in design.items()],
+    }
+    for i in (0, 1):
+        lash.sweep(spec, tmp_path / f"shard{i}", shard=f"{i}/2")
+    rows = lash.merge([tmp_path / "shard0", tmp_path / "shard1"], tmp_path / "merged")
+    merged = lash.Dataset(tmp_path / "merged")
+    assert rows == 3 * 101 and np.array_equal(merged.values, data.values)
+    with pytest.raises(lash.ScenarioError, match="parameters\\[1\\].values"):
+        lash.design_sweep("A", {"clearances[0].bearing_radius": [0.0101, 0.0102], "drivers[0].motion.omega": [500.0]},
+                          tmp_path / "uneven", output=output)

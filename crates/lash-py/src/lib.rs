@@ -215,9 +215,57 @@ fn builtin_names() -> Vec<&'static str> {
 /// numpy array (samples × columns, time in column 0) and the summary as JSON.
 type RunResult<'py> = (Vec<String>, Vec<String>, Bound<'py, PyAny>, String);
 
+/// The reduced model's settings as Python names them: steps \[s\], `interpolation` ("linear",
+/// "hermite", "zoh"), `coupling` ("one_way", "two_way"), `micro` ("rk4", "dopri5"), `threaded`.
+#[derive(Debug, Clone, Copy)]
+struct ReducedSettings<'a> {
+    macro_step: f64,
+    micro_step: f64,
+    interpolation: &'a str,
+    coupling: &'a str,
+    micro: &'a str,
+    threaded: bool,
+}
+
+impl ReducedSettings<'_> {
+    /// The options, or the field that is wrong.
+    fn options(&self, py: Python<'_>) -> PyResult<lash_run::ReducedOptions> {
+        for (field, v) in [("macro_step", self.macro_step), ("micro_step", self.micro_step)] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(field_error(py, field, format!("must be a positive step in seconds, got {v}")));
+            }
+        }
+        let choice = |field: &str, value: &str, known: &[&str]| -> PyResult<usize> {
+            known
+                .iter()
+                .position(|k| *k == value)
+                .ok_or_else(|| field_error(py, field, format!("{value:?} is not one of {}", known.join(", "))))
+        };
+        use lash_orchestrate::{Execution, Interpolation};
+        let interpolation = [Interpolation::Linear, Interpolation::CubicHermite, Interpolation::ZeroOrderHold]
+            [choice("interpolation", self.interpolation, &["linear", "hermite", "zoh"])?];
+        let coupling = [lash_core::Coupling::OneWay, lash_core::Coupling::TwoWay]
+            [choice("coupling", self.coupling, &["one_way", "two_way"])?];
+        let error_controlled_micro = choice("micro", self.micro, &["rk4", "dopri5"])? == 1;
+        Ok(lash_run::ReducedOptions {
+            macro_step: self.macro_step,
+            micro_step: self.micro_step,
+            interpolation,
+            coupling,
+            execution: if self.threaded { Execution::Threaded } else { Execution::Sequential },
+            error_controlled_micro,
+            channels_only: false,
+        })
+    }
+}
+
 /// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
 #[pyfunction]
-#[pyo3(signature = (scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = 1e-5))]
+#[pyo3(signature = (
+    scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = 1e-5,
+    interpolation = "linear", coupling = "one_way", micro = "rk4", threaded = false
+))]
+#[allow(clippy::too_many_arguments)]
 fn run<'py>(
     py: Python<'py>,
     scenario: &Scenario,
@@ -225,22 +273,21 @@ fn run<'py>(
     ideal: bool,
     macro_step: f64,
     micro_step: f64,
+    interpolation: &str,
+    coupling: &str,
+    micro: &str,
+    threaded: bool,
 ) -> PyResult<RunResult<'py>> {
+    let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded };
+    let options = settings.options(py)?;
     let model = match (model, ideal) {
         ("full", _) => lash_run::Model::Full { ideal },
-        ("reduced", false) => {
-            lash_run::Model::Reduced(lash_run::ReducedOptions { macro_step, micro_step, ..Default::default() })
-        }
+        ("reduced", false) => lash_run::Model::Reduced(options),
         ("reduced", true) => {
             return Err(field_error(py, "ideal", "an ideal run has no clearance interface to reduce".into()));
         }
         (other, _) => return Err(field_error(py, "model", format!("{other:?} is neither \"full\" nor \"reduced\""))),
     };
-    for (field, v) in [("macro_step", macro_step), ("micro_step", micro_step)] {
-        if !(v > 0.0 && v.is_finite()) {
-            return Err(field_error(py, field, format!("must be a positive step in seconds, got {v}")));
-        }
-    }
     let scenario = scenario.inner.clone();
     // Ctrl-C (or any signal handler that raises) stops the run: the sink takes the GIL back every
     // 4096 rows to let Python check its signals (on this, the main, thread), which costs ~0.1 µs
@@ -268,17 +315,7 @@ fn run<'py>(
         .map_err(|e| ("limits", e.to_string()))?;
         let mut values: Vec<f64> = Vec::with_capacity((rows as usize + 1) * header.len());
         let mut count = 0u32;
-        let mut sink = |row: &[f64]| {
-            values.extend_from_slice(row);
-            count = count.wrapping_add(1);
-            if count & 4095 == 0
-                && let Err(e) = Python::attach(|py| py.check_signals())
-            {
-                interrupted = Some(e);
-                return Err("interrupted".to_string());
-            }
-            Ok(())
-        };
+        let mut sink = |row: &[f64]| keep_row(&mut values, &mut count, &mut interrupted, row);
         let summary = runner.execute(&mut sink, &mut |_| {}).map_err(|e| ("run", e.to_string()))?;
         Ok((header, values, summary))
     });
@@ -290,8 +327,52 @@ fn run<'py>(
         "limits" => input_error(py, m, &[]),
         field => field_error(py, field, m),
     })?;
-    let width = header.len();
     let summary = serde_json::to_string(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
+    run_result(py, &header, values, summary)
+}
+
+/// Keeps a row of a run held in memory; every 4096 rows Python checks its signals (Ctrl-C stops
+/// the run: the error is kept in `interrupted`), which costs ~0.1 µs per row-block.
+fn keep_row(
+    values: &mut Vec<f64>,
+    count: &mut u32,
+    interrupted: &mut Option<PyErr>,
+    row: &[f64],
+) -> Result<(), String> {
+    values.extend_from_slice(row);
+    *count = count.wrapping_add(1);
+    if *count & 4095 == 0
+        && let Err(e) = Python::attach(|py| py.check_signals())
+    {
+        *interrupted = Some(e);
+        return Err("interrupted".to_string());
+    }
+    Ok(())
+}
+
+/// Runs a system file (TOML, `.ssd`, `.ssp`: FMUs, plugins, built-ins) in memory and returns
+/// (names, units, samples, summary JSON), as [`run`] does for a scenario. `step` and `stop`
+/// override the file's communication step and horizon \[s\].
+#[pyfunction]
+#[pyo3(signature = (path, step = None, stop = None))]
+fn run_system<'py>(py: Python<'py>, path: PathBuf, step: Option<f64>, stop: Option<f64>) -> PyResult<RunResult<'py>> {
+    let mut interrupted: Option<PyErr> = None;
+    let arg = path.to_string_lossy().into_owned();
+    let outcome = py.detach(|| {
+        let (mut values, mut count) = (Vec::new(), 0u32);
+        let mut sink = |row: &[f64]| keep_row(&mut values, &mut count, &mut interrupted, row);
+        lash_cli::system::run_rows(&arg, (step, stop), &mut sink).map(|(header, summary)| (header, values, summary))
+    });
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
+    let (header, values, summary) = outcome.map_err(|e| cli_error(py, e))?;
+    run_result(py, &header, values, summary)
+}
+
+/// (names, units, samples as a samples × columns array, summary) of a run's rows.
+fn run_result<'py>(py: Python<'py>, header: &[String], values: Vec<f64>, summary: String) -> PyResult<RunResult<'py>> {
+    let width = header.len();
     let samples = values.len() / width.max(1);
     let array = values.into_pyarray(py).reshape([samples, width])?.into_any();
     let (names, units): (Vec<String>, Vec<String>) = header.iter().map(|h| split_header(h)).unzip();
@@ -304,6 +385,18 @@ fn split_header(h: &str) -> (String, String) {
         Some((name, unit)) => (name.to_string(), unit.trim_end_matches(']').to_string()),
         None => (h.to_string(), String::new()),
     }
+}
+
+/// A sweep given as JSON text (a Python dict) as a sweep file's TOML text; its fields checked.
+#[pyfunction]
+fn sweep_toml(py: Python<'_>, json: &str) -> PyResult<String> {
+    lash_cli::sweep::spec_toml_from_json(json).map_err(|e| cli_error(py, e))
+}
+
+/// Merges shard folders of one sweep into `out` (as `lash sweep merge`); returns the rows.
+#[pyfunction]
+fn merge(py: Python<'_>, inputs: Vec<PathBuf>, out: PathBuf) -> PyResult<u64> {
+    py.detach(|| lash_sweep::merge(&inputs, &out)).map_err(|e| cli_error(py, lash_cli::sweep::map_error(e)))
 }
 
 /// Checks a sweep file and every run's scenario (as `lash validate` does); returns the summary
@@ -534,6 +627,9 @@ fn _lash(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scenario>()?;
     m.add_function(wrap_pyfunction!(builtin_names, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(run_system, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
     m.add_function(wrap_pyfunction!(validate_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(read_dataset, m)?)?;

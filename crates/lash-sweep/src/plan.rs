@@ -58,25 +58,7 @@ impl Plan {
     /// reported with its field path; nothing is run.
     pub fn new(spec: SweepSpec, text: String, base: AnyScenario) -> Result<Self, Problems> {
         let mut base = base;
-        let mut p = Problems::new();
-        if let Some(h) = spec.horizon {
-            base.simulation_mut().horizon = h;
-        }
-        if spec.output.anti_alias.is_none() {
-            base.simulation_mut().output_interval = 1.0 / spec.output.sample_rate;
-        } else {
-            // Sampled at the base's own interval, low-passed and decimated after each run.
-            let dt = base.simulation_mut().output_interval;
-            let ratio = 1.0 / (spec.output.sample_rate * dt);
-            if (ratio - ratio.round()).abs() > 1e-9 * ratio || ratio.round() < 1.0 {
-                p.push(
-                    "output.sample_rate",
-                    format!(
-                        "with anti_alias, 1/sample_rate must be a whole multiple of the base's output_interval {dt} s"
-                    ),
-                );
-            }
-        }
+        let mut p = sampling(&spec, &mut base);
         // The base itself (with the sweep's horizon and sampling) must be valid; the sweep's
         // channels are checked below under their own field names. Its own emulated measurements
         // are the scenario's business, not the dataset's: a sweep samples channels — unless a
@@ -167,6 +149,28 @@ impl Plan {
     }
 }
 
+/// Applies the sweep's horizon and sampling to `base`; the problems of the sampling.
+fn sampling(spec: &SweepSpec, base: &mut AnyScenario) -> Problems {
+    let mut p = Problems::new();
+    if let Some(h) = spec.horizon {
+        base.simulation_mut().horizon = h;
+    }
+    if spec.output.anti_alias.is_none() {
+        base.simulation_mut().output_interval = 1.0 / spec.output.sample_rate;
+    } else {
+        // Sampled at the base's own interval, low-passed and decimated after each run.
+        let dt = base.simulation_mut().output_interval;
+        let ratio = 1.0 / (spec.output.sample_rate * dt);
+        if (ratio - ratio.round()).abs() > 1e-9 * ratio || ratio.round() < 1.0 {
+            p.push(
+                "output.sample_rate",
+                format!("with anti_alias, 1/sample_rate must be a whole multiple of the base's output_interval {dt} s"),
+            );
+        }
+    }
+    p
+}
+
 /// The force channel that drives `channel` when it is a logged axis of one of `measurements`
 /// (`housing.ay` → `slider_guide.fy`).
 pub fn measured_force<'a>(
@@ -208,6 +212,10 @@ fn design(spec: &SweepSpec) -> Vec<RunSpec> {
     // Stream u64::MAX is reserved for the design; runs use streams 0, 1, 2, …
     rng.set_stream(u64::MAX);
     let values: Vec<Vec<f64>> = match spec.sampling {
+        Sampling::Rows => {
+            let rows = spec.run_count() as usize;
+            (0..rows).map(|i| pars.iter().map(|p| listed(p)[i]).collect()).collect()
+        }
         Sampling::Grid => {
             let axes: Vec<Vec<f64>> = pars.iter().map(listed).collect();
             let total: usize = axes.iter().map(Vec::len).product();
@@ -290,6 +298,19 @@ values = [0.01005, 0.0101]
 path = "drivers[0].motion.omega"
 linspace = { start = 400.0, stop = 600.0, count = 3 }
 "#;
+
+    #[test]
+    fn rows_take_the_ith_value_of_every_parameter_and_must_agree_in_count() {
+        let rows = GRID
+            .replace("base = \"A\"", "base = \"A\"\nsampling = \"rows\"")
+            .replace("linspace = { start = 400.0, stop = 600.0, count = 3 }", "values = [400.0, 500.0]");
+        let p = plan(&rows).unwrap();
+        let values: Vec<Vec<f64>> = p.runs.iter().map(|r| r.values.clone()).collect();
+        assert_eq!(values, vec![vec![0.01005, 400.0], vec![0.0101, 500.0]]);
+        let uneven = rows.replace("values = [400.0, 500.0]", "values = [400.0, 500.0, 600.0]");
+        let problems = plan(&uneven).expect_err("refused").to_string();
+        assert!(problems.contains("parameters[1].values") && problems.contains("3 values"), "{problems}");
+    }
 
     #[test]
     fn grid_is_the_cartesian_product_last_fastest() {

@@ -48,6 +48,9 @@ pub enum Sampling {
     /// `runs` points of a Latin hypercube: each parameter's range cut into `runs` equal strata,
     /// one point per stratum, strata paired by random permutations.
     LatinHypercube,
+    /// A design matrix: every parameter's `values` hold one value per run (the same count for
+    /// all; run i takes the i-th of each), as a table of designed experiments lists them.
+    Rows,
 }
 
 /// `count` evenly spaced values from `start` to `stop` (both included).
@@ -175,6 +178,7 @@ impl SweepSpec {
     /// `runs` otherwise.
     pub fn run_count(&self) -> u64 {
         match self.sampling {
+            Sampling::Rows => self.parameters.first().and_then(|p| p.values.as_ref()).map_or(0, |v| v.len() as u64),
             Sampling::Grid => self
                 .parameters
                 .iter()
@@ -236,8 +240,8 @@ impl SweepSpec {
             }
         }
         match (self.sampling, self.runs) {
-            (Sampling::Grid, Some(_)) => {
-                p.push("runs", "grid sampling takes its run count from the parameter values; remove runs")
+            (Sampling::Grid | Sampling::Rows, Some(_)) => {
+                p.push("runs", "grid and rows sampling take their run count from the parameter values; remove runs")
             }
             (Sampling::Random | Sampling::LatinHypercube, None) => {
                 p.push("runs", "random and latin_hypercube sampling need runs = N")
@@ -258,9 +262,19 @@ impl SweepSpec {
                 p.push(f("values"), "give exactly one of values, linspace, uniform");
                 continue;
             }
+            if self.sampling == Sampling::Rows && par.values.is_none() {
+                p.push(f("values"), "rows sampling lists every run's value: give values (one per run)");
+            }
             if let Some(v) = &par.values {
                 if v.is_empty() {
                     p.push(f("values"), "must not be empty");
+                }
+                let rows = self.run_count() as usize;
+                if self.sampling == Sampling::Rows && v.len() != rows {
+                    p.push(
+                        f("values"),
+                        format!("rows sampling: {} values where parameters[0] has {rows} (one per run)", v.len()),
+                    );
                 }
                 for (i, x) in v.iter().enumerate() {
                     p.finite(format!("parameters[{k}].values[{i}]"), *x);

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -43,9 +43,11 @@ __all__ = [
     "ScenarioError",
     "SimulationError",
     "builtin_names",
+    "design_sweep",
     "emulate_measurement",
     "estimate",
     "load",
+    "merge",
     "prepare_estimator",
     "run",
     "sweep",
@@ -174,6 +176,27 @@ class Run:
         return f"<lash.Run {self.summary.get('scenario')!r} ({self.summary.get('model')}): {len(self)} samples × {len(self.channels)} channels>"
 
 
+def _is_system(source: Any) -> bool:
+    """True for a system file: ``.ssd``/``.ssp``, or TOML with a top-level ``elements`` list."""
+    if isinstance(source, Scenario):
+        return False
+    path = os.fspath(source)
+    if path.endswith((".ssd", ".ssp")):
+        return True
+    if not os.path.isfile(path):
+        return False
+    try:
+        import tomllib
+    except ImportError:  # pragma: no cover - older Pythons look for the key by hand
+        with open(path, encoding="utf-8") as f:
+            return any(line.strip().startswith("[[elements]]") for line in f)
+    with open(path, "rb") as f:
+        try:
+            return isinstance(tomllib.load(f).get("elements"), list)
+        except tomllib.TOMLDecodeError:
+            return False
+
+
 def run(
     scenario: Union[Scenario, PathLike],
     model: str = "full",
@@ -181,19 +204,40 @@ def run(
     ideal: bool = False,
     macro_step: float = 1e-3,
     micro_step: float = 1e-5,
+    interpolation: str = "linear",
+    coupling: str = "one_way",
+    micro: str = "rk4",
+    threaded: bool = False,
     horizon: Optional[float] = None,
+    step: Optional[float] = None,
     channels: Optional[Sequence[str]] = None,
 ) -> Run:
-    """Runs a scenario (a :class:`Scenario`, a built-in name or a file).
+    """Runs a scenario (a :class:`Scenario`, a built-in name or a file) or a system file.
 
     ``model`` is ``"full"`` (the monolithic model integrated to convergence; ``ideal=True``
     makes its clearance joints ideal) or ``"reduced"`` (the reduced interface model with macro
-    step ``macro_step`` and micro step ``micro_step`` [s]). ``horizon`` [s] overrides the
-    scenario's; ``channels`` selects the channels recorded (the scenario's ``output.channels``:
-    fewer channels, less memory and time). Raises :class:`ScenarioError` for invalid input (before any work, including a
-    run whose samples would not fit in memory) and :class:`SimulationError` when the simulation
-    fails.
+    step ``macro_step`` and micro step ``micro_step`` [s]; ``interpolation`` of the macro terms
+    ``"linear"``, ``"hermite"`` or ``"zoh"``; ``coupling`` ``"one_way"`` or ``"two_way"``;
+    ``micro`` integrator ``"rk4"`` or the error-controlled ``"dopri5"``; ``threaded`` runs the
+    macro subsystem on its own thread, same results). ``horizon`` [s] overrides the scenario's;
+    ``channels`` selects the channels recorded (the scenario's ``output.channels``: fewer
+    channels, less memory and time).
+
+    A **system file** (TOML with ``[[elements]]``, SSP ``.ssd`` or ``.ssp``: FMUs, plugins and
+    built-ins coupled, as ``lash run system.toml``) runs as written; ``horizon`` and ``step``
+    override its stop time and communication step, and ``channels`` is its ``output.channels``.
+
+    Raises :class:`ScenarioError` for invalid input (before any work, including a run whose
+    samples would not fit in memory) and :class:`SimulationError` when the simulation fails.
     """
+    if _is_system(scenario):
+        if channels is not None or model != "full":
+            raise ScenarioError(
+                "a system file sets its own elements and output.channels: edit the file for model or channels"
+            )
+        return Run(*_lash.run_system(os.fspath(scenario), step, horizon))
+    if step is not None:
+        raise ScenarioError("step: the communication step of a system file; a scenario has macro_step and micro_step")
     s = scenario if isinstance(scenario, Scenario) else load(scenario)
     if horizon is not None:
         s = s.with_values({"simulation.horizon": horizon})
@@ -201,11 +245,32 @@ def run(
         fields = s.to_dict()
         fields.setdefault("output", {})["channels"] = list(channels)
         s = Scenario.from_dict(fields)
-    return Run(*_lash.run(s, model, ideal, macro_step, micro_step))
+    return Run(*_lash.run(s, model, ideal, macro_step, micro_step, interpolation, coupling, micro, threaded))
+
+
+def _sweep_file(spec: Mapping[str, Any], folder: str) -> str:
+    """Writes a sweep given as a dict as a sweep file in ``folder``; a relative scenario file in
+    ``base`` is taken from the current directory."""
+    spec = dict(spec)
+    base = spec.get("base")
+    if isinstance(base, str) and os.path.isfile(base):
+        spec["base"] = os.path.abspath(base)
+    text = _lash.sweep_toml(json.dumps(spec, default=_plain))
+    path = os.path.join(folder, "sweep.toml")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+    return path
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars and arrays (a design's columns) as plain Python numbers and lists."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not a number or a list of numbers")
 
 
 def sweep(
-    file: PathLike,
+    file: Union[PathLike, Mapping[str, Any]],
     out: PathLike,
     *,
     threads: Optional[int] = None,
@@ -213,8 +278,10 @@ def sweep(
     allow_failures: bool = False,
     progress: Optional[Callable[[int, int, int], Any]] = None,
 ) -> Dict[str, Any]:
-    """Runs a sweep file into the folder ``out`` (``lash sweep``), resuming what an earlier call
-    left there; returns its report.
+    """Runs a sweep into the folder ``out`` (``lash sweep``), resuming what an earlier call left
+    there; returns its report. ``file`` is a sweep file or the same fields as a dict
+    (``{"base": "A", "sampling": "random", "runs": 64, "output": {...}, "parameters": [...]}``;
+    :func:`design_sweep` builds one from a table of designs).
 
     ``threads``: worker threads (default one per core); ``shard``: ``"i/N"`` runs only that
     shard. When runs fail the dataset still holds the others and lists the failed runs with
@@ -223,6 +290,18 @@ def sweep(
     the runs of earlier calls too): a progress bar's hook. Ctrl-C (or an exception from ``progress``) stops the sweep;
     the runs in flight finish and calling ``sweep`` again resumes it.
     """
+    if isinstance(file, Mapping):
+        import tempfile
+
+        with tempfile.TemporaryDirectory(prefix="lash-sweep-") as folder:
+            return sweep(
+                _sweep_file(file, folder),
+                out,
+                threads=threads,
+                shard=shard,
+                allow_failures=allow_failures,
+                progress=progress,
+            )
     report = json.loads(_lash.sweep(os.fspath(file), os.fspath(out), threads, shard, progress))
     if report["failed"] and not allow_failures:
         raise RunsFailed(
@@ -231,6 +310,50 @@ def sweep(
             report,
         )
     return report
+
+
+def design_sweep(
+    base: str,
+    design: Any,
+    out: PathLike,
+    *,
+    output: Mapping[str, Any],
+    model: str = "reduced",
+    seed: int = 0,
+    horizon: Optional[float] = None,
+    reduced: Optional[Mapping[str, float]] = None,
+    **options: Any,
+) -> Dict[str, Any]:
+    """Runs one simulation per row of ``design`` into the folder ``out`` (a sweep with
+    ``sampling = "rows"``): ``design`` is a pandas DataFrame or a dict of equally long columns,
+    each column named by a scenario path (``"clearances[0].bearing_radius"``), each row a run.
+    ``output`` is the sweep's ``[output]`` table (``{"channels": [...], "sample_rate": 1e4}``),
+    ``reduced`` its ``[reduced]`` steps; ``options`` go to :func:`sweep` (threads, shard,
+    allow_failures, progress). Returns the sweep's report.
+    """
+    columns = design.items() if hasattr(design, "items") else None
+    if columns is None:
+        raise TypeError("design: a pandas DataFrame or a dict of columns named by scenario paths")
+    parameters = [{"path": str(path), "values": [float(v) for v in values]} for path, values in columns]
+    spec: Dict[str, Any] = {
+        "base": base,
+        "model": model,
+        "sampling": "rows",
+        "seed": seed,
+        "output": dict(output),
+        "parameters": parameters,
+    }
+    if horizon is not None:
+        spec["horizon"] = horizon
+    if reduced is not None:
+        spec["reduced"] = dict(reduced)
+    return sweep(spec, out, **options)
+
+
+def merge(shards: Sequence[PathLike], out: PathLike) -> int:
+    """Merges the shard folders of one sweep (run with ``shard="i/N"``, possibly on other
+    machines) into one dataset in ``out`` (``lash sweep merge``); returns its row count."""
+    return _lash.merge([os.fspath(s) for s in shards], os.fspath(out))
 
 
 class Dataset:

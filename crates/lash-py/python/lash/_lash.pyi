@@ -42,8 +42,21 @@ class Scenario:
 
 def builtin_names() -> List[str]: ...
 def run(
-    scenario: Scenario, model: str = "full", ideal: bool = False, macro_step: float = 1e-3, micro_step: float = 1e-5
+    scenario: Scenario,
+    model: str = "full",
+    ideal: bool = False,
+    macro_step: float = 1e-3,
+    micro_step: float = 1e-5,
+    interpolation: str = "linear",
+    coupling: str = "one_way",
+    micro: str = "rk4",
+    threaded: bool = False,
 ) -> Tuple[List[str], List[str], np.ndarray, str]: ...
+def run_system(
+    path: Union[str, PathLike[str]], step: Optional[float] = None, stop: Optional[float] = None
+) -> Tuple[List[str], List[str], np.ndarray, str]: ...
+def sweep_toml(json: str) -> str: ...
+def merge(inputs: List[Union[str, PathLike[str]]], out: Union[str, PathLike[str]]) -> int: ...
 def validate_sweep(file: Union[str, PathLike[str]]) -> str: ...
 def sweep(
     file: Union[str, PathLike[str]],
