@@ -178,7 +178,7 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
         assert!(!ax[key].is_null(), "comparison lacks channels.slider.ax.{key}");
     }
     assert!(c["channels"].get("slider.ay").is_none(), "a zero channel is left out");
-    assert!(c["clearance"]["impacts"]["full"].as_u64().unwrap() > 0);
+    assert!(c["clearances"][0]["impacts"]["full"].as_u64().unwrap() > 0);
     let figures: Vec<&str> = c["figures"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
     assert!(figures.contains(&"figures/slider.ax.svg") && figures.contains(&"figures/slider.ax_spectrum.svg"));
     for f in figures {
@@ -633,4 +633,25 @@ fn a_closed_pipe_ends_lash_quietly_and_descriptions_differ() {
     for (i, d) in descriptions.iter().enumerate() {
         assert!(!descriptions[..i].contains(d), "two built-ins read {d:?}");
     }
+}
+
+/// `compare` of a scenario with two clearance joints reports each of them, full against reduced
+/// (impacts, contact fraction, loads), in comparison.json and on the terminal.
+#[test]
+fn compare_reports_every_clearance_joint() {
+    let dir = scratch("compare-c");
+    let out = dir.join("cmp");
+    let o = lash(&["compare", "C", "--horizon", "0.01", "--micro-step", "5e-6", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
+    let joints: Vec<&str> = c["clearances"].as_array().unwrap().iter().map(|j| j["joint"].as_str().unwrap()).collect();
+    assert_eq!(joints, ["crank_pivot", "rod_slider"]);
+    for j in c["clearances"].as_array().unwrap() {
+        for key in ["impacts", "contact_fraction", "mean_contact_force", "peak_normal_force"] {
+            assert!(!j[key]["full"].is_null() && !j[key]["reduced"].is_null(), "{key}: {j}");
+        }
+    }
+    let printed = stderr(&o);
+    assert!(printed.contains("rod_slider") && printed.contains("impacts full"), "{printed}");
 }

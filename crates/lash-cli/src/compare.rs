@@ -199,8 +199,24 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         "whole_run_equal_recording": full_timing.total_s / reduced_timing.total_s,
         "simulation_at_equal_step": fixed_timing.as_ref().map(|f| sim(f) / sim(&reduced_timing)).ok(),
     });
-    let clearance =
-        |key: &str| serde_json::json!({"full": sf["clearances"][0][key], "reduced": sr["clearances"][0][key]});
+    // Every clearance joint, full against reduced.
+    let joint_statistics: Vec<serde_json::Value> = clearances
+        .iter()
+        .enumerate()
+        .map(|(j, joint)| {
+            let pick =
+                |key: &str| serde_json::json!({"full": sf["clearances"][j][key], "reduced": sr["clearances"][j][key]});
+            serde_json::json!({
+                "joint": joint,
+                "impacts": pick("impacts"),
+                "impacts_per_cycle": pick("impacts_per_cycle"),
+                "contact_fraction": pick("contact_fraction"),
+                "mean_contact_force": pick("mean_contact_force"),
+                "max_eccentricity": pick("max_eccentricity"),
+                "peak_normal_force": pick("peak_normal_force"),
+            })
+        })
+        .collect();
     let report = serde_json::json!({
         "scenario": name,
         "timing": {
@@ -222,14 +238,7 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
             "ideal": if ideal_ok { read_json(&ideal_dir.join("summary.json"))?["measurements"].clone() } else { serde_json::Value::Null },
         },
         "figures": figures,
-        "clearance": {
-            "impacts": clearance("impacts"),
-            "impacts_per_cycle": clearance("impacts_per_cycle"),
-            "contact_fraction": clearance("contact_fraction"),
-            "mean_contact_force": clearance("mean_contact_force"),
-            "max_eccentricity": clearance("max_eccentricity"),
-            "peak_normal_force": clearance("peak_normal_force"),
-        },
+        "clearances": joint_statistics,
     });
     let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(&comparison_path, text + "\n")
@@ -256,6 +265,17 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         eprintln!(
             "  {name:24} peak full {:.4e} / reduced {:.4e}, relative RMS error of reduced {:.3}, spectral distance {:.3}",
             m.peak_full, m.peak_reduced, m.relative_rms_error, m.spectral_distance
+        );
+    }
+    for c in &joint_statistics {
+        let both = |key: &str| (c[key]["full"].clone(), c[key]["reduced"].clone());
+        let ((fi, ri), (ff, rf)) = (both("impacts"), both("contact_fraction"));
+        let fraction = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
+        eprintln!(
+            "  {:24} impacts full {fi} / reduced {ri}, contact fraction full {} / reduced {}",
+            c["joint"].as_str().unwrap_or(""),
+            fraction(&ff),
+            fraction(&rf)
         );
     }
     eprintln!("→ {}", comparison_path.display());
