@@ -655,3 +655,42 @@ fn compare_reports_every_clearance_joint() {
     let printed = stderr(&o);
     assert!(printed.contains("rod_slider") && printed.contains("impacts full"), "{printed}");
 }
+
+/// A reduced run carries an error estimate: the converged full model over its first quarter
+/// (at least 20 macro steps), compared on the main channels. It equals what `compare` measures
+/// over that window by its own path (both runs written to CSV and read back), and
+/// `--no-error-estimate` leaves it out.
+#[test]
+fn a_reduced_run_estimates_its_error_as_compare_measures_it() {
+    let dir = scratch("probe");
+    let run = dir.join("run");
+    let o = lash(&["run", "A", "--model", "reduced", "--horizon", "0.036", "--out", run.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("error estimate"), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    let estimate = &summary["error_estimate"];
+    assert!((estimate["window_s"].as_f64().unwrap() - 0.02).abs() < 1e-12, "{estimate}");
+    let cmp = dir.join("cmp");
+    let o = lash(&["compare", "A", "--horizon", "0.02", "--out", cmp.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cmp.join("comparison.json")).unwrap()).unwrap();
+    let names: Vec<&str> =
+        estimate["channels"].as_array().unwrap().iter().map(|c| c["name"].as_str().unwrap()).collect();
+    assert!(names.contains(&"slider.ax") && names.contains(&"crank_pivot.force"), "{names:?}");
+    assert!(!names.contains(&"slider.ay"), "a channel at round-off has no level error");
+    for channel in estimate["channels"].as_array().unwrap() {
+        let name = channel["name"].as_str().unwrap();
+        let m = &c["channels"][name];
+        let (full, reduced) = (m["rms_full"].as_f64().unwrap(), m["rms_reduced"].as_f64().unwrap());
+        let measured = (reduced - full).abs() / full;
+        let estimated = channel["rms_level_error"].as_f64().unwrap();
+        assert!((estimated - measured).abs() <= 1e-9 * measured.max(1e-12), "{name}: {estimated} vs {measured}");
+    }
+    let quiet = dir.join("quiet");
+    let o = lash(&["run", "A", "--model", "reduced", "--no-error-estimate", "--out", quiet.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary = std::fs::read_to_string(quiet.join("summary.json")).unwrap();
+    assert!(!summary.contains("error_estimate"));
+}

@@ -39,6 +39,42 @@ fn full_runner(s: &AnyScenario, ideal: bool) -> Box<dyn Runner> {
     }
 }
 
+/// The reduced run's error estimate (crate::probe) beside the error the comparison measures
+/// over the whole run, channel by channel: how well the estimate brackets the truth.
+fn error_check(
+    s: &AnyScenario,
+    options: ReducedOptions,
+    metrics: &std::collections::BTreeMap<String, compare::ChannelComparison>,
+) -> serde_json::Value {
+    let estimate = match crate::probe::estimate(s, options) {
+        Ok(e) => e,
+        Err(e) => return serde_json::json!({ "error": e }),
+    };
+    let measured: serde_json::Map<String, serde_json::Value> = estimate
+        .channels
+        .iter()
+        .filter_map(|c| {
+            let m = metrics.get(&c.name)?;
+            Some((c.name.clone(), ((m.rms_reduced - m.rms_full).abs() / m.rms_full).into()))
+        })
+        .collect();
+    let parts: Vec<String> = estimate
+        .channels
+        .iter()
+        .filter_map(|c| {
+            let whole = measured.get(&c.name)?.as_f64()?;
+            Some(format!("{} {:.1} % / {:.1} %", c.name, 100.0 * c.rms_level_error, 100.0 * whole))
+        })
+        .collect();
+    eprintln!(
+        "  RMS level error of the reduced model, estimated over the first {:.4} s / measured over the run: {}",
+        estimate.window_s,
+        parts.join(", ")
+    );
+    serde_json::json!({ "estimate": estimate, "whole_run_rms_level_error": measured })
+}
+
+/// `lash compare`: both models of `s`, written to `out`, compared.
 pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) -> Result<(), CliError> {
     let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
     let mut reduced: Box<dyn Runner> = match s {
@@ -232,6 +268,7 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,
+        "error_estimate": error_check(s, options, &metrics),
         "measurements": {
             "full": sf["measurements"],
             "reduced": sr["measurements"],

@@ -29,6 +29,7 @@ mod fmu;
 pub mod limits;
 mod output;
 mod plots;
+pub mod probe;
 mod run;
 pub mod sweep;
 pub mod system;
@@ -157,6 +158,10 @@ enum Command {
         format: output::Format,
         #[command(flatten)]
         reduced: ReducedArgs,
+        /// Reduced model: skip the error estimate (the converged full model over the run's first
+        /// quarter, compared on the main channels; in summary.json as error_estimate).
+        #[arg(long)]
+        no_error_estimate: bool,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -493,7 +498,7 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::A
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, quiet } => {
+        Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, no_error_estimate, quiet } => {
             output::catch_interrupts();
             if system::is_system(&scenario) {
                 return system::run(&scenario, &out, step, horizon, format, quiet);
@@ -510,7 +515,11 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 ModelKind::Reduced => lash_run::Model::Reduced(reduced.options()),
             };
             let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-            run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ())
+            run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet)?;
+            match model {
+                lash_run::Model::Reduced(options) if !no_error_estimate => probe::attach(&s, options, &out, quiet),
+                _ => Ok(()),
+            }
         }
         Command::Compare { scenario, out, horizon, reduced, quiet } => {
             let s = load_with_horizon(&scenario, horizon)?;
