@@ -163,49 +163,39 @@ pub fn builtin(name: &str) -> Option<Setup> {
             });
             Some(s)
         }
-        "E" => Some(spatial_housing()),
+        "E" => Some(spatial_housing(chain(
+            "E",
+            "Scenario E (spatial, two spherical clearance joints): which one is worn and its clearance, from the guide housing's accelerometer at 500 Hz",
+        ))),
         _ => None,
     }
 }
 
-/// Scenario E: the spatial slider-crank's two spherical clearance joints, seen by the housing
-/// accelerometer of the guide (its mount's natural frequency and damping unknown within ±30 %),
-/// logged at 500 Hz behind a 200 Hz anti-alias filter as in the spatial vibration study.
-fn spatial_housing() -> Setup {
+/// Scenario E from the planar setups' `chain`: the spatial slider-crank's two spherical clearance
+/// joints, seen by the housing accelerometer of the guide (its mount's natural frequency and
+/// damping unknown within ±30 %), logged at 500 Hz behind a 200 Hz anti-alias filter as in the
+/// spatial vibration study.
+fn spatial_housing(chain: Setup) -> Setup {
     let nuisance =
         |name: &str, path: &str, low: f64, high: f64| Nuisance { name: name.into(), path: path.into(), low, high };
     Setup {
-        name: "E".into(),
-        description: "Scenario E (spatial, two spherical clearance joints): which one is worn and its clearance, from the guide housing's accelerometer at 500 Hz".into(),
-        base: "E".into(),
-        channels: ["housing.ay", "housing.az"]
-            .map(|c| SensorChannel { name: c.into(), unit: "m/s^2".into() })
-            .to_vec(),
+        channels: ["housing.ay", "housing.az"].map(|c| SensorChannel { name: c.into(), unit: "m/s^2".into() }).to_vec(),
         sample_rate: 500.0,
         anti_alias: 200.0,
         // One revolution at 250 rpm: the balls start centred.
         settle: 0.24,
         envelope: true,
-        window: 1.0,
         clearance: [100e-6, 600e-6],
         healthy: Some([20e-6, 60e-6]),
-        speed_band: 0.1,
         nuisance: vec![
             nuisance("mount_frequency", "output.measurements[0].mount.natural_frequency", 105.0, 195.0),
             nuisance("mount_damping", "output.measurements[0].mount.damping_ratio", 0.035, 0.065),
             nuisance("friction", "clearances[0].friction.dynamic_coefficient", 0.05, 0.15),
             nuisance("friction_2", "clearances[1].friction.dynamic_coefficient", 0.05, 0.15),
         ],
-        gain_error: 0.05,
-        snr_db: [30.0, 60.0],
+        // 1.5° of crank at 250 rpm: the macro terms' interpolation is no concern here.
         macro_step: 1e-3,
-        micro_step: 1e-5,
-        bank_runs: 3000,
-        measurements_per_run: 3,
-        calibration_runs: 300,
-        hidden_calibration_runs: default_hidden_runs(),
-        neighbours: 150,
-        seed: 1,
+        ..chain
     }
 }
 
