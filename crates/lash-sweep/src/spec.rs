@@ -252,56 +252,60 @@ impl SweepSpec {
         if self.parameters.is_empty() {
             p.push("parameters", "vary at least one parameter ([[parameters]] with path and values)");
         }
-        for (k, par) in self.parameters.iter().enumerate() {
-            let f = |x: &str| format!("parameters[{k}].{x}");
-            if self.parameters[..k].iter().any(|q| q.path == par.path) {
-                p.push(f("path"), format!("{:?} is varied twice", par.path));
-            }
-            let given = [par.values.is_some(), par.linspace.is_some(), par.uniform.is_some()];
-            if given.iter().filter(|g| **g).count() != 1 {
-                p.push(f("values"), "give exactly one of values, linspace, uniform");
-                continue;
-            }
-            if self.sampling == Sampling::Rows && par.values.is_none() {
-                p.push(f("values"), "rows sampling lists every run's value: give values (one per run)");
-            }
-            if let Some(v) = &par.values {
-                if v.is_empty() {
-                    p.push(f("values"), "must not be empty");
-                }
-                let rows = self.run_count() as usize;
-                if self.sampling == Sampling::Rows && v.len() != rows {
-                    p.push(
-                        f("values"),
-                        format!("rows sampling: {} values where parameters[0] has {rows} (one per run)", v.len()),
-                    );
-                }
-                for (i, x) in v.iter().enumerate() {
-                    p.finite(format!("parameters[{k}].values[{i}]"), *x);
-                }
-            }
-            if let Some(l) = par.linspace {
-                p.finite(f("linspace.start"), l.start);
-                p.finite(f("linspace.stop"), l.stop);
-                if l.count == 0 {
-                    p.push(f("linspace.count"), "must be ≥ 1");
-                }
-            }
-            if let Some(r) = par.uniform {
-                p.finite(f("uniform.low"), r.low);
-                p.finite(f("uniform.high"), r.high);
-                if !(r.low < r.high) {
-                    p.push(f("uniform"), format!("needs low < high, got [{}, {}]", r.low, r.high));
-                }
-                if self.sampling == Sampling::Grid {
-                    p.push(
-                        f("uniform"),
-                        "a continuous range cannot be gridded: use linspace, or sampling = \"random\"",
-                    );
-                }
-            }
+        for k in 0..self.parameters.len() {
+            self.check_parameter(k, &mut p);
         }
         p
+    }
+
+    /// The problems of parameter `k` (its path unique, one kind of values, finite, fit for the
+    /// sampling).
+    fn check_parameter(&self, k: usize, p: &mut Problems) {
+        let par = &self.parameters[k];
+        let f = |x: &str| format!("parameters[{k}].{x}");
+        if self.parameters[..k].iter().any(|q| q.path == par.path) {
+            p.push(f("path"), format!("{:?} is varied twice", par.path));
+        }
+        let given = [par.values.is_some(), par.linspace.is_some(), par.uniform.is_some()];
+        if given.iter().filter(|g| **g).count() != 1 {
+            p.push(f("values"), "give exactly one of values, linspace, uniform");
+            return;
+        }
+        if self.sampling == Sampling::Rows && par.values.is_none() {
+            p.push(f("values"), "rows sampling lists every run's value: give values (one per run)");
+        }
+        if let Some(v) = &par.values {
+            if v.is_empty() {
+                p.push(f("values"), "must not be empty");
+            }
+            let rows = self.run_count() as usize;
+            if self.sampling == Sampling::Rows && v.len() != rows {
+                p.push(
+                    f("values"),
+                    format!("rows sampling: {} values where parameters[0] has {rows} (one per run)", v.len()),
+                );
+            }
+            for (i, x) in v.iter().enumerate() {
+                p.finite(format!("parameters[{k}].values[{i}]"), *x);
+            }
+        }
+        if let Some(l) = par.linspace {
+            p.finite(f("linspace.start"), l.start);
+            p.finite(f("linspace.stop"), l.stop);
+            if l.count == 0 {
+                p.push(f("linspace.count"), "must be ≥ 1");
+            }
+        }
+        if let Some(r) = par.uniform {
+            p.finite(f("uniform.low"), r.low);
+            p.finite(f("uniform.high"), r.high);
+            if !(r.low < r.high) {
+                p.push(f("uniform"), format!("needs low < high, got [{}, {}]", r.low, r.high));
+            }
+            if self.sampling == Sampling::Grid {
+                p.push(f("uniform"), "a continuous range cannot be gridded: use linspace, or sampling = \"random\"");
+            }
+        }
     }
 }
 
