@@ -198,7 +198,7 @@ pub fn envelope(x: &[f64]) -> Vec<f64> {
 }
 
 /// The features of a housing accelerometer's channels (a setup with `envelope`): per channel the
-/// order features of its envelope ([`channel_features`], at crank frequency `f0`), the share of
+/// order features of its envelope (those of [`features`], at crank frequency `f0`), the share of
 /// its energy in each of [`SHAPE_BANDS`] equal bands up to the logged band's top (log₁₀: the
 /// mount's resonance and what excites it, free of the gain) and the logarithm of its RMS (the
 /// level, which carries the sensor's gain error within its prior); then ln f₀.
