@@ -209,11 +209,8 @@ fn sensors_of(
     let measurements = std::mem::take(&mut scenario.output_mut().measurements);
     names
         .iter()
-        .map(|channel| match lash_sweep::plan::measured_force(&measurements, channel) {
-            Some(force) => {
-                let mount = measurements.iter().find(|m| m.channel_names().contains(channel)).map(|m| m.mount);
-                (force.to_string(), mount)
-            }
+        .map(|channel| match lash_sweep::plan::measured_axis(&measurements, channel) {
+            Some((force, mount)) => (force.to_string(), Some(mount)),
             None => (channel.clone(), None),
         })
         .collect()

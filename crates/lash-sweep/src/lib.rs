@@ -234,10 +234,7 @@ impl Simulation {
             .collect::<Result<_, _>>()?;
         let mounts = simulated
             .iter()
-            .map(|c| {
-                let spec = measurements.iter().find(|m| m.channel_names().contains(&c.name))?;
-                Some(spec.mount.response(output_interval))
-            })
+            .map(|c| plan::measured_axis(&measurements, &c.name).map(|(_, mount)| mount.response(output_interval)))
             .collect();
         // With an anti-alias filter the samples stream through the logger of each channel
         // (low-pass, decimation to the sample rate) as the run produces them: only the logged

@@ -172,14 +172,22 @@ fn sampling(spec: &SweepSpec, base: &mut AnyScenario) -> Problems {
 }
 
 /// The force channel that drives `channel` when it is a logged axis of one of `measurements`
-/// (`housing.ay` → `slider_guide.fy`).
+/// (`housing.ay` → `slider_guide.fy`), with the mount it drives.
+pub fn measured_axis<'a>(
+    measurements: &'a [lash_scenario::schema::MeasurementSpec],
+    channel: &str,
+) -> Option<(&'a str, lash_measure::Mount)> {
+    measurements.iter().find_map(|m| {
+        m.channel_names().iter().position(|n| n == channel).map(|axis| (m.forces[axis].as_str(), m.mount))
+    })
+}
+
+/// The force channel of [`measured_axis`] alone.
 pub fn measured_force<'a>(
     measurements: &'a [lash_scenario::schema::MeasurementSpec],
     channel: &str,
 ) -> Option<&'a str> {
-    measurements
-        .iter()
-        .find_map(|m| m.channel_names().iter().position(|n| n == channel).map(|axis| m.forces[axis].as_str()))
+    measured_axis(measurements, channel).map(|(force, _)| force)
 }
 
 /// Options of the reduced model for this sweep.
