@@ -12,17 +12,12 @@ const FIRST_WINDOW: f64 = 2e-3;
 /// Upper end of the spectra drawn in the figures \[Hz\] (the reduced-interface-model papers show the low kilohertz range).
 const FIGURE_MAX_FREQUENCY: f64 = 20_000.0;
 
+/// A CSV written by a run as its header cells (`name [unit]`) and its rows (lash-sweep's reader,
+/// the one of every time series).
 fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
-    let mut lines = text.lines();
-    let header = lines.next().unwrap_or("").split(',').map(str::to_string).collect();
-    let rows = lines
-        .map(|l| {
-            l.split(',')
-                .map(|v| v.parse::<f64>().map_err(|e| CliError::Failure(format!("{}: {e}", path.display()))))
-                .collect()
-        })
-        .collect::<Result<_, _>>()?;
+    let (names, columns) = lash_sweep::dataset::read_csv_series(path).map_err(CliError::Failure)?;
+    let header = names.iter().map(|(n, u)| if u.is_empty() { n.clone() } else { format!("{n} [{u}]") }).collect();
+    let rows = (0..columns.first().map_or(0, Vec::len)).map(|i| columns.iter().map(|c| c[i]).collect()).collect();
     Ok((header, rows))
 }
 

@@ -183,6 +183,18 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Also write OUT/report.html (as `lash report OUT`).
+        #[arg(long)]
+        report: bool,
+    },
+    /// Write one self-contained HTML page of a run's or a comparison's folder: the mechanism
+    /// animated, each clearance joint's orbit, every channel over time and crank angle, spectra.
+    Report {
+        /// The folder of `lash run --out` or `lash compare --out`.
+        dir: std::path::PathBuf,
+        /// The page [default: DIR/report.html].
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
     },
     /// Check a scenario, sweep or system file and list every problem.
     Validate {
@@ -483,6 +495,37 @@ fn quiet_on_broken_pipe() {
     }));
 }
 
+/// `lash compare` as a library call (the Python package's `lash.compare`): the runs, figures and
+/// comparison.json in `out`, and with `report` the page `out/report.html`.
+pub fn compare_into(
+    s: &lash_scenario::AnyScenario,
+    out: &std::path::Path,
+    options: lash_run::ReducedOptions,
+    report: bool,
+) -> Result<(), CliError> {
+    compare::run(s, out, options, true)?;
+    if report { write_report(out, None) } else { Ok(()) }
+}
+
+/// `lash report`: the page, and what it could not show.
+pub fn write_report(dir: &std::path::Path, out: Option<&std::path::Path>) -> Result<(), CliError> {
+    let written = lash_report::write_report(dir, out).map_err(|e| match e {
+        lash_report::ReportError::Input(m) => CliError::Input(m),
+        other => CliError::Failure(other.to_string()),
+    })?;
+    println!(
+        "report of {} ({}): {} ({:.1} MB)",
+        dir.display(),
+        written.runs.join(", "),
+        written.path.display(),
+        written.bytes as f64 / 1e6
+    );
+    for note in &written.notes {
+        println!("  note: {note}");
+    }
+    Ok(())
+}
+
 /// A scenario (built-in or file, planar or spatial) with a `--horizon` override, validated again.
 fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::AnyScenario, CliError> {
     let mut s = lash_scenario::any_by_name_or_file(arg).map_err(CliError::Input)?;
@@ -521,10 +564,12 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 _ => Ok(()),
             }
         }
-        Command::Compare { scenario, out, horizon, reduced, quiet } => {
+        Command::Compare { scenario, out, horizon, reduced, quiet, report } => {
             let s = load_with_horizon(&scenario, horizon)?;
-            compare::run(&s, &out, reduced.options(), quiet)
+            compare::run(&s, &out, reduced.options(), quiet)?;
+            if report { write_report(&out, None) } else { Ok(()) }
         }
+        Command::Report { dir, out } => write_report(&dir, out.as_deref()),
         Command::Validate { scenario } if system::is_system(&scenario) => {
             println!("{}", system::validate(&scenario)?);
             Ok(())

@@ -73,51 +73,13 @@ fn to_si(si: &str, unit: &str) -> Option<f64> {
     Some(factor)
 }
 
-/// (name, unit) of a CSV header cell `name [unit]`.
-fn split_header(cell: &str) -> (String, Option<String>) {
-    let cell = cell.trim().trim_matches('"');
-    match cell.split_once(" [") {
-        Some((name, unit)) => (name.trim().to_string(), Some(unit.trim_end_matches(']').to_string())),
-        None => (cell.to_string(), None),
-    }
-}
-
 /// The columns of a file: (name, unit), values.
 type Columns = (Vec<(String, Option<String>)>, Vec<Vec<f64>>);
 
-fn read_csv(path: &Path) -> Result<Columns, EstimateError> {
-    let input = |m: String| EstimateError::Input(format!("{}: {m}", path.display()));
-    let size = std::fs::metadata(path).map_err(|e| input(e.to_string()))?.len();
-    if size > 4 << 30 {
-        return Err(input(format!("{size} bytes: more than the 4 GiB a measurement may have")));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| input(e.to_string()))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| input("empty file".into()))?;
-    let names: Vec<(String, Option<String>)> = header.split(',').map(split_header).collect();
-    let mut columns = vec![Vec::new(); names.len()];
-    for (line, row) in lines {
-        let cells: Vec<&str> = row.split(',').collect();
-        if cells.len() != names.len() {
-            return Err(input(format!("line {}: {} fields, the header has {}", line + 1, cells.len(), names.len())));
-        }
-        for ((cell, column), (name, _)) in cells.iter().zip(columns.iter_mut()).zip(&names) {
-            let value = cell.trim().parse::<f64>().map_err(|_| {
-                input(format!(
-                    "column {name:?}, line {}: {:?} is not a number (a missing sample?)",
-                    line + 1,
-                    cell.trim()
-                ))
-            })?;
-            column.push(value);
-        }
-    }
-    Ok((names, columns))
-}
-
-fn read_parquet(path: &Path) -> Result<Columns, EstimateError> {
-    let (names, columns) =
-        lash_sweep::dataset::read_series(path).map_err(|e| EstimateError::Input(format!("{}: {e}", path.display())))?;
+/// A CSV or Parquet file's columns (the one reader of a time series, lash-sweep's), a unit
+/// `None` where the header gives none.
+fn read_columns(path: &Path) -> Result<Columns, EstimateError> {
+    let (names, columns) = lash_sweep::dataset::read_any_series(path).map_err(EstimateError::Input)?;
     let names = names.into_iter().map(|(n, u)| (n, (!u.is_empty()).then_some(u))).collect();
     Ok((names, columns))
 }
@@ -195,8 +157,7 @@ impl Measurement {
     /// Reads and checks `path` against what the estimator was prepared for.
     pub fn read(path: &Path, expect: &Expect<'_>) -> Result<Self, EstimateError> {
         let input = |m: String| EstimateError::Input(format!("{}: {m}", path.display()));
-        let parquet = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
-        let file = if parquet { read_parquet(path)? } else { read_csv(path)? };
+        let file = read_columns(path)?;
         let time_name = TIME
             .iter()
             .find(|t| file.0.iter().any(|(n, _)| n == *t))

@@ -54,6 +54,15 @@ pub enum Probe {
         /// Driver index.
         driver: usize,
     },
+    /// A body's pose: `name.pose` (centroid x, y and angle) and its rate `name.pose_rate`. Not
+    /// propagated: the ideal mechanism's pose is the reduced model's (the clearance's play is
+    /// the micro side's eccentricity).
+    Body {
+        /// Prefix of the variable names.
+        name: String,
+        /// Body.
+        body: BodyId,
+    },
 }
 
 /// The eccentricities prescribed across a step: for each joint the cubic Hermite from (e, ė) at
@@ -416,6 +425,10 @@ impl MechanismSubsystem {
                         &[0.0],
                     );
                 }
+                Probe::Body { name, .. } => {
+                    t.add(format!("{name}.pose"), Output, C, "m, m, rad", "centroid x, y and angle", &[3], &[0.0]);
+                    t.add(format!("{name}.pose_rate"), Output, C, "m/s, m/s, rad/s", "their rates", &[3], &[0.0]);
+                }
                 Probe::DriverTorque { name, .. } => {
                     t.add(format!("{name}.torque"), Output, C, "N.m", "macro's own", &[], &[0.0]);
                     t.add(format!("{name}.torque_free"), Output, C, "N.m", "at f_c = 0", &[], &[0.0]);
@@ -676,6 +689,12 @@ impl MechanismSubsystem {
                     put(next + 1, free.as_slice());
                     put(next + 2, gains);
                     next += 3;
+                }
+                Probe::Body { body, .. } => {
+                    let pose = Pose::of(body, &self.q, &self.qd);
+                    put(next, &[pose.position.x, pose.position.y, pose.angle]);
+                    put(next + 1, &[pose.velocity.x, pose.velocity.y, pose.angular_velocity]);
+                    next += 2;
                 }
                 Probe::DriverTorque { driver, .. } => {
                     let solver = &mut self.cut_solver;

@@ -366,3 +366,26 @@ def test_sweeps_from_a_dict_or_a_design_table_and_merged_shards(tmp_path):
     with pytest.raises(lash.ScenarioError, match="parameters\\[1\\].values"):
         lash.design_sweep("A", {"clearances[0].bearing_radius": [0.0101, 0.0102], "drivers[0].motion.omega": [500.0]},
                           tmp_path / "uneven", output=output)
+
+
+def test_compare_and_report_equal_the_command_line(tmp_path):
+    # lash.compare writes what `lash compare` writes (the comparison's runs bit for bit, timing
+    # aside) and its page; lash.report writes a run's page; a missing or empty folder is refused.
+    result = lash.compare("A", tmp_path / "py", horizon=0.012, report=True)
+    assert result["scenario"] == "A" and result["clearances"][0]["joint"] == "crank_pivot"
+    assert cli("compare", "A", "--horizon", "0.012", "--out", str(tmp_path / "cli"), "--quiet").returncode == 0
+    for model in ("full", "reduced", "ideal"):
+        py_header, py_rows = read_csv(tmp_path / "py" / model / "timeseries.csv")
+        cli_header, cli_rows = read_csv(tmp_path / "cli" / model / "timeseries.csv")
+        assert py_header == cli_header and np.array_equal(py_rows, cli_rows)
+    page = tmp_path / "py" / "report.html"
+    text = page.read_text()
+    assert "crank_pivot" in text and "<canvas" in text
+    assert cli("run", "A", "--horizon", "0.012", "--out", str(tmp_path / "run"), "--quiet").returncode == 0
+    written = lash.report(tmp_path / "run", out=tmp_path / "run.html")
+    assert written == str(tmp_path / "run.html") and os.path.getsize(written) > 10_000
+    with pytest.raises(FileNotFoundError):
+        lash.report(tmp_path / "nothing-here")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(lash.ScenarioError, match="summary.json"):
+        lash.report(tmp_path / "empty")

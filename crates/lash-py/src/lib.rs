@@ -393,6 +393,41 @@ fn sweep_toml(py: Python<'_>, json: &str) -> PyResult<String> {
     lash_cli::sweep::spec_toml_from_json(json).map_err(|e| cli_error(py, e))
 }
 
+/// `lash compare`: the converged full, the reduced and the ideal model of `scenario` into `out`
+/// (as the command line writes them), with `report` the page `out/report.html`; returns
+/// comparison.json's text.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn compare(
+    py: Python<'_>,
+    scenario: &Scenario,
+    out: PathBuf,
+    macro_step: f64,
+    micro_step: f64,
+    interpolation: &str,
+    coupling: &str,
+    micro: &str,
+    report: bool,
+) -> PyResult<String> {
+    let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded: false };
+    let options = settings.options(py)?;
+    let scenario = scenario.inner.clone();
+    py.detach(|| lash_cli::compare_into(&scenario, &out, options, report)).map_err(|e| cli_error(py, e))?;
+    std::fs::read_to_string(out.join("comparison.json")).map_err(|e| SimulationError::new_err(e.to_string()))
+}
+
+/// `lash report`: the page of a run's or a comparison's folder (default `folder/report.html`);
+/// returns its path.
+#[pyfunction]
+#[pyo3(signature = (folder, out = None))]
+fn report(py: Python<'_>, folder: PathBuf, out: Option<PathBuf>) -> PyResult<String> {
+    let written = py.detach(|| lash_report::write_report(&folder, out.as_deref())).map_err(|e| match e {
+        lash_report::ReportError::Input(m) => input_error(py, m, &[]),
+        other => SimulationError::new_err(other.to_string()),
+    })?;
+    Ok(written.path.display().to_string())
+}
+
 /// Merges shard folders of one sweep into `out` (as `lash sweep merge`); returns the rows.
 #[pyfunction]
 fn merge(py: Python<'_>, inputs: Vec<PathBuf>, out: PathBuf) -> PyResult<u64> {
@@ -630,6 +665,8 @@ fn _lash(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_system, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_toml, m)?)?;
     m.add_function(wrap_pyfunction!(merge, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(report, m)?)?;
     m.add_function(wrap_pyfunction!(validate_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(read_dataset, m)?)?;

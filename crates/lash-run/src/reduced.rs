@@ -212,6 +212,10 @@ impl ReducedRun {
                 }
                 Source::JointReaction(k, _) => Probe::JointReaction { name: joint_names[k].to_string(), joint: k },
                 Source::DriverTorque(k) => Probe::DriverTorque { name: scenario.drivers[k].name.clone(), driver: k },
+                Source::BodyPose(k, _) => {
+                    let name = scenario.bodies[k].name.clone();
+                    Probe::Body { body: cut.body_id(&name).expect("validated"), name }
+                }
                 Source::Clearance(..) | Source::ConstraintError | Source::Bushing(..) | Source::InterfaceStress(..) => {
                     continue;
                 }
@@ -750,5 +754,15 @@ fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: So
         }
         // The micro side's normal force, turned into the stress when recorded (Recording::stresses).
         Source::InterfaceStress(k) => Signal::Micro { name, variable: "normal_force".into(), element: k },
+        Source::BodyPose(k, q) => {
+            let b = &s.bodies[k].name;
+            let q = q as usize;
+            Signal::Macro {
+                name,
+                variable: format!("{b}.pose"),
+                element: q,
+                derivative: Some((format!("{b}.pose_rate"), q)),
+            }
+        }
     }
 }

@@ -234,6 +234,7 @@ impl SpatialSampler {
                 SpatialSource::JointReaction(k, q) => reaction_on_body1(k)[q as usize],
                 SpatialSource::AngularVelocity(k, q) => solver.angular_velocities[k][q as usize],
                 SpatialSource::ConstraintError => solver.constraint_error(),
+                SpatialSource::BodyPose(k, q) => solver.frames[k].pose()[q as usize],
             };
         }
     }
@@ -552,6 +553,16 @@ impl SpatialReducedRun {
                 }
                 SpatialSource::ConstraintError => {
                     (None, Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None })
+                }
+                SpatialSource::BodyPose(b, q) => {
+                    let p = &scenario.bodies[b].name;
+                    let q = q as usize;
+                    // The centroid with its rate; the quaternion without (interpolated linearly).
+                    let derivative = (q < 3).then(|| (format!("{p}.centroid_velocity"), q));
+                    (
+                        Some(lash_spatial::SpatialProbe::Body { name: p.clone(), body: b }),
+                        Signal::Macro { name, variable: format!("{p}.pose"), element: q, derivative },
+                    )
                 }
             };
             if let Some(p) = probe

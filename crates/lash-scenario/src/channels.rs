@@ -28,7 +28,13 @@ pub enum Source {
     Bushing(usize, u8),
     /// Clearance k's largest von Mises stress at the pin–bush interface (a clearance with a bush).
     InterfaceStress(usize),
+    /// Body k's pose, quantity (see [`POSE_QUANTITIES`]): what a report animates.
+    BodyPose(usize, u8),
 }
+
+/// The quantities of a body's pose channels: its centroid's position and its angle (the names
+/// keep a body's pose apart from a sensor named like the body, whose channels are `x`, `y`, …).
+pub const POSE_QUANTITIES: [(&str, &str); 3] = [("centroid_x", "m"), ("centroid_y", "m"), ("angle", "rad")];
 
 /// The quantities of a bushing's channels: the force on the joint's body1 (x, y, magnitude) and
 /// the deflection |d| of the two joint points.
@@ -106,6 +112,11 @@ pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
         k += 1;
     }
     out.push((Channel { name: "constraint_error".into(), unit: "m" }, Source::ConstraintError));
+    for (k, b) in s.bodies.iter().enumerate() {
+        for (q, (name, unit)) in POSE_QUANTITIES.iter().enumerate() {
+            out.push((Channel { name: dotted(&b.name, name), unit }, Source::BodyPose(k, q as u8)));
+        }
+    }
     out
 }
 

@@ -586,7 +586,21 @@ pub enum SpatialSource {
     AngularVelocity(usize, u8),
     /// max |Φ|.
     ConstraintError,
+    /// Body k's pose, quantity (see [`SPATIAL_POSE_QUANTITIES`]): what a report animates.
+    BodyPose(usize, u8),
 }
+
+/// The quantities of a spatial body's pose channels: its centroid, then its orientation as a unit
+/// quaternion with a non-negative scalar part.
+pub const SPATIAL_POSE_QUANTITIES: [(&str, &str); 7] = [
+    ("centroid_x", "m"),
+    ("centroid_y", "m"),
+    ("centroid_z", "m"),
+    ("orientation_w", "1"),
+    ("orientation_x", "1"),
+    ("orientation_y", "1"),
+    ("orientation_z", "1"),
+];
 
 const SENSOR_QUANTITIES: [(&str, &str); 9] = [
     ("x", "m"),
@@ -662,5 +676,10 @@ pub fn spatial_channels(s: &SpatialScenario, ideal: bool) -> Vec<(crate::Channel
         index += 1;
     }
     out.push((channel("constraint_error".into(), "m"), SpatialSource::ConstraintError));
+    for (k, b) in s.bodies.iter().enumerate() {
+        for (q, (name, unit)) in SPATIAL_POSE_QUANTITIES.iter().enumerate() {
+            out.push((channel(crate::channels::dotted(&b.name, name), unit), SpatialSource::BodyPose(k, q as u8)));
+        }
+    }
     out
 }

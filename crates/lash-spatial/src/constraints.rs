@@ -47,6 +47,17 @@ impl BodyFrame {
             angular_velocity: Vec3::zeros(),
         }
     }
+
+    /// The pose as seven numbers: the centroid, then the orientation as a unit quaternion
+    /// (w, x, y, z) with w ≥ 0 (q and −q are one rotation; the sign is chosen so that a
+    /// written pose is unique).
+    pub fn pose(&self) -> [f64; 7] {
+        let rotation = nalgebra::Rotation3::from_matrix_unchecked(self.rotation);
+        let q = nalgebra::UnitQuaternion::from_rotation_matrix(&rotation);
+        let sign = if q.w < 0.0 { -1.0 } else { 1.0 };
+        let p = self.position;
+        [p.x, p.y, p.z, sign * q.w, sign * q.i, sign * q.j, sign * q.k]
+    }
 }
 
 /// One constraint equation.

@@ -55,6 +55,15 @@ pub enum SpatialProbe {
         /// Moving body index.
         body: usize,
     },
+    /// A body's pose: `name.pose` (centroid x, y, z, then the orientation quaternion w, x, y,
+    /// z; see [`crate::constraints::BodyFrame::pose`]) and `name.centroid_velocity` (the
+    /// centroid's rate). The macro's own motion; not propagated.
+    Body {
+        /// Prefix of the variable names.
+        name: String,
+        /// Moving body index.
+        body: usize,
+    },
 }
 
 /// Largest Baumgarte gain (α and β) of the macro's own integration [1/s].
@@ -245,6 +254,10 @@ impl SpatialMechanismSubsystem {
                 SpatialProbe::BodyRates { name, .. } => {
                     t.add(format!("{name}.angular_velocity"), Output, C, "rad/s", "in the body frame", &[3], &[0.0]);
                     t.add(format!("{name}.angular_acceleration"), Output, C, "rad/s^2", "its rate", &[3], &[0.0]);
+                }
+                SpatialProbe::Body { name, .. } => {
+                    t.add(format!("{name}.pose"), Output, C, "m, 1", "centroid, orientation quaternion", &[7], &[0.0]);
+                    t.add(format!("{name}.centroid_velocity"), Output, C, "m/s", "the centroid's rate", &[3], &[0.0]);
                 }
             }
         }
@@ -467,6 +480,11 @@ impl SpatialMechanismSubsystem {
                     let b = *body;
                     put(next, &v[6 * b + 3..6 * b + 6]);
                     put(next + 1, &own[6 * b + 3..6 * b + 6]);
+                    next += 2;
+                }
+                SpatialProbe::Body { body, .. } => {
+                    put(next, &frames[*body].pose());
+                    put(next + 1, frames[*body].velocity.as_slice());
                     next += 2;
                 }
             }

@@ -385,6 +385,57 @@ pub fn read_series(path: &Path) -> Result<Series, String> {
     Ok((names, columns))
 }
 
+/// (name, unit) of a CSV header cell `name [unit]` (the unit empty when the cell has none).
+fn split_header(cell: &str) -> (String, String) {
+    let cell = cell.trim().trim_matches('"');
+    match cell.split_once(" [") {
+        Some((name, unit)) => (name.trim().to_string(), unit.trim_end_matches(']').to_string()),
+        None => (cell.to_string(), String::new()),
+    }
+}
+
+/// Largest time-series file read back (a measurement or a run's output) \[bytes\].
+pub const MAX_SERIES_BYTES: u64 = 4 << 30;
+
+/// Reads a time series written as CSV (`timeseries.csv`, or a measurement): a header of `name
+/// [unit]` cells, then rows of numbers. Blank lines are skipped; a row with a missing or
+/// non-numeric field is an error naming the column and the line. The file is sized first.
+pub fn read_csv_series(path: &Path) -> Result<Series, String> {
+    let at = |m: String| format!("{}: {m}", path.display());
+    let size = std::fs::metadata(path).map_err(|e| at(e.to_string()))?.len();
+    if size > MAX_SERIES_BYTES {
+        return Err(at(format!("{size} bytes: more than the {MAX_SERIES_BYTES} a time series may have")));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| at(e.to_string()))?;
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or_else(|| at("empty file".into()))?;
+    let names: Vec<(String, String)> = header.split(',').map(split_header).collect();
+    let mut columns = vec![Vec::new(); names.len()];
+    for (line, row) in lines {
+        let cells: Vec<&str> = row.split(',').collect();
+        if cells.len() != names.len() {
+            return Err(at(format!("line {}: {} fields, the header has {}", line + 1, cells.len(), names.len())));
+        }
+        for ((cell, column), (name, _)) in cells.iter().zip(columns.iter_mut()).zip(&names) {
+            let value = cell.trim().parse::<f64>().map_err(|_| {
+                at(format!("column {name:?}, line {}: {:?} is not a number (a missing sample?)", line + 1, cell.trim()))
+            })?;
+            column.push(value);
+        }
+    }
+    Ok((names, columns))
+}
+
+/// Reads a time series from CSV or Parquet (by the file's extension, `.parquet` or anything
+/// else as CSV).
+pub fn read_any_series(path: &Path) -> Result<Series, String> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet")) {
+        read_series(path).map_err(|e| format!("{}: {e}", path.display()))
+    } else {
+        read_csv_series(path)
+    }
+}
+
 /// A source of one run's rows for [`write_data`]: a file and, optionally, one row group in it.
 pub struct RunSource {
     /// Parquet file.

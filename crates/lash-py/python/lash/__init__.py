@@ -43,12 +43,14 @@ __all__ = [
     "ScenarioError",
     "SimulationError",
     "builtin_names",
+    "compare",
     "design_sweep",
     "emulate_measurement",
     "estimate",
     "load",
     "merge",
     "prepare_estimator",
+    "report",
     "run",
     "sweep",
     "validate",
@@ -354,6 +356,44 @@ def merge(shards: Sequence[PathLike], out: PathLike) -> int:
     """Merges the shard folders of one sweep (run with ``shard="i/N"``, possibly on other
     machines) into one dataset in ``out`` (``lash sweep merge``); returns its row count."""
     return _lash.merge([os.fspath(s) for s in shards], os.fspath(out))
+
+
+def compare(
+    scenario: Union[Scenario, PathLike],
+    out: PathLike,
+    *,
+    report: bool = True,
+    horizon: Optional[float] = None,
+    macro_step: float = 1e-3,
+    micro_step: float = 1e-5,
+    interpolation: str = "linear",
+    coupling: str = "one_way",
+    micro: str = "rk4",
+) -> Dict[str, Any]:
+    """The converged full model, the reduced model and the ideal mechanism of a scenario side by
+    side (``lash compare``): their runs, figures and ``comparison.json`` in ``out``, and with
+    ``report`` the page ``out/report.html`` (see :func:`report`). The reduced model's options are
+    :func:`run`'s. Returns ``comparison.json`` as a dict (speed-ups, per-channel metrics, every
+    clearance joint's impacts)."""
+    s = scenario if isinstance(scenario, Scenario) else load(scenario)
+    if horizon is not None:
+        s = s.with_values({"simulation.horizon": horizon})
+    text = _lash.compare(s, os.fspath(out), macro_step, micro_step, interpolation, coupling, micro, report)
+    return json.loads(text)
+
+
+def report(folder: PathLike, out: Optional[PathLike] = None) -> str:
+    """Writes one self-contained HTML page of a run's folder (``lash run --out``) or a
+    comparison's (``lash compare --out``, :func:`compare`): the mechanism animated from its
+    bodies' poses, each clearance joint's journal orbit inside its clearance circle, every
+    channel over time and crank angle (drag to zoom) and its spectrum on a log scale, the runs
+    overlaid. Opens without network access. Returns the page's path (default
+    ``folder/report.html``). Raises FileNotFoundError for a missing folder and
+    :class:`ScenarioError` for a folder that holds no run."""
+    folder = os.fspath(folder)
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"{folder}: no such folder (a run's or a comparison's --out)")
+    return _lash.report(folder, None if out is None else os.fspath(out))
 
 
 class Dataset:
