@@ -9,7 +9,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// The points the page embeds over time for all runs and channels together, at most (each
-/// channel then keeps at least [`MIN_POINTS`]): a page of some 10 MB at most.
+/// channel then keeps at least [`MIN_POINTS`]): a page of some 12 MB at most.
 pub const POINT_BUDGET: usize = 600_000;
 /// Fewest points a channel keeps over time.
 pub const MIN_POINTS: usize = 1_000;
