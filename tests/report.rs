@@ -119,8 +119,14 @@ fn joints_hold_together_in_the_poses(dir: &Path) {
 }
 
 /// A headless Chromium: on PATH, or installed from the distribution's packages (the test command
-/// installs what it needs, as it does the Python tools).
+/// installs what it needs, as it does the Python tools). Found once: the tests run in parallel
+/// and two package installs at once would fight over the package manager's lock.
 fn chromium() -> PathBuf {
+    static BROWSER: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    BROWSER.get_or_init(find_or_install_chromium).clone()
+}
+
+fn find_or_install_chromium() -> PathBuf {
     const NAMES: [&str; 4] = ["chromium-headless-shell", "chromium", "chromium-browser", "google-chrome"];
     let find = || {
         std::env::var_os("PATH").and_then(|paths| {
