@@ -495,15 +495,16 @@ fn quiet_on_broken_pipe() {
     }));
 }
 
-/// `lash compare` as a library call (the Python package's `lash.compare`): the runs, figures and
+/// `lash compare` (also the Python package's `lash.compare`): the runs, figures and
 /// comparison.json in `out`, and with `report` the page `out/report.html`.
 pub fn compare_into(
     s: &lash_scenario::AnyScenario,
     out: &std::path::Path,
     options: lash_run::ReducedOptions,
+    quiet: bool,
     report: bool,
 ) -> Result<(), CliError> {
-    compare::run(s, out, options, true)?;
+    compare::run(s, out, options, quiet)?;
     if report { write_report(out, None) } else { Ok(()) }
 }
 
@@ -566,8 +567,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         }
         Command::Compare { scenario, out, horizon, reduced, quiet, report } => {
             let s = load_with_horizon(&scenario, horizon)?;
-            compare::run(&s, &out, reduced.options(), quiet)?;
-            if report { write_report(&out, None) } else { Ok(()) }
+            compare_into(&s, &out, reduced.options(), quiet, report)
         }
         Command::Report { dir, out } => write_report(&dir, out.as_deref()),
         Command::Validate { scenario } if system::is_system(&scenario) => {

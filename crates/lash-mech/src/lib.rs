@@ -86,6 +86,16 @@ impl Pose {
         angular_velocity: 0.0,
     };
 
+    /// The centroid x, y and the angle of `body` in coordinates `q`, without the trigonometry of
+    /// [`Pose::of`] (what a recorded pose needs).
+    #[inline]
+    pub fn coordinates(body: BodyId, q: &[f64]) -> [f64; 3] {
+        match body {
+            BodyId::Ground => [0.0; 3],
+            BodyId::Body(k) => [q[3 * k], q[3 * k + 1], q[3 * k + 2]],
+        }
+    }
+
     /// Pose of `body` from coordinates `q` and velocities `qd`.
     #[inline]
     pub fn of(body: BodyId, q: &[f64], qd: &[f64]) -> Pose {

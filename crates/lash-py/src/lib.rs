@@ -412,7 +412,7 @@ fn compare(
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded: false };
     let options = settings.options(py)?;
     let scenario = scenario.inner.clone();
-    py.detach(|| lash_cli::compare_into(&scenario, &out, options, report)).map_err(|e| cli_error(py, e))?;
+    py.detach(|| lash_cli::compare_into(&scenario, &out, options, true, report)).map_err(|e| cli_error(py, e))?;
     std::fs::read_to_string(out.join("comparison.json")).map_err(|e| SimulationError::new_err(e.to_string()))
 }
 

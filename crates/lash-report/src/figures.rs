@@ -142,20 +142,22 @@ fn spectrum(y: &[f64], dt: f64) -> (Vec<f32>, Vec<f32>) {
         .unzip()
 }
 
-/// Is `name` one of a body's pose channels (animated, not plotted)?
-fn is_pose(s: &AnyScenario, name: &str) -> bool {
-    let Some((owner, quantity)) = name.rsplit_once('.') else { return false };
-    let (bodies, quantities): (Vec<&str>, Vec<&str>) = match s {
-        AnyScenario::Planar(p) => (
-            p.bodies.iter().map(|b| b.name.as_str()).collect(),
-            lash_scenario::channels::POSE_QUANTITIES.iter().map(|q| q.0).collect(),
-        ),
-        AnyScenario::Spatial(p) => (
-            p.bodies.iter().map(|b| b.name.as_str()).collect(),
-            lash_scenario::spatial::SPATIAL_POSE_QUANTITIES.iter().map(|q| q.0).collect(),
-        ),
-    };
-    bodies.contains(&owner) && quantities.contains(&quantity)
+/// The names of the scenario's pose channels (animated, not plotted), from its channel list.
+fn pose_channels(s: &AnyScenario) -> Vec<String> {
+    use lash_scenario::channels::Source;
+    use lash_scenario::spatial::SpatialSource;
+    match s {
+        AnyScenario::Planar(p) => lash_scenario::channels::channel_sources(p, false)
+            .into_iter()
+            .filter(|(_, src)| matches!(src, Source::BodyPose(..)))
+            .map(|(c, _)| c.name)
+            .collect(),
+        AnyScenario::Spatial(p) => lash_scenario::spatial::spatial_channels(p, false)
+            .into_iter()
+            .filter(|(_, src)| matches!(src, SpatialSource::BodyPose(..)))
+            .map(|(c, _)| c.name)
+            .collect(),
+    }
 }
 
 /// The crank angle of `run` at each sample \[rad\]: the first driver's prescribed angle, else
@@ -173,7 +175,8 @@ fn crank_angle(s: &AnyScenario, run: &Run) -> Option<Vec<f64>> {
                     })
                     .map(|j| if j.body1 == "ground" { j.body2.clone() } else { j.body1.clone() })
             })?;
-            if let Some(angle) = run.column(&format!("{body}.angle")) {
+            let angle_quantity = lash_scenario::channels::POSE_QUANTITIES[2].0;
+            if let Some(angle) = run.column(&format!("{body}.{angle_quantity}")) {
                 return Some(angle.to_vec());
             }
             p.drivers.first().map(|d| time.iter().map(|&t| d.motion.eval(t).0).collect())
@@ -261,10 +264,11 @@ impl Content {
     /// What the page shows of `folder`.
     pub fn of(folder: &RunFolder) -> Self {
         let s = &folder.scenario;
+        let poses = pose_channels(s);
         let mut channels: Vec<(String, String)> = Vec::new();
         for run in &folder.runs {
             for (name, unit) in run.names.iter().zip(&run.units).skip(1) {
-                if !is_pose(s, name) && !channels.iter().any(|(n, _)| n == name) {
+                if !poses.contains(name) && !channels.iter().any(|(n, _)| n == name) {
                     channels.push((name.clone(), unit.clone()));
                 }
             }

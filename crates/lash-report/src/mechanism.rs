@@ -106,14 +106,17 @@ enum Placement<'a> {
 
 impl Placement<'_> {
     fn of<'a>(run: &'a Run, spatial: bool, body: &str) -> Option<Placement<'a>> {
-        let c = |q: &str| run.column(&format!("{body}.{q}"));
+        // The pose channels by their quantities' names (lash-scenario's lists, in their order).
+        let c = |q: &(&str, &str)| run.column(&format!("{body}.{}", q.0));
         if spatial {
+            let q = &lash_scenario::spatial::SPATIAL_POSE_QUANTITIES;
             Some(Placement::Spatial {
-                centroid: [c("centroid_x")?, c("centroid_y")?, c("centroid_z")?],
-                orientation: [c("orientation_w")?, c("orientation_x")?, c("orientation_y")?, c("orientation_z")?],
+                centroid: [c(&q[0])?, c(&q[1])?, c(&q[2])?],
+                orientation: [c(&q[3])?, c(&q[4])?, c(&q[5])?, c(&q[6])?],
             })
         } else {
-            Some(Placement::Planar { x: c("centroid_x")?, y: c("centroid_y")?, angle: c("angle")? })
+            let q = &lash_scenario::channels::POSE_QUANTITIES;
+            Some(Placement::Planar { x: c(&q[0])?, y: c(&q[1])?, angle: c(&q[2])? })
         }
     }
 

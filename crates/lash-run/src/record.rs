@@ -116,10 +116,7 @@ impl<'a> Recorder<'a> {
                     .get(k)
                     .and_then(Option::as_ref)
                     .map_or(f64::NAN, |m| m.von_mises(contacts[k].normal_force)),
-                Source::BodyPose(k, quantity) => {
-                    let pose = lash_mech::Pose::of(BodyId::Body(k), q, qd);
-                    [pose.position.x, pose.position.y, pose.angle][quantity as usize]
-                }
+                Source::BodyPose(k, quantity) => lash_mech::Pose::coordinates(BodyId::Body(k), q)[quantity as usize],
             };
         }
         for (k, c) in contacts.iter().enumerate() {

@@ -194,6 +194,7 @@ impl SpatialSampler {
                 (BodyId::Ground, BodyId::Ground) => Vec3::zeros(),
             }
         };
+        let mut pose = (usize::MAX, [0.0; 7]);
         for (v, (_, src)) in values.iter_mut().zip(sources.iter()) {
             *v = match *src {
                 SpatialSource::Sensor(k, q) => {
@@ -234,7 +235,13 @@ impl SpatialSampler {
                 SpatialSource::JointReaction(k, q) => reaction_on_body1(k)[q as usize],
                 SpatialSource::AngularVelocity(k, q) => solver.angular_velocities[k][q as usize],
                 SpatialSource::ConstraintError => solver.constraint_error(),
-                SpatialSource::BodyPose(k, q) => solver.frames[k].pose()[q as usize],
+                SpatialSource::BodyPose(k, q) => {
+                    // A body's seven pose channels come together: one rotation-to-quaternion each.
+                    if pose.0 != k {
+                        pose = (k, solver.frames[k].pose());
+                    }
+                    pose.1[q as usize]
+                }
             };
         }
     }
