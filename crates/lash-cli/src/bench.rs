@@ -131,6 +131,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
     let (a_full_ms, a_reduced_ms) = (time_a(false)?, time_a(true)?);
 
     println!("lash bench (median of {reps}; scenario B, c = 0.5 mm, 5000 rpm)");
+    print_profile();
     println!(
         "  reference: dense 16×16 LU + solve (nalgebra)   {lu_ns:9.1} ns   (issue's figure for this machine kind: ~1300 ns)"
     );
@@ -328,6 +329,22 @@ fn spatial_section(reps: usize, quick: bool) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The cargo profile this binary was built with (set by lash-cli's build script).
+pub const PROFILE: &str = env!("LASH_PROFILE");
+
+/// Says which build the figures come from: docs/performance.md's are `dist`'s (fat LTO, the
+/// published binaries), the one to compare with across commits.
+fn print_profile() {
+    if PROFILE == "dist" {
+        println!("  built with profile dist (fat LTO): the build docs/performance.md's figures come from");
+    } else {
+        println!(
+            "  built with profile {PROFILE}: docs/performance.md's figures come from `cargo run --profile dist -- bench` \
+             (fat LTO); `release` (thin LTO) reads within 3 % of it on most lines (docs/performance.md)"
+        );
+    }
+}
+
 /// Runs `scenario` with `runner` and returns the wall time [ms] (rows discarded).
 fn time_runner(r: &mut dyn lash_run::Runner) -> Result<(f64, lash_run::Summary), CliError> {
     let t = Instant::now();
@@ -339,27 +356,26 @@ fn time_runner(r: &mut dyn lash_run::Runner) -> Result<(f64, lash_run::Summary),
 
 /// Median cost [ns] of one RK4 micro step of an interface model with the given constant inputs,
 /// the journals released from their centres: impacts, then settled contacts (both branches of the
-/// law).
+/// law). The steps run through the loop a run's micro subsystem uses (with its penetration
+/// checks), so the figure is the one a run pays, in the instruction set a run gets.
 fn time_micro_steps<const N: usize, const K: usize>(
     joints: Vec<lash_contact::ClearanceJoint>,
     inputs: lash_contact::micro::PlanarInputs<N, K>,
     reps: usize,
     steps: usize,
-) -> f64 {
-    median(
-        (0..reps)
-            .map(|_| {
-                let mut m = lash_contact::micro::PlanarInterfaceModel::<N, K>::new(joints.clone());
-                m.inputs = inputs;
-                let t0 = Instant::now();
-                for k in 0..steps {
-                    m.rk4_step(black_box(k as f64 * 1e-5), 1e-5);
-                    black_box(&m.states);
-                }
-                t0.elapsed().as_secs_f64() / steps as f64 * 1e9
-            })
-            .collect(),
-    )
+) -> Result<f64, CliError> {
+    let step = lash_core::Ticks::from_seconds(1e-5).expect("a valid step");
+    let mut times = Vec::with_capacity(reps);
+    for _ in 0..reps {
+        let mut m = lash_contact::micro::PlanarInterfaceModel::<N, K>::new(joints.clone());
+        m.inputs = inputs;
+        let t0 = Instant::now();
+        lash_contact::micro::rk4_steps_as_in_a_run(&mut m, lash_core::Ticks(0), step, steps)
+            .map_err(|(_, t, e)| CliError::Failure(format!("micro step benchmark at t = {t} s: {e}")))?;
+        black_box(&m.states);
+        times.push(t0.elapsed().as_secs_f64() / steps as f64 * 1e9);
+    }
+    Ok(median(times))
 }
 
 /// Median over `reps` of the cost per step and per lane [ns] of `steps` micro steps of copies
@@ -418,7 +434,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
         ..Default::default()
     };
     a_inputs.journal_angular_velocity[0] = builtin::CRANK_SPEED;
-    let micro_ns = time_micro_steps(vec![joint.clone()], a_inputs, reps, n);
+    let micro_ns = time_micro_steps(vec![joint.clone()], a_inputs, reps, n)?;
     // The same steps, runs side by side in lanes.
     let lane_ns = time_lane_steps(&joint, a_inputs, reps, n);
     // Two such joints coupled by off-diagonal blocks of M̃ (the 4 × 4 Cholesky path).
@@ -438,7 +454,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
         inputs.bearing_angular_velocity[1] = -builtin::CRANK_SPEED;
         let mut second = joint.clone();
         second.name = "second".into();
-        time_micro_steps(vec![joint.clone(), second], inputs, reps, n)
+        time_micro_steps(vec![joint.clone(), second], inputs, reps, n)?
     };
 
     // One second (0.2 s with --quick) of scenario A, slider.ax recorded at every micro step.
@@ -660,6 +676,7 @@ uniform = {{ low = 400.0, high = 600.0 }}
     println!(
         "lash bench sweep: scenario A, reduced model, {runs} runs × 0.1 s, slider.ax at 10 kHz (+ noise), LHS over clearance and speed"
     );
+    print_profile();
     println!(
         "  threads   runs side by side   wall [s]   runs/s   simulated s per wall s   per core   per CPU s   simulate [s]   write parts [s]   assemble [s]"
     );

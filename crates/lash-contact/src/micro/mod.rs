@@ -270,6 +270,29 @@ fn rk4_steps<J: MicroJoint, const N: usize, const K: usize, const M: usize, cons
     Ok(())
 }
 
+/// `steps` RK4 micro steps of `m` from `t`, each followed by every joint's penetration check,
+/// through the loop a run's micro subsystem compiles for a model of this size (the step called
+/// out of line for one planar joint, inlined and in the CPU's widest instruction set for larger
+/// models); nothing recorded. What `lash bench` times as the cost of a micro step. On failure:
+/// the steps completed, the time reached and the message.
+pub fn rk4_steps_as_in_a_run<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    m: &mut InterfaceModel<J, N, K, M, R>,
+    t: Ticks,
+    step: Ticks,
+    steps: usize,
+) -> Result<(), (usize, f64, String)> {
+    const CHUNK: [bool; 256] = [false; 256];
+    let mut done = 0;
+    while done < steps {
+        let n = (steps - done).min(CHUNK.len());
+        let start = Ticks(t.0 + done as i64 * step.0);
+        rk4_recorded(m, start, step, &CHUNK[..n], (0, &[], &[]), &[], 0, &mut [])
+            .map_err(|(i, at, e)| (done + i, at, e))?;
+        done += n;
+    }
+    Ok(())
+}
+
 /// [`rk4_steps`] of one micro step each, `record.len()` of them, reading `refs` into the next row of
 /// `rows` after each flagged step. On failure: the steps completed, the time reached and the
 /// message.
@@ -1139,6 +1162,46 @@ mod tests {
             in_contact: false,
             onset_velocity: 0.0,
         }
+    }
+
+    /// The loop `lash bench` times (`rk4_steps_as_in_a_run`: one joint's step out of line, two
+    /// joints' inlined in the widest instruction set) leaves the model where as many plain
+    /// `rk4_step` calls do, bit for bit, through impacts and settled contact.
+    #[test]
+    fn the_benchmarked_loop_is_the_plain_step() {
+        fn check<const N: usize, const K: usize>(inputs: PlanarInputs<N, K>) {
+            let joints: Vec<ClearanceJoint> =
+                (0..K).map(|j| ClearanceJoint { name: format!("pin{j}"), ..joint() }).collect();
+            let (mut a, mut b) =
+                (PlanarInterfaceModel::<N, K>::new(joints.clone()), PlanarInterfaceModel::<N, K>::new(joints));
+            a.inputs = inputs;
+            b.inputs = inputs;
+            let h = Ticks::from_seconds(1e-5).unwrap();
+            let steps = 3000;
+            rk4_steps_as_in_a_run(&mut a, Ticks::ZERO, h, steps).unwrap();
+            for k in 0..steps {
+                b.rk4_step(Ticks(k as i64 * h.0).seconds(), h.seconds());
+            }
+            assert!(b.states.iter().any(|s| s.penetration > 0.0), "the journals reach the wall");
+            assert_eq!(a.eccentricity, b.eccentricity);
+            assert_eq!(a.eccentricity_rate, b.eccentricity_rate);
+        }
+        let mut one = PlanarInputs::<2, 1> {
+            effective_mass: Matrix2::new(0.33, 0.01, 0.01, 0.21),
+            effective_force: nalgebra::Vector2::new(-900.0, 300.0),
+            ..Default::default()
+        };
+        one.journal_angular_velocity[0] = 523.6;
+        check(one);
+        #[rustfmt::skip]
+        let two = PlanarInputs::<4, 2> {
+            effective_mass: nalgebra::Matrix4::new(
+                0.33, 0.01, 0.05, 0.0, 0.01, 0.21, 0.0, 0.04, 0.05, 0.0, 0.40, 0.02, 0.0, 0.04, 0.02, 0.25,
+            ),
+            effective_force: nalgebra::Vector4::new(-900.0, 300.0, 700.0, -500.0),
+            ..Default::default()
+        };
+        check(two);
     }
 
     fn ready(integrator: MicroIntegrator) -> InterfaceSubsystem {
