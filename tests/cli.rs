@@ -694,3 +694,95 @@ fn a_reduced_run_estimates_its_error_as_compare_measures_it() {
     let summary = std::fs::read_to_string(quiet.join("summary.json")).unwrap();
     assert!(!summary.contains("error_estimate"));
 }
+
+/// Without `--micro-step`, a reduced run takes the largest step up to 1e-5 s that gives each
+/// clearance joint's impacts (their median duration in the converged full model over the probe
+/// window) seven steps: B's rod–slider impacts (~50 µs) get 5e-6 s, and the reduced run's own
+/// impacts then last seven steps or more — no resolution warning; A's (~95 µs) keep 1e-5 s. A
+/// step the user gives is kept, and the check after the run still warns about it.
+#[test]
+fn the_default_micro_step_resolves_the_impacts_it_meets() {
+    let dir = scratch("micro-step");
+    let summary = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap()
+    };
+    let b = dir.join("b");
+    let o = lash(&["run", "B", "--model", "reduced", "--out", b.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary(&b);
+    let h = s["reduced"]["options"]["micro_step"].as_f64().unwrap();
+    assert_eq!(h, 5e-6, "{}", stderr(&o));
+    assert!(s["micro_step_choice"].as_str().unwrap().contains("rod_slider"), "{}", s["micro_step_choice"]);
+    let median = s["clearances"][0]["median_impact_duration"].as_f64().unwrap();
+    assert!(median / h >= 7.0, "the reduced run's impacts last {} steps", median / h);
+    assert!(!stderr(&o).contains("not converged"), "{}", stderr(&o));
+
+    let given = dir.join("given");
+    let o = lash(&[
+        "run",
+        "B",
+        "--model",
+        "reduced",
+        "--micro-step",
+        "1e-5",
+        "--no-error-estimate",
+        "--out",
+        given.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(summary(&given)["reduced"]["options"]["micro_step"].as_f64(), Some(1e-5));
+    assert!(summary(&given).get("micro_step_choice").is_none());
+    assert!(stderr(&o).contains("not converged"), "{}", stderr(&o));
+
+    let a = dir.join("a");
+    let o = lash(&["run", "A", "--model", "reduced", "--out", a.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(summary(&a)["reduced"]["options"]["micro_step"].as_f64(), Some(1e-5));
+    assert!(summary(&a).get("micro_step_choice").is_none());
+}
+
+/// At its defaults, `lash run --model reduced` resolves the impacts of every built-in scenario:
+/// each clearance joint's median impact in the reduced run itself lasts at least seven micro
+/// steps (the convergence threshold of the peak forces), with no resolution warning. (The
+/// built-ins without a clearance interface are refused with exit code 2.)
+#[test]
+fn every_builtin_resolves_its_impacts_at_the_defaults() {
+    let dir = scratch("builtins-resolved");
+    let listed = lash(&["scenarios"]);
+    let names: Vec<String> = String::from_utf8_lossy(&listed.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .map(String::from)
+        .collect();
+    assert!(names.len() >= 20, "{names:?}");
+    let mut checked = 0;
+    for name in &names {
+        let out = dir.join(name);
+        let o = lash(&[
+            "run",
+            name,
+            "--model",
+            "reduced",
+            "--no-error-estimate",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        if o.status.code() == Some(2) {
+            assert!(stderr(&o).contains("couples"), "{name}: {}", stderr(&o));
+            continue;
+        }
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("not converged"), "{name}: {}", stderr(&o));
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let h = s["reduced"]["options"]["micro_step"].as_f64().unwrap();
+        for c in s["clearances"].as_array().unwrap() {
+            if let Some(d) = c["median_impact_duration"].as_f64() {
+                assert!(d / h >= 7.0, "{name} {}: {:.1} steps of {h:e} s", c["name"], d / h);
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 20, "{checked} scenarios checked");
+}

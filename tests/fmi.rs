@@ -85,14 +85,15 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
         assert!(text.contains("bit-identical"), "{text}");
     }
     // The same Python master through the FMUs of the two-joint scenario C (4 × 4 M~, two friction
-    // forces; the scenario in the archives' resources) reproduces `lash run C --model reduced`.
+    // forces; the scenario in the archives' resources) reproduces `lash run C --model reduced` at the
+    // FMU's micro step, 1e-5 s.
     let c_fmus = out.join("C");
     let pack =
         Command::new(env!("CARGO_BIN_EXE_lash")).args(["fmu", "pack", "C", "--out"]).arg(&c_fmus).output().unwrap();
     assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
     let c_reduced = out.join("C-reduced");
     let o = Command::new(env!("CARGO_BIN_EXE_lash"))
-        .args(["run", "C", "--model", "reduced", "--quiet", "--out"])
+        .args(["run", "C", "--model", "reduced", "--micro-step", "1e-5", "--quiet", "--out"])
         .arg(&c_reduced)
         .output()
         .unwrap();

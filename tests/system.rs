@@ -412,7 +412,19 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
     }
     // The same system over scenario C's built-ins (`scenario = "C"`: two clearance joints, 4 × 4
     // M̃, the joints' parameters prefixed with their names) equals `lash run C --model reduced`.
-    let o = lash(&["run", "C", "--model", "reduced", "--quiet", "--out", out.join("reference-C").to_str().unwrap()]);
+    // (At the system's micro step, 1e-5 s: `lash run` would choose 5e-6 s for C's impacts.)
+    let reference_c = out.join("reference-C");
+    let o = lash(&[
+        "run",
+        "C",
+        "--model",
+        "reduced",
+        "--micro-step",
+        "1e-5",
+        "--quiet",
+        "--out",
+        reference_c.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let reference = read_csv(&out.join("reference-C/timeseries.csv"));
     let text = example

@@ -69,13 +69,44 @@ fn error_check(
     serde_json::json!({ "estimate": estimate, "whole_run_rms_level_error": measured })
 }
 
-/// `lash compare`: both models of `s`, written to `out`, compared.
-pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) -> Result<(), CliError> {
+/// The micro step when the user gave none, from the converged full run's impacts (its
+/// summary.json in `full_dir`; [`crate::probe::choose_micro_step`]), and why when it is not
+/// `options.micro_step`.
+fn micro_step_for(
+    full_dir: &Path,
+    s: &AnyScenario,
+    options: ReducedOptions,
+) -> Result<(f64, Option<String>), CliError> {
+    let summary = read_json(&full_dir.join("summary.json"))?;
+    let joints: Vec<(String, Option<f64>)> = summary["clearances"]
+        .as_array()
+        .map(|cs| {
+            cs.iter()
+                .map(|c| (c["name"].as_str().unwrap_or("").to_string(), c["median_impact_duration"].as_f64()))
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(crate::probe::choose_micro_step(options, s.simulation().output_interval, &joints, "over the whole run"))
+}
+
+/// `lash compare`: both models of `s`, written to `out`, compared; the reduced model's micro step
+/// chosen from the full run's impacts unless `micro_step_given`.
+pub fn run(
+    s: &AnyScenario,
+    out: &Path,
+    mut options: ReducedOptions,
+    micro_step_given: bool,
+    quiet: bool,
+) -> Result<(), CliError> {
     let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
-    let mut reduced: Box<dyn Runner> = match s {
-        AnyScenario::Planar(p) => Box::new(ReducedRun::new(p, options).map_err(refuse)?),
-        AnyScenario::Spatial(p) => Box::new(SpatialReducedRun::new(p, options).map_err(refuse)?),
+    let reduced_runner = |options: ReducedOptions| -> Result<Box<dyn Runner>, CliError> {
+        Ok(match s {
+            AnyScenario::Planar(p) => Box::new(ReducedRun::new(p, options).map_err(refuse)?),
+            AnyScenario::Spatial(p) => Box::new(SpatialReducedRun::new(p, options).map_err(refuse)?),
+        })
     };
+    // Refused settings are said before the full model runs.
+    reduced_runner(options)?;
     // What the comparison looks at: every sensor's accelerations, the drivers' torques, the
     // clearance joints' force magnitudes.
     let (name, sensors, drivers, clearances, axes, motion) = match s {
@@ -110,6 +141,18 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         crate::output::Format::Csv,
         quiet,
     )?;
+    let mut micro_step_choice = None;
+    if !micro_step_given {
+        let (h, why) = micro_step_for(&full_dir, s, options)?;
+        options.micro_step = h;
+        if let Some(why) = &why
+            && !quiet
+        {
+            eprintln!("note: {why}");
+        }
+        micro_step_choice = why;
+    }
+    let mut reduced = reduced_runner(options)?;
     let reduced_timing = crate::run::run(
         s,
         (s.simulation(), s.output()),
@@ -260,6 +303,7 @@ pub fn run(s: &AnyScenario, out: &Path, options: ReducedOptions, quiet: bool) ->
         "speedup": speedup,
         "speedup_note": "simulation_vs_converged_full: simulation alone (output excluded), the converged full model against the reduced model; whole_run_equal_recording: both whole runs, each writing the same channels at the same rate; simulation_at_equal_step: the full model by RK4 at the micro step (not converged) against the reduced model",
         "reduced_options": options,
+        "micro_step_choice": micro_step_choice,
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,

@@ -89,9 +89,12 @@ pub struct ReducedArgs {
     /// Reduced model: macro step h_m \[s\].
     #[arg(long, default_value_t = 1e-3)]
     macro_step: f64,
-    /// Reduced model: micro step h_r \[s\].
-    #[arg(long, default_value_t = 1e-5)]
-    micro_step: f64,
+    /// Reduced model: micro step h_r \[s\]. Without it, 1e-5 s or the largest step below it
+    /// (5e-6, 4e-6, 2.5e-6, …, dividing the macro step and the output interval) that gives each
+    /// clearance joint's impacts at least 7 steps, by their median duration in the converged
+    /// full model over the error estimate's window.
+    #[arg(long)]
+    micro_step: Option<f64>,
     /// Reduced model: interpolation of the macro terms across a macro step.
     #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
     interpolation: InterpolationArg,
@@ -110,7 +113,7 @@ impl ReducedArgs {
     fn options(&self) -> lash_run::ReducedOptions {
         lash_run::ReducedOptions {
             macro_step: self.macro_step,
-            micro_step: self.micro_step,
+            micro_step: self.micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step),
             interpolation: match self.interpolation {
                 InterpolationArg::Linear => lash_orchestrate::Interpolation::Linear,
                 InterpolationArg::Hermite => lash_orchestrate::Interpolation::CubicHermite,
@@ -501,11 +504,47 @@ pub fn compare_into(
     s: &lash_scenario::AnyScenario,
     out: &std::path::Path,
     options: lash_run::ReducedOptions,
+    micro_step_given: bool,
     quiet: bool,
     report: bool,
 ) -> Result<(), CliError> {
-    compare::run(s, out, options, quiet)?;
+    compare::run(s, out, options, micro_step_given, quiet)?;
     if report { write_report(out, None) } else { Ok(()) }
+}
+
+/// `lash run --model reduced`: the converged full model over the probe window first (for the
+/// error estimate, and for the micro step when the user gave none — `micro_step_given`), then
+/// the run, then the estimate into its summary.json.
+fn run_reduced(
+    s: &lash_scenario::AnyScenario,
+    (mut options, micro_step_given): (lash_run::ReducedOptions, bool),
+    out: &std::path::Path,
+    format: output::Format,
+    error_estimate: bool,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let probe = (error_estimate || !micro_step_given).then(|| probe::FullProbe::run(s, options.macro_step));
+    let mut choice = None;
+    match &probe {
+        Some(Ok(p)) if !micro_step_given => {
+            let (h, why) = p.micro_step(options);
+            options.micro_step = h;
+            if let Some(why) = &why
+                && !quiet
+            {
+                eprintln!("note: {why}");
+            }
+            choice = why;
+        }
+        Some(Err(e)) if !micro_step_given => {
+            eprintln!("warning: the micro step stays {:e} s: the full model's probe failed: {e}", options.micro_step);
+        }
+        _ => {}
+    }
+    let model = lash_run::Model::Reduced(options);
+    let mut r = lash_run::runner(s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
+    run::run(s, (s.simulation(), s.output()), &mut *r, out, format, quiet)?;
+    probe::attach(probe.as_ref().filter(|_| error_estimate), options, choice, out, quiet)
 }
 
 /// `lash report`: the page, and what it could not show.
@@ -558,16 +597,15 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 }
                 ModelKind::Reduced => lash_run::Model::Reduced(reduced.options()),
             };
-            let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-            run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet)?;
-            match model {
-                lash_run::Model::Reduced(options) if !no_error_estimate => probe::attach(&s, options, &out, quiet),
-                _ => Ok(()),
-            }
+            let lash_run::Model::Reduced(options) = model else {
+                let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(e.to_string()))?;
+                return run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ());
+            };
+            run_reduced(&s, (options, reduced.micro_step.is_some()), &out, format, !no_error_estimate, quiet)
         }
         Command::Compare { scenario, out, horizon, reduced, quiet, report } => {
             let s = load_with_horizon(&scenario, horizon)?;
-            compare_into(&s, &out, reduced.options(), quiet, report)
+            compare_into(&s, &out, reduced.options(), reduced.micro_step.is_some(), quiet, report)
         }
         Command::Report { dir, out } => write_report(&dir, out.as_deref()),
         Command::Validate { scenario } if system::is_system(&scenario) => {

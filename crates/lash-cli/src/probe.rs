@@ -69,12 +69,12 @@ pub fn main_channels(scenario: &AnyScenario) -> Vec<String> {
         .collect()
 }
 
-/// Runs `model` of `scenario` and keeps its rows.
-fn rows(scenario: &AnyScenario, model: lash_run::Model) -> Result<(Vec<String>, Vec<Vec<f64>>), String> {
+/// Runs `model` of `scenario` and keeps its rows and summary.
+fn rows(scenario: &AnyScenario, model: lash_run::Model) -> Result<Rows, String> {
     let mut runner = lash_run::runner(scenario, model)?;
     let header = runner.header();
     let mut rows = Vec::new();
-    runner
+    let summary = runner
         .execute(
             &mut |row: &[f64]| {
                 rows.push(row.to_vec());
@@ -83,67 +83,147 @@ fn rows(scenario: &AnyScenario, model: lash_run::Model) -> Result<(Vec<String>, 
             &mut |_| {},
         )
         .map_err(|e| e.to_string())?;
-    Ok((header, rows))
+    Ok(Rows { header, rows, summary })
+}
+
+/// A run's header, rows and summary.
+struct Rows {
+    header: Vec<String>,
+    rows: Vec<Vec<f64>>,
+    summary: lash_run::Summary,
+}
+
+/// The converged full model over a reduced run's probe window: the reference of the error
+/// estimate, and the impacts the micro step is chosen for.
+pub struct FullProbe {
+    /// The probe's scenario: the run's, over the window, recording the main channels.
+    scenario: AnyScenario,
+    window_s: f64,
+    full: Rows,
+    wall_s: f64,
+}
+
+impl FullProbe {
+    /// Runs the converged full model of `scenario` over the probe window of a reduced run with
+    /// macro step `macro_step`.
+    pub fn run(scenario: &AnyScenario, macro_step: f64) -> Result<Self, String> {
+        let clock = std::time::Instant::now();
+        let mut s = scenario.clone();
+        let window_s = window(s.simulation().horizon, macro_step);
+        s.simulation_mut().horizon = window_s;
+        s.output_mut().channels = main_channels(&s);
+        s.output_mut().measurements.clear();
+        let full = rows(&s, lash_run::Model::Full { ideal: false })?;
+        Ok(Self { scenario: s, window_s, full, wall_s: clock.elapsed().as_secs_f64() })
+    }
+
+    /// The micro step for `options` when the user gave none ([`choose_micro_step`] for the
+    /// probe's impacts), and why when it is not `options.micro_step`.
+    pub fn micro_step(&self, options: lash_run::ReducedOptions) -> (f64, Option<String>) {
+        let joints: Vec<(String, Option<f64>)> =
+            self.full.summary.clearances.iter().map(|c| (c.name.clone(), c.median_impact_duration)).collect();
+        let over = format!("over the first {} s", self.window_s);
+        choose_micro_step(options, self.scenario.simulation().output_interval, &joints, &over)
+    }
+
+    /// The error estimate of the reduced model with `options` against this probe.
+    pub fn estimate(&self, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, String> {
+        let clock = std::time::Instant::now();
+        let channels = main_channels(&self.scenario);
+        let reduced_options = lash_run::ReducedOptions { channels_only: true, ..options };
+        let reduced = rows(&self.scenario, lash_run::Model::Reduced(reduced_options))?;
+        let (full, n) = (&self.full, self.full.rows.len().min(reduced.rows.len()));
+        let compared = lash_metrics::compare_series(
+            &full.header,
+            &full.rows[..n],
+            &reduced.header,
+            &reduced.rows[..n],
+            &channels,
+            0.0,
+        )?;
+        // A channel at round-off in the full model (a guided slider's transverse acceleration, ~1e-15
+        // of its axial one) has no level to be off from.
+        let largest = |unit: &str| compared.values().filter(|c| c.unit == unit).map(|c| c.rms_full).fold(0.0, f64::max);
+        let channels = channels
+            .iter()
+            .filter_map(|name| {
+                let c = compared.get(name)?;
+                (c.rms_full > 1e-9 * largest(&c.unit)).then(|| ChannelError {
+                    name: name.clone(),
+                    rms_level_error: (c.rms_reduced - c.rms_full).abs() / c.rms_full,
+                    spectral_distance: c.spectral_distance,
+                })
+            })
+            .collect();
+        let wall_s = self.wall_s + clock.elapsed().as_secs_f64();
+        Ok(ErrorEstimate { window_s: self.window_s, channels, wall_s })
+    }
+}
+
+/// The micro step for `options` when the user gave none: [`lash_run::resolving_micro_step`]
+/// from `options.micro_step` down, for the impacts of a converged full run (`joints`: each
+/// clearance joint's name and median impact duration; `over`: the part of the run they come
+/// from), and why when it is not `options.micro_step`.
+pub fn choose_micro_step(
+    options: lash_run::ReducedOptions,
+    output_interval: f64,
+    joints: &[(String, Option<f64>)],
+    over: &str,
+) -> (f64, Option<String>) {
+    let (largest, macro_step) = (options.micro_step, options.macro_step);
+    let h = lash_run::resolving_micro_step(largest, macro_step, output_interval, joints.iter().map(|j| j.1));
+    let shortest = joints.iter().filter_map(|(n, d)| Some((d.as_ref()?, n))).min_by(|a, b| a.0.total_cmp(b.0));
+    let why = shortest.filter(|_| h != largest).map(|(d, name)| {
+        format!(
+            "micro step {h:e} s, chosen for clearance joint {name}: its impacts last a median of {d:.2e} s in the \
+             converged full model {over} ({:.1} steps of {largest:e} s; a contact needs about {} to be resolved); \
+             --micro-step sets it",
+            d / largest,
+            lash_run::run::STEPS_PER_CONTACT
+        )
+    });
+    (h, why)
 }
 
 /// The error estimate of the reduced model of `scenario` with `options` (its horizon the run's).
 pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, String> {
-    let clock = std::time::Instant::now();
-    let mut s = scenario.clone();
-    let window_s = window(s.simulation().horizon, options.macro_step);
-    s.simulation_mut().horizon = window_s;
-    let channels = main_channels(&s);
-    s.output_mut().channels = channels.clone();
-    s.output_mut().measurements.clear();
-    let (header_full, full) = rows(&s, lash_run::Model::Full { ideal: false })?;
-    let reduced_options = lash_run::ReducedOptions { channels_only: true, ..options };
-    let (header_reduced, reduced) = rows(&s, lash_run::Model::Reduced(reduced_options))?;
-    let n = full.len().min(reduced.len());
-    let compared =
-        lash_metrics::compare_series(&header_full, &full[..n], &header_reduced, &reduced[..n], &channels, 0.0)?;
-    // A channel at round-off in the full model (a guided slider's transverse acceleration, ~1e-15
-    // of its axial one) has no level to be off from.
-    let largest = |unit: &str| compared.values().filter(|c| c.unit == unit).map(|c| c.rms_full).fold(0.0, f64::max);
-    let channels = channels
-        .iter()
-        .filter_map(|name| {
-            let c = compared.get(name)?;
-            (c.rms_full > 1e-9 * largest(&c.unit)).then(|| ChannelError {
-                name: name.clone(),
-                rms_level_error: (c.rms_reduced - c.rms_full).abs() / c.rms_full,
-                spectral_distance: c.spectral_distance,
-            })
-        })
-        .collect();
-    Ok(ErrorEstimate { window_s, channels, wall_s: clock.elapsed().as_secs_f64() })
+    FullProbe::run(scenario, options.macro_step)?.estimate(options)
 }
 
-/// Adds the error estimate of a reduced run (written into `out`) to its summary.json and prints
-/// it. A probe that fails (the full model over the window) is recorded as such: the run stands.
+/// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
+/// (none without a probe) and, when the micro step was chosen, why; prints the estimate. A probe
+/// that failed is recorded as such: the run stands.
 pub fn attach(
-    scenario: &AnyScenario,
+    probe: Option<&Result<FullProbe, String>>,
     options: lash_run::ReducedOptions,
+    micro_step_choice: Option<String>,
     out: &std::path::Path,
     quiet: bool,
 ) -> Result<(), crate::CliError> {
     let fail = |e: String| crate::CliError::Failure(e);
-    let value = match estimate(scenario, options) {
-        Ok(e) => {
+    let value = match probe.map(|p| p.as_ref().map_err(String::clone).and_then(|p| p.estimate(options))) {
+        None => None,
+        Some(Ok(e)) => {
             if !quiet {
                 eprintln!("{}", e.line());
             }
-            serde_json::to_value(&e).map_err(|e| fail(e.to_string()))?
+            Some(serde_json::to_value(&e).map_err(|e| fail(e.to_string()))?)
         }
-        Err(e) => {
+        Some(Err(e)) => {
             eprintln!("warning: no error estimate for this run: {e}");
-            serde_json::json!({ "error": e })
+            Some(serde_json::json!({ "error": e }))
         }
     };
     let path = out.join("summary.json");
     let text = std::fs::read_to_string(&path).map_err(|e| fail(format!("{}: {e}", path.display())))?;
     let mut summary: serde_json::Value = serde_json::from_str(&text).map_err(|e| fail(e.to_string()))?;
     if let Some(map) = summary.as_object_mut() {
-        map.insert("error_estimate".into(), value);
+        if let Some(value) = value {
+            map.insert("error_estimate".into(), value);
+        }
+        if let Some(why) = micro_step_choice {
+            map.insert("micro_step_choice".into(), serde_json::Value::String(why));
+        }
     }
     let text = serde_json::to_string_pretty(&summary).map_err(|e| fail(e.to_string()))? + "\n";
     lash_sweep::dataset::write_atomic(&path, text.as_bytes()).map_err(fail)

@@ -403,16 +403,20 @@ fn compare(
     scenario: &Scenario,
     out: PathBuf,
     macro_step: f64,
-    micro_step: f64,
+    micro_step: Option<f64>,
     interpolation: &str,
     coupling: &str,
     micro: &str,
     report: bool,
 ) -> PyResult<String> {
+    // Without a micro step, the command line's choice from the full run's impacts.
+    let given = micro_step.is_some();
+    let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded: false };
     let options = settings.options(py)?;
     let scenario = scenario.inner.clone();
-    py.detach(|| lash_cli::compare_into(&scenario, &out, options, true, report)).map_err(|e| cli_error(py, e))?;
+    py.detach(|| lash_cli::compare_into(&scenario, &out, options, given, true, report))
+        .map_err(|e| cli_error(py, e))?;
     std::fs::read_to_string(out.join("comparison.json")).map_err(|e| SimulationError::new_err(e.to_string()))
 }
 

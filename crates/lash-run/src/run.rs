@@ -143,6 +143,36 @@ pub fn series_bush_warnings(scenario: &Scenario) -> Vec<String> {
 /// (docs/validation.md).
 pub const STEPS_PER_CONTACT: f64 = 7.0;
 
+/// The reduced model's micro step when the user gives none: the largest of `largest` and the
+/// steps below it on the ladder 5, 4, 2.5, 2, 1 × 10⁻ⁿ s that divide both the macro step and the
+/// output interval and give each clearance joint's median impact duration in `medians` (from a
+/// converged run, [`ClearanceSummary::median_impact_duration`]) at least [`STEPS_PER_CONTACT`]
+/// steps. A joint without a completed impact (`None`) asks nothing. With impacts too short for
+/// the ladder (under 0.7 µs) its finest step.
+pub fn resolving_micro_step(
+    largest: f64,
+    macro_step: f64,
+    output_interval: f64,
+    medians: impl IntoIterator<Item = Option<f64>>,
+) -> f64 {
+    let shortest = medians.into_iter().flatten().fold(f64::INFINITY, f64::min);
+    let divides = |h: f64, span: f64| {
+        let ratio = span / h;
+        ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-9 * ratio
+    };
+    let ladder = (5..=7).flat_map(|n| [5.0, 4.0, 2.5, 2.0, 1.0].map(|m| m / 10f64.powi(n)));
+    let candidates: Vec<f64> = std::iter::once(largest)
+        .chain(ladder.filter(|&h| h < largest * (1.0 - 1e-9)))
+        .filter(|&h| divides(h, macro_step) && divides(h, output_interval))
+        .collect();
+    candidates
+        .iter()
+        .copied()
+        .find(|&h| shortest / h >= STEPS_PER_CONTACT)
+        .or_else(|| candidates.last().copied())
+        .unwrap_or(largest)
+}
+
 /// Warnings of a fixed-step run whose impacts last fewer than [`STEPS_PER_CONTACT`] steps (by the
 /// median completed impact of each clearance joint); none for an adaptive integrator, which
 /// locates every onset and exit.
@@ -430,5 +460,30 @@ impl Runner for crate::reduced::ReducedRun {
     }
     fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {
         Some(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_micro_step_gives_each_median_impact_seven_steps() {
+        let choose =
+            |medians: &[Option<f64>], output: f64| resolving_micro_step(1e-5, 1e-3, output, medians.iter().copied());
+        // Scenario A's crank pivot (95 µs): the default stands; B's rod–slider (55 µs, 5.5 steps
+        // of 1e-5 s) and C's (47 µs) get 5e-6 s.
+        assert_eq!(choose(&[Some(9.54e-5)], 1e-5), 1e-5);
+        assert_eq!(choose(&[Some(5.48e-5)], 1e-5), 5e-6);
+        assert_eq!(choose(&[Some(8.7e-5), Some(4.72e-5)], 1e-5), 5e-6);
+        // 30 µs needs 4.3e-6 s: 4e-6 s where the output interval allows it, else 2.5e-6 s.
+        assert_eq!(choose(&[Some(3.0e-5)], 2e-5), 4e-6);
+        assert_eq!(choose(&[Some(3.0e-5)], 1e-5), 2.5e-6);
+        // No completed impact asks nothing; impacts too short for the ladder get its finest step.
+        assert_eq!(choose(&[None], 1e-5), 1e-5);
+        assert_eq!(choose(&[Some(1e-7)], 1e-5), 1e-7);
+        // A user's larger step is kept when the impacts allow it.
+        let big = resolving_micro_step(2e-5, 1e-3, 2e-5, [Some(2e-4)]);
+        assert_eq!(big, 2e-5);
     }
 }

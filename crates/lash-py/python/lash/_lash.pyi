@@ -61,7 +61,7 @@ def compare(
     scenario: Scenario,
     out: Union[str, PathLike[str]],
     macro_step: float,
-    micro_step: float,
+    micro_step: Optional[float],
     interpolation: str,
     coupling: str,
     micro: str,
