@@ -786,3 +786,75 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
     }
     assert!(checked >= 20, "{checked} scenarios checked");
 }
+
+/// `--tolerance` takes finer steps until the reduced model's RMS level error on the main channels,
+/// against the converged full model over the error estimate's window, is within it: on A the
+/// settings it takes, run through `lash compare` over that window (its own path, through the
+/// written CSVs), are within the tolerance on every main channel; on B, whose rattling joint
+/// keeps a larger error at any step, it says so and takes the closest setting; a tolerance that
+/// is not a positive fraction, or one without the probe, is refused naming the flag.
+#[test]
+fn a_tolerance_gets_the_settings_that_meet_it_or_says_it_cannot() {
+    let dir = scratch("tolerance");
+    let summary = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap()
+    };
+    let a = dir.join("a");
+    let o = lash(&["run", "A", "--model", "reduced", "--tolerance", "0.05", "--out", a.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary(&a);
+    assert_eq!(s["tolerance"]["met"], true, "{}", s["tolerance"]);
+    let (hm, hr) = (
+        s["reduced"]["options"]["macro_step"].as_f64().unwrap(),
+        s["reduced"]["options"]["micro_step"].as_f64().unwrap(),
+    );
+    let window = s["error_estimate"]["window_s"].as_f64().unwrap();
+    let cmp = dir.join("cmp");
+    let o = lash(&[
+        "compare",
+        "A",
+        "--horizon",
+        &window.to_string(),
+        "--macro-step",
+        &hm.to_string(),
+        "--micro-step",
+        &hr.to_string(),
+        "--out",
+        cmp.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cmp.join("comparison.json")).unwrap()).unwrap();
+    for channel in s["error_estimate"]["channels"].as_array().unwrap() {
+        let m = &c["channels"][channel["name"].as_str().unwrap()];
+        let (full, reduced) = (m["rms_full"].as_f64().unwrap(), m["rms_reduced"].as_f64().unwrap());
+        assert!(
+            (reduced - full).abs() / full <= 0.05,
+            "{}: {reduced} vs {full} at h_m {hm}, h_r {hr}",
+            channel["name"]
+        );
+    }
+
+    let b = dir.join("b");
+    let o = lash(&["run", "B", "--model", "reduced", "--tolerance", "0.01", "--out", b.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not met"), "{}", stderr(&o));
+    let t = &summary(&b)["tolerance"];
+    assert_eq!(t["met"], false);
+    let tried = t["tried"].as_array().unwrap();
+    let errors: Vec<f64> = tried.iter().map(|x| x["worst_rms_level_error"].as_f64().unwrap()).collect();
+    assert!(errors.windows(2).all(|w| w[1] < w[0]), "each setting taken lowers the error: {errors:?}");
+
+    let bad = dir.join("bad");
+    for (args, said) in [
+        (&["--tolerance", "0"][..], "positive fraction"),
+        (&["--tolerance", "0.05", "--no-error-estimate"][..], "--no-error-estimate"),
+    ] {
+        let mut all = vec!["run", "A", "--model", "reduced", "--out", bad.to_str().unwrap()];
+        all.extend_from_slice(args);
+        let o = lash(&all);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--tolerance") && stderr(&o).contains(said), "{}", stderr(&o));
+    }
+}

@@ -165,6 +165,11 @@ enum Command {
         /// quarter, compared on the main channels; in summary.json as error_estimate).
         #[arg(long)]
         no_error_estimate: bool,
+        /// Reduced model: the largest RMS level error (e.g. 0.05) allowed on the main channels
+        /// against the converged full model over the error estimate's window; finer macro and
+        /// micro steps are taken until it is met or stops improving (summary.json: tolerance).
+        #[arg(long)]
+        tolerance: Option<f64>,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -512,31 +517,54 @@ pub fn compare_into(
     if report { write_report(out, None) } else { Ok(()) }
 }
 
+/// What `lash run --model reduced` was asked for.
+struct ReducedSettings {
+    options: lash_run::ReducedOptions,
+    micro_step_given: bool,
+    tolerance: Option<f64>,
+    error_estimate: bool,
+}
+
 /// `lash run --model reduced`: the converged full model over the probe window first (for the
-/// error estimate, and for the micro step when the user gave none — `micro_step_given`), then
-/// the run, then the estimate into its summary.json.
+/// error estimate, for the micro step when the user gave none, and for `--tolerance`), then the
+/// run, then the estimate and how the steps were chosen into its summary.json.
 fn run_reduced(
     s: &lash_scenario::AnyScenario,
-    (mut options, micro_step_given): (lash_run::ReducedOptions, bool),
+    settings: ReducedSettings,
     out: &std::path::Path,
     format: output::Format,
-    error_estimate: bool,
     quiet: bool,
 ) -> Result<(), CliError> {
-    let probe = (error_estimate || !micro_step_given).then(|| probe::FullProbe::run(s, options.macro_step));
-    let mut choice = None;
+    let mut options = settings.options;
+    let probe =
+        (settings.error_estimate || !settings.micro_step_given).then(|| probe::FullProbe::run(s, options.macro_step));
+    let mut notes = serde_json::Map::new();
     match &probe {
-        Some(Ok(p)) if !micro_step_given => {
-            let (h, why) = p.micro_step(options);
-            options.micro_step = h;
-            if let Some(why) = &why
-                && !quiet
-            {
-                eprintln!("note: {why}");
+        Some(Ok(p)) => {
+            if !settings.micro_step_given {
+                let (h, why) = p.micro_step(options);
+                options.micro_step = h;
+                if let Some(why) = why {
+                    if !quiet {
+                        eprintln!("note: {why}");
+                    }
+                    notes.insert("micro_step_choice".into(), why.into());
+                }
             }
-            choice = why;
+            if let Some(tolerance) = settings.tolerance {
+                let (chosen, search) = p.meet_tolerance(options, tolerance, 8).map_err(CliError::Failure)?;
+                options = chosen;
+                eprintln!("{}", search.line());
+                notes.insert(
+                    "tolerance".into(),
+                    serde_json::to_value(&search).map_err(|e| CliError::Failure(e.to_string()))?,
+                );
+            }
         }
-        Some(Err(e)) if !micro_step_given => {
+        Some(Err(e)) if settings.tolerance.is_some() => {
+            return Err(CliError::Failure(format!("--tolerance: the full model's probe failed: {e}")));
+        }
+        Some(Err(e)) if !settings.micro_step_given => {
             eprintln!("warning: the micro step stays {:e} s: the full model's probe failed: {e}", options.micro_step);
         }
         _ => {}
@@ -544,7 +572,7 @@ fn run_reduced(
     let model = lash_run::Model::Reduced(options);
     let mut r = lash_run::runner(s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
     run::run(s, (s.simulation(), s.output()), &mut *r, out, format, quiet)?;
-    probe::attach(probe.as_ref().filter(|_| error_estimate), options, choice, out, quiet)
+    probe::attach(probe.as_ref().filter(|_| settings.error_estimate), options, notes, out, quiet)
 }
 
 /// `lash report`: the page, and what it could not show.
@@ -581,7 +609,19 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::A
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, no_error_estimate, quiet } => {
+        Command::Run {
+            scenario,
+            model,
+            ideal,
+            out,
+            horizon,
+            step,
+            format,
+            reduced,
+            no_error_estimate,
+            tolerance,
+            quiet,
+        } => {
             output::catch_interrupts();
             if system::is_system(&scenario) {
                 return system::run(&scenario, &out, step, horizon, format, quiet);
@@ -601,7 +641,22 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(e.to_string()))?;
                 return run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ());
             };
-            run_reduced(&s, (options, reduced.micro_step.is_some()), &out, format, !no_error_estimate, quiet)
+            if let Some(t) = tolerance
+                && (no_error_estimate || !(t > 0.0 && t.is_finite()))
+            {
+                return Err(CliError::Input(format!(
+                    "--tolerance {t}: {}",
+                    if no_error_estimate {
+                        "it is met against the error estimate's probe, which --no-error-estimate skips"
+                    } else {
+                        "must be a positive fraction (0.05 for 5 %)"
+                    }
+                )));
+            }
+            let given = reduced.micro_step.is_some();
+            let settings =
+                ReducedSettings { options, micro_step_given: given, tolerance, error_estimate: !no_error_estimate };
+            run_reduced(&s, settings, &out, format, quiet)
         }
         Command::Compare { scenario, out, horizon, reduced, quiet, report } => {
             let s = load_with_horizon(&scenario, horizon)?;

@@ -38,6 +38,11 @@ impl ErrorEstimate {
         self.channels.iter().map(|c| c.rms_level_error).fold(0.0, f64::max)
     }
 
+    /// The channel with the largest RMS level error.
+    pub fn worst_channel(&self) -> Option<String> {
+        self.channels.iter().max_by(|a, b| a.rms_level_error.total_cmp(&b.rms_level_error)).map(|c| c.name.clone())
+    }
+
     /// One line for the terminal.
     pub fn line(&self) -> String {
         let parts: Vec<String> =
@@ -160,6 +165,119 @@ impl FullProbe {
     }
 }
 
+/// One setting `--tolerance` tried over the probe window.
+#[derive(Debug, Clone, Serialize)]
+pub struct Tried {
+    /// Macro step \[s\].
+    pub macro_step: f64,
+    /// Micro step \[s\].
+    pub micro_step: f64,
+    /// The largest RMS level error over the main channels.
+    pub worst_rms_level_error: f64,
+    /// The channel it is on.
+    pub worst_channel: String,
+}
+
+/// What `--tolerance` found: the settings the search stepped through, in order (each one
+/// finer than the one before and with a smaller error), and whether the last, the one the run
+/// takes, meets the tolerance over the probe window.
+#[derive(Debug, Clone, Serialize)]
+pub struct ToleranceSearch {
+    /// The tolerance asked for: the largest RMS level error over the main channels.
+    pub tolerance: f64,
+    /// Whether the setting taken meets it.
+    pub met: bool,
+    /// The settings stepped through; the run takes the last (the smallest error).
+    pub tried: Vec<Tried>,
+}
+
+impl ToleranceSearch {
+    /// One line for the terminal.
+    pub fn line(&self) -> String {
+        let best = self.best();
+        let setting = format!("macro step {:e} s, micro step {:e} s", best.macro_step, best.micro_step);
+        if self.met {
+            format!(
+                "tolerance {:.1} %: met at {setting} (worst RMS level error over the window {:.1} %, {}; {} settings tried)",
+                100.0 * self.tolerance,
+                100.0 * best.worst_rms_level_error,
+                best.worst_channel,
+                self.tried.len()
+            )
+        } else {
+            format!(
+                "tolerance {:.1} %: not met — closest {:.1} % ({}) at {setting}; finer steps stopped improving, so the rest \
+                 is the interface model's own error (one-way coupling, the ideal macro motion), not the steps'",
+                100.0 * self.tolerance,
+                100.0 * best.worst_rms_level_error,
+                best.worst_channel
+            )
+        }
+    }
+
+    fn best(&self) -> &Tried {
+        self.tried
+            .iter()
+            .min_by(|a, b| a.worst_rms_level_error.total_cmp(&b.worst_rms_level_error))
+            .expect("at least one setting tried")
+    }
+}
+
+impl FullProbe {
+    /// The settings that meet `tolerance` (the largest RMS level error over the main channels,
+    /// against the converged full model over the probe window), from `options` on: while the
+    /// error is above it, the finer of a halved macro step and the next micro step down the
+    /// ladder ([`lash_run::micro_step_ladder`]) that lowers it most, until it is met, neither
+    /// lowers it, or `budget` settings are tried. Returns the setting with the smallest error.
+    pub fn meet_tolerance(
+        &self,
+        options: lash_run::ReducedOptions,
+        tolerance: f64,
+        budget: usize,
+    ) -> Result<(lash_run::ReducedOptions, ToleranceSearch), String> {
+        let output_interval = self.scenario.simulation().output_interval;
+        let tried_as = |o: lash_run::ReducedOptions, e: &ErrorEstimate| Tried {
+            macro_step: o.macro_step,
+            micro_step: o.micro_step,
+            worst_rms_level_error: e.worst_rms_level_error(),
+            worst_channel: e.worst_channel().unwrap_or_default(),
+        };
+        let mut current = options;
+        let mut search =
+            ToleranceSearch { tolerance, met: false, tried: vec![tried_as(current, &self.estimate(current)?)] };
+        while search.tried.len() < budget {
+            let worst = search.tried.last().expect("one").worst_rms_level_error;
+            if worst <= tolerance {
+                search.met = true;
+                break;
+            }
+            let finer_micro =
+                lash_run::micro_step_ladder(current.micro_step, current.macro_step, output_interval).get(1).copied();
+            let candidates = [
+                Some(lash_run::ReducedOptions { macro_step: current.macro_step / 2.0, ..current }),
+                finer_micro.map(|h| lash_run::ReducedOptions { micro_step: h, ..current }),
+            ];
+            // A setting the run refuses (a step that does not divide the horizon) is no candidate.
+            let best = candidates
+                .into_iter()
+                .flatten()
+                .filter_map(|o| self.estimate(o).ok().map(|e| (o, e)))
+                .min_by(|a, b| a.1.worst_rms_level_error().total_cmp(&b.1.worst_rms_level_error()));
+            match best {
+                Some((o, e)) if e.worst_rms_level_error() < worst => {
+                    search.tried.push(tried_as(o, &e));
+                    current = o;
+                }
+                _ => break,
+            }
+        }
+        let best = search.best().clone();
+        search.met = best.worst_rms_level_error <= tolerance;
+        let chosen = lash_run::ReducedOptions { macro_step: best.macro_step, micro_step: best.micro_step, ..options };
+        Ok((chosen, search))
+    }
+}
+
 /// The micro step for `options` when the user gave none: [`lash_run::resolving_micro_step`]
 /// from `options.micro_step` down, for the impacts of a converged full run (`joints`: each
 /// clearance joint's name and median impact duration; `over`: the part of the run they come
@@ -191,12 +309,12 @@ pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Re
 }
 
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
-/// (none without a probe) and, when the micro step was chosen, why; prints the estimate. A probe
+/// (none without a probe) and `notes` (how its steps were chosen); prints the estimate. A probe
 /// that failed is recorded as such: the run stands.
 pub fn attach(
     probe: Option<&Result<FullProbe, String>>,
     options: lash_run::ReducedOptions,
-    micro_step_choice: Option<String>,
+    notes: serde_json::Map<String, serde_json::Value>,
     out: &std::path::Path,
     quiet: bool,
 ) -> Result<(), crate::CliError> {
@@ -221,9 +339,7 @@ pub fn attach(
         if let Some(value) = value {
             map.insert("error_estimate".into(), value);
         }
-        if let Some(why) = micro_step_choice {
-            map.insert("micro_step_choice".into(), serde_json::Value::String(why));
-        }
+        map.extend(notes);
     }
     let text = serde_json::to_string_pretty(&summary).map_err(|e| fail(e.to_string()))? + "\n";
     lash_sweep::dataset::write_atomic(&path, text.as_bytes()).map_err(fail)

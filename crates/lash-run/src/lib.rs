@@ -20,7 +20,9 @@ pub mod spatial;
 pub use build::{BuildOptions, build_model};
 pub use full_subsystem::FullSubsystem;
 pub use reduced::{ReducedOptions, ReducedRun};
-pub use run::{ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Sink, Summary, resolving_micro_step};
+pub use run::{
+    ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Sink, Summary, micro_step_ladder, resolving_micro_step,
+};
 pub use spatial::{SpatialReducedRun, SpatialRun, build_spatial};
 
 /// Which model of a scenario to run.

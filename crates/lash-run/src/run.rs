@@ -143,6 +143,21 @@ pub fn series_bush_warnings(scenario: &Scenario) -> Vec<String> {
 /// (docs/validation.md).
 pub const STEPS_PER_CONTACT: f64 = 7.0;
 
+/// `largest`, then the steps below it on the ladder 5, 4, 2.5, 2, 1 × 10⁻ⁿ s (n = 5 … 7) that
+/// divide both `macro_step` and `output_interval`, largest first: the micro steps lash chooses
+/// among.
+pub fn micro_step_ladder(largest: f64, macro_step: f64, output_interval: f64) -> Vec<f64> {
+    let divides = |h: f64, span: f64| {
+        let ratio = span / h;
+        ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-9 * ratio
+    };
+    let ladder = (5..=7).flat_map(|n| [5.0, 4.0, 2.5, 2.0, 1.0].map(|m| m / 10f64.powi(n)));
+    std::iter::once(largest)
+        .chain(ladder.filter(|&h| h < largest * (1.0 - 1e-9)))
+        .filter(|&h| divides(h, macro_step) && divides(h, output_interval))
+        .collect()
+}
+
 /// The reduced model's micro step when the user gives none: the largest of `largest` and the
 /// steps below it on the ladder 5, 4, 2.5, 2, 1 × 10⁻ⁿ s that divide both the macro step and the
 /// output interval and give each clearance joint's median impact duration in `medians` (from a
@@ -156,15 +171,7 @@ pub fn resolving_micro_step(
     medians: impl IntoIterator<Item = Option<f64>>,
 ) -> f64 {
     let shortest = medians.into_iter().flatten().fold(f64::INFINITY, f64::min);
-    let divides = |h: f64, span: f64| {
-        let ratio = span / h;
-        ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-9 * ratio
-    };
-    let ladder = (5..=7).flat_map(|n| [5.0, 4.0, 2.5, 2.0, 1.0].map(|m| m / 10f64.powi(n)));
-    let candidates: Vec<f64> = std::iter::once(largest)
-        .chain(ladder.filter(|&h| h < largest * (1.0 - 1e-9)))
-        .filter(|&h| divides(h, macro_step) && divides(h, output_interval))
-        .collect();
+    let candidates = micro_step_ladder(largest, macro_step, output_interval);
     candidates
         .iter()
         .copied()
