@@ -134,6 +134,20 @@ impl ReducedArgs {
     }
 }
 
+/// The reduced run's probe: the converged full model over the run's first quarter.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct ProbeArgs {
+    /// Reduced model: skip the error estimate (the converged full model over the run's first
+    /// quarter, compared on the main channels; in summary.json as error_estimate).
+    #[arg(long)]
+    no_error_estimate: bool,
+    /// Reduced model: the largest RMS level error (e.g. 0.05) allowed on the main channels
+    /// against the converged full model over the error estimate's window; finer macro and
+    /// micro steps are taken until it is met or stops improving (summary.json: tolerance).
+    #[arg(long)]
+    tolerance: Option<f64>,
+}
+
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Run a scenario and write timeseries.csv (or .parquet), summary.json and scenario.toml to --out.
@@ -161,15 +175,8 @@ enum Command {
         format: output::Format,
         #[command(flatten)]
         reduced: ReducedArgs,
-        /// Reduced model: skip the error estimate (the converged full model over the run's first
-        /// quarter, compared on the main channels; in summary.json as error_estimate).
-        #[arg(long)]
-        no_error_estimate: bool,
-        /// Reduced model: the largest RMS level error (e.g. 0.05) allowed on the main channels
-        /// against the converged full model over the error estimate's window; finer macro and
-        /// micro steps are taken until it is met or stops improving (summary.json: tolerance).
-        #[arg(long)]
-        tolerance: Option<f64>,
+        #[command(flatten)]
+        probe: ProbeArgs,
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
@@ -525,6 +532,21 @@ struct ReducedSettings {
     error_estimate: bool,
 }
 
+impl ReducedSettings {
+    /// The settings, or what is wrong with `--tolerance`.
+    fn checked(self) -> Result<Self, CliError> {
+        match self.tolerance {
+            Some(t) if !(t > 0.0 && t.is_finite()) => {
+                Err(CliError::Input(format!("--tolerance {t}: must be a positive fraction (0.05 for 5 %)")))
+            }
+            Some(t) if !self.error_estimate => Err(CliError::Input(format!(
+                "--tolerance {t}: it is met against the error estimate's probe, which --no-error-estimate skips"
+            ))),
+            _ => Ok(self),
+        }
+    }
+}
+
 /// `lash run --model reduced`: the converged full model over the probe window first (for the
 /// error estimate, for the micro step when the user gave none, and for `--tolerance`), then the
 /// run, then the estimate and how the steps were chosen into its summary.json.
@@ -609,19 +631,7 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::A
 
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run {
-            scenario,
-            model,
-            ideal,
-            out,
-            horizon,
-            step,
-            format,
-            reduced,
-            no_error_estimate,
-            tolerance,
-            quiet,
-        } => {
+        Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, probe, quiet } => {
             output::catch_interrupts();
             if system::is_system(&scenario) {
                 return system::run(&scenario, &out, step, horizon, format, quiet);
@@ -641,22 +651,13 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(e.to_string()))?;
                 return run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ());
             };
-            if let Some(t) = tolerance
-                && (no_error_estimate || !(t > 0.0 && t.is_finite()))
-            {
-                return Err(CliError::Input(format!(
-                    "--tolerance {t}: {}",
-                    if no_error_estimate {
-                        "it is met against the error estimate's probe, which --no-error-estimate skips"
-                    } else {
-                        "must be a positive fraction (0.05 for 5 %)"
-                    }
-                )));
-            }
-            let given = reduced.micro_step.is_some();
-            let settings =
-                ReducedSettings { options, micro_step_given: given, tolerance, error_estimate: !no_error_estimate };
-            run_reduced(&s, settings, &out, format, quiet)
+            let settings = ReducedSettings {
+                options,
+                micro_step_given: reduced.micro_step.is_some(),
+                tolerance: probe.tolerance,
+                error_estimate: !probe.no_error_estimate,
+            };
+            run_reduced(&s, settings.checked()?, &out, format, quiet)
         }
         Command::Compare { scenario, out, horizon, reduced, quiet, report } => {
             let s = load_with_horizon(&scenario, horizon)?;
