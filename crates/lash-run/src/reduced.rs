@@ -115,11 +115,6 @@ impl ReducedRun {
             )));
         }
         let master_options = master_options(&scenario.simulation, options)?;
-        if options.coupling == Coupling::TwoWay && options.execution == Execution::Threaded {
-            return Err(RunError::Unsupported(
-                "two-way coupling runs sequentially (the macro step needs the micro result of the step before)".into(),
-            ));
-        }
         let full = build_model(scenario, BuildOptions { ideal: false });
         let ideal = full.ideal_mechanism();
         let mut cut = full.mechanism.clone();
@@ -387,25 +382,9 @@ pub(crate) fn master_options(
         coupling: options.coupling,
         execution: options.execution,
     };
-    let (hm, hr) = (master_options.macro_step, master_options.micro_step);
-    if hr.0 <= 0 || hm.exact_ratio(hr).is_none() {
-        return Err(RunError::Unsupported(format!(
-            "macro step {} s is not a whole multiple of the micro step {} s",
-            options.macro_step, options.micro_step
-        )));
-    }
-    if ticks(sim.horizon, "simulation.horizon")?.exact_ratio(hm).is_none() {
-        return Err(RunError::Unsupported(format!(
-            "horizon {} s is not a whole multiple of the macro step {} s",
-            sim.horizon, options.macro_step
-        )));
-    }
-    if ticks(sim.output_interval, "simulation.output_interval")?.exact_ratio(hr).is_none() {
-        return Err(RunError::Unsupported(format!(
-            "output interval {} s is not a whole multiple of the micro step {} s",
-            sim.output_interval, options.micro_step
-        )));
-    }
+    let refuse = |e: lash_orchestrate::StepError| RunError::Unsupported(e.to_string());
+    master_options.check().map_err(refuse)?;
+    master_options.check_sampling(ticks(sim.output_interval, "simulation.output_interval")?).map_err(refuse)?;
     Ok(master_options)
 }
 

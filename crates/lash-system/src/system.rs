@@ -4,7 +4,7 @@ use crate::spec::{Algorithm, ElementSource, ElementSpec, InterfaceSpec, SystemSp
 use lash_core::{Causality, StopReason, Subsystem, SubsystemError, Ticks, ValueKind, ValueReference, Variable};
 use lash_orchestrate::{
     Algorithm as _, Carried, ConnectedMaster, Connection, Element, Initialization, InterfaceMaster, MasterError,
-    MasterOptions, Observer, Ordering, Port, Signal,
+    MasterOptions, Observer, Ordering, Port, Signal, StepError,
 };
 use std::path::Path;
 
@@ -549,13 +549,23 @@ fn interface_plan(
         return Err(bad("interface: mechanism and clearance must be different elements".into()));
     }
     let micro_step = ticks("interface.micro_step", i.micro_step)?;
-    if micro_step.0 <= 0 || step.0 % micro_step.0 != 0 {
-        return Err(bad(format!("interface.micro_step: {} s must divide the step {} s", i.micro_step, step.seconds())));
-    }
-    lash_orchestrate::check_step_ratio(step, micro_step).map_err(|m| bad(format!("interface.micro_step: {m}")))?;
-    if interval.0 % micro_step.0 != 0 {
-        return Err(bad(format!("output.interval: must be a multiple of the micro step {} s", i.micro_step)));
-    }
+    let options = MasterOptions {
+        start,
+        stop,
+        macro_step: step,
+        micro_step,
+        interpolation: i.interpolation,
+        coupling: i.coupling,
+        execution: i.execution,
+    };
+    // The master's own check, reported against the file's fields.
+    let field = |e: &StepError| match e {
+        StepError::NotWholeMicroSteps { .. } | StepError::TooManyMicroSteps { .. } => "interface.micro_step",
+        StepError::NotWholeMacroSteps { .. } => "step",
+        StepError::OutputInterval { .. } => "output.interval",
+        StepError::TwoWayThreaded => "interface.coupling",
+    };
+    options.check().and_then(|_| options.check_sampling(interval)).map_err(|e| bad(format!("{}: {e}", field(&e))))?;
     let has = |k: usize, name: &str| find(elements[k].model.variables(), name).map(|v| v.len());
     let mut signals = Vec::new();
     let mut units = Vec::new();
@@ -597,15 +607,6 @@ fn interface_plan(
         };
         signals.push(signal);
     }
-    let options = MasterOptions {
-        start,
-        stop,
-        macro_step: step,
-        micro_step,
-        interpolation: i.interpolation,
-        coupling: i.coupling,
-        execution: i.execution,
-    };
     Ok(InterfacePlan { mechanism, clearance, options, signals, units, interval })
 }
 
