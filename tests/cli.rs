@@ -162,13 +162,18 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
     let s = &c["speedup"];
     let converged = s["simulation_vs_converged_full"].as_f64().unwrap();
     assert!(converged > 1.0, "{c}");
-    let ratio = |a: &str, b: &str| {
-        c["timing"][a]["simulation_s"].as_f64().unwrap() / c["timing"][b]["simulation_s"].as_f64().unwrap()
-    };
-    assert!((converged - ratio("full", "reduced")).abs() < 1e-12 * converged);
-    assert!(
-        (s["simulation_at_equal_step"].as_f64().unwrap() - ratio("full_rk4_at_micro_step", "reduced")).abs() < 1e-9
-    );
+    // The headline ratios come from rounds in which the models take turns (at least three),
+    // each the median of the rounds' ratios; the ratio of the median times agrees with it.
+    let steady = &c["steady_timing"];
+    assert!(steady["rounds"].as_u64().unwrap() >= 3, "{steady}");
+    for (key, model) in
+        [("simulation_vs_converged_full", "converged_full"), ("simulation_at_equal_step", "full_rk4_at_micro_step")]
+    {
+        let ratio = s[key].as_f64().unwrap();
+        assert_eq!(ratio, steady[model]["ratio_to_first"].as_f64().unwrap(), "{key}");
+        let of_medians = steady[model]["median_s"].as_f64().unwrap() / steady["reduced"]["median_s"].as_f64().unwrap();
+        assert!((0.5..2.0).contains(&(ratio / of_medians)), "{key}: {ratio} vs {of_medians}");
+    }
     assert!(s["whole_run_equal_recording"].as_f64().unwrap() > 0.0);
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("reduced/summary.json")).unwrap()).unwrap();

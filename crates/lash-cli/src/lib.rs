@@ -31,6 +31,7 @@ mod output;
 mod plots;
 pub mod probe;
 mod run;
+mod steady;
 pub mod sweep;
 pub mod system;
 
