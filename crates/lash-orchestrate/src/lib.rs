@@ -368,6 +368,182 @@ fn step_macro(
     read_frame(sub, all, width, spare)
 }
 
+/// Each observer's interval in micro steps.
+fn decimation(o: &MasterOptions, observers: &[(&mut dyn Observer, Ticks)]) -> Result<Vec<u64>, MasterError> {
+    observers
+        .iter()
+        .map(|(_, interval)| match interval.exact_ratio(o.micro_step) {
+            Some(d) if d >= 1 => Ok(d as u64),
+            _ => Err(MasterError::Settings(format!(
+                "observer interval {} s is not a whole multiple of the micro step {} s",
+                interval.seconds(),
+                o.micro_step.seconds()
+            ))),
+        })
+        .collect()
+}
+
+/// The coupling's inputs of the micro subsystem, resolved.
+struct Couplings {
+    micro_inputs: Vec<ValueReference>,
+    index: CouplingIndex,
+    width_in: usize,
+    target_inputs: Option<[ValueReference; 3]>,
+    /// Interface coordinates.
+    n: usize,
+    /// Friction loads.
+    k: usize,
+}
+
+/// Both subsystems' variables, looked up by name.
+struct Sides<'s> {
+    mac_vars: &'s [Variable],
+    mic_vars: &'s [Variable],
+    mac_name: String,
+    mic_name: String,
+    mac_off: Vec<usize>,
+}
+
+impl<'s> Sides<'s> {
+    fn of(macro_sub: &'s dyn Subsystem, micro_sub: &'s dyn Subsystem) -> Self {
+        let (mac_vars, mic_vars) = (macro_sub.variables(), micro_sub.variables());
+        Sides {
+            mac_vars,
+            mic_vars,
+            mac_name: macro_sub.name().to_string(),
+            mic_name: micro_sub.name().to_string(),
+            mac_off: offsets(mac_vars),
+        }
+    }
+
+    fn macro_var(&self, name: &str, causality: Causality, len: Option<usize>) -> Result<ValueReference, MasterError> {
+        lookup(self.mac_vars, &self.mac_name, name, causality, len)
+    }
+
+    fn micro(&self, name: &str, causality: Causality, len: Option<usize>) -> Result<ValueReference, MasterError> {
+        lookup(self.mic_vars, &self.mic_name, name, causality, len)
+    }
+
+    /// Where macro output `name` (of `len` elements) starts in a frame.
+    fn frame_at(&self, name: &str, len: usize) -> Result<usize, MasterError> {
+        Ok(self.mac_off[self.macro_var(name, Causality::Output, Some(len))? as usize])
+    }
+
+    /// The coupling variables: sizes n (interface coordinates), r (angular velocity components
+    /// per side; planar: one per joint, spherical: three) and k (friction loads; planar: one
+    /// per joint, F_T; spherical: three, n × F_T) read from the macro's outputs; the interface
+    /// terms in effective-mass form (M̃, f̃, H) or, where the micro subsystem takes them so
+    /// (spherical joints), in mobility form (W, a_free, G = W H).
+    fn couplings(&self, coupling: Coupling) -> Result<Couplings, MasterError> {
+        let size = |name: &str| -> Result<usize, MasterError> {
+            Ok(self.mac_vars[self.macro_var(name, Causality::Output, None)? as usize].len())
+        };
+        let mobility_form = self.mic_vars.iter().any(|v| v.name == "mobility" && v.causality == Causality::Input);
+        let [matrix, force, friction_map] = if mobility_form {
+            ["mobility", "free_acceleration", "friction_mobility"]
+        } else {
+            ["effective_mass", "effective_force", "friction_moment_force"]
+        };
+        let (n, r) = (size(force)?, size("journal_angular_velocity")?);
+        let moment_map = size(friction_map)?;
+        if n == 0 || moment_map % n != 0 {
+            return Err(MasterError::Variables {
+                subsystem: self.mac_name.clone(),
+                problem: format!("{friction_map} has {moment_map} elements, not a multiple of n = {n}"),
+            });
+        }
+        let k = moment_map / n;
+        // (name, elements, derivative variable of the macro)
+        let couplings: [(&str, usize, Option<&str>); 5] = [
+            (matrix, n * n, None),
+            (force, n, None),
+            (friction_map, n * k, None),
+            ("journal_angular_velocity", r, Some("journal_angular_acceleration")),
+            ("bearing_angular_velocity", r, Some("bearing_angular_acceleration")),
+        ];
+        let mut micro_inputs = Vec::with_capacity(2 * couplings.len());
+        let mut index = CouplingIndex { elements: Vec::new(), layout: Vec::new() };
+        let mut width_in = 0;
+        for (name, len, derivative) in couplings {
+            let start = self.frame_at(name, len)?;
+            let derivative_start = derivative.map(|d| self.frame_at(d, len)).transpose()?;
+            let rate_name = derivative.map_or_else(|| format!("{name}_rate"), str::to_string);
+            micro_inputs.push(self.micro(name, Causality::Input, Some(len))?);
+            micro_inputs.push(self.micro(&rate_name, Causality::Input, Some(len))?);
+            index.layout.push((width_in, width_in + len));
+            width_in += 2 * len;
+            for e in 0..len {
+                index.elements.push((start + e, derivative_start.map(|d| d + e)));
+            }
+        }
+        let target_inputs = match coupling {
+            Coupling::TwoWay => Some([
+                self.macro_var("eccentricity", Causality::Input, Some(n))?,
+                self.macro_var("eccentricity_rate", Causality::Input, Some(n))?,
+                self.macro_var("friction_force", Causality::Input, Some(k))?,
+            ]),
+            Coupling::OneWay => None,
+        };
+        Ok(Couplings { micro_inputs, index, width_in, target_inputs, n, k })
+    }
+
+    /// Element `e` of variable `name` of one side.
+    fn element(vars: &[Variable], who: &str, name: &str, e: usize) -> Result<(ValueReference, usize), MasterError> {
+        let vr = vars.iter().find(|v| v.name == *name).map(|v| v.value_reference).ok_or_else(|| {
+            MasterError::Variables { subsystem: who.to_string(), problem: format!("has no variable {name:?}") }
+        })?;
+        if e >= vars[vr as usize].len() {
+            return Err(MasterError::Variables {
+                subsystem: who.to_string(),
+                problem: format!("variable {name:?} has no element {e}"),
+            });
+        }
+        Ok((vr, e))
+    }
+
+    /// Where element `e` of macro variable `name` is in a frame.
+    fn macro_index(&self, name: &str, e: usize) -> Result<usize, MasterError> {
+        let (vr, e) = Self::element(self.mac_vars, &self.mac_name, name, e)?;
+        Ok(self.mac_off[vr as usize] + e)
+    }
+
+    /// The signals resolved to frame elements and micro outputs; the micro outputs they read are
+    /// appended to `micro_outputs` (after the `loads`).
+    fn signals(
+        &self,
+        signals: &[Signal],
+        loads: usize,
+        micro_outputs: &mut Vec<ValueReference>,
+    ) -> Result<Vec<Resolved>, MasterError> {
+        let mut resolved = Vec::with_capacity(signals.len());
+        for s in signals {
+            resolved.push(match s {
+                Signal::Micro { variable, element: e, .. } => {
+                    let (vr, e) = Self::element(self.mic_vars, &self.mic_name, variable, *e)?;
+                    let pos = micro_outputs.iter().position(|&v| v == vr).unwrap_or_else(|| {
+                        micro_outputs.push(vr);
+                        micro_outputs.len() - 1
+                    });
+                    let base: usize = micro_outputs[..pos].iter().map(|&v| self.mic_vars[v as usize].len()).sum();
+                    Resolved::Micro(base + e)
+                }
+                Signal::Macro { variable, element: e, derivative, .. } => Resolved::Macro {
+                    value: self.macro_index(variable, *e)?,
+                    derivative: derivative.as_ref().map(|(v, e)| self.macro_index(v, *e)).transpose()?,
+                },
+                Signal::Propagated { free, gain, .. } => {
+                    self.macro_index(&gain.0, gain.1 + loads - 1)?;
+                    Resolved::Propagated {
+                        free: self.macro_index(&free.0, free.1)?,
+                        gain: self.macro_index(&gain.0, gain.1)?,
+                    }
+                }
+            });
+        }
+        Ok(resolved)
+    }
+}
+
 impl<'a> InterfaceMaster<'a> {
     /// A master over two subsystems that have been set up (not yet initialised).
     pub fn new(
@@ -399,139 +575,27 @@ impl<'a> InterfaceMaster<'a> {
         // The fractions j / per_macro of the macro step at the micro steps' ends, divided once.
         let fractions: Vec<f64> = (0..=per_macro).map(|j| j as f64 / per_macro as f64).collect();
         let macro_steps = Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).expect("checked") as usize;
-        let mut decimation = Vec::with_capacity(observers.len());
-        for (_, interval) in observers.iter() {
-            match interval.exact_ratio(o.micro_step) {
-                Some(d) if d >= 1 => decimation.push(d as u64),
-                _ => {
-                    return Err(MasterError::Settings(format!(
-                        "observer interval {} s is not a whole multiple of the micro step {} s",
-                        interval.seconds(),
-                        o.micro_step.seconds()
-                    )));
-                }
-            }
-        }
-
-        // Resolve the coupling variables and the signals.
-        let (mac_vars, mic_vars) = (self.macro_sub.variables(), self.micro_sub.variables());
-        let (mac_name, mic_name) = (self.macro_sub.name().to_string(), self.micro_sub.name().to_string());
-        let mac_off = offsets(mac_vars);
-        let out = Causality::Output;
-        // Sizes: n interface coordinates, r angular velocity components per side (planar: one
-        // per joint; spherical: three), m friction loads (planar: one per joint, F_T; spherical:
-        // three, n × F_T).
-        let size = |name: &str| -> Result<usize, MasterError> {
-            Ok(mac_vars[lookup(mac_vars, &mac_name, name, out, None)? as usize].len())
-        };
-        // The interface terms in effective-mass form (M̃, f̃, H) or, where the micro subsystem takes
-        // them so (spherical joints), in mobility form (W, a_free, G = W H).
-        let mobility_form = mic_vars.iter().any(|v| v.name == "mobility" && v.causality == Causality::Input);
-        let [matrix, force, friction_map] = if mobility_form {
-            ["mobility", "free_acceleration", "friction_mobility"]
-        } else {
-            ["effective_mass", "effective_force", "friction_moment_force"]
-        };
-        let (n, r) = (size(force)?, size("journal_angular_velocity")?);
-        let moment_map = size(friction_map)?;
-        if n == 0 || moment_map % n != 0 {
-            return Err(MasterError::Variables {
-                subsystem: mac_name.clone(),
-                problem: format!("{friction_map} has {moment_map} elements, not a multiple of n = {n}"),
-            });
-        }
-        let k = moment_map / n;
-        let at = |name: &str, len: usize| -> Result<usize, MasterError> {
-            Ok(mac_off[lookup(mac_vars, &mac_name, name, out, Some(len))? as usize])
-        };
-        let inp = Causality::Input;
-        // (name, elements, derivative variable of the macro)
-        let couplings: [(&str, usize, Option<&str>); 5] = [
-            (matrix, n * n, None),
-            (force, n, None),
-            (friction_map, n * k, None),
-            ("journal_angular_velocity", r, Some("journal_angular_acceleration")),
-            ("bearing_angular_velocity", r, Some("bearing_angular_acceleration")),
-        ];
-        let mut micro_inputs = Vec::with_capacity(2 * couplings.len());
-        let mut index = CouplingIndex { elements: Vec::new(), layout: Vec::new() };
-        let mut width_in = 0;
-        for (name, len, derivative) in couplings {
-            let start = at(name, len)?;
-            let derivative_start = derivative.map(|d| at(d, len)).transpose()?;
-            let rate_name = derivative.map_or_else(|| format!("{name}_rate"), str::to_string);
-            micro_inputs.push(lookup(mic_vars, &mic_name, name, inp, Some(len))?);
-            micro_inputs.push(lookup(mic_vars, &mic_name, &rate_name, inp, Some(len))?);
-            index.layout.push((width_in, width_in + len));
-            width_in += 2 * len;
-            for e in 0..len {
-                index.elements.push((start + e, derivative_start.map(|d| d + e)));
-            }
-        }
-        let target_inputs = match o.coupling {
-            Coupling::TwoWay => Some([
-                lookup(mac_vars, &mac_name, "eccentricity", Causality::Input, Some(n))?,
-                lookup(mac_vars, &mac_name, "eccentricity_rate", Causality::Input, Some(n))?,
-                lookup(mac_vars, &mac_name, "friction_force", Causality::Input, Some(k))?,
-            ]),
-            Coupling::OneWay => None,
-        };
+        let decimation = decimation(&o, observers)?;
+        let sides = Sides::of(&*self.macro_sub, &*self.micro_sub);
+        let c = sides.couplings(o.coupling)?;
+        let (n, k) = (c.n, c.k);
+        let loads = n + k;
         // Micro outputs read every micro step: the loads (contact forces, friction loads) first,
         // then the signals'. Two-way coupling reads the eccentricities, their rates and the friction
         // impulses at the end of each macro step.
-        let mut micro_outputs: Vec<ValueReference> = vec![
-            lookup(mic_vars, &mic_name, "contact_force", out, Some(n))?,
-            lookup(mic_vars, &mic_name, "friction_load", out, Some(k))?,
-        ];
+        let out = Causality::Output;
+        let mut micro_outputs: Vec<ValueReference> =
+            vec![sides.micro("contact_force", out, Some(n))?, sides.micro("friction_load", out, Some(k))?];
         let coupling_outputs = [
-            lookup(mic_vars, &mic_name, "eccentricity", out, Some(n))?,
-            lookup(mic_vars, &mic_name, "eccentricity_rate", out, Some(n))?,
-            lookup(mic_vars, &mic_name, "friction_impulse", out, Some(k))?,
+            sides.micro("eccentricity", out, Some(n))?,
+            sides.micro("eccentricity_rate", out, Some(n))?,
+            sides.micro("friction_impulse", out, Some(k))?,
         ];
-        let loads = n + k;
-        let (ecc_at, rate_at, impulse_at) = (0, n, 2 * n);
-        let mut resolved = Vec::with_capacity(self.signals.len());
-        let element =
-            |vars: &[Variable], who: &str, name: &str, e: usize| -> Result<(ValueReference, usize), MasterError> {
-                let vr = vars.iter().find(|v| v.name == *name).map(|v| v.value_reference).ok_or_else(|| {
-                    MasterError::Variables { subsystem: who.to_string(), problem: format!("has no variable {name:?}") }
-                })?;
-                if e >= vars[vr as usize].len() {
-                    return Err(MasterError::Variables {
-                        subsystem: who.to_string(),
-                        problem: format!("variable {name:?} has no element {e}"),
-                    });
-                }
-                Ok((vr, e))
-            };
-        let mac_index = |name: &str, e: usize| -> Result<usize, MasterError> {
-            let (vr, e) = element(mac_vars, &mac_name, name, e)?;
-            Ok(mac_off[vr as usize] + e)
-        };
-        for s in &self.signals {
-            resolved.push(match s {
-                Signal::Micro { variable, element: e, .. } => {
-                    let (vr, e) = element(mic_vars, &mic_name, variable, *e)?;
-                    let pos = micro_outputs.iter().position(|&v| v == vr).unwrap_or_else(|| {
-                        micro_outputs.push(vr);
-                        micro_outputs.len() - 1
-                    });
-                    let base: usize = micro_outputs[..pos].iter().map(|&v| mic_vars[v as usize].len()).sum();
-                    Resolved::Micro(base + e)
-                }
-                Signal::Macro { variable, element: e, derivative, .. } => Resolved::Macro {
-                    value: mac_index(variable, *e)?,
-                    derivative: derivative.as_ref().map(|(v, e)| mac_index(v, *e)).transpose()?,
-                },
-                Signal::Propagated { free, gain, .. } => {
-                    mac_index(&gain.0, gain.1 + loads - 1)?;
-                    Resolved::Propagated { free: mac_index(&free.0, free.1)?, gain: mac_index(&gain.0, gain.1)? }
-                }
-            });
-        }
+        let resolved = sides.signals(&self.signals, loads, &mut micro_outputs)?;
+        let mic_vars = self.micro_sub.variables();
         let micro_width: usize = micro_outputs.iter().map(|&v| mic_vars[v as usize].len()).sum();
-        let all_macro: Vec<ValueReference> = mac_vars.iter().map(|v| v.value_reference).collect();
-        let width = *mac_off.last().expect("offsets end");
+        let all_macro: Vec<ValueReference> = self.macro_sub.variables().iter().map(|v| v.value_reference).collect();
+        let width = *sides.mac_off.last().expect("offsets end");
 
         // Initialise.
         self.macro_sub.initialize().map_err(macro_err)?;
@@ -542,27 +606,8 @@ impl<'a> InterfaceMaster<'a> {
             _ => 1,
         };
         let h_m = o.macro_step.seconds();
-        let stats = MasterStats::default();
-        let signals = vec![0.0; resolved.len()];
         let table = SignalTable::new(&resolved, loads, h_m);
-        // The micro inputs at the start (the first frame's values, no rate) before anything is
-        // read: a micro joint that starts where it holds its load (a bushing) settles there, so
-        // the first sample is already the settled one. (Each macro step sets them again.)
-        {
-            let w = Window { prev: None, a: &first, b: &first, next: None, h: h_m };
-            let mut inputs = vec![0.0; width_in];
-            let mut elements = index.elements.iter();
-            for &(values, rates) in &index.layout {
-                for e in 0..rates - values {
-                    let &(value, derivative) = elements.next().expect("one element per input value");
-                    inputs[values + e] = match derivative {
-                        Some(d) => w.with_derivative(Interpolation::Linear, value, d, 0.0).0,
-                        None => w.coupling(Interpolation::Linear, value, 0.0).0,
-                    };
-                }
-            }
-            self.micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
-        }
+        self.set_initial_inputs(&first, &c, h_m)?;
         let mut micro_values = vec![0.0; micro_width];
         self.micro_sub.get_f64(&micro_outputs, &mut micro_values).map_err(micro_err)?;
         let mut coupling_values = vec![0.0; 2 * n + k];
@@ -572,30 +617,49 @@ impl<'a> InterfaceMaster<'a> {
             fractions,
             macro_steps,
             decimation,
-            micro_inputs,
-            index,
-            width_in,
-            target_inputs,
+            micro_inputs: c.micro_inputs,
+            index: c.index,
+            width_in: c.width_in,
+            target_inputs: c.target_inputs,
             micro_outputs,
             coupling_outputs,
             loads,
             n,
             k,
-            ecc_at,
-            rate_at,
-            impulse_at,
+            ecc_at: 0,
+            rate_at: n,
+            impulse_at: 2 * n,
             micro_width,
             all_macro,
             width,
             first,
             ahead,
             h_m,
-            stats,
-            signals,
+            stats: MasterStats::default(),
+            signals: vec![0.0; resolved.len()],
             table,
             micro_values,
             coupling_values,
         })
+    }
+
+    /// The micro inputs at the start (the first frame's values, no rate) before anything is
+    /// read: a micro joint that starts where it holds its load (a bushing) settles there, so the
+    /// first sample is already the settled one. (Each macro step sets them again.)
+    fn set_initial_inputs(&mut self, first: &[f64], c: &Couplings, h_m: f64) -> Result<(), MasterError> {
+        let w = Window { prev: None, a: first, b: first, next: None, h: h_m };
+        let mut inputs = vec![0.0; c.width_in];
+        let mut elements = c.index.elements.iter();
+        for &(values, rates) in &c.index.layout {
+            for e in 0..rates - values {
+                let &(value, derivative) = elements.next().expect("one element per input value");
+                inputs[values + e] = match derivative {
+                    Some(d) => w.with_derivative(Interpolation::Linear, value, d, 0.0).0,
+                    None => w.coupling(Interpolation::Linear, value, 0.0).0,
+                };
+            }
+        }
+        self.micro_sub.set_f64(&c.micro_inputs, &inputs).map_err(micro_err)
     }
 
     /// Initialises both subsystems and runs to the stop time. Each observer comes with its
