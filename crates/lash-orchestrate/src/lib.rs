@@ -666,167 +666,51 @@ impl<'a> InterfaceMaster<'a> {
     /// interval (a whole multiple of the micro step); all are called at the start time too.
     pub fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
         let o = self.options;
-        let Prepared {
-            per_macro,
-            fractions,
-            macro_steps,
-            decimation,
-            micro_inputs,
-            index,
-            width_in,
-            target_inputs,
-            micro_outputs,
-            coupling_outputs,
-            loads,
-            n,
-            k,
-            ecc_at,
-            rate_at,
-            impulse_at,
-            micro_width,
-            all_macro,
-            width,
-            first,
-            ahead,
-            h_m,
-            mut stats,
-            mut signals,
-            mut table,
-            micro_values,
-            mut coupling_values,
-        } = self.prepare(observers)?;
+        let mut p = self.prepare(observers)?;
+        let mut stats = std::mem::take(&mut p.stats);
+        let (all_macro, width, macro_steps) = (std::mem::take(&mut p.all_macro), p.width, p.macro_steps);
         let Self { macro_sub, micro_sub, .. } = self;
         let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
-        let macro_sub: &mut dyn Subsystem = &mut **macro_sub;
         let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| -> Result<(), MasterError> {
-            let mut window: VecDeque<Vec<f64>> = VecDeque::with_capacity(4);
-            window.push_back(first.clone());
-            let mut prev: Option<Vec<f64>> = None;
-            let mut produced = 0usize;
-            // Observers at the start.
-            {
-                let w = Window { prev: None, a: &window[0], b: &window[0], next: None, h: h_m };
-                table.prepare(&w);
-                table.fill(0.0, &micro_values[..loads], &micro_values, &mut signals);
-                for (obs, _) in observers.iter_mut() {
-                    obs.observe(o.start, &signals).map_err(MasterError::Observer)?;
-                }
-            }
-            let mut micro_count = 0u64;
-            let mut inputs = vec![0.0; width_in];
-            // Two-way: the targets (e, ė at the step end, mean F_T over the step), the friction
-            // impulses at the step start and the last step's mean friction forces.
-            let mut targets = vec![0.0; 2 * n + k];
-            let mut impulse_start = vec![0.0; k];
-            let mut mean_friction = vec![0.0; k];
-            // Countdown of each observer to its next sample (in micro steps): no division per step.
-            let mut left = decimation.clone();
-            // Which micro steps of an interval any observer samples (the micro outputs are read
-            // only there), and the rows the micro subsystem records at them.
-            let mut due = vec![false; per_macro];
-            let mut scratch = left.clone();
-            let mut rows = vec![0.0; per_macro * micro_width];
-            for step in 0..macro_steps {
+            let mut state = RunState::new(&p);
+            p.observe_start(observers, o.start)?;
+            for step in 0..p.macro_steps {
                 let t_k = Ticks(o.start.0 + step as i64 * o.macro_step.0);
                 // Two-way: save the macro at t_k and predict with the eccentricity extrapolated.
-                // (Predictor: e + ė h_m, ė, and the last step's mean friction forces.)
-                let saved = match &target_inputs {
-                    Some(vrs) => {
-                        let saved = frames.save()?;
-                        for i in 0..n {
-                            let (e, v) = (coupling_values[ecc_at + i], coupling_values[rate_at + i]);
-                            targets[i] = e + v * h_m;
-                            targets[n + i] = v;
-                        }
-                        targets[2 * n..].copy_from_slice(&mean_friction);
-                        impulse_start.copy_from_slice(&coupling_values[impulse_at..impulse_at + k]);
-                        Some((saved, vrs))
-                    }
+                let saved = match &p.target_inputs {
+                    Some(vrs) => Some((frames.save()?, *vrs)),
                     None => None,
                 };
-                while produced < (step + ahead).min(macro_steps) {
-                    let t = Ticks(o.start.0 + produced as i64 * o.macro_step.0);
-                    let predicted = saved.as_ref().map(|(_, vrs)| (*vrs, &targets[..]));
-                    window.push_back(frames.next(t, o.macro_step, predicted)?);
-                    produced += 1;
+                if saved.is_some() {
+                    state.predict(&p);
+                }
+                while state.produced < (step + p.ahead).min(p.macro_steps) {
+                    let t = Ticks(o.start.0 + state.produced as i64 * o.macro_step.0);
+                    let predicted = saved.as_ref().map(|(_, vrs)| (vrs, &state.targets[..]));
+                    state.window.push_back(frames.next(t, o.macro_step, predicted)?);
+                    state.produced += 1;
                     stats.macro_steps += 1;
                 }
                 let started = Instant::now();
                 let _span = tracing::trace_span!("micro_interval", t = t_k.seconds()).entered();
-                let w = Window {
-                    prev: prev.as_deref(),
-                    a: &window[0],
-                    b: &window[1],
-                    next: window.get(2).map(|v| v.as_slice()),
-                    h: h_m,
-                };
-                table.prepare(&w);
-                let kind = o.interpolation;
-                // Linear and held inputs are exact as value + rate from the macro node: the micro
-                // subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once per
-                // macro step (as FMI input derivatives). Cubic Hermite is set at every micro step.
-                let every_micro_step = kind == Interpolation::CubicHermite;
-                // Inputs held as value + rate are set once and the whole interval is one call of
-                // the micro subsystem; cubic Hermite inputs are set before every micro step.
-                let batch = if every_micro_step { 1 } else { per_macro };
-                let mut j = 0;
-                while j < per_macro {
-                    index.fill(&w, kind, fractions[j], &mut inputs);
-                    micro_sub.set_f64(&micro_inputs, &inputs).map_err(micro_err)?;
-                    // The steps at which an observer is due.
-                    let due = &mut due[..batch];
-                    due_steps(&left, &decimation, &mut scratch, due);
-                    let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
-                    let (completed, outcome) =
-                        advance_steps(micro_sub, "micro", t, o.micro_step, due, &micro_outputs, &mut rows);
-                    micro_count += completed as u64;
-                    // The samples of the completed steps, in order (the countdowns run for real).
-                    let mut row = 0;
-                    for (i, &sampled) in due[..completed].iter().enumerate() {
-                        for l in left.iter_mut() {
-                            *l -= 1;
-                        }
-                        if !sampled {
-                            continue;
-                        }
-                        let micro = &rows[row * micro_width..(row + 1) * micro_width];
-                        row += 1;
-                        table.fill(fractions[j + i + 1], &micro[..loads], micro, &mut signals);
-                        let t1 = Ticks(t.0 + (i as i64 + 1) * o.micro_step.0);
-                        for (((obs, _), l), d) in observers.iter_mut().zip(left.iter_mut()).zip(&decimation) {
-                            if *l == 0 {
-                                *l = *d;
-                                obs.observe(t1, &signals).map_err(MasterError::Observer)?;
-                            }
-                        }
-                    }
-                    stats.micro_steps = micro_count;
-                    if let Some(reason) = outcome? {
-                        return Err(MasterError::Stopped { subsystem: "micro", reason });
-                    }
-                    j += batch;
-                }
+                let result = state.micro_interval(&mut p, &o, micro_sub, observers, t_k);
+                stats.micro_steps = state.micro_count;
+                result?;
                 drop(_span);
                 stats.micro_seconds += started.elapsed().as_secs_f64();
-                if let Some((state, vrs)) = saved {
-                    // Corrector: the macro steps again with the micro's eccentricities at t_k+1 and
-                    // its mean friction forces over the step.
-                    frames.restore(&state)?;
-                    micro_sub.get_f64(&coupling_outputs, &mut coupling_values).map_err(micro_err)?;
-                    targets[..2 * n].copy_from_slice(&coupling_values[..2 * n]);
-                    for j in 0..k {
-                        mean_friction[j] = (coupling_values[impulse_at + j] - impulse_start[j]) / h_m;
-                    }
-                    targets[2 * n..].copy_from_slice(&mean_friction);
-                    window[1] = frames.next(t_k, o.macro_step, Some((vrs, &targets[..])))?;
+                if let Some((saved, vrs)) = saved {
+                    // Corrector: the macro steps again with the micro's eccentricities at t_k+1
+                    // and its mean friction forces over the step.
+                    frames.restore(&saved)?;
+                    micro_sub.get_f64(&p.coupling_outputs, &mut p.coupling_values).map_err(micro_err)?;
+                    state.correct(&p);
+                    state.window[1] = frames.next(t_k, o.macro_step, Some((&vrs, &state.targets[..])))?;
                     stats.macro_steps += 1;
                 }
-                frames.recycle(std::mem::replace(&mut prev, window.pop_front()));
+                frames.recycle(std::mem::replace(&mut state.prev, state.window.pop_front()));
             }
-            stats.micro_steps = micro_count;
             Ok(())
         };
-
         // A subsystem that stops the run ends it cleanly: the observers keep what they have.
         let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| match run(frames, stats) {
             Err(MasterError::Stopped { subsystem, reason }) => {
@@ -835,41 +719,222 @@ impl<'a> InterfaceMaster<'a> {
             }
             other => other,
         };
-        match o.execution {
-            Execution::Sequential => {
-                let mut frames = Frames::Local { sub: macro_sub, all: all_macro, width, seconds: 0.0, spare: None };
-                run(&mut frames, &mut stats)?;
-                if let Frames::Local { seconds, .. } = frames {
-                    stats.macro_seconds = seconds;
-                }
-            }
-            Execution::Threaded => {
-                let (tx, rx) = bounded::<Result<Vec<f64>, MasterError>>(8);
-                let origin = o.start;
-                let result = std::thread::scope(|scope| {
-                    let producer = scope.spawn(move || {
-                        let started = Instant::now();
-                        for k in 0..macro_steps {
-                            let t = Ticks(origin.0 + k as i64 * o.macro_step.0);
-                            let frame = step_macro(macro_sub, &all_macro, width, t, o.macro_step, None, None);
-                            let failed = frame.is_err();
-                            if tx.send(frame).is_err() || failed {
-                                break;
-                            }
-                        }
-                        started.elapsed()
-                    });
-                    let mut frames = Frames::Channel(rx);
-                    let r = run(&mut frames, &mut stats);
-                    drop(frames);
-                    let macro_time = producer.join().unwrap_or(Duration::ZERO);
-                    (r, macro_time)
-                });
-                result.0?;
-                stats.macro_seconds = result.1.as_secs_f64();
+        let macro_side = MacroSide { sub: &mut **macro_sub, all: all_macro, width, steps: macro_steps };
+        execute(&o, macro_side, &mut stats, &mut run)?;
+        Ok(stats)
+    }
+}
+
+/// The macro subsystem of a run as [`execute`] drives it.
+struct MacroSide<'s> {
+    sub: &'s mut dyn Subsystem,
+    all: Vec<ValueReference>,
+    width: usize,
+    steps: usize,
+}
+
+/// Runs `run` over the macro frames: produced on this thread as it asks for them (sequential),
+/// or by a producer thread over a bounded channel (threaded, one-way).
+fn execute(
+    o: &MasterOptions,
+    m: MacroSide<'_>,
+    stats: &mut MasterStats,
+    run: &mut dyn FnMut(&mut Frames<'_>, &mut MasterStats) -> Result<(), MasterError>,
+) -> Result<(), MasterError> {
+    match o.execution {
+        Execution::Sequential => {
+            let mut frames = Frames::Local { sub: m.sub, all: m.all, width: m.width, seconds: 0.0, spare: None };
+            run(&mut frames, stats)?;
+            if let Frames::Local { seconds, .. } = frames {
+                stats.macro_seconds = seconds;
             }
         }
-        Ok(stats)
+        Execution::Threaded => {
+            let (tx, rx) = bounded::<Result<Vec<f64>, MasterError>>(8);
+            let (origin, h, macro_sub) = (o.start, o.macro_step, m.sub);
+            let result = std::thread::scope(|scope| {
+                let producer = scope.spawn(move || {
+                    let started = Instant::now();
+                    for k in 0..m.steps {
+                        let t = Ticks(origin.0 + k as i64 * h.0);
+                        let frame = step_macro(macro_sub, &m.all, m.width, t, h, None, None);
+                        let failed = frame.is_err();
+                        if tx.send(frame).is_err() || failed {
+                            break;
+                        }
+                    }
+                    started.elapsed()
+                });
+                let mut frames = Frames::Channel(rx);
+                let r = run(&mut frames, stats);
+                drop(frames);
+                let macro_time = producer.join().unwrap_or(Duration::ZERO);
+                (r, macro_time)
+            });
+            result.0?;
+            stats.macro_seconds = result.1.as_secs_f64();
+        }
+    }
+    Ok(())
+}
+
+/// What a single run carries from macro step to macro step.
+struct RunState {
+    window: VecDeque<Vec<f64>>,
+    prev: Option<Vec<f64>>,
+    produced: usize,
+    micro_count: u64,
+    inputs: Vec<f64>,
+    /// Two-way: the targets (e, ė at the step end, mean F_T over the step), the friction
+    /// impulses at the step start and the last step's mean friction forces.
+    targets: Vec<f64>,
+    impulse_start: Vec<f64>,
+    mean_friction: Vec<f64>,
+    /// Countdown of each observer to its next sample (in micro steps): no division per step.
+    left: Vec<u64>,
+    /// Which micro steps of an interval any observer samples (the micro outputs are read only
+    /// there), and the rows the micro subsystem records at them.
+    due: Vec<bool>,
+    scratch: Vec<u64>,
+    rows: Vec<f64>,
+}
+
+impl RunState {
+    fn new(p: &Prepared) -> Self {
+        let mut window = VecDeque::with_capacity(4);
+        window.push_back(p.first.clone());
+        RunState {
+            window,
+            prev: None,
+            produced: 0,
+            micro_count: 0,
+            inputs: vec![0.0; p.width_in],
+            targets: vec![0.0; 2 * p.n + p.k],
+            impulse_start: vec![0.0; p.k],
+            mean_friction: vec![0.0; p.k],
+            left: p.decimation.clone(),
+            due: vec![false; p.per_macro],
+            scratch: p.decimation.clone(),
+            rows: vec![0.0; p.per_macro * p.micro_width],
+        }
+    }
+
+    /// Two-way predictor: e + ė h_m, ė, and the last step's mean friction forces.
+    fn predict(&mut self, p: &Prepared) {
+        let (n, k, c) = (p.n, p.k, &p.coupling_values);
+        for i in 0..n {
+            let (e, v) = (c[p.ecc_at + i], c[p.rate_at + i]);
+            self.targets[i] = e + v * p.h_m;
+            self.targets[n + i] = v;
+        }
+        self.targets[2 * n..].copy_from_slice(&self.mean_friction);
+        self.impulse_start.copy_from_slice(&c[p.impulse_at..p.impulse_at + k]);
+    }
+
+    /// Two-way corrector targets: the micro's e and ė at the step end, its mean friction
+    /// forces over the step.
+    fn correct(&mut self, p: &Prepared) {
+        let (n, c) = (p.n, &p.coupling_values);
+        self.targets[..2 * n].copy_from_slice(&c[..2 * n]);
+        for j in 0..p.k {
+            self.mean_friction[j] = (c[p.impulse_at + j] - self.impulse_start[j]) / p.h_m;
+        }
+        self.targets[2 * n..].copy_from_slice(&self.mean_friction);
+    }
+
+    /// The micro subsystem over the macro step from `t_k`, its samples to the observers.
+    /// Linear and held inputs are exact as value + rate from the macro node: the micro
+    /// subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once and the whole
+    /// interval is one call (as FMI input derivatives); cubic Hermite inputs are set before
+    /// every micro step.
+    fn micro_interval(
+        &mut self,
+        p: &mut Prepared,
+        o: &MasterOptions,
+        micro_sub: &mut dyn Subsystem,
+        observers: &mut [(&mut dyn Observer, Ticks)],
+        t_k: Ticks,
+    ) -> Result<(), MasterError> {
+        let w = Window {
+            prev: self.prev.as_deref(),
+            a: &self.window[0],
+            b: &self.window[1],
+            next: self.window.get(2).map(|v| v.as_slice()),
+            h: p.h_m,
+        };
+        p.table.prepare(&w);
+        let kind = o.interpolation;
+        let batch = if kind == Interpolation::CubicHermite { 1 } else { p.per_macro };
+        let mut j = 0;
+        while j < p.per_macro {
+            p.index.fill(&w, kind, p.fractions[j], &mut self.inputs);
+            micro_sub.set_f64(&p.micro_inputs, &self.inputs).map_err(micro_err)?;
+            let due = &mut self.due[..batch];
+            due_steps(&self.left, &p.decimation, &mut self.scratch, due);
+            let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
+            let (completed, outcome) =
+                advance_steps(micro_sub, "micro", t, o.micro_step, due, &p.micro_outputs, &mut self.rows);
+            self.micro_count += completed as u64;
+            p.deliver(observers, &mut self.left, (due, completed), &self.rows, (t_k, j), o.micro_step)?;
+            if let Some(reason) = outcome? {
+                return Err(MasterError::Stopped { subsystem: "micro", reason });
+            }
+            j += batch;
+        }
+        Ok(())
+    }
+}
+
+impl Prepared {
+    /// The observers' samples at the start.
+    fn observe_start(&mut self, observers: &mut [(&mut dyn Observer, Ticks)], start: Ticks) -> Result<(), MasterError> {
+        let w = Window { prev: None, a: &self.first, b: &self.first, next: None, h: self.h_m };
+        self.table.prepare(&w);
+        self.table.fill(0.0, &self.micro_values[..self.loads], &self.micro_values, &mut self.signals);
+        for (obs, _) in observers.iter_mut() {
+            obs.observe(start, &self.signals).map_err(MasterError::Observer)?;
+        }
+        Ok(())
+    }
+
+    /// The samples of the first `completed` micro steps of one call of the micro subsystem
+    /// that began at micro step `first` of the macro step from `t_k`, in order, to the observers
+    /// whose countdown (`left`) reaches zero. `due` flags the steps at which any observer
+    /// samples; `rows` holds their micro outputs, one row per flagged step. The countdowns reach
+    /// zero only at flagged steps, so each is taken down to the next one at once (what one step
+    /// at a time gives).
+    fn deliver(
+        &mut self,
+        observers: &mut [(&mut dyn Observer, Ticks)],
+        left: &mut [u64],
+        (due, completed): (&[bool], usize),
+        rows: &[f64],
+        (t_k, first): (Ticks, usize),
+        micro_step: Ticks,
+    ) -> Result<(), MasterError> {
+        let width = self.micro_width;
+        let mut counted = 0;
+        let flagged = due[..completed].iter().enumerate().filter(|&(_, &d)| d).map(|(j, _)| j);
+        for (row, j) in flagged.enumerate() {
+            let steps = (j + 1 - counted) as u64;
+            counted = j + 1;
+            for c in left.iter_mut() {
+                *c -= steps;
+            }
+            let micro = &rows[row * width..(row + 1) * width];
+            self.table.fill(self.fractions[first + j + 1], &micro[..self.loads], micro, &mut self.signals);
+            let t1 = Ticks(t_k.0 + (first + j) as i64 * micro_step.0 + micro_step.0);
+            for (((ob, _), c), d) in observers.iter_mut().zip(left.iter_mut()).zip(&self.decimation) {
+                if *c == 0 {
+                    *c = *d;
+                    ob.observe(t1, &self.signals).map_err(MasterError::Observer)?;
+                }
+            }
+        }
+        for c in left.iter_mut() {
+            *c -= (completed - counted) as u64;
+        }
+        Ok(())
     }
 }
 

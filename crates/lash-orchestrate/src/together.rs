@@ -98,7 +98,7 @@ impl<'a> InterfaceMaster<'a> {
             None => (0, 0),
         };
         let kind = o.interpolation;
-        let (mut due, mut scratch, mut due_at) = (vec![false; per_macro], Vec::new(), Vec::with_capacity(per_macro));
+        let (mut due, mut scratch) = (vec![false; per_macro], Vec::new());
         for step_index in 0..macro_steps {
             let t_k = Ticks(o.start.0 + step_index as i64 * o.macro_step.0);
             // Each run: its macro step. (Timed for the group and shared, as the micro steps are:
@@ -168,8 +168,6 @@ impl<'a> InterfaceMaster<'a> {
             let Some(first) = lanes.iter().flatten().next() else { break };
             scratch.resize(first.left.len(), 0);
             due_steps(&first.left, &first.p.decimation, &mut scratch, &mut due);
-            due_at.clear();
-            due_at.extend((0..due.len()).filter(|&j| due[j]));
             // Every run's micro interval in one call.
             let started = Instant::now();
             let members: Vec<usize> = (0..lanes.len()).filter(|&i| lanes[i].is_some()).collect();
@@ -193,29 +191,7 @@ impl<'a> InterfaceMaster<'a> {
                 let processed = (|| -> Result<(), MasterError> {
                     let (completed, outcome) = steps_outcome(steps, "micro", t_k, o.micro_step, due.len());
                     l.micro_count += completed as u64;
-                    let width = l.p.micro_width;
-                    // The countdowns reach zero only at the due steps: each is taken down to the
-                    // next one at once (what one step at a time gives).
-                    let mut counted = 0;
-                    for (row, &j) in due_at.iter().take_while(|&&j| j < completed).enumerate() {
-                        let steps = (j + 1 - counted) as u64;
-                        counted = j + 1;
-                        for c in l.left.iter_mut() {
-                            *c -= steps;
-                        }
-                        let micro = &l.rows[row * width..(row + 1) * width];
-                        l.p.table.fill(l.p.fractions[j + 1], &micro[..l.p.loads], micro, &mut l.p.signals);
-                        let t1 = Ticks(t_k.0 + (j as i64 + 1) * o.micro_step.0);
-                        for (((ob, _), c), d) in obs.iter_mut().zip(l.left.iter_mut()).zip(&l.p.decimation) {
-                            if *c == 0 {
-                                *c = *d;
-                                ob.observe(t1, &l.p.signals).map_err(MasterError::Observer)?;
-                            }
-                        }
-                    }
-                    for c in l.left.iter_mut() {
-                        *c -= (completed - counted) as u64;
-                    }
+                    l.p.deliver(obs, &mut l.left, (&due, completed), &l.rows, (t_k, 0), o.micro_step)?;
                     l.p.stats.micro_steps = l.micro_count;
                     if let Some(reason) = outcome? {
                         return Err(MasterError::Stopped { subsystem: "micro", reason });
