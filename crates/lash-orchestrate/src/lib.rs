@@ -847,6 +847,7 @@ impl RunState {
     /// subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once and the whole
     /// interval is one call (as FMI input derivatives); cubic Hermite inputs are set before
     /// every micro step.
+    #[inline(always)]
     fn micro_interval(
         &mut self,
         p: &mut Prepared,
@@ -903,6 +904,7 @@ impl Prepared {
     /// samples; `rows` holds their micro outputs, one row per flagged step. The countdowns reach
     /// zero only at flagged steps, so each is taken down to the next one at once (what one step
     /// at a time gives).
+    #[inline(always)]
     fn deliver(
         &mut self,
         observers: &mut [(&mut dyn Observer, Ticks)],
