@@ -342,19 +342,7 @@ impl Algorithm for ConnectedMaster<'_> {
     /// communication point all elements completed.
     fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
         let (start, stop, step) = (self.start, self.stop, self.step);
-        let mut every = Vec::with_capacity(observers.len());
-        for (_, interval) in observers.iter() {
-            match interval.exact_ratio(step) {
-                Some(d) if d >= 1 => every.push(d),
-                _ => {
-                    return Err(MasterError::Settings(format!(
-                        "observer interval {} s is not a whole multiple of the step {} s",
-                        interval.seconds(),
-                        step.seconds()
-                    )));
-                }
-            }
-        }
+        let every: Vec<i64> = crate::decimation(step, "step", observers)?.into_iter().map(|d| d as i64).collect();
         self.initialize()?;
         let mut row = vec![0.0; self.names.len()];
         self.read(start, &mut row)?;

@@ -368,16 +368,16 @@ fn step_macro(
     read_frame(sub, all, width, spare)
 }
 
-/// Each observer's interval in micro steps.
-fn decimation(o: &MasterOptions, observers: &[(&mut dyn Observer, Ticks)]) -> Result<Vec<u64>, MasterError> {
+/// Each observer's interval in steps of `step` (the `what`: "micro step", "step").
+fn decimation(step: Ticks, what: &str, observers: &[(&mut dyn Observer, Ticks)]) -> Result<Vec<u64>, MasterError> {
     observers
         .iter()
-        .map(|(_, interval)| match interval.exact_ratio(o.micro_step) {
+        .map(|(_, interval)| match interval.exact_ratio(step) {
             Some(d) if d >= 1 => Ok(d as u64),
             _ => Err(MasterError::Settings(format!(
-                "observer interval {} s is not a whole multiple of the micro step {} s",
+                "observer interval {} s is not a whole multiple of the {what} {} s",
                 interval.seconds(),
-                o.micro_step.seconds()
+                step.seconds()
             ))),
         })
         .collect()
@@ -575,7 +575,7 @@ impl<'a> InterfaceMaster<'a> {
         // The fractions j / per_macro of the macro step at the micro steps' ends, divided once.
         let fractions: Vec<f64> = (0..=per_macro).map(|j| j as f64 / per_macro as f64).collect();
         let macro_steps = Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).expect("checked") as usize;
-        let decimation = decimation(&o, observers)?;
+        let decimation = decimation(o.micro_step, "micro step", observers)?;
         let sides = Sides::of(&*self.macro_sub, &*self.micro_sub);
         let c = sides.couplings(o.coupling)?;
         let (n, k) = (c.n, c.k);
