@@ -43,6 +43,8 @@
 
 mod advance;
 pub mod connected;
+#[cfg(test)]
+mod mock;
 mod options;
 mod signal;
 mod signal_table;
