@@ -142,7 +142,7 @@ pub fn run(
         quiet,
     )?;
     let mut micro_step_choice = None;
-    if !micro_step_given {
+    if !micro_step_given && !options.error_controlled_micro {
         let (h, why) = micro_step_for(&full_dir, s, options)?;
         options.micro_step = h;
         if let Some(why) = &why

@@ -559,12 +559,13 @@ fn run_reduced(
     quiet: bool,
 ) -> Result<(), CliError> {
     let mut options = settings.options;
-    let probe =
-        (settings.error_estimate || !settings.micro_step_given).then(|| probe::FullProbe::run(s, options.macro_step));
+    let probe = (settings.error_estimate || !settings.micro_step_given)
+        .then(|| probe::FullProbe::run(s, options.macro_step, settings.error_estimate));
     let mut notes = serde_json::Map::new();
     match &probe {
         Some(Ok(p)) => {
-            if !settings.micro_step_given {
+            // (DOPRI5 locates every contact itself: its communication step is kept.)
+            if !settings.micro_step_given && !options.error_controlled_micro {
                 let (h, why) = p.micro_step(options);
                 options.micro_step = h;
                 if let Some(why) = why {

@@ -62,6 +62,17 @@ pub fn window(horizon: f64, macro_step: f64) -> f64 {
     (steps * macro_step).min(horizon)
 }
 
+/// The window the micro step is chosen over when no error estimate is asked for: the impacts
+/// of the first [`CHOICE_WINDOW_S`] (at least 20 macro steps, at most [`window`]), so that a
+/// long run does not pay a quarter of itself in the full model for its step.
+pub fn choice_window(horizon: f64, macro_step: f64) -> f64 {
+    let steps = (CHOICE_WINDOW_S.max(20.0 * macro_step) / macro_step).ceil();
+    (steps * macro_step).min(window(horizon, macro_step))
+}
+
+/// See [`choice_window`] \[s\]: four revolutions at 5000 rpm.
+pub const CHOICE_WINDOW_S: f64 = 0.05;
+
 /// The main channels of a scenario: sensor accelerations, contact force magnitudes, driver torques.
 pub fn main_channels(scenario: &AnyScenario) -> Vec<String> {
     let joints: Vec<String> = scenario.clearances().iter().map(|c| format!("{}.force", c.joint)).collect();
@@ -110,11 +121,13 @@ pub struct FullProbe {
 
 impl FullProbe {
     /// Runs the converged full model of `scenario` over the probe window of a reduced run with
-    /// macro step `macro_step`.
-    pub fn run(scenario: &AnyScenario, macro_step: f64) -> Result<Self, String> {
+    /// macro step `macro_step`: [`window`] for an error estimate, [`choice_window`] for the
+    /// micro step alone (`estimate` false).
+    pub fn run(scenario: &AnyScenario, macro_step: f64, estimate: bool) -> Result<Self, String> {
         let clock = std::time::Instant::now();
         let mut s = scenario.clone();
-        let window_s = window(s.simulation().horizon, macro_step);
+        let horizon = s.simulation().horizon;
+        let window_s = if estimate { window(horizon, macro_step) } else { choice_window(horizon, macro_step) };
         s.simulation_mut().horizon = window_s;
         s.output_mut().channels = main_channels(&s);
         s.output_mut().measurements.clear();
@@ -305,7 +318,7 @@ pub fn choose_micro_step(
 
 /// The error estimate of the reduced model of `scenario` with `options` (its horizon the run's).
 pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, String> {
-    FullProbe::run(scenario, options.macro_step)?.estimate(options)
+    FullProbe::run(scenario, options.macro_step, true)?.estimate(options)
 }
 
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
@@ -354,6 +367,13 @@ mod tests {
         assert!((window(0.036, 1e-3) - 0.02).abs() < 1e-12, "20 macro steps at least");
         assert!((window(1.0, 1e-3) - 0.25).abs() < 1e-12);
         assert!((window(0.01, 1e-3) - 0.01).abs() < 1e-12, "at most the run");
+    }
+
+    #[test]
+    fn the_choice_window_is_short_for_long_runs() {
+        assert!((choice_window(60.0, 1e-3) - 0.05).abs() < 1e-12);
+        assert!((choice_window(0.036, 1e-3) - 0.02).abs() < 1e-12, "20 macro steps, as the estimate's");
+        assert!((choice_window(0.01, 1e-3) - 0.01).abs() < 1e-12, "at most the run");
     }
 
     #[test]

@@ -262,7 +262,7 @@ impl ReducedSettings<'_> {
 /// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
 #[pyfunction]
 #[pyo3(signature = (
-    scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = 1e-5,
+    scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = None,
     interpolation = "linear", coupling = "one_way", micro = "rk4", threaded = false
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -272,14 +272,32 @@ fn run<'py>(
     model: &str,
     ideal: bool,
     macro_step: f64,
-    micro_step: f64,
+    micro_step: Option<f64>,
     interpolation: &str,
     coupling: &str,
     micro: &str,
     threaded: bool,
 ) -> PyResult<RunResult<'py>> {
+    let given = micro_step;
+    let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded };
-    let options = settings.options(py)?;
+    let mut options = settings.options(py)?;
+    // Without a micro step, a reduced run's is chosen as `lash run` chooses it (from the
+    // converged full model's impacts over the probe window).
+    let mut choice = None;
+    if model == "reduced" && !ideal && given.is_none() && !options.error_controlled_micro {
+        let inner = scenario.inner.clone();
+        let chosen = py.detach(|| {
+            lash_cli::probe::FullProbe::run(&inner, options.macro_step, false).map(|p| p.micro_step(options))
+        });
+        match chosen {
+            Ok((h, why)) => {
+                options.micro_step = h;
+                choice = why;
+            }
+            Err(e) => choice = Some(format!("micro step kept at {micro_step:e} s: the full model's probe failed: {e}")),
+        }
+    }
     let model = match (model, ideal) {
         ("full", _) => lash_run::Model::Full { ideal },
         ("reduced", false) => lash_run::Model::Reduced(options),
@@ -327,7 +345,11 @@ fn run<'py>(
         "limits" => input_error(py, m, &[]),
         field => field_error(py, field, m),
     })?;
-    let summary = serde_json::to_string(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
+    let mut summary = serde_json::to_value(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
+    if let (Some(why), Some(map)) = (choice, summary.as_object_mut()) {
+        map.insert("micro_step_choice".into(), why.into());
+    }
+    let summary = summary.to_string();
     run_result(py, &header, values, summary)
 }
 

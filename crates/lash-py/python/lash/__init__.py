@@ -205,7 +205,7 @@ def run(
     *,
     ideal: bool = False,
     macro_step: float = 1e-3,
-    micro_step: float = 1e-5,
+    micro_step: Optional[float] = None,
     interpolation: str = "linear",
     coupling: str = "one_way",
     micro: str = "rk4",
@@ -221,7 +221,12 @@ def run(
     step ``macro_step`` and micro step ``micro_step`` [s]; ``interpolation`` of the macro terms
     ``"linear"``, ``"hermite"`` or ``"zoh"``; ``coupling`` ``"one_way"`` or ``"two_way"``;
     ``micro`` integrator ``"rk4"`` or the error-controlled ``"dopri5"``; ``threaded`` runs the
-    macro subsystem on its own thread, same results). ``horizon`` [s] overrides the scenario's;
+    macro subsystem on its own thread, same results). Without ``micro_step`` a reduced run's is
+    chosen as ``lash run`` chooses it: 1e-5 s, or the largest step below that gives each
+    clearance joint's impacts (their median duration in the converged full model over the first
+    50 ms of the run) at least 7 steps — which costs that full-model run; the summary's
+    ``micro_step_choice`` says why when it is not 1e-5 s. Give ``micro_step`` to skip it (many
+    runs: a sweep). ``horizon`` [s] overrides the scenario's;
     ``channels`` selects the channels recorded (the scenario's ``output.channels``: fewer
     channels, less memory and time).
 

@@ -46,7 +46,7 @@ def run(
     model: str = "full",
     ideal: bool = False,
     macro_step: float = 1e-3,
-    micro_step: float = 1e-5,
+    micro_step: Optional[float] = None,
     interpolation: str = "linear",
     coupling: str = "one_way",
     micro: str = "rk4",
