@@ -89,6 +89,51 @@ fn micro_step_for(
     Ok(crate::probe::choose_micro_step(options, s.simulation().output_interval, &joints, "over the whole run"))
 }
 
+/// The models' simulation alone in rounds ([`crate::steady`]): the reduced model (`reduced`),
+/// the converged full model and, when it ran (`with_fixed`), the full model by RK4 at the
+/// micro step (`fixed`); their timings in that order, and the rounds.
+fn steady_speedups(
+    s: &AnyScenario,
+    fixed: &AnyScenario,
+    with_fixed: bool,
+    reduced: crate::steady::Make<'_>,
+) -> Result<(Vec<crate::steady::Timed>, usize), CliError> {
+    let mut full_make = || -> Result<Box<dyn Runner>, String> { Ok(full_runner(s, false)) };
+    let mut fixed_make = || -> Result<Box<dyn Runner>, String> { Ok(full_runner(fixed, false)) };
+    let mut makers: Vec<crate::steady::Make<'_>> = vec![reduced, &mut full_make];
+    if with_fixed {
+        makers.push(&mut fixed_make);
+    }
+    crate::steady::time(&mut makers).map_err(|e| CliError::Failure(format!("timing the runs: {e}")))
+}
+
+/// The speed-up lines: against the converged full model and at equal step (from the rounds),
+/// and for the whole written runs.
+fn print_speedups(
+    rounds: usize,
+    (reduced, full, fixed): (crate::steady::Timed, crate::steady::Timed, Option<crate::steady::Timed>),
+    (reduced_run, full_run): (&crate::run::Timing, &crate::run::Timing),
+    fixed_run: &Result<crate::run::Timing, String>,
+    micro_step: f64,
+) {
+    eprintln!(
+        "speed-up against the converged full model, simulation alone ({rounds} rounds, models taking turns): {:.4} s vs {:.4} s → {:.1}×",
+        full.median_s, reduced.median_s, full.ratio_to_first
+    );
+    match (fixed_run, fixed) {
+        (Ok(_), Some(f)) => eprintln!(
+            "  at equal step (the full model by RK4 at {micro_step} s): {:.4} s → {:.1}×; whole runs with the same CSV output (one each): {:.3} s vs {:.3} s → {:.1}×",
+            f.median_s,
+            f.ratio_to_first,
+            full_run.total_s,
+            reduced_run.total_s,
+            full_run.total_s / reduced_run.total_s
+        ),
+        (Err(e), _) => eprintln!("  at equal step: the full model by RK4 at {micro_step} s failed ({e})"),
+        _ => {}
+    }
+}
+
 /// `lash compare`: both models of `s`, written to `out`, compared; the reduced model's micro step
 /// chosen from the full run's impacts unless `micro_step_given`.
 pub fn run(
@@ -141,17 +186,17 @@ pub fn run(
         crate::output::Format::Csv,
         quiet,
     )?;
-    let mut micro_step_choice = None;
-    if !micro_step_given && !options.error_controlled_micro {
+    let micro_step_choice = if micro_step_given || options.error_controlled_micro {
+        None
+    } else {
         let (h, why) = micro_step_for(&full_dir, s, options)?;
         options.micro_step = h;
-        if let Some(why) = &why
-            && !quiet
-        {
-            eprintln!("note: {why}");
-        }
-        micro_step_choice = why;
-    }
+        why.inspect(|why| {
+            if !quiet {
+                eprintln!("note: {why}");
+            }
+        })
+    };
     let mut reduced = reduced_runner(options)?;
     let reduced_timing = crate::run::run(
         s,
@@ -183,14 +228,7 @@ pub fn run(
 
     // The headline speed-ups: each model's simulation alone, in rounds (crate::steady).
     let mut reduced_make = || reduced_runner(options).map_err(|e| e.to_string());
-    let mut full_make = || -> Result<Box<dyn Runner>, String> { Ok(full_runner(s, false)) };
-    let mut fixed_make = || -> Result<Box<dyn Runner>, String> { Ok(full_runner(&fixed, false)) };
-    let mut makers: Vec<crate::steady::Make<'_>> = vec![&mut reduced_make, &mut full_make];
-    if fixed_timing.is_ok() {
-        makers.push(&mut fixed_make);
-    }
-    let (steady, rounds) =
-        crate::steady::time(&mut makers).map_err(|e| CliError::Failure(format!("timing the runs: {e}")))?;
+    let (steady, rounds) = steady_speedups(s, &fixed, fixed_timing.is_ok(), &mut reduced_make)?;
     let (reduced_steady, full_steady, fixed_steady) = (steady[0], steady[1], steady.get(2).copied());
 
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
@@ -337,23 +375,13 @@ pub fn run(
     let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(&comparison_path, text + "\n")
         .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
-    eprintln!(
-        "speed-up against the converged full model, simulation alone ({rounds} rounds, models taking turns): {:.4} s vs {:.4} s → {:.1}×",
-        full_steady.median_s, reduced_steady.median_s, full_steady.ratio_to_first
+    print_speedups(
+        rounds,
+        (reduced_steady, full_steady, fixed_steady),
+        (&reduced_timing, &full_timing),
+        &fixed_timing,
+        options.micro_step,
     );
-    match (&fixed_timing, fixed_steady) {
-        (Ok(_), Some(f)) => eprintln!(
-            "  at equal step (the full model by RK4 at {} s): {:.4} s → {:.1}×; whole runs with the same CSV output (one each): {:.3} s vs {:.3} s → {:.1}×",
-            options.micro_step,
-            f.median_s,
-            f.ratio_to_first,
-            full_timing.total_s,
-            reduced_timing.total_s,
-            full_timing.total_s / reduced_timing.total_s
-        ),
-        (Err(e), _) => eprintln!("  at equal step: the full model by RK4 at {} s failed ({e})", options.micro_step),
-        _ => {}
-    }
     for (name, m) in &metrics {
         eprintln!(
             "  {name:24} peak full {:.4e} / reduced {:.4e}, relative RMS error of reduced {:.3}, spectral distance {:.3}",

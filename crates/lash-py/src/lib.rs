@@ -259,6 +259,23 @@ impl ReducedSettings<'_> {
     }
 }
 
+/// A reduced run's micro step when none is given, chosen as `lash run` chooses it (from the
+/// converged full model's impacts over its first 50 ms); why, when it is not the default or the
+/// probe failed. DOPRI5's communication step is kept.
+fn choose_micro_step(py: Python<'_>, scenario: &AnyScenario, options: &mut lash_run::ReducedOptions) -> Option<String> {
+    if options.error_controlled_micro {
+        return None;
+    }
+    let o = *options;
+    match py.detach(|| lash_cli::probe::FullProbe::run(scenario, o.macro_step, false).map(|p| p.micro_step(o))) {
+        Ok((h, why)) => {
+            options.micro_step = h;
+            why
+        }
+        Err(e) => Some(format!("micro step kept at {:e} s: the full model's probe failed: {e}", o.micro_step)),
+    }
+}
+
 /// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
 #[pyfunction]
 #[pyo3(signature = (
@@ -282,22 +299,11 @@ fn run<'py>(
     let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded };
     let mut options = settings.options(py)?;
-    // Without a micro step, a reduced run's is chosen as `lash run` chooses it (from the
-    // converged full model's impacts over the probe window).
-    let mut choice = None;
-    if model == "reduced" && !ideal && given.is_none() && !options.error_controlled_micro {
-        let inner = scenario.inner.clone();
-        let chosen = py.detach(|| {
-            lash_cli::probe::FullProbe::run(&inner, options.macro_step, false).map(|p| p.micro_step(options))
-        });
-        match chosen {
-            Ok((h, why)) => {
-                options.micro_step = h;
-                choice = why;
-            }
-            Err(e) => choice = Some(format!("micro step kept at {micro_step:e} s: the full model's probe failed: {e}")),
-        }
-    }
+    let choice = if model == "reduced" && !ideal && given.is_none() {
+        choose_micro_step(py, &scenario.inner, &mut options)
+    } else {
+        None
+    };
     let model = match (model, ideal) {
         ("full", _) => lash_run::Model::Full { ideal },
         ("reduced", false) => lash_run::Model::Reduced(options),
