@@ -116,8 +116,9 @@ fn print_speedups(
     fixed_run: &Result<crate::run::Timing, String>,
     micro_step: f64,
 ) {
+    let plural = if rounds == 1 { "" } else { "s" };
     eprintln!(
-        "speed-up against the converged full model, simulation alone ({rounds} rounds, models taking turns): {:.4} s vs {:.4} s → {:.1}×",
+        "speed-up against the converged full model, simulation alone ({rounds} round{plural}, models taking turns): {:.4} s vs {:.4} s → {:.1}×",
         full.median_s, reduced.median_s, full.ratio_to_first
     );
     match (fixed_run, fixed) {

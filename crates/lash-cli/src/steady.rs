@@ -3,16 +3,16 @@
 //! model runs once, a fast one several times over so that every model takes about the same wall
 //! time in the round, and the models take turns. Whatever else the machine does then weighs on
 //! all of them alike; a speed-up is the median over rounds of the round's ratio. Rounds continue
-//! until they add up to [`BUDGET_S`] (at least [`MIN_ROUNDS`]). A single reduced run of A's
-//! default horizon lasts about a millisecond, where a busy 2-core machine moves one timing by a
-//! factor of several.
+//! until they add up to [`BUDGET_S`] (at least [`MIN_ROUNDS`] while the next fits in three budgets).
+//! A single reduced run of A's default horizon lasts about a millisecond, where a busy 2-core
+//! machine moves one timing by a factor of several.
 
 use lash_run::Runner;
 use serde::Serialize;
 
 /// Wall time the rounds add up to, at least \[s\].
 pub const BUDGET_S: f64 = 1.0;
-/// The fewest rounds.
+/// The fewest rounds, unless one more would end past three times [`BUDGET_S`].
 pub const MIN_ROUNDS: usize = 3;
 /// The most rounds.
 pub const MAX_ROUNDS: usize = 50;
@@ -52,20 +52,28 @@ pub fn time(makers: &mut [Make<'_>]) -> Result<(Vec<Timed>, usize), String> {
         v[v.len() / 2]
     };
     // How often each runs per round, as long as the slowest: from a run after a warm-up run
-    // (the first run of a process pays for its page faults), then from the rounds' medians.
+    // (the first run of a process pays for its page faults; a run of 50 ms or more is its own
+    // warm-up), then from the rounds' medians.
     let per_run = |runs: &[f64]| -> Vec<usize> {
         let slowest = runs.iter().copied().fold(0.0, f64::max);
         runs.iter().map(|&t| ((slowest / t.max(1e-9)).round() as usize).clamp(1, 1000)).collect()
     };
     let mut first = Vec::new();
     for make in makers.iter_mut() {
-        run(*make, 1)?;
-        first.push(run(*make, 1)?);
+        let once = run(*make, 1)?;
+        first.push(if once < 0.05 { run(*make, 1)? } else { once });
     }
     let mut runs = per_run(&first);
     let mut per_round: Vec<Vec<f64>> = vec![Vec::new(); makers.len()];
     let mut total = 0.0;
-    while per_round[0].len() < MAX_ROUNDS && (per_round[0].len() < MIN_ROUNDS || total < BUDGET_S) {
+    // Rounds until the budget is spent, and at least MIN_ROUNDS as long as one more round (as
+    // long as the mean so far) ends within three budgets: long runs read steadier, and a
+    // comparison of seconds-long runs should not take a minute.
+    let more = |rounds: usize, total: f64| {
+        let next_ends = total * (rounds + 1) as f64 / rounds.max(1) as f64;
+        rounds < MAX_ROUNDS && (total < BUDGET_S || (rounds < MIN_ROUNDS && next_ends <= 3.0 * BUDGET_S))
+    };
+    while more(per_round[0].len(), total) {
         for (k, make) in makers.iter_mut().enumerate() {
             let t = run(*make, runs[k])?;
             total += t;
