@@ -5,6 +5,10 @@ use crate::law::NormalForce;
 use lash_mech::{BodyId, Pose, Vec2, perp};
 use serde::Serialize;
 
+/// Penetrations beyond this fraction of the journal radius are a blow-up, not contact (full
+/// models, micro model and its lanes alike).
+pub const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
+
 /// A bush in series with a contact carries its damping as a state of its own (its deflection,
 /// [`ClearanceJoint::bush_damping`]) when its relaxation time c/k is at least this \[s\]; below, it
 /// follows its load quasi-statically. At 1e-7 s the loss factor ωc/k it leaves out is under 2 %

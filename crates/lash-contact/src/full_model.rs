@@ -7,6 +7,7 @@
 //! negative in contact, so the adaptive integrator locates every onset and exit; the approach
 //! velocity δ̇⁻ of the hysteresis laws is captured at the located onset.
 
+use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
 use lash_mech::constraints::pose_of;
 use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, assemble, kinematics, velocity_analysis};
@@ -19,9 +20,6 @@ pub enum ModelError {
     #[error(transparent)]
     Mech(#[from] MechError),
 }
-
-/// Penetrations beyond this fraction of the journal radius are a blow-up, not contact.
-pub const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
 
 /// Mechanism + clearance joints, ready to integrate.
 pub struct FullModel {

@@ -2,8 +2,8 @@
 //! with the joints' contact forces and moments, as an [`OdeSystem`] with one event function per
 //! joint (δ in free flight, −δ in contact), like the planar [`crate::FullModel`].
 
+use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{Impact, ImpactTracker, StepSearch};
-use crate::full_model::PENETRATION_LIMIT_FRACTION;
 use crate::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::BodyId;
 use lash_ode::OdeSystem;

@@ -20,6 +20,7 @@
 //! [`InterfaceModel::rk4_step`]: super::model::InterfaceModel::rk4_step
 
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
+use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
 use crate::friction::FrictionLaw;
 use crate::law::{NormalForce, onset_reciprocal};
@@ -815,7 +816,7 @@ fn advance_lanes(
     for (l, m) in models.iter_mut().enumerate() {
         by_model[l] = !kept.gather(l, m, t[l].seconds());
     }
-    let penetration_limit: V = std::array::from_fn(|l| 0.1 * models[l].joints[0].journal_radius);
+    let penetration_limit: V = std::array::from_fn(|l| PENETRATION_LIMIT_FRACTION * models[l].joints[0].journal_radius);
     let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
     // (As a mask for the lanes' arithmetic, formed again where a lane's mode changes.)
     let mut contact_mask = mask(&in_contact);

@@ -22,6 +22,7 @@
 //! which multiplies instead of solving.
 
 use super::joint::MicroJoint;
+use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{ClearanceJoint, Impact, ImpactTracker};
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 use nalgebra::{SMatrix, SVector};
@@ -1068,9 +1069,6 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         Ok(())
     }
 }
-
-/// Largest penetration accepted, as a fraction of the journal radius (as in the full model).
-const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
 
 fn check_penetration<J: MicroJoint>(joint: &J, s: &J::State) -> Result<(), String> {
     if J::penetration(s) <= PENETRATION_LIMIT_FRACTION * joint.journal_radius() && J::eccentricity_norm(s).is_finite() {
