@@ -34,7 +34,7 @@ pub fn scenario(resources: Option<&Path>) -> Result<AnyScenario, String> {
     let Some(file) = resources.map(|r| r.join(SCENARIO_RESOURCE)).filter(|f| f.is_file()) else {
         return default_scenario().map(AnyScenario::Planar);
     };
-    lash_scenario::read_any(&file).map_err(|e| e.trim_end().to_string())
+    lash_scenario::read_any(&file).map_err(|e| e.to_string().trim_end().to_string())
 }
 
 /// The reduced model's two subsystems of a scenario, planar or spatial: the mechanism (boxed: a

@@ -15,7 +15,7 @@ const FIGURE_MAX_FREQUENCY: f64 = 20_000.0;
 /// A CSV written by a run as its header cells (`name [unit]`) and its rows (lash-sweep's reader,
 /// the one of every time series).
 fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), CliError> {
-    let (names, columns) = lash_sweep::dataset::read_csv_series(path).map_err(CliError::Failure)?;
+    let (names, columns) = lash_sweep::dataset::read_csv_series(path)?;
     let header = names.iter().map(|(n, u)| if u.is_empty() { n.clone() } else { format!("{n} [{u}]") }).collect();
     let rows = (0..columns.first().map_or(0, Vec::len)).map(|i| columns.iter().map(|c| c[i]).collect()).collect();
     Ok((header, rows))

@@ -9,6 +9,8 @@ use std::path::Path;
 fn cli(e: EstimateError) -> CliError {
     match e {
         EstimateError::Input(m) => CliError::Input(m),
+        EstimateError::Measurement(e) => CliError::Input(e.to_string()),
+        EstimateError::Dataset(e) => CliError::Failure(e.to_string()),
         EstimateError::Failure(m) => CliError::Failure(m),
         EstimateError::Sweep(lash_sweep::SweepError::Input(m)) => CliError::Input(m),
         EstimateError::Sweep(other) => CliError::Failure(other.to_string()),
@@ -34,7 +36,7 @@ fn write(path: &Path, text: &str) -> Result<(), CliError> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(|e| CliError::Failure(format!("{}: {e}", parent.display())))?;
     }
-    lash_sweep::dataset::write_atomic(path, text.as_bytes()).map_err(CliError::Failure)
+    Ok(lash_sweep::dataset::write_atomic(path, text.as_bytes())?)
 }
 
 /// Reads a prepared estimator.

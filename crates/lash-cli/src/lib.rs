@@ -465,9 +465,16 @@ impl std::fmt::Display for CliError {
     }
 }
 
+impl From<lash_sweep::dataset::DatasetError> for CliError {
+    /// A file lash writes or reads back failed (exit 1).
+    fn from(e: lash_sweep::dataset::DatasetError) -> Self {
+        CliError::Failure(e.to_string())
+    }
+}
+
 /// Loads a scenario from a built-in name or a file path.
 pub fn load_scenario(arg: &str) -> Result<lash_scenario::Scenario, CliError> {
-    lash_scenario::by_name_or_file(arg).map_err(CliError::Input)
+    lash_scenario::by_name_or_file(arg).map_err(|e| CliError::Input(e.to_string()))
 }
 
 /// Runs the command line with the process arguments.
@@ -620,7 +627,7 @@ pub fn write_report(dir: &std::path::Path, out: Option<&std::path::Path>) -> Res
 
 /// A scenario (built-in or file, planar or spatial) with a `--horizon` override, validated again.
 fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::AnyScenario, CliError> {
-    let mut s = lash_scenario::any_by_name_or_file(arg).map_err(CliError::Input)?;
+    let mut s = lash_scenario::any_by_name_or_file(arg).map_err(|e| CliError::Input(e.to_string()))?;
     if let Some(h) = horizon {
         s.simulation_mut().horizon = h;
         let p = s.validate();
@@ -676,7 +683,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         }
         Command::Validate { scenario } => {
             let (kind, bodies, joints, clearances) = match lash_scenario::any_by_name_or_file(&scenario)
-                .map_err(CliError::Input)?
+                .map_err(|e| CliError::Input(e.to_string()))?
             {
                 lash_scenario::AnyScenario::Planar(s) => ("planar", s.bodies.len(), s.joints.len(), s.clearances.len()),
                 lash_scenario::AnyScenario::Spatial(s) => {
@@ -721,12 +728,13 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             Ok(())
         }
         Command::Channels { scenario, ideal } => {
-            let channels = match lash_scenario::any_by_name_or_file(&scenario).map_err(CliError::Input)? {
-                lash_scenario::AnyScenario::Planar(s) => lash_scenario::channels(&s, ideal),
-                lash_scenario::AnyScenario::Spatial(s) => {
-                    lash_scenario::spatial::spatial_channels(&s, ideal).into_iter().map(|(c, _)| c).collect()
-                }
-            };
+            let channels =
+                match lash_scenario::any_by_name_or_file(&scenario).map_err(|e| CliError::Input(e.to_string()))? {
+                    lash_scenario::AnyScenario::Planar(s) => lash_scenario::channels(&s, ideal),
+                    lash_scenario::AnyScenario::Spatial(s) => {
+                        lash_scenario::spatial::spatial_channels(&s, ideal).into_iter().map(|(c, _)| c).collect()
+                    }
+                };
             for c in channels {
                 println!("{} [{}]", c.name, c.unit);
             }
@@ -766,7 +774,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         },
         Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {
             let scenario = match scenario {
-                Some(arg) => lash_scenario::any_by_name_or_file(&arg).map_err(CliError::Input)?,
+                Some(arg) => lash_scenario::any_by_name_or_file(&arg).map_err(|e| CliError::Input(e.to_string()))?,
                 None => {
                     lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario().map_err(CliError::Failure)?)
                 }

@@ -97,7 +97,7 @@ impl SeriesOutput {
                 None => (h.clone(), String::new()),
             })
             .collect();
-        let writer = lash_sweep::dataset::SeriesWriter::create(&partial, &columns).map_err(CliError::Failure)?;
+        let writer = lash_sweep::dataset::SeriesWriter::create(&partial, &columns)?;
         Ok(Self::with_sink(Sink::Parquet(Some(Box::new(writer))), partial, done))
     }
 

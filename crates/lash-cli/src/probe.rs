@@ -355,7 +355,7 @@ pub fn attach(
         map.extend(notes);
     }
     let text = serde_json::to_string_pretty(&summary).map_err(|e| fail(e.to_string()))? + "\n";
-    lash_sweep::dataset::write_atomic(&path, text.as_bytes()).map_err(fail)
+    Ok(lash_sweep::dataset::write_atomic(&path, text.as_bytes())?)
 }
 
 #[cfg(test)]

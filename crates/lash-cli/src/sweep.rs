@@ -11,6 +11,7 @@ pub fn map_error(e: SweepError) -> CliError {
     match e {
         SweepError::Input(m) => CliError::Input(m),
         SweepError::Output(m) => CliError::Failure(m),
+        SweepError::Dataset(e) => CliError::Failure(e.to_string()),
         SweepError::Interrupted(m) => CliError::Interrupted(m),
     }
 }
@@ -202,7 +203,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<(), CliError> {
     let rows = lash_sweep::merge(inputs, out).map_err(map_error)?;
     eprintln!("merged {} shard folders: {rows} rows → {}", inputs.len(), out.display());
     // As `lash sweep` does: a dataset with failed runs is complete but not all data.
-    let manifest = lash_sweep::dataset::Manifest::read(out).map_err(CliError::Failure)?;
+    let manifest = lash_sweep::dataset::Manifest::read(out)?;
     let runs = manifest.map(|m| m.runs).unwrap_or_default();
     let failed = runs.iter().filter(|r| r.status != "ok").count();
     if failed > 0 {

@@ -45,6 +45,13 @@ pub enum EstimateError {
     /// A simulation, a file or the fitting failed.
     #[error("{0}")]
     Failure(String),
+    /// The measurement file cannot be read (missing, unreadable, or a cell that is not a number:
+    /// the file and column named) — an input error.
+    #[error(transparent)]
+    Measurement(lash_sweep::dataset::DatasetError),
+    /// Reading the preparation's dataset failed.
+    #[error(transparent)]
+    Dataset(#[from] lash_sweep::dataset::DatasetError),
     /// A sweep of the preparation or validation failed.
     #[error(transparent)]
     Sweep(#[from] lash_sweep::SweepError),

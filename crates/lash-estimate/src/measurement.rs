@@ -79,7 +79,7 @@ type Columns = (Vec<(String, Option<String>)>, Vec<Vec<f64>>);
 /// A CSV or Parquet file's columns (the one reader of a time series, lash-sweep's), a unit
 /// `None` where the header gives none.
 fn read_columns(path: &Path) -> Result<Columns, EstimateError> {
-    let (names, columns) = lash_sweep::dataset::read_any_series(path).map_err(EstimateError::Input)?;
+    let (names, columns) = lash_sweep::dataset::read_any_series(path).map_err(EstimateError::Measurement)?;
     let names = names.into_iter().map(|(n, u)| (n, (!u.is_empty()).then_some(u))).collect();
     Ok((names, columns))
 }

@@ -126,12 +126,12 @@ fn sweep_runs(
             progress(stage, n, total);
         }
     })?;
-    let params = lash_sweep::dataset::read_params_table(dir).map_err(fail)?;
+    let params = lash_sweep::dataset::read_params_table(dir)?;
     let values_of: std::collections::HashMap<u64, &Vec<f64>> =
         params.rows.iter().map(|row| (row.run_id, &row.values)).collect();
-    let layout = lash_sweep::dataset::read_layout(dir).map_err(fail)?;
+    let layout = lash_sweep::dataset::read_layout(dir)?;
     for batch in (0..layout.len()).collect::<Vec<_>>().chunks(64) {
-        let arrays = lash_sweep::dataset::read_runs(dir, Some(batch)).map_err(fail)?;
+        let arrays = lash_sweep::dataset::read_runs(dir, Some(batch))?;
         let (samples, width) = (arrays.time.len(), arrays.channels.len());
         let start = arrays.time.iter().position(|&t| t >= settle - 1e-9).unwrap_or(samples);
         let end = (start + samples_kept).min(samples);

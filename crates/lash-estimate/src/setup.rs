@@ -306,7 +306,7 @@ impl Setup {
     pub fn resolve(&self) -> Result<Resolved, EstimateError> {
         self.check()?;
         let input = |m: String| EstimateError::Input(format!("setup {:?}: {m}", self.name));
-        let scenario = lash_scenario::any_by_name_or_file(&self.base).map_err(input)?;
+        let scenario = lash_scenario::any_by_name_or_file(&self.base).map_err(|e| input(e.to_string()))?;
         let table = toml::Table::try_from(&scenario).map_err(|e| input(e.to_string()))?;
         let clearances = scenario.clearances();
         if clearances.is_empty() {

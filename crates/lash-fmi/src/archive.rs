@@ -15,6 +15,94 @@ use std::collections::HashSet;
 use std::io::{Read, Write};
 use std::path::{Component, Path, PathBuf};
 
+/// Why an archive was refused or could not be unpacked: the entry and the rule it broke.
+#[derive(Debug, thiserror::Error)]
+pub enum UnpackError {
+    /// A limit set through the environment is not a positive whole number.
+    #[error("{variable}: must be a positive whole number, got {value:?}")]
+    Limit {
+        /// The environment variable.
+        variable: &'static str,
+        /// Its text.
+        value: String,
+    },
+    /// The bytes are not a zip archive.
+    #[error("not a zip archive: {0}")]
+    NotZip(#[source] zip::result::ZipError),
+    /// More entries than the limit.
+    #[error("{count} entries, more than the limit of {limit} (LASH_FMU_MAX_ENTRIES)")]
+    TooManyEntries {
+        /// Entries in the archive.
+        count: usize,
+        /// The limit.
+        limit: usize,
+    },
+    /// The central directory holds two records of one name.
+    #[error("{records} entries but {names} distinct names: an entry name appears twice")]
+    RepeatedRecord {
+        /// Records in the central directory.
+        records: u64,
+        /// Distinct names.
+        names: usize,
+    },
+    /// An entry's record cannot be read.
+    #[error("entry {index}: {source}")]
+    Entry {
+        /// The entry's index.
+        index: usize,
+        /// The cause.
+        source: zip::result::ZipError,
+    },
+    /// An entry's name is absolute or leaves the archive's folder.
+    #[error("entry {0:?}: not a plain relative path (absolute, or leaving the archive's folder)")]
+    NotPlainPath(String),
+    /// An entry is a symbolic link.
+    #[error("entry {0:?}: a symbolic link (refused: an FMU's files are its own)")]
+    Link(String),
+    /// An entry is a device, FIFO, socket or other special file.
+    #[error("entry {name:?}: not a regular file or folder (Unix mode {mode:o})")]
+    Special {
+        /// The entry.
+        name: String,
+        /// Its file type bits.
+        mode: u32,
+    },
+    /// Two entries name one path (another spelling of an earlier entry's path).
+    #[error("entry {0:?}: its name appears twice (another spelling of an earlier entry's path)")]
+    RepeatedName(String),
+    /// More bytes unpacked than the total limit.
+    #[error("more than {limit} bytes unpacked (the limit, LASH_FMU_MAX_BYTES) at entry {name:?}: a zip bomb?")]
+    TooLarge {
+        /// The entry at which the limit was passed.
+        name: String,
+        /// The limit.
+        limit: u64,
+    },
+    /// An entry unpacks to more than the ratio limit times its stored bytes.
+    #[error(
+        "entry {name:?} unpacks to more than {ratio} times its {stored} stored bytes (the limit, LASH_FMU_MAX_RATIO): a zip bomb?"
+    )]
+    Ratio {
+        /// The entry.
+        name: String,
+        /// The limit.
+        ratio: u64,
+        /// Its stored bytes.
+        stored: u64,
+    },
+    /// Writing an entry into the folder failed.
+    #[error("entry {name:?}: {source}")]
+    Write {
+        /// The entry.
+        name: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file the archive must hold at its top level is missing.
+    #[error("no {0} at the archive's top level")]
+    Missing(String),
+}
+
 /// Caps applied while unpacking one archive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct UnpackLimits {
@@ -36,14 +124,14 @@ impl UnpackLimits {
     /// The defaults, overridden by `LASH_FMU_MAX_BYTES`, `LASH_FMU_MAX_ENTRIES` and
     /// `LASH_FMU_MAX_RATIO` where set; a value that is not a positive whole number is an error
     /// naming the variable.
-    pub fn from_env() -> Result<Self, String> {
+    pub fn from_env() -> Result<Self, UnpackError> {
         let mut limits = Self::default();
-        let read = |name: &str| -> Result<Option<u64>, String> {
-            match std::env::var(name) {
+        let read = |variable: &'static str| -> Result<Option<u64>, UnpackError> {
+            match std::env::var(variable) {
                 Err(_) => Ok(None),
-                Ok(text) => match text.trim().parse::<u64>() {
+                Ok(value) => match value.trim().parse::<u64>() {
                     Ok(v) if v > 0 => Ok(Some(v)),
-                    _ => Err(format!("{name}: must be a positive whole number, got {text:?}")),
+                    _ => Err(UnpackError::Limit { variable, value }),
                 },
             }
         };
@@ -98,90 +186,82 @@ pub fn is_plain_name(name: &str) -> bool {
 
 /// Unpacks the FMU held in `bytes` into the empty folder `into` (created before), within
 /// `limits`. On error `into` may hold part of the archive: the caller removes it.
-pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(), String> {
+pub fn unpack_into(bytes: &[u8], into: &Path, limits: &UnpackLimits) -> Result<(), UnpackError> {
     unpack_archive_into(bytes, into, limits, "modelDescription.xml")
 }
 
 /// Unpacks any untrusted archive (an FMU, an SSP) as [`unpack_into`] does, requiring the file
 /// `required` at its top level.
-pub fn unpack_archive_into(bytes: &[u8], into: &Path, limits: &UnpackLimits, required: &str) -> Result<(), String> {
-    let mut archive =
-        zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(|e| format!("not a zip archive: {e}"))?;
+pub fn unpack_archive_into(
+    bytes: &[u8],
+    into: &Path,
+    limits: &UnpackLimits,
+    required: &str,
+) -> Result<(), UnpackError> {
+    let mut archive = zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(UnpackError::NotZip)?;
     if archive.len() > limits.max_entries {
-        return Err(format!(
-            "{} entries, more than the limit of {} (LASH_FMU_MAX_ENTRIES)",
-            archive.len(),
-            limits.max_entries
-        ));
+        return Err(UnpackError::TooManyEntries { count: archive.len(), limit: limits.max_entries });
     }
     // The reader keeps one entry per name; the end record counts the records it read, so two
     // records of one name show as a difference (and which of them an FMU tool takes is unknown).
     if let Some(records) = central_records(bytes).filter(|&n| n != archive.len() as u64) {
-        return Err(format!("{records} entries but {} distinct names: an entry name appears twice", archive.len()));
+        return Err(UnpackError::RepeatedRecord { records, names: archive.len() });
     }
     let mut seen = HashSet::new();
     let mut description = false;
     let mut written = 0u64;
     let mut buffer = vec![0u8; 1 << 16];
     for index in 0..archive.len() {
-        let mut entry = archive.by_index(index).map_err(|e| format!("entry {index}: {e}"))?;
+        let mut entry = archive.by_index(index).map_err(|source| UnpackError::Entry { index, source })?;
         let name = entry.name().to_string();
-        let path = plain_path(&name).ok_or_else(|| {
-            format!("entry {name:?}: not a plain relative path (absolute, or leaving the archive's folder)")
-        })?;
+        let path = plain_path(&name).ok_or_else(|| UnpackError::NotPlainPath(name.clone()))?;
+        let write = |source| UnpackError::Write { name: name.clone(), source };
         let is_dir = entry.is_dir();
         check_kind(&name, entry.unix_mode(), is_dir)?;
         if !seen.insert(path.clone()) {
-            return Err(format!(
-                "entry {name:?}: its name appears twice (another spelling of an earlier entry's path)"
-            ));
+            return Err(UnpackError::RepeatedName(name));
         }
         let target = into.join(&path);
         if is_dir {
-            std::fs::create_dir_all(&target).map_err(|e| format!("entry {name:?}: {e}"))?;
+            std::fs::create_dir_all(&target).map_err(write)?;
             continue;
         }
         description |= path == Path::new(required);
         if let Some(parent) = target.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| format!("entry {name:?}: {e}"))?;
+            std::fs::create_dir_all(parent).map_err(write)?;
         }
         let entry_cap = entry.compressed_size().saturating_mul(limits.max_ratio).max(UnpackLimits::RATIO_FREE_BYTES);
         // `create_new`: a file that exists already (a folder entry of the same name, a path met
         // through another spelling) is refused, never overwritten.
-        let mut file = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&target)
-            .map_err(|e| format!("entry {name:?}: {e}"))?;
+        let mut file = std::fs::OpenOptions::new().write(true).create_new(true).open(&target).map_err(write)?;
         let stored = entry.compressed_size();
-        written += stream(&mut entry, &mut file, &mut buffer, (entry_cap, limits.max_total_bytes - written.min(limits.max_total_bytes)))
-            .map_err(|cap| match cap {
-                Cap::Total => format!(
-                    "more than {} bytes unpacked (the limit, LASH_FMU_MAX_BYTES) at entry {name:?}: a zip bomb?",
-                    limits.max_total_bytes
-                ),
-                Cap::Ratio => format!(
-                    "entry {name:?} unpacks to more than {} times its {stored} stored bytes (the limit, LASH_FMU_MAX_RATIO): a zip bomb?",
-                    limits.max_ratio
-                ),
-                Cap::Io(e) => format!("entry {name:?}: {e}"),
-            })?;
+        written += stream(
+            &mut entry,
+            &mut file,
+            &mut buffer,
+            (entry_cap, limits.max_total_bytes - written.min(limits.max_total_bytes)),
+        )
+        .map_err(|cap| match cap {
+            Cap::Total => UnpackError::TooLarge { name: name.clone(), limit: limits.max_total_bytes },
+            Cap::Ratio => UnpackError::Ratio { name: name.clone(), ratio: limits.max_ratio, stored },
+            Cap::Io(e) => write(e),
+        })?;
     }
     if !description {
-        return Err(format!("no {required} at the archive's top level"));
+        return Err(UnpackError::Missing(required.to_string()));
     }
     Ok(())
 }
 
 /// Refuses an entry that is not a regular file or a folder by its Unix mode (a link, a device, a
 /// FIFO, a socket); an entry without a mode is a file or a folder by its name.
-fn check_kind(name: &str, unix_mode: Option<u32>, is_dir: bool) -> Result<(), String> {
+fn check_kind(name: &str, unix_mode: Option<u32>, is_dir: bool) -> Result<(), UnpackError> {
     match unix_mode.map(|m| m & S_IFMT).filter(|&m| m != 0) {
         None => Ok(()),
         Some(S_IFDIR) if is_dir => Ok(()),
         Some(S_IFREG) if !is_dir => Ok(()),
-        Some(S_IFLNK) => Err(format!("entry {name:?}: a symbolic link (refused: an FMU's files are its own)")),
-        Some(m) => Err(format!("entry {name:?}: not a regular file or folder (Unix mode {m:o})")),
+        Some(S_IFLNK) => Err(UnpackError::Link(name.to_string())),
+        Some(mode) => Err(UnpackError::Special { name: name.to_string(), mode }),
     }
 }
 

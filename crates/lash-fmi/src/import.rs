@@ -28,6 +28,14 @@ pub enum ImportError {
         /// What went wrong.
         message: String,
     },
+    /// The archive was refused or could not be unpacked (the entry and the rule named).
+    #[error("{path}: {source}")]
+    Unpack {
+        /// The archive.
+        path: PathBuf,
+        /// The cause.
+        source: crate::archive::UnpackError,
+    },
     /// `modelDescription.xml` is missing something essential.
     #[error("{path}: modelDescription.xml: {message}")]
     Description {
@@ -337,7 +345,8 @@ fn resize(
 pub fn unpack(fmu: &Path, cache: &Path) -> Result<PathBuf, ImportError> {
     use sha2::Digest;
     let err = |m: String| ImportError::Archive { path: fmu.to_path_buf(), message: m };
-    let limits = crate::archive::UnpackLimits::from_env().map_err(&err)?;
+    let unpack_error = |source| ImportError::Unpack { path: fmu.to_path_buf(), source };
+    let limits = crate::archive::UnpackLimits::from_env().map_err(unpack_error)?;
     let size = std::fs::metadata(fmu).map_err(|e| err(e.to_string()))?.len();
     if size > limits.max_archive_bytes {
         return Err(err(format!("{size} bytes, more than the {} an FMU archive may have", limits.max_archive_bytes)));
@@ -355,11 +364,12 @@ pub fn unpack(fmu: &Path, cache: &Path) -> Result<PathBuf, ImportError> {
     let nonce = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
     let partial = dir.with_extension(format!("partial-{}-{nonce}", std::process::id()));
     std::fs::create_dir_all(&partial).map_err(|e| err(format!("cache folder {}: {e}", partial.display())))?;
-    let unpacked = crate::archive::unpack_into(&bytes, &partial, &limits)
-        .and_then(|()| std::fs::write(partial.join(COMPLETE_MARK), b"").map_err(|e| e.to_string()));
-    if let Err(m) = unpacked {
+    let unpacked = crate::archive::unpack_into(&bytes, &partial, &limits).map_err(unpack_error).and_then(|()| {
+        std::fs::write(partial.join(COMPLETE_MARK), b"").map_err(|e| err(format!("{}: {e}", partial.display())))
+    });
+    if let Err(e) = unpacked {
         let _ = std::fs::remove_dir_all(&partial);
-        return Err(err(m));
+        return Err(e);
     }
     if std::fs::rename(&partial, &dir).is_err() {
         // Another run unpacked the same archive first: use its folder.

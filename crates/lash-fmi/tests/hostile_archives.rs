@@ -6,7 +6,7 @@
 //! The archives are written byte by byte here (a zip writer normalises names and modes, which is
 //! exactly what a hostile archive does not do).
 
-use lash_fmi::archive::{UnpackLimits, unpack_into};
+use lash_fmi::archive::{UnpackError, UnpackLimits, unpack_into};
 use lash_fmi::import::{parse_description, unpack};
 use std::path::{Path, PathBuf};
 
@@ -170,13 +170,16 @@ fn bombs_and_lying_sizes_hit_a_limit_before_the_disk_or_memory_does() {
     let low = UnpackLimits { max_total_bytes: 1 << 20, max_ratio: 10_000, ..UnpackLimits::default() };
     std::fs::create_dir_all(&into).unwrap();
     let e = unpack_into(&bomb, &into, &low).unwrap_err();
+    assert!(matches!(&e, UnpackError::TooLarge { limit: 1048576, name } if name == "resources/zeros.bin"), "{e:?}");
+    let e = e.to_string();
     assert!(e.contains("more than 1048576 bytes unpacked") && e.contains("LASH_FMU_MAX_BYTES"), "{e}");
     let many: Vec<Entry> = (0..20).map(|k| file(&format!("resources/{k}"), b"x")).collect();
     let few = UnpackLimits { max_entries: 10, ..UnpackLimits::default() };
     let _ = std::fs::remove_dir_all(&into);
     std::fs::create_dir_all(&into).unwrap();
     let e = unpack_into(&archive(&many), &into, &few).unwrap_err();
-    assert!(e.contains("20 entries, more than the limit of 10"), "{e}");
+    assert!(matches!(e, UnpackError::TooManyEntries { count: 20, limit: 10 }), "{e:?}");
+    assert!(e.to_string().contains("20 entries, more than the limit of 10"), "{e}");
     // An entry declaring 4 GiB that holds 10 bytes: read as what it is, never allocated.
     let liar = archive(&[
         file("modelDescription.xml", DESCRIPTION.as_bytes()),

@@ -75,7 +75,7 @@ impl Scenario {
     }
 
     fn table(&self, py: Python<'_>) -> PyResult<toml::Table> {
-        self.inner.to_table().map_err(|e| input_error(py, e, &[]))
+        self.inner.to_table().map_err(|e| input_error(py, e.to_string(), &[]))
     }
 }
 
@@ -572,7 +572,7 @@ type ParamsResult<'py> =
 #[pyfunction]
 fn read_dataset(py: Python<'_>, dir: PathBuf) -> PyResult<RunsResult<'_>> {
     let data = py.detach(|| lash_sweep::dataset::read_dataset(&dir));
-    let data = data.map_err(|m| input_error(py, format!("{}: {m}", dir.display()), &[]))?;
+    let data = data.map_err(|e| input_error(py, e.to_string(), &[]))?;
     runs_result(py, data)
 }
 
@@ -588,7 +588,7 @@ fn runs_result(py: Python<'_>, data: lash_sweep::dataset::DatasetArrays) -> PyRe
 #[pyfunction]
 fn read_params(py: Python<'_>, dir: PathBuf) -> PyResult<ParamsResult<'_>> {
     let params = py.detach(|| lash_sweep::dataset::read_params_table(&dir));
-    let params = params.map_err(|m| input_error(py, format!("{}: {m}", dir.display()), &[]))?;
+    let params = params.map_err(|e| input_error(py, e.to_string(), &[]))?;
     let (p_names, p_units): (Vec<String>, Vec<String>) = params.parameters.into_iter().unzip();
     let n = p_names.len();
     let rows = &params.rows;
@@ -618,7 +618,7 @@ type RunsResult<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Vec<String>, Vec<S
 fn read_runs(py: Python<'_>, dir: PathBuf, mut groups: Vec<usize>) -> PyResult<RunsResult<'_>> {
     groups.sort_unstable();
     let data = py.detach(|| lash_sweep::dataset::read_runs(&dir, Some(&groups)));
-    let data = data.map_err(|m| input_error(py, format!("{}: {m}", dir.display()), &[]))?;
+    let data = data.map_err(|e| input_error(py, e.to_string(), &[]))?;
     runs_result(py, data)
 }
 
@@ -626,7 +626,7 @@ fn read_runs(py: Python<'_>, dir: PathBuf, mut groups: Vec<usize>) -> PyResult<R
 /// the file's footer.
 #[pyfunction]
 fn read_layout(py: Python<'_>, dir: PathBuf) -> PyResult<Vec<u64>> {
-    let layout = lash_sweep::dataset::read_layout(&dir).map_err(|m| input_error(py, m, &[]))?;
+    let layout = lash_sweep::dataset::read_layout(&dir).map_err(|e| input_error(py, e.to_string(), &[]))?;
     Ok(layout.into_iter().map(|(id, _)| id).collect())
 }
 
@@ -663,6 +663,7 @@ fn estimate_json(py: Python<'_>, measurement: PathBuf, prepared: PathBuf) -> PyR
     match result {
         Ok(v) => Ok(v.to_string()),
         Err(lash_estimate::EstimateError::Input(m)) => Err(input_error(py, m, &[])),
+        Err(lash_estimate::EstimateError::Measurement(e)) => Err(input_error(py, e.to_string(), &[])),
         Err(e) => Err(SimulationError::new_err(e.to_string())),
     }
 }

@@ -22,6 +22,9 @@ pub enum ReportError {
     /// The folder is not a run's or a comparison's, or a file in it is unreadable.
     #[error("{0}")]
     Input(String),
+    /// A run's time series in the folder cannot be read.
+    #[error(transparent)]
+    Series(#[from] lash_sweep::dataset::DatasetError),
     /// Writing the page failed.
     #[error("cannot write {path}: {source}")]
     Write {

@@ -45,7 +45,7 @@ impl Run {
             .map(|f| dir.join(f))
             .find(|p| p.is_file())
             .ok_or_else(|| input("no timeseries.csv or timeseries.parquet".into()))?;
-        let (header, columns) = lash_sweep::dataset::read_any_series(&file).map_err(ReportError::Input)?;
+        let (header, columns) = lash_sweep::dataset::read_any_series(&file)?;
         if header.first().is_none_or(|(n, _)| n != "time") {
             return Err(input(format!("{}: the first column is not `time [s]`", file.display())));
         }
@@ -111,7 +111,8 @@ impl RunFolder {
             ));
         };
         let first = runs.first().ok_or_else(|| input("a comparison without any run's folder".into()))?;
-        let scenario = lash_scenario::read_any(&first.dir.join("scenario.toml")).map_err(ReportError::Input)?;
+        let scenario =
+            lash_scenario::read_any(&first.dir.join("scenario.toml")).map_err(|e| ReportError::Input(e.to_string()))?;
         Ok(Self { dir: dir.to_path_buf(), scenario, runs, comparison })
     }
 }

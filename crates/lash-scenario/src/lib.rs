@@ -20,8 +20,8 @@ pub mod spatial;
 
 pub use channels::{Channel, channel_names, channels};
 pub use load::{
-    AnyScenario, any_by_name_or_file, by_name_or_file, parse, parse_any, parse_any_table, parse_table, read_any,
-    read_file, validate,
+    AnyScenario, LoadError, any_by_name_or_file, by_name_or_file, parse, parse_any, parse_any_table, parse_table,
+    read_any, read_file, validate,
 };
 pub use parameters::WithParameters;
 pub use schema::Scenario;

@@ -22,31 +22,58 @@ const TOP_KEYS: [&str; 13] = [
     "output",
 ];
 
+/// Why a scenario argument could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The file cannot be read.
+    #[error("cannot read {}: {source}", .path.display())]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file reads but is not a valid scenario: every problem with its field path.
+    #[error("invalid scenario {}: {source}", .path.display())]
+    Invalid {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The problems.
+        source: Problems,
+    },
+    /// A spatial scenario where a planar one is needed.
+    #[error("scenario {0} is spatial: this command takes planar scenarios only so far")]
+    Spatial(String),
+    /// Neither a file nor a built-in scenario.
+    #[error("scenario {name:?} is neither a file nor a built-in scenario (built-ins: {built_ins})")]
+    Unknown {
+        /// The argument.
+        name: String,
+        /// The built-in names, comma-separated.
+        built_ins: String,
+    },
+}
+
 /// Reads and parses a scenario file; the message names the file and lists every problem.
-pub fn read_file(path: &std::path::Path) -> Result<Scenario, String> {
+pub fn read_file(path: &std::path::Path) -> Result<Scenario, LoadError> {
     match read_any(path)? {
         AnyScenario::Planar(s) => Ok(s),
-        AnyScenario::Spatial(_) => {
-            Err(format!("scenario {} is spatial: this command takes planar scenarios only so far", path.display()))
-        }
+        AnyScenario::Spatial(_) => Err(LoadError::Spatial(path.display().to_string())),
     }
 }
 
 /// A built-in scenario by name (`A`, `C`, …), or else a scenario file: the one way every command,
 /// system file and FMU resolves a scenario argument.
-pub fn by_name_or_file(arg: &str) -> Result<Scenario, String> {
+pub fn by_name_or_file(arg: &str) -> Result<Scenario, LoadError> {
     if let Some(s) = crate::builtin::by_name(arg) {
         return Ok(s);
     }
     if crate::builtin_spatial::spatial_by_name(arg).is_some() {
-        return Err(format!("scenario {arg:?} is spatial: this command takes planar scenarios only so far"));
+        return Err(LoadError::Spatial(format!("{arg:?}")));
     }
     let path = std::path::Path::new(arg);
     if !path.exists() {
-        return Err(format!(
-            "scenario {arg:?} is neither a file nor a built-in scenario (built-ins: {})",
-            crate::builtin::NAMES.join(", ")
-        ));
+        return Err(LoadError::Unknown { name: arg.to_string(), built_ins: crate::builtin::NAMES.join(", ") });
     }
     read_file(path)
 }
@@ -135,12 +162,11 @@ impl AnyScenario {
     }
 
     /// The scenario as a TOML table.
-    pub fn to_table(&self) -> Result<toml::Table, String> {
+    pub fn to_table(&self) -> Result<toml::Table, toml::ser::Error> {
         match self {
             AnyScenario::Planar(s) => toml::Table::try_from(s),
             AnyScenario::Spatial(s) => toml::Table::try_from(s),
         }
-        .map_err(|e| e.to_string())
     }
 }
 
@@ -173,13 +199,13 @@ pub(crate) fn is_spatial(table: &toml::Table) -> Result<bool, Problems> {
 }
 
 /// Reads a planar or spatial scenario file; the message names the file and lists every problem.
-pub fn read_any(path: &std::path::Path) -> Result<AnyScenario, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    parse_any(&text).map_err(|p| format!("invalid scenario {}: {p}", path.display()))
+pub fn read_any(path: &std::path::Path) -> Result<AnyScenario, LoadError> {
+    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Read { path: path.to_path_buf(), source })?;
+    parse_any(&text).map_err(|source| LoadError::Invalid { path: path.to_path_buf(), source })
 }
 
 /// A built-in scenario (planar or spatial) by name, or else a scenario file of either kind.
-pub fn any_by_name_or_file(arg: &str) -> Result<AnyScenario, String> {
+pub fn any_by_name_or_file(arg: &str) -> Result<AnyScenario, LoadError> {
     if let Some(s) = crate::builtin::by_name(arg) {
         return Ok(AnyScenario::Planar(s));
     }
@@ -188,11 +214,9 @@ pub fn any_by_name_or_file(arg: &str) -> Result<AnyScenario, String> {
     }
     let path = std::path::Path::new(arg);
     if !path.exists() {
-        return Err(format!(
-            "scenario {arg:?} is neither a file nor a built-in scenario (built-ins: {}, {})",
-            crate::builtin::NAMES.join(", "),
-            crate::builtin_spatial::SPATIAL_NAMES.join(", ")
-        ));
+        let built_ins =
+            format!("{}, {}", crate::builtin::NAMES.join(", "), crate::builtin_spatial::SPATIAL_NAMES.join(", "));
+        return Err(LoadError::Unknown { name: arg.to_string(), built_ins });
     }
     read_any(path)
 }

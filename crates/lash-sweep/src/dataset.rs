@@ -24,6 +24,93 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// Why reading or writing a dataset or a time series failed: the file, and the cause as its
+/// source.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// A file could not be created, opened, read, written or renamed.
+    #[error("cannot {action} {}: {source}", .path.display())]
+    Io {
+        /// What was being done ("create", "open", "read", "write", "rename").
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Parquet could not encode or decode the file.
+    #[error("{}: {source}", .path.display())]
+    Parquet {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: parquet::errors::ParquetError,
+    },
+    /// Arrow arrays did not fit the table's schema.
+    #[error("{}: {source}", .path.display())]
+    Arrow {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: arrow_schema::ArrowError,
+    },
+    /// The manifest is not a lash sweep manifest (or could not be written as JSON).
+    #[error("{} is not a lash sweep manifest: {source}", .path.display())]
+    Manifest {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: serde_json::Error,
+    },
+    /// A run's samples do not fit the dataset's table.
+    #[error("a run's samples do not fit the dataset's table: {0}")]
+    Batch(#[source] arrow_schema::ArrowError),
+    /// The file reads, but its content is not what lash expects (the column, line or size named).
+    #[error("{}: {message}", .path.display())]
+    Content {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// An I/O error while doing `action` to `path`.
+fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {
+    move |source| DatasetError::Io { action, path: path.to_path_buf(), source }
+}
+
+/// A Parquet or Arrow error in `path`.
+fn at<E: Into<Cause>>(path: &Path) -> impl FnOnce(E) -> DatasetError + '_ {
+    move |e| match e.into() {
+        Cause::Parquet(source) => DatasetError::Parquet { path: path.to_path_buf(), source },
+        Cause::Arrow(source) => DatasetError::Arrow { path: path.to_path_buf(), source },
+    }
+}
+
+/// The two library causes [`at`] attaches a path to.
+enum Cause {
+    Parquet(parquet::errors::ParquetError),
+    Arrow(arrow_schema::ArrowError),
+}
+
+impl From<parquet::errors::ParquetError> for Cause {
+    fn from(e: parquet::errors::ParquetError) -> Self {
+        Cause::Parquet(e)
+    }
+}
+
+impl From<arrow_schema::ArrowError> for Cause {
+    fn from(e: arrow_schema::ArrowError) -> Self {
+        Cause::Arrow(e)
+    }
+}
+
+/// A content error of `path`.
+fn content(path: &Path, message: impl Into<String>) -> DatasetError {
+    DatasetError::Content { path: path.to_path_buf(), message: message.into() }
+}
+
 /// A channel of the dataset.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChannelInfo {
@@ -104,29 +191,29 @@ pub struct Manifest {
 
 impl Manifest {
     /// Reads `dir/manifest.json`, if present.
-    pub fn read(dir: &Path) -> Result<Option<Self>, String> {
+    pub fn read(dir: &Path) -> Result<Option<Self>, DatasetError> {
         let path = dir.join("manifest.json");
         if !path.exists() {
             return Ok(None);
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| format!("{} is not a lash sweep manifest: {e}", path.display()))
+        let text = std::fs::read_to_string(&path).map_err(io("read", &path))?;
+        serde_json::from_str(&text).map(Some).map_err(|source| DatasetError::Manifest { path: path.clone(), source })
     }
 
     /// Writes `dir/manifest.json` atomically.
-    pub fn write(&self, dir: &Path) -> Result<(), String> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
-        write_atomic(&dir.join("manifest.json"), text.as_bytes())
+    pub fn write(&self, dir: &Path) -> Result<(), DatasetError> {
+        let path = dir.join("manifest.json");
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|source| DatasetError::Manifest { path: path.clone(), source })?;
+        write_atomic(&path, text.as_bytes())
     }
 }
 
 /// Writes a file under a temporary name and renames it into place.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
     let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, bytes).map_err(|e| format!("cannot write {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {} into place: {e}", tmp.display()))
+    std::fs::write(&tmp, bytes).map_err(io("write", &tmp))?;
+    std::fs::rename(&tmp, path).map_err(io("rename", &tmp))
 }
 
 /// Arrow schema of the data table.
@@ -168,14 +255,14 @@ pub struct RunData {
 
 impl RunData {
     /// The run as an Arrow record batch (the vectors move in; no copy).
-    pub fn into_batch(self, schema: &SchemaRef) -> Result<RecordBatch, String> {
+    pub fn into_batch(self, schema: &SchemaRef) -> Result<RecordBatch, DatasetError> {
         let n = self.time.len();
         let mut arrays: Vec<ArrayRef> =
             vec![Arc::new(UInt64Array::from(vec![self.run_id; n])), Arc::new(Float64Array::from(self.time))];
         for c in self.columns {
             arrays.push(Arc::new(Float64Array::from(c)));
         }
-        RecordBatch::try_new(schema.clone(), arrays).map_err(|e| e.to_string())
+        RecordBatch::try_new(schema.clone(), arrays).map_err(DatasetError::Batch)
     }
 }
 
@@ -191,9 +278,9 @@ fn buffered(file: File) -> Buffered {
 
 /// Finishes a Parquet file written through a [`Buffered`] file: the footer, then the buffer's
 /// last bytes (whose write error would otherwise be lost when the buffer is dropped).
-fn close_buffered(writer: ArrowWriter<Buffered>) -> Result<(), String> {
-    let buffer = writer.into_inner().map_err(|e| e.to_string())?;
-    buffer.into_inner().map(drop).map_err(|e| e.error().to_string())
+fn close_buffered(writer: ArrowWriter<Buffered>, path: &Path) -> Result<(), DatasetError> {
+    let buffer = writer.into_inner().map_err(at(path))?;
+    buffer.into_inner().map(drop).map_err(|e| io("write", path)(e.into_error()))
 }
 
 /// A part file being filled while a sweep runs (by the thread that assembles the dataset): one row group per finished run,
@@ -213,10 +300,10 @@ impl PartWriter {
     /// Starts `parts/runs-<first_run>.parquet` in `parts` (the first run's id makes the name: a
     /// run is written once per execution, and one that a resumed sweep runs again was never
     /// journaled, so no journaled run points to a file of that name).
-    pub fn create(parts: &Path, first_run: u64, schema: &SchemaRef) -> Result<Self, String> {
+    pub fn create(parts: &Path, first_run: u64, schema: &SchemaRef) -> Result<Self, DatasetError> {
         let name = format!("runs-{first_run:09}.parquet");
         let tmp = parts.join(format!("{name}.tmp"));
-        let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+        let file = File::create(&tmp).map_err(io("create", &tmp))?;
         // Temporary: no compression, no dictionary, no statistics (nothing filters on them; the
         // assembled dataset has its own).
         let properties = WriterProperties::builder()
@@ -225,17 +312,17 @@ impl PartWriter {
             .set_statistics_enabled(parquet::file::properties::EnabledStatistics::None)
             .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
             .build();
-        let writer =
-            ArrowWriter::try_new(buffered(file), schema.clone(), Some(properties)).map_err(|e| e.to_string())?;
+        let writer = ArrowWriter::try_new(buffered(file), schema.clone(), Some(properties)).map_err(at(&tmp))?;
         Ok(Self { name, dir: parts.to_path_buf(), writer, runs: Vec::new(), opened: std::time::Instant::now() })
     }
 
     /// Appends one finished run as a row group; `record` will point to it.
     /// Its `write_s` is the time this took.
-    pub fn append(&mut self, batch: &RecordBatch, record: RunRecord) -> Result<(), String> {
+    pub fn append(&mut self, batch: &RecordBatch, record: RunRecord) -> Result<(), DatasetError> {
         let started = std::time::Instant::now();
-        self.writer.write(batch).map_err(|e| format!("{}: {e}", self.name))?;
-        self.writer.flush().map_err(|e| format!("{}: {e}", self.name))?;
+        let tmp = self.dir.join(format!("{}.tmp", self.name));
+        self.writer.write(batch).map_err(at(&tmp))?;
+        self.writer.flush().map_err(at(&tmp))?;
         let (part, row_group) = (Some(self.name.clone()), Some(self.runs.len()));
         self.runs.push(RunRecord { part, row_group, write_s: started.elapsed().as_secs_f64(), ..record });
         Ok(())
@@ -258,11 +345,11 @@ impl PartWriter {
 
     /// Writes the footer and renames the file into place; returns the records of its runs, to be
     /// journaled (the last one's `write_s` counts the closing too).
-    pub fn close(mut self) -> Result<Vec<RunRecord>, String> {
+    pub fn close(mut self) -> Result<Vec<RunRecord>, DatasetError> {
         let started = std::time::Instant::now();
-        close_buffered(self.writer).map_err(|e| format!("{}: {e}", self.name))?;
         let (tmp, path) = (self.dir.join(format!("{}.tmp", self.name)), self.dir.join(&self.name));
-        std::fs::rename(&tmp, &path).map_err(|e| format!("cannot rename {}: {e}", tmp.display()))?;
+        close_buffered(self.writer, &tmp)?;
+        std::fs::rename(&tmp, &path).map_err(io("rename", &tmp))?;
         if let Some(last) = self.runs.last_mut() {
             last.write_s += started.elapsed().as_secs_f64();
         }
@@ -275,6 +362,7 @@ impl PartWriter {
 /// rows are buffered column by column and written as a row group every [`SeriesWriter::GROUP`]
 /// rows, so memory stays bounded however long the run.
 pub struct SeriesWriter {
+    path: PathBuf,
     schema: SchemaRef,
     writer: ArrowWriter<File>,
     columns: Vec<Vec<f64>>,
@@ -286,7 +374,7 @@ impl SeriesWriter {
     pub const GROUP: usize = 65_536;
 
     /// Starts `path` with the columns `(name, unit)` (time first).
-    pub fn create(path: &Path, columns: &[(String, String)]) -> Result<Self, String> {
+    pub fn create(path: &Path, columns: &[(String, String)]) -> Result<Self, DatasetError> {
         let fields: Vec<Field> = columns
             .iter()
             .map(|(name, unit)| {
@@ -295,7 +383,7 @@ impl SeriesWriter {
             })
             .collect();
         let schema: SchemaRef = Arc::new(Schema::new(fields));
-        let file = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        let file = File::create(path).map_err(io("create", path))?;
         // Doubles of a time series: no dictionary (it never pays for measured values and costs
         // its hashing), the bytes of each double split into streams so that Snappy finds the
         // repeated sign/exponent bytes.
@@ -305,13 +393,13 @@ impl SeriesWriter {
             .set_encoding(parquet::basic::Encoding::BYTE_STREAM_SPLIT)
             .set_created_by(format!("lash {}", env!("CARGO_PKG_VERSION")))
             .build();
-        let writer = ArrowWriter::try_new(file, schema.clone(), Some(properties)).map_err(|e| e.to_string())?;
+        let writer = ArrowWriter::try_new(file, schema.clone(), Some(properties)).map_err(at(path))?;
         let columns = vec![Vec::with_capacity(Self::GROUP); columns.len()];
-        Ok(Self { schema, writer, columns, rows: 0 })
+        Ok(Self { path: path.to_path_buf(), schema, writer, columns, rows: 0 })
     }
 
     /// Appends rows given one after the other (`values.len()` a multiple of the column count).
-    pub fn append(&mut self, values: &[f64]) -> Result<(), String> {
+    pub fn append(&mut self, values: &[f64]) -> Result<(), DatasetError> {
         let width = self.columns.len().max(1);
         for row in values.chunks(width) {
             for (c, &v) in self.columns.iter_mut().zip(row) {
@@ -324,7 +412,7 @@ impl SeriesWriter {
         Ok(())
     }
 
-    fn flush_group(&mut self) -> Result<(), String> {
+    fn flush_group(&mut self) -> Result<(), DatasetError> {
         if self.columns.first().is_none_or(Vec::is_empty) {
             return Ok(());
         }
@@ -333,10 +421,10 @@ impl SeriesWriter {
             .iter_mut()
             .map(|c| Arc::new(Float64Array::from(std::mem::replace(c, Vec::with_capacity(Self::GROUP)))) as ArrayRef)
             .collect();
-        let batch = RecordBatch::try_new(self.schema.clone(), arrays).map_err(|e| e.to_string())?;
+        let batch = RecordBatch::try_new(self.schema.clone(), arrays).map_err(at(&self.path))?;
         self.rows += batch.num_rows() as u64;
-        self.writer.write(&batch).map_err(|e| e.to_string())?;
-        self.writer.flush().map_err(|e| e.to_string())
+        self.writer.write(&batch).map_err(at(&self.path))?;
+        self.writer.flush().map_err(at(&self.path))
     }
 
     /// Rows written so far (buffered ones included).
@@ -345,9 +433,9 @@ impl SeriesWriter {
     }
 
     /// Writes what is buffered and the file's footer: a complete Parquet file.
-    pub fn finish(mut self) -> Result<(), String> {
+    pub fn finish(mut self) -> Result<(), DatasetError> {
         self.flush_group()?;
-        self.writer.close().map(|_| ()).map_err(|e| e.to_string())
+        self.writer.close().map(|_| ()).map_err(at(&self.path))
     }
 }
 
@@ -355,16 +443,13 @@ impl SeriesWriter {
 pub type Series = (Vec<(String, String)>, Vec<Vec<f64>>);
 
 /// Reads a time series written by [`SeriesWriter`]: the column names, their units and the columns.
-pub fn read_series(path: &Path) -> Result<Series, String> {
-    let file = File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
-        .map_err(|e| e.to_string())?
-        .build()
-        .map_err(|e| e.to_string())?;
+pub fn read_series(path: &Path) -> Result<Series, DatasetError> {
+    let file = File::open(path).map_err(io("open", path))?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file).and_then(|b| b.build()).map_err(at(path))?;
     let mut names = Vec::new();
     let mut columns: Vec<Vec<f64>> = Vec::new();
     for batch in reader {
-        let batch = batch.map_err(|e| e.to_string())?;
+        let batch = batch.map_err(at(path))?;
         if names.is_empty() {
             names = batch
                 .schema()
@@ -378,7 +463,7 @@ pub fn read_series(path: &Path) -> Result<Series, String> {
             let values = array
                 .as_any()
                 .downcast_ref::<Float64Array>()
-                .ok_or_else(|| format!("{}: a column is not Float64", path.display()))?;
+                .ok_or_else(|| content(path, "a column is not Float64"))?;
             c.extend(values.values().iter());
         }
     }
@@ -400,13 +485,13 @@ pub const MAX_SERIES_BYTES: u64 = 4 << 30;
 /// Reads a time series written as CSV (`timeseries.csv`, or a measurement): a header of `name
 /// [unit]` cells, then rows of numbers. Blank lines are skipped; a row with a missing or
 /// non-numeric field is an error naming the column and the line. The file is sized first.
-pub fn read_csv_series(path: &Path) -> Result<Series, String> {
-    let at = |m: String| format!("{}: {m}", path.display());
-    let size = std::fs::metadata(path).map_err(|e| at(e.to_string()))?.len();
+pub fn read_csv_series(path: &Path) -> Result<Series, DatasetError> {
+    let at = |m: String| content(path, m);
+    let size = std::fs::metadata(path).map_err(io("read", path))?.len();
     if size > MAX_SERIES_BYTES {
         return Err(at(format!("{size} bytes: more than the {MAX_SERIES_BYTES} a time series may have")));
     }
-    let text = std::fs::read_to_string(path).map_err(|e| at(e.to_string()))?;
+    let text = std::fs::read_to_string(path).map_err(io("read", path))?;
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or_else(|| at("empty file".into()))?;
     let names: Vec<(String, String)> = header.split(',').map(split_header).collect();
@@ -428,9 +513,9 @@ pub fn read_csv_series(path: &Path) -> Result<Series, String> {
 
 /// Reads a time series from CSV or Parquet (by the file's extension, `.parquet` or anything
 /// else as CSV).
-pub fn read_any_series(path: &Path) -> Result<Series, String> {
+pub fn read_any_series(path: &Path) -> Result<Series, DatasetError> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet")) {
-        read_series(path).map_err(|e| format!("{}: {e}", path.display()))
+        read_series(path)
     } else {
         read_csv_series(path)
     }
@@ -456,17 +541,17 @@ pub struct DataWriter {
 
 impl DataWriter {
     /// Starts the files in `dir`.
-    pub fn create(dir: &Path, schema: &SchemaRef, csv: bool) -> Result<Self, String> {
+    pub fn create(dir: &Path, schema: &SchemaRef, csv: bool) -> Result<Self, DatasetError> {
         let tmp = dir.join("data.parquet.tmp");
-        let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
-        let parquet =
-            ArrowWriter::try_new(buffered(file), schema.clone(), Some(properties())).map_err(|e| e.to_string())?;
+        let file = File::create(&tmp).map_err(io("create", &tmp))?;
+        let parquet = ArrowWriter::try_new(buffered(file), schema.clone(), Some(properties())).map_err(at(&tmp))?;
         let csv = if csv {
-            let f = File::create(dir.join("data.csv.tmp")).map_err(|e| format!("cannot create data.csv: {e}"))?;
+            let csv_tmp = dir.join("data.csv.tmp");
+            let f = File::create(&csv_tmp).map_err(io("create", &csv_tmp))?;
             let mut out = std::io::BufWriter::new(f);
             let header: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
             use std::io::Write;
-            writeln!(out, "{}", lash_core::csv_header(&header)).map_err(|e| e.to_string())?;
+            writeln!(out, "{}", lash_core::csv_header(&header)).map_err(io("write", &csv_tmp))?;
             Some(out)
         } else {
             None
@@ -474,47 +559,47 @@ impl DataWriter {
         Ok(Self { dir: dir.to_path_buf(), schema: schema.clone(), parquet, csv, rows: 0 })
     }
 
-    fn write_batch(&mut self, batch: &RecordBatch) -> Result<(), String> {
+    fn write_batch(&mut self, batch: &RecordBatch) -> Result<(), DatasetError> {
         self.rows += batch.num_rows() as u64;
         if let Some(out) = self.csv.as_mut() {
-            write_csv_rows(out, batch)?;
+            write_csv_rows(out, batch).map_err(io("write", &self.dir.join("data.csv.tmp")))?;
         }
-        self.parquet.write(batch).map_err(|e| e.to_string())
+        self.parquet.write(batch).map_err(at(&self.dir.join("data.parquet.tmp")))
     }
 
     /// Appends one run held in memory (a row group of its own).
-    pub fn append(&mut self, batch: &RecordBatch) -> Result<(), String> {
+    pub fn append(&mut self, batch: &RecordBatch) -> Result<(), DatasetError> {
         self.write_batch(batch)?;
-        self.parquet.flush().map_err(|e| e.to_string())
+        self.parquet.flush().map_err(at(&self.dir.join("data.parquet.tmp")))
     }
 
     /// Appends one run read from a Parquet file (a part, or a row group of a shard's data).
-    pub fn append_file(&mut self, src: &RunSource) -> Result<(), String> {
-        let f = File::open(&src.file).map_err(|e| format!("cannot open {}: {e}", src.file.display()))?;
-        let mut builder =
-            ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| format!("{}: {e}", src.file.display()))?;
+    pub fn append_file(&mut self, src: &RunSource) -> Result<(), DatasetError> {
+        let f = File::open(&src.file).map_err(io("open", &src.file))?;
+        let mut builder = ParquetRecordBatchReaderBuilder::try_new(f).map_err(at(&src.file))?;
         if let Some(rg) = src.row_group {
             builder = builder.with_row_groups(vec![rg]);
         }
-        let reader = builder.build().map_err(|e| e.to_string())?;
+        let reader = builder.build().map_err(at(&src.file))?;
         for batch in reader {
-            let batch = batch.map_err(|e| format!("{}: {e}", src.file.display()))?;
-            let batch =
-                RecordBatch::try_new(self.schema.clone(), batch.columns().to_vec()).map_err(|e| e.to_string())?;
+            let batch = batch.map_err(at(&src.file))?;
+            let batch = RecordBatch::try_new(self.schema.clone(), batch.columns().to_vec()).map_err(at(&src.file))?;
             self.write_batch(&batch)?;
         }
-        self.parquet.flush().map_err(|e| e.to_string())
+        self.parquet.flush().map_err(at(&self.dir.join("data.parquet.tmp")))
     }
 
     /// Closes the files and moves them into place; returns the number of rows.
-    pub fn finish(self) -> Result<u64, String> {
-        close_buffered(self.parquet)?;
-        std::fs::rename(self.dir.join("data.parquet.tmp"), self.dir.join("data.parquet")).map_err(|e| e.to_string())?;
+    pub fn finish(self) -> Result<u64, DatasetError> {
+        let tmp = self.dir.join("data.parquet.tmp");
+        close_buffered(self.parquet, &tmp)?;
+        std::fs::rename(&tmp, self.dir.join("data.parquet")).map_err(io("rename", &tmp))?;
         if let Some(mut out) = self.csv {
             use std::io::Write;
-            out.flush().map_err(|e| e.to_string())?;
+            let tmp = self.dir.join("data.csv.tmp");
+            out.flush().map_err(io("write", &tmp))?;
             drop(out);
-            std::fs::rename(self.dir.join("data.csv.tmp"), self.dir.join("data.csv")).map_err(|e| e.to_string())?;
+            std::fs::rename(&tmp, self.dir.join("data.csv")).map_err(io("rename", &tmp))?;
         }
         Ok(self.rows)
     }
@@ -522,7 +607,7 @@ impl DataWriter {
 
 /// Writes `data.parquet` (and `data.csv` if asked) from runs in the given order, one row group
 /// per run. Returns the number of rows.
-pub fn write_data(dir: &Path, schema: &SchemaRef, sources: &[RunSource], csv: bool) -> Result<u64, String> {
+pub fn write_data(dir: &Path, schema: &SchemaRef, sources: &[RunSource], csv: bool) -> Result<u64, DatasetError> {
     let mut w = DataWriter::create(dir, schema, csv)?;
     for src in sources {
         w.append_file(src)?;
@@ -530,11 +615,14 @@ pub fn write_data(dir: &Path, schema: &SchemaRef, sources: &[RunSource], csv: bo
     w.finish()
 }
 
-fn write_csv_rows(out: &mut impl std::io::Write, batch: &RecordBatch) -> Result<(), String> {
-    let ids = batch.column(0).as_any().downcast_ref::<UInt64Array>().ok_or("run_id column")?;
+/// Writes a data batch's rows as CSV (`run_id` then doubles, as [`data_schema`] makes them).
+fn write_csv_rows(out: &mut impl std::io::Write, batch: &RecordBatch) -> std::io::Result<()> {
+    let not =
+        |what: &str| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("{what} column of another type"));
+    let ids = batch.column(0).as_any().downcast_ref::<UInt64Array>().ok_or_else(|| not("run_id"))?;
     let cols: Vec<&Float64Array> = batch.columns()[1..]
         .iter()
-        .map(|c| c.as_any().downcast_ref::<Float64Array>().ok_or("float column"))
+        .map(|c| c.as_any().downcast_ref::<Float64Array>().ok_or_else(|| not("a value")))
         .collect::<Result<_, _>>()?;
     for r in 0..batch.num_rows() {
         let mut line = ids.value(r).to_string();
@@ -542,7 +630,7 @@ fn write_csv_rows(out: &mut impl std::io::Write, batch: &RecordBatch) -> Result<
             line.push(',');
             line.push_str(&c.value(r).to_string());
         }
-        writeln!(out, "{line}").map_err(|e| e.to_string())?;
+        writeln!(out, "{line}")?;
     }
     Ok(())
 }
@@ -563,7 +651,7 @@ pub struct ParamsRow {
 }
 
 /// Writes `params.parquet`.
-pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Result<(), String> {
+pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Result<(), DatasetError> {
     let mut fields = vec![
         Field::new("run_id", DataType::UInt64, false),
         Field::new("seed", DataType::UInt64, false),
@@ -584,13 +672,13 @@ pub fn write_params(dir: &Path, parameters: &[String], rows: &[ParamsRow]) -> Re
         arrays.push(Arc::new(Float64Array::from(rows.iter().map(|r| r.values[k]).collect::<Vec<_>>())));
     }
     arrays.push(Arc::new(StringArray::from(rows.iter().map(|r| r.error.as_str()).collect::<Vec<_>>())));
-    let batch = RecordBatch::try_new(schema.clone(), arrays).map_err(|e| e.to_string())?;
     let tmp = dir.join("params.parquet.tmp");
-    let file = File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
-    let mut w = ArrowWriter::try_new(file, schema, Some(properties())).map_err(|e| e.to_string())?;
-    w.write(&batch).map_err(|e| e.to_string())?;
-    w.close().map_err(|e| e.to_string())?;
-    std::fs::rename(&tmp, dir.join("params.parquet")).map_err(|e| e.to_string())
+    let batch = RecordBatch::try_new(schema.clone(), arrays).map_err(at(&tmp))?;
+    let file = File::create(&tmp).map_err(io("create", &tmp))?;
+    let mut w = ArrowWriter::try_new(file, schema, Some(properties())).map_err(at(&tmp))?;
+    w.write(&batch).map_err(at(&tmp))?;
+    w.close().map_err(at(&tmp))?;
+    std::fs::rename(&tmp, dir.join("params.parquet")).map_err(io("rename", &tmp))
 }
 
 /// The SI unit of a varied parameter, from the last key of its scenario path (`drivers[0].motion.omega`
@@ -603,21 +691,19 @@ pub fn parameter_unit(path: &str) -> &'static str {
 }
 
 /// Reads `params.parquet`.
-pub fn read_params(dir: &Path, parameters: usize) -> Result<Vec<ParamsRow>, String> {
+pub fn read_params(dir: &Path, parameters: usize) -> Result<Vec<ParamsRow>, DatasetError> {
     let path = dir.join("params.parquet");
-    let f = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(f)
-        .and_then(|b| b.build())
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let f = File::open(&path).map_err(io("open", &path))?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(f).and_then(|b| b.build()).map_err(at(&path))?;
     let mut rows = Vec::new();
     for batch in reader {
-        let batch = batch.map_err(|e| e.to_string())?;
-        let u =
-            |i: usize| batch.column(i).as_any().downcast_ref::<UInt64Array>().cloned().ok_or("params: integer column");
-        let (ids, seeds) = (u(0)?, u(1)?);
-        let status = batch.column(2).as_any().downcast_ref::<StringArray>().ok_or("params: status column")?;
+        let batch = batch.map_err(at(&path))?;
+        let not = |what: &str| content(&path, format!("the {what} column is of another type"));
+        let u = |i: usize| batch.column(i).as_any().downcast_ref::<UInt64Array>().cloned();
+        let (ids, seeds) = (u(0).ok_or_else(|| not("run_id"))?, u(1).ok_or_else(|| not("seed"))?);
+        let status = batch.column(2).as_any().downcast_ref::<StringArray>().ok_or_else(|| not("status"))?;
         let vals: Vec<&Float64Array> = (0..parameters)
-            .map(|k| batch.column(3 + k).as_any().downcast_ref::<Float64Array>().ok_or("params: value column"))
+            .map(|k| batch.column(3 + k).as_any().downcast_ref::<Float64Array>().ok_or_else(|| not("a parameter")))
             .collect::<Result<_, _>>()?;
         // The error column follows the parameters (datasets of earlier versions have none).
         let errors = (batch.num_columns() > 3 + parameters)
@@ -647,16 +733,15 @@ pub struct ParamsTable {
 }
 
 /// Reads `params.parquet` with its parameter names and units (from the file's own schema).
-pub fn read_params_table(dir: &Path) -> Result<ParamsTable, String> {
+pub fn read_params_table(dir: &Path) -> Result<ParamsTable, DatasetError> {
     let path = dir.join("params.parquet");
-    let f = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let schema =
-        ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| format!("{}: {e}", path.display()))?.schema().clone();
+    let f = File::open(&path).map_err(io("open", &path))?;
+    let schema = ParquetRecordBatchReaderBuilder::try_new(f).map_err(at(&path))?.schema().clone();
     let fields = schema.fields();
     let has_error = fields.last().is_some_and(|f| f.name() == "error");
     let end = fields.len() - usize::from(has_error);
     if end < 3 {
-        return Err(format!("{} is not a lash params table (columns: {})", path.display(), fields.len()));
+        return Err(content(&path, format!("not a lash params table (columns: {})", fields.len())));
     }
     let parameters: Vec<(String, String)> = fields[3..end]
         .iter()
@@ -680,39 +765,41 @@ pub struct DatasetArrays {
 }
 
 /// The error of a run (the last of `run_ids`) whose sample count differs from the first run's.
-fn short(run_ids: &[u64], samples: usize, first: usize) -> String {
-    format!(
-        "data.parquet: run {} has {samples} samples, run {} has {first}: runs of one array need the same sample times",
+fn short(path: &Path, run_ids: &[u64], samples: usize, first: usize) -> DatasetError {
+    let message = format!(
+        "run {} has {samples} samples, run {} has {first}: runs of one array need the same sample times",
         run_ids[run_ids.len() - 1],
         run_ids[0]
-    )
+    );
+    content(path, message)
 }
 
 /// Reads `data.parquet` of a sweep's output folder into one runs × samples × channels array,
 /// filled in place from the Parquet column chunks (each sample is written once). Every run must
 /// have the same sample times, as a sweep writes them (one horizon, one sample rate); a failed run
 /// has no rows and is not in the array (it is in [`read_params_table`] with its error).
-pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, String> {
+pub fn read_dataset(dir: &Path) -> Result<DatasetArrays, DatasetError> {
     read_runs(dir, None)
 }
 
 /// The row groups of `data.parquet` (one per completed run, in run order), each with its run id
 /// and row count, from the manifest and the file's footer (no sample is read).
-pub fn read_layout(dir: &Path) -> Result<Vec<(u64, usize)>, String> {
-    let manifest =
-        Manifest::read(dir)?.ok_or_else(|| format!("{}: no manifest.json (not a lash dataset)", dir.display()))?;
+pub fn read_layout(dir: &Path) -> Result<Vec<(u64, usize)>, DatasetError> {
+    let manifest = Manifest::read(dir)?.ok_or_else(|| content(dir, "no manifest.json (not a lash dataset)"))?;
     let path = dir.join("data.parquet");
-    let file = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| format!("{}: {e}", path.display()))?;
+    let file = File::open(&path).map_err(io("open", &path))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(at(&path))?;
     let groups: Vec<usize> = builder.metadata().row_groups().iter().map(|g| g.num_rows().max(0) as usize).collect();
     let ok: Vec<(u64, usize)> =
         manifest.runs.iter().filter(|r| r.status == "ok" && r.rows > 0).map(|r| (r.run_id, r.rows as usize)).collect();
     if ok.len() != groups.len() || ok.iter().zip(&groups).any(|((_, rows), g)| rows != g) {
-        return Err(format!(
-            "{}: the manifest's {} completed runs do not match data.parquet's {} row groups",
-            dir.display(),
-            ok.len(),
-            groups.len()
+        return Err(content(
+            dir,
+            format!(
+                "the manifest's {} completed runs do not match data.parquet's {} row groups",
+                ok.len(),
+                groups.len()
+            ),
         ));
     }
     Ok(ok)
@@ -720,23 +807,20 @@ pub fn read_layout(dir: &Path) -> Result<Vec<(u64, usize)>, String> {
 
 /// [`read_dataset`] of the row groups `groups` only (None: all), in the order given — the runs of
 /// one training batch, read without the rest of the file.
-pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, String> {
+pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, DatasetError> {
     let path = dir.join("data.parquet");
-    let file = File::open(&path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let mut builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| format!("{}: {e}", path.display()))?;
+    let file = File::open(&path).map_err(io("open", &path))?;
+    let mut builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(at(&path))?;
     let count = builder.metadata().num_row_groups();
     if let Some(groups) = groups {
         if let Some(bad) = groups.iter().find(|g| **g >= count) {
-            return Err(format!(
-                "{}: no row group {bad} (the file has {count}: one per completed run)",
-                path.display()
-            ));
+            return Err(content(&path, format!("no row group {bad} (the file has {count}: one per completed run)")));
         }
         builder = builder.with_row_groups(groups.to_vec());
     }
     let schema = builder.schema().clone();
     if schema.fields().len() < 2 || schema.field(0).name() != "run_id" || schema.field(1).name() != "t" {
-        return Err(format!("{} is not a lash dataset (its first columns must be run_id, t)", path.display()));
+        return Err(content(&path, "not a lash dataset (its first columns must be run_id, t)"));
     }
     let channels: Vec<(String, String)> = schema.fields()[2..]
         .iter()
@@ -749,17 +833,21 @@ pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, 
     let width = channels.len();
     let mut values = Vec::with_capacity(rows.max(0) as usize * width);
     let (mut run_ids, mut time, mut this_run) = (Vec::new(), Vec::new(), 0usize);
-    let reader = builder.build().map_err(|e| format!("{}: {e}", path.display()))?;
+    let reader = builder.build().map_err(at(&path))?;
     for batch in reader {
-        let batch = batch.map_err(|e| format!("{}: {e}", path.display()))?;
-        let ids = batch.column(0).as_any().downcast_ref::<UInt64Array>().ok_or("data.parquet: run_id is not UInt64")?;
+        let batch = batch.map_err(at(&path))?;
+        let ids = batch
+            .column(0)
+            .as_any()
+            .downcast_ref::<UInt64Array>()
+            .ok_or_else(|| content(&path, "run_id is not UInt64"))?;
         let f64s = |i: usize| {
             batch
                 .column(i)
                 .as_any()
                 .downcast_ref::<Float64Array>()
                 .map(|a| a.values())
-                .ok_or_else(|| format!("data.parquet: column {} is not Float64", schema.field(i).name()))
+                .ok_or_else(|| content(&path, format!("column {} is not Float64", schema.field(i).name())))
         };
         let t = f64s(1)?;
         let columns: Vec<&[f64]> = (2..2 + width).map(|i| f64s(i).map(|v| &v[..])).collect::<Result<_, _>>()?;
@@ -768,7 +856,7 @@ pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, 
             if run_ids.last() != Some(&id) {
                 // The first run's times are every run's: each later run is checked against them.
                 if run_ids.len() > 1 && this_run != time.len() {
-                    return Err(short(&run_ids, this_run, time.len()));
+                    return Err(short(&path, &run_ids, this_run, time.len()));
                 }
                 run_ids.push(id);
                 this_run = 0;
@@ -776,11 +864,14 @@ pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, 
             if run_ids.len() == 1 {
                 time.push(t[r]);
             } else if this_run >= time.len() || time[this_run].to_bits() != t[r].to_bits() {
-                return Err(format!(
-                    "data.parquet: run {id}'s sample {this_run} is at t = {} s, run {}'s at {}: runs of one array need the same sample times",
-                    t[r],
-                    run_ids[0],
-                    time.get(this_run).map_or("(none)".to_string(), |v| format!("{v} s"))
+                return Err(content(
+                    &path,
+                    format!(
+                        "run {id}'s sample {this_run} is at t = {} s, run {}'s at {}: runs of one array need the same sample times",
+                        t[r],
+                        run_ids[0],
+                        time.get(this_run).map_or("(none)".to_string(), |v| format!("{v} s"))
+                    ),
                 ));
             }
             this_run += 1;
@@ -788,7 +879,7 @@ pub fn read_runs(dir: &Path, groups: Option<&[usize]>) -> Result<DatasetArrays, 
         }
     }
     if run_ids.len() > 1 && this_run != time.len() {
-        return Err(short(&run_ids, this_run, time.len()));
+        return Err(short(&path, &run_ids, this_run, time.len()));
     }
     Ok(DatasetArrays { run_ids, time, channels, values })
 }
@@ -842,6 +933,35 @@ mod tests {
             assert_eq!(back[1][i].to_bits(), rows[2 * i + 1].to_bits());
         }
         let _ = std::fs::remove_file(&path);
+    }
+
+    /// Errors are typed and chain to their cause: a missing file is an I/O error whose source
+    /// is the operating system's "not found"; a bad cell names the file, the column and the
+    /// line; a CSV given as Parquet is Parquet's own error, with the file.
+    #[test]
+    fn reading_errors_name_the_file_and_chain_to_their_cause() {
+        use std::error::Error;
+        let dir = std::env::temp_dir().join(format!("lash-dataset-errors-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let missing = dir.join("missing.csv");
+        let e = read_any_series(&missing).unwrap_err();
+        assert!(matches!(&e, DatasetError::Io { action: "read", path, .. } if path == &missing), "{e:?}");
+        let cause = e.source().and_then(|s| s.downcast_ref::<std::io::Error>()).expect("an io::Error source");
+        assert_eq!(cause.kind(), std::io::ErrorKind::NotFound);
+
+        let bad = dir.join("bad.csv");
+        std::fs::write(&bad, "time [s],slider.ax [m/s^2]\n0,1\n1e-4,\n").unwrap();
+        let e = read_any_series(&bad).unwrap_err();
+        let text = e.to_string();
+        assert!(matches!(e, DatasetError::Content { .. }), "{e:?}");
+        assert!(text.contains("bad.csv") && text.contains("\"slider.ax\"") && text.contains("line 3"), "{text}");
+
+        let fake = dir.join("fake.parquet");
+        std::fs::write(&fake, "time,x\n0,1\n").unwrap();
+        let e = read_any_series(&fake).unwrap_err();
+        assert!(matches!(&e, DatasetError::Parquet { path, .. } if path == &fake), "{e:?}");
+        assert!(e.source().is_some_and(|s| s.is::<parquet::errors::ParquetError>()));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

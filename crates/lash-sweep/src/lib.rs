@@ -12,7 +12,7 @@ pub mod plan;
 pub mod spec;
 
 use arrow_array::RecordBatch;
-use dataset::{ChannelInfo, Manifest, ParamsRow, RunData, RunRecord, RunSource, Shard};
+use dataset::{ChannelInfo, DatasetError, Manifest, ParamsRow, RunData, RunRecord, RunSource, Shard};
 pub use plan::{Plan, RunSpec, run_seed};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -33,9 +33,12 @@ pub enum SweepError {
     /// The sweep file, its base scenario or the options are wrong (nothing was run).
     #[error("{0}")]
     Input(String),
-    /// Reading or writing the dataset failed.
+    /// The output folder could not be made or tidied, or runs of the shard did not finish.
     #[error("{0}")]
     Output(String),
+    /// Reading or writing the dataset failed.
+    #[error(transparent)]
+    Dataset(#[from] dataset::DatasetError),
     /// Cancelled through [`ExecuteOptions::cancel`]: the finished runs are kept (journal and parts),
     /// and running the sweep again into the same folder resumes it.
     #[error("{0}")]
@@ -375,22 +378,26 @@ fn part_source(out: &Path, r: &RunRecord) -> RunSource {
 /// State shared by the workers: the journal, the journaled runs, the simulated time.
 struct Shared {
     journal: std::fs::File,
+    journal_path: PathBuf,
     records: BTreeMap<u64, RunRecord>,
     simulated_s: f64,
 }
 
 /// Appends the lines of `records` to the journal in one write, flushed, and keeps them.
-fn append_journal(shared: &Mutex<Shared>, records: Vec<RunRecord>) -> Result<(), String> {
+fn append_journal(shared: &Mutex<Shared>, records: Vec<RunRecord>) -> Result<(), DatasetError> {
     let mut text = String::new();
     for r in &records {
-        text.push_str(&serde_json::to_string(r).map_err(|e| e.to_string())?);
+        // (A record of numbers and strings: serde_json cannot fail on it.)
+        text.push_str(&serde_json::to_string(r).expect("a run record is JSON"));
         text.push('\n');
     }
     let mut s = shared.lock().expect("lock");
-    s.journal
-        .write_all(text.as_bytes())
-        .and_then(|()| s.journal.flush())
-        .map_err(|e| format!("cannot append to the run journal: {e}"))?;
+    let s = &mut *s;
+    s.journal.write_all(text.as_bytes()).and_then(|()| s.journal.flush()).map_err(|source| DatasetError::Io {
+        action: "append to",
+        path: s.journal_path.clone(),
+        source,
+    })?;
     s.records.extend(records.into_iter().map(|r| (r.run_id, r)));
     Ok(())
 }
@@ -415,7 +422,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     let out = &options.out;
     let io = SweepError::Output;
     // The folder: new, empty, or holding this very sweep (and shard).
-    if let Some(m) = Manifest::read(out).map_err(io)? {
+    if let Some(m) = Manifest::read(out)? {
         if m.sweep_hash != plan.sweep_hash {
             return Err(SweepError::Input(format!(
                 "--out {}: the folder holds another sweep's data (sweep hash {}…, this sweep {}…); choose another folder",
@@ -452,7 +459,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     }
     std::fs::create_dir_all(out.join("parts")).map_err(|e| io(format!("cannot create {}: {e}", out.display())))?;
     let manifest = new_manifest(plan, options.shard);
-    manifest.write(out).map_err(io)?;
+    manifest.write(out)?;
 
     let shard_runs: Vec<&RunSpec> = plan.runs.iter().filter(|r| options.shard.is_none_or(|s| s.holds(r.id))).collect();
     let mut done = read_journal(out);
@@ -466,15 +473,16 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     // Runs simulated side by side by one worker: a full group each where there are enough runs
     // to keep every worker busy, else one at a time.
     let group = if pending.len() >= threads * options.side_by_side { options.side_by_side.max(1) } else { 1 };
+    let journal_path = out.join("runs.jsonl");
     let journal = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
-        .open(out.join("runs.jsonl"))
-        .map_err(|e| io(format!("cannot open the run journal: {e}")))?;
-    let shared = Mutex::new(Shared { journal, records: done, simulated_s: 0.0 });
+        .open(&journal_path)
+        .map_err(|source| DatasetError::Io { action: "open", path: journal_path.clone(), source })?;
+    let shared = Mutex::new(Shared { journal, journal_path, records: done, simulated_s: 0.0 });
     let stop: AtomicBool = AtomicBool::new(false);
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
-    let write_error: Mutex<Option<String>> = Mutex::new(None);
+    let write_error: Mutex<Option<DatasetError>> = Mutex::new(None);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -485,7 +493,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     // assembling the dataset overlaps with the simulations instead of following them, and a
     // worker never waits on a file.
     let (sender, receiver) = std::sync::mpsc::channel::<Finished>();
-    let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv).map_err(io)?;
+    let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv)?;
     // Runs finished by an earlier execution: where their rows are (None: failed).
     let earlier: BTreeMap<u64, Option<RunSource>> = shared
         .lock()
@@ -495,7 +503,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         .map(|(id, r)| (*id, (r.status == "ok").then(|| part_source(out, r))))
         .collect();
     let mut assemble_s = 0.0;
-    let assembled: Result<(), String> = std::thread::scope(|scope| {
+    let assembled: Result<(), DatasetError> = std::thread::scope(|scope| {
         let pending = &pending;
         let (shared, stop, write_error, channels, schema) = (&shared, &stop, &write_error, &channels, &schema);
         scope.spawn(move || {
@@ -555,7 +563,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         let mut cursor = 0;
         let mut advance = |waiting: &mut BTreeMap<u64, Option<RecordBatch>>,
                            writer: &mut dataset::DataWriter|
-         -> Result<(), String> {
+         -> Result<(), DatasetError> {
             while cursor < shard_runs.len() {
                 let id = shard_runs[cursor].id;
                 if let Some(source) = earlier.get(&id) {
@@ -573,7 +581,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             }
             Ok(())
         };
-        let mut assemble = || -> Result<(), String> {
+        let mut assemble = || -> Result<(), DatasetError> {
             advance(&mut waiting, &mut writer)?;
             for Finished { record, simulated, batch } in &receiver {
                 let id = record.run_id;
@@ -615,9 +623,9 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         assembled
     });
     if let Some(e) = write_error.into_inner().expect("lock") {
-        return Err(io(e));
+        return Err(e.into());
     }
-    assembled.map_err(io)?;
+    assembled?;
     let shared = shared.into_inner().expect("lock");
     if cancelled() {
         let finished = shared.records.len();
@@ -633,7 +641,7 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     if records.len() != shard_runs.len() {
         return Err(io(format!("{} runs of the shard did not finish", shard_runs.len() - records.len())));
     }
-    writer.finish().map_err(io)?;
+    writer.finish()?;
     let ran_ids: std::collections::HashSet<u64> = pending.iter().map(|r| r.id).collect();
     let mut report = Report {
         runs: shard_runs.len() as u64,
@@ -656,11 +664,11 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             error: shared.records.get(&r.id).and_then(|x| x.error.clone()).unwrap_or_default(),
         })
         .collect();
-    dataset::write_params(out, &manifest.parameters, &params).map_err(io)?;
+    dataset::write_params(out, &manifest.parameters, &params)?;
     // (Where the rows were kept while the sweep ran is the journal's business only.)
     let runs = records.into_iter().map(|r| RunRecord { part: None, row_group: None, ..r }).collect();
     let manifest = Manifest { status: "complete".into(), runs, ..manifest };
-    manifest.write(out).map_err(io)?;
+    manifest.write(out)?;
     std::fs::remove_dir_all(out.join("parts")).map_err(|e| io(format!("cannot remove the parts folder: {e}")))?;
     std::fs::remove_file(out.join("runs.jsonl")).map_err(|e| io(format!("cannot remove the run journal: {e}")))?;
     report.assemble_s = assemble_s + t_assemble.elapsed().as_secs_f64();
@@ -677,7 +685,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
     }
     let mut manifests = Vec::new();
     for dir in inputs {
-        let m = Manifest::read(dir).map_err(bad)?.ok_or_else(|| {
+        let m = Manifest::read(dir).map_err(|e| bad(e.to_string()))?.ok_or_else(|| {
             bad(format!("merge: {} holds no manifest.json (not a sweep output folder)", dir.display()))
         })?;
         if m.status != "complete" {
@@ -719,7 +727,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
     if !missing.is_empty() {
         return Err(bad(format!("merge: shards {} are missing", missing.join(", "))));
     }
-    if let Some(m) = Manifest::read(out).map_err(bad)? {
+    if let Some(m) = Manifest::read(out).map_err(|e| bad(e.to_string()))? {
         if m.sweep_hash != first.sweep_hash {
             return Err(bad(format!("--out {}: the folder holds another sweep's data", out.display())));
         }
@@ -746,14 +754,14 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
         .filter_map(|(_, i, g)| g.map(|g| RunSource { file: inputs[*i].join("data.parquet"), row_group: Some(g) }))
         .collect();
     let csv = inputs[0].join("data.csv").exists();
-    let rows = dataset::write_data(out, &schema, &sources, csv).map_err(SweepError::Output)?;
+    let rows = dataset::write_data(out, &schema, &sources, csv)?;
     let mut params = Vec::new();
     for dir in inputs {
-        params.extend(dataset::read_params(dir, first.parameters.len()).map_err(SweepError::Output)?);
+        params.extend(dataset::read_params(dir, first.parameters.len())?);
     }
     params.sort_by_key(|p| p.run_id);
-    dataset::write_params(out, &first.parameters, &params).map_err(SweepError::Output)?;
+    dataset::write_params(out, &first.parameters, &params)?;
     let merged = Manifest { shard: None, runs: runs.into_iter().map(|(r, _, _)| r).collect(), ..first.clone() };
-    merged.write(out).map_err(SweepError::Output)?;
+    merged.write(out)?;
     Ok(rows)
 }

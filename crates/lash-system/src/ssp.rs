@@ -91,7 +91,7 @@ pub fn load(path: &Path, cache: &Path, fallback: Fallback) -> Result<(SystemSpec
     let (ssd, base) = if path.extension().is_some_and(|e| e == "ssp") {
         // Untrusted like an FMU: confined to its folder, within the same limits.
         let err = |m: String| format!("{}: {m}", path.display());
-        let limits = lash_fmi::archive::UnpackLimits::from_env().map_err(err)?;
+        let limits = lash_fmi::archive::UnpackLimits::from_env().map_err(|e| err(e.to_string()))?;
         let size = std::fs::metadata(path).map_err(|e| err(e.to_string()))?.len();
         if size > limits.max_archive_bytes {
             return Err(err(format!("{size} bytes, more than the {} an archive may have", limits.max_archive_bytes)));
@@ -100,7 +100,8 @@ pub fn load(path: &Path, cache: &Path, fallback: Fallback) -> Result<(SystemSpec
         let dir = cache.join(format!("ssp-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).map_err(|e| err(format!("{}: {e}", dir.display())))?;
-        lash_fmi::archive::unpack_archive_into(&bytes, &dir, &limits, "SystemStructure.ssd").map_err(err)?;
+        lash_fmi::archive::unpack_archive_into(&bytes, &dir, &limits, "SystemStructure.ssd")
+            .map_err(|e| err(e.to_string()))?;
         (dir.join("SystemStructure.ssd"), dir)
     } else {
         (path.to_path_buf(), path.parent().unwrap_or(Path::new(".")).to_path_buf())
