@@ -12,6 +12,7 @@
 pub mod builtin;
 pub mod builtin_spatial;
 pub mod channels;
+mod format;
 mod load;
 pub mod parameters;
 pub mod paths;

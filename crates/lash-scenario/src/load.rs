@@ -237,98 +237,61 @@ pub(crate) fn toml_table(text: &str) -> Result<toml::Table, Problems> {
 
 /// [`parse`] of a parsed TOML table.
 pub fn parse_table(table: toml::Table) -> Result<Scenario, Problems> {
-    let mut problems = Problems::new();
-    for key in table.keys() {
-        if !TOP_KEYS.contains(&key.as_str()) {
-            problems.push(key.clone(), format!("unknown section; expected one of {}", TOP_KEYS.join(", ")));
-        }
-    }
-    for key in ["name", "bodies", "simulation"] {
-        if !table.contains_key(key) {
-            problems.push(key, "missing (required)");
-        }
-    }
-    // Element by element, so that one bad body does not hide the problems of the others.
-    let structural_before = problems.0.len();
-    element::<String>(&table, "name", &mut problems);
-    element::<String>(&table, "description", &mut problems);
-    element::<[f64; 2]>(&table, "gravity", &mut problems);
-    element::<std::collections::BTreeMap<String, lash_contact::Material>>(&table, "materials", &mut problems);
-    element::<SimulationSpec>(&table, "simulation", &mut problems);
-    element::<OutputSpec>(&table, "output", &mut problems);
-    array::<BodySpec>(&table, "bodies", &mut problems);
-    array::<JointSpec>(&table, "joints", &mut problems);
-    array::<DriverSpec>(&table, "drivers", &mut problems);
-    array::<LoadSpec>(&table, "loads", &mut problems);
-    array::<ClearanceSpec>(&table, "clearances", &mut problems);
-    array::<BushingSpec>(&table, "bushings", &mut problems);
-    array::<SensorSpec>(&table, "sensors", &mut problems);
-    let structural_ok = problems.0.len() == structural_before && problems.is_empty();
+    crate::format::parse(table)
+}
 
-    // Value checks of every element that parsed.
-    for_each_ok::<BodySpec>(&table, "bodies", &mut problems, validate_body);
-    for_each_ok::<JointSpec>(&table, "joints", &mut problems, validate_joint);
-    for_each_ok::<DriverSpec>(&table, "drivers", &mut problems, |d| d.motion.validate().prefixed("motion"));
-    for_each_ok::<LoadSpec>(&table, "loads", &mut problems, validate_load);
-    for_each_ok::<ClearanceSpec>(&table, "clearances", &mut problems, validate_clearance_numbers);
-    for_each_ok::<SensorSpec>(&table, "sensors", &mut problems, |s| finite2("point", s.point));
-    if let Some(Ok(sim)) = table.get("simulation").map(|v| v.clone().try_into::<SimulationSpec>()) {
-        problems.extend_prefixed("simulation", validate_simulation(&sim));
-    }
-    if let Some(Ok(m)) = table
-        .get("materials")
-        .map(|v| v.clone().try_into::<std::collections::BTreeMap<String, lash_contact::Material>>())
-    {
-        for (name, mat) in &m {
-            problems.extend_prefixed_with(|| format!("materials.{name}"), mat.validate());
-        }
-    }
-    if let Some(Ok(g)) = table.get("gravity").map(|v| v.clone().try_into::<[f64; 2]>()) {
-        problems.0.extend(finite2("gravity", g).0);
-    }
+impl crate::format::Format for Scenario {
+    const TOP_KEYS: &'static [&'static str] = &TOP_KEYS;
+    const REQUIRED: &'static [&'static str] = &["name", "bodies", "simulation"];
+    type Body = BodySpec;
+    type Joint = JointSpec;
+    type Driver = DriverSpec;
+    type Load = LoadSpec;
+    type Sensor = SensorSpec;
+    type Gravity = [f64; 2];
 
-    if !structural_ok {
-        return Err(problems);
+    fn own_arrays(table: &toml::Table, problems: &mut Problems) {
+        array::<BushingSpec>(table, "bushings", problems);
     }
-    let scenario: Scenario = match toml::Value::Table(table).try_into() {
-        Ok(s) => s,
-        Err(e) => {
-            problems.push("(file)", e.to_string().trim_end().to_string());
-            return Err(problems);
+    fn body(b: &BodySpec) -> Problems {
+        validate_body(b)
+    }
+    fn joint(j: &JointSpec) -> Problems {
+        validate_joint(j)
+    }
+    fn driver(d: &DriverSpec) -> Problems {
+        crate::format::motion_checks(d.motion.validate())
+    }
+    fn load(l: &LoadSpec) -> Problems {
+        validate_load(l)
+    }
+    fn sensor(s: &SensorSpec) -> Problems {
+        finite2("point", s.point)
+    }
+    fn gravity(g: &[f64; 2]) -> Problems {
+        finite2("gravity", *g)
+    }
+    fn parts(&self) -> crate::format::Parts<'_, Self> {
+        crate::format::Parts {
+            bodies: &self.bodies,
+            joints: &self.joints,
+            drivers: &self.drivers,
+            loads: &self.loads,
+            clearances: &self.clearances,
+            sensors: &self.sensors,
+            materials: &self.materials,
+            simulation: &self.simulation,
+            gravity: &self.gravity,
         }
-    };
-    problems.0.extend(cross_check(&scenario).0);
-    problems.into_result().map(|()| scenario)
+    }
+    fn cross_check(&self) -> Problems {
+        cross_check(self)
+    }
 }
 
 /// Validates a scenario built in code (the same checks as [`parse`]).
 pub fn validate(s: &Scenario) -> Problems {
-    let mut p = Problems::new();
-    for (k, b) in s.bodies.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("bodies[{k}]"), validate_body(b));
-    }
-    for (k, j) in s.joints.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("joints[{k}]"), validate_joint(j));
-    }
-    for (k, d) in s.drivers.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("drivers[{k}].motion"), d.motion.validate());
-    }
-    for (k, l) in s.loads.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("loads[{k}]"), validate_load(l));
-    }
-    for (k, c) in s.clearances.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("clearances[{k}]"), validate_clearance_numbers(c));
-    }
-    for (k, sen) in s.sensors.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("sensors[{k}]"), finite2("point", sen.point));
-    }
-    for (name, m) in &s.materials {
-        p.extend_prefixed_with(|| format!("materials.{name}"), m.validate());
-    }
-    p.extend_prefixed("simulation", validate_simulation(&s.simulation));
-    p.0.extend(finite2("gravity", s.gravity).0);
-    p.0.extend(cross_check(s).0);
-    p
+    crate::format::validate(s)
 }
 
 pub(crate) trait Prefixed {

@@ -30,7 +30,7 @@
 //! A driver names a revolute or cylindrical joint and prescribes the angle of reference2 about
 //! axis1, measured from reference1.
 
-use crate::load::{Prefixed, array, element, for_each_ok, validate_clearance_numbers, validate_simulation};
+use crate::load::element;
 use crate::schema::{ClearanceSpec, OutputSpec, SimulationSpec};
 use lash_contact::Material;
 use lash_core::Problems;
@@ -342,90 +342,61 @@ pub fn parse_spatial(text: &str) -> Result<SpatialScenario, Problems> {
 
 /// [`parse_spatial`] of a parsed TOML table.
 pub fn parse_spatial_table(table: toml::Table) -> Result<SpatialScenario, Problems> {
-    let mut problems = Problems::new();
-    for key in table.keys() {
-        if !TOP_KEYS.contains(&key.as_str()) {
-            problems.push(key.clone(), format!("unknown section; expected one of {}", TOP_KEYS.join(", ")));
+    crate::format::parse(table)
+}
+
+impl crate::format::Format for SpatialScenario {
+    const TOP_KEYS: &'static [&'static str] = &TOP_KEYS;
+    const REQUIRED: &'static [&'static str] = &["name", "space", "bodies", "simulation"];
+    type Body = SpatialBodySpec;
+    type Joint = SpatialJointSpec;
+    type Driver = SpatialDriverSpec;
+    type Load = SpatialLoadSpec;
+    type Sensor = SpatialSensorSpec;
+    type Gravity = [f64; 3];
+
+    fn own_elements(table: &toml::Table, problems: &mut Problems) {
+        element::<Space>(table, "space", problems);
+    }
+    fn body(b: &SpatialBodySpec) -> Problems {
+        validate_body(b)
+    }
+    fn joint(j: &SpatialJointSpec) -> Problems {
+        validate_joint(j)
+    }
+    fn driver(d: &SpatialDriverSpec) -> Problems {
+        crate::format::motion_checks(d.motion.validate())
+    }
+    fn load(l: &SpatialLoadSpec) -> Problems {
+        validate_load(l)
+    }
+    fn sensor(s: &SpatialSensorSpec) -> Problems {
+        finite3("point", s.point)
+    }
+    fn gravity(g: &[f64; 3]) -> Problems {
+        finite3("gravity", *g)
+    }
+    fn parts(&self) -> crate::format::Parts<'_, Self> {
+        crate::format::Parts {
+            bodies: &self.bodies,
+            joints: &self.joints,
+            drivers: &self.drivers,
+            loads: &self.loads,
+            clearances: &self.clearances,
+            sensors: &self.sensors,
+            materials: &self.materials,
+            simulation: &self.simulation,
+            gravity: &self.gravity,
         }
     }
-    for key in ["name", "space", "bodies", "simulation"] {
-        if !table.contains_key(key) {
-            problems.push(key, "missing (required)");
-        }
+    fn cross_check(&self) -> Problems {
+        cross_check(self)
     }
-    element::<String>(&table, "name", &mut problems);
-    element::<Space>(&table, "space", &mut problems);
-    element::<String>(&table, "description", &mut problems);
-    element::<[f64; 3]>(&table, "gravity", &mut problems);
-    element::<BTreeMap<String, Material>>(&table, "materials", &mut problems);
-    element::<SimulationSpec>(&table, "simulation", &mut problems);
-    element::<OutputSpec>(&table, "output", &mut problems);
-    array::<SpatialBodySpec>(&table, "bodies", &mut problems);
-    array::<SpatialJointSpec>(&table, "joints", &mut problems);
-    array::<SpatialDriverSpec>(&table, "drivers", &mut problems);
-    array::<SpatialLoadSpec>(&table, "loads", &mut problems);
-    array::<ClearanceSpec>(&table, "clearances", &mut problems);
-    array::<SpatialSensorSpec>(&table, "sensors", &mut problems);
-    let structural_ok = problems.is_empty();
-    for_each_ok::<SpatialBodySpec>(&table, "bodies", &mut problems, validate_body);
-    for_each_ok::<SpatialJointSpec>(&table, "joints", &mut problems, validate_joint);
-    for_each_ok::<SpatialDriverSpec>(&table, "drivers", &mut problems, |d| d.motion.validate().prefixed("motion"));
-    for_each_ok::<SpatialLoadSpec>(&table, "loads", &mut problems, validate_load);
-    for_each_ok::<ClearanceSpec>(&table, "clearances", &mut problems, validate_clearance_numbers);
-    for_each_ok::<SpatialSensorSpec>(&table, "sensors", &mut problems, |s| finite3("point", s.point));
-    if let Some(Ok(sim)) = table.get("simulation").map(|v| v.clone().try_into::<SimulationSpec>()) {
-        problems.extend_prefixed("simulation", validate_simulation(&sim));
-    }
-    if let Some(Ok(m)) = table.get("materials").map(|v| v.clone().try_into::<BTreeMap<String, Material>>()) {
-        for (name, mat) in &m {
-            problems.extend_prefixed_with(|| format!("materials.{name}"), mat.validate());
-        }
-    }
-    if let Some(Ok(g)) = table.get("gravity").map(|v| v.clone().try_into::<[f64; 3]>()) {
-        problems.0.extend(finite3("gravity", g).0);
-    }
-    if !structural_ok {
-        return Err(problems);
-    }
-    let scenario: SpatialScenario = match toml::Value::Table(table).try_into() {
-        Ok(s) => s,
-        Err(e) => {
-            problems.push("(file)", e.to_string().trim_end().to_string());
-            return Err(problems);
-        }
-    };
-    problems.0.extend(cross_check(&scenario).0);
-    problems.into_result().map(|()| scenario)
 }
 
 /// Validates a spatial scenario built in code (the same checks as [`parse_spatial`]).
 pub fn validate_spatial(s: &SpatialScenario) -> Problems {
-    let mut p = Problems::new();
-    for (k, b) in s.bodies.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("bodies[{k}]"), validate_body(b));
-    }
-    for (k, j) in s.joints.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("joints[{k}]"), validate_joint(j));
-    }
-    for (k, d) in s.drivers.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("drivers[{k}].motion"), d.motion.validate());
-    }
-    for (k, l) in s.loads.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("loads[{k}]"), validate_load(l));
-    }
-    for (k, c) in s.clearances.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("clearances[{k}]"), validate_clearance_numbers(c));
-    }
-    for (k, sen) in s.sensors.iter().enumerate() {
-        p.extend_prefixed_with(|| format!("sensors[{k}]"), finite3("point", sen.point));
-    }
-    p.extend_prefixed("simulation", validate_simulation(&s.simulation));
-    for (name, mat) in &s.materials {
-        p.extend_prefixed_with(|| format!("materials.{name}"), mat.validate());
-    }
-    p.0.extend(finite3("gravity", s.gravity).0);
-    p.0.extend(cross_check(s).0);
-    p
+    crate::format::validate(s)
 }
 
 /// Names, references and counts across the file.
