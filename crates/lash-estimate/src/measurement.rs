@@ -358,7 +358,7 @@ mod tests {
         ];
         for (what, path, expected) in cases {
             let e = read(&path).unwrap_err();
-            assert!(matches!(e, EstimateError::Input(_)), "{what}: {e}");
+            assert!(matches!(e, EstimateError::Input(_) | EstimateError::Measurement(_)), "{what}: {e}");
             let text = e.to_string();
             for part in expected {
                 assert!(text.contains(part), "{what}: {part:?} missing from: {text}");
