@@ -48,6 +48,7 @@ mod mock;
 mod options;
 mod signal;
 mod signal_table;
+mod stepper;
 mod together;
 
 pub use advance::{Algorithm, MasterError, advance, advance_steps};
@@ -56,6 +57,7 @@ pub use connected::{Carried, ConnectedMaster, Connection, Element, Initializatio
 pub use options::{Execution, Interpolation, MAX_MICRO_STEPS_PER_MACRO, MasterOptions, StepError, check_step_ratio};
 pub use signal::{Observer, Signal};
 use signal_table::SignalTable;
+use stepper::Stepper;
 pub use together::GroupAhead;
 
 use crossbeam_channel::bounded;
@@ -202,23 +204,6 @@ impl CouplingIndex {
     }
 }
 
-/// Which of the next `due.len()` micro steps an observer samples: a dry run of the countdowns
-/// `left` (each observer's steps to its next sample; `decimation`, its interval in steps) in
-/// `scratch`.
-fn due_steps(left: &[u64], decimation: &[u64], scratch: &mut [u64], due: &mut [bool]) {
-    scratch.copy_from_slice(left);
-    for d in due.iter_mut() {
-        *d = false;
-        for (l, p) in scratch.iter_mut().zip(decimation) {
-            *l -= 1;
-            if *l == 0 {
-                *d = true;
-                *l = *p;
-            }
-        }
-    }
-}
-
 /// The multirate master of the reduced interface model.
 pub struct InterfaceMaster<'a> {
     macro_sub: &'a mut dyn Subsystem,
@@ -288,14 +273,7 @@ impl Window<'_> {
 
 /// Where the macro frames come from: the macro stepped in place, or a producer thread.
 enum Frames<'s> {
-    /// `spare`: a frame the master is done with, whose storage the next frame takes.
-    Local {
-        sub: &'s mut dyn Subsystem,
-        all: Vec<ValueReference>,
-        width: usize,
-        seconds: f64,
-        spare: Option<Vec<f64>>,
-    },
+    Local { sub: &'s mut dyn Subsystem, all: Vec<ValueReference>, width: usize, seconds: f64 },
     Channel(crossbeam_channel::Receiver<Result<Vec<f64>, MasterError>>),
 }
 
@@ -304,24 +282,24 @@ enum Frames<'s> {
 type Targets<'t> = (&'t [ValueReference; 3], &'t [f64]);
 
 impl Frames<'_> {
-    fn next(&mut self, t: Ticks, h: Ticks, targets: Option<Targets<'_>>) -> Result<Vec<f64>, MasterError> {
+    /// The macro frame of the step from `t`, in `spare`'s storage where the macro steps here.
+    fn next(
+        &mut self,
+        t: Ticks,
+        h: Ticks,
+        targets: Option<Targets<'_>>,
+        spare: Option<Vec<f64>>,
+    ) -> Result<Vec<f64>, MasterError> {
         match self {
-            Frames::Local { sub, all, width, seconds, spare } => {
+            Frames::Local { sub, all, width, seconds } => {
                 let start = Instant::now();
-                let frame = step_macro(&mut **sub, all, *width, t, h, targets, spare.take());
+                let frame = step_macro(&mut **sub, all, *width, t, h, targets, spare);
                 *seconds += start.elapsed().as_secs_f64();
                 frame
             }
             Frames::Channel(rx) => rx
                 .recv()
                 .map_err(|_| MasterError::Settings("the macro producer thread stopped without a result".into()))?,
-        }
-    }
-
-    /// Hands back a frame the master is done with (its storage serves the next one).
-    fn recycle(&mut self, frame: Option<Vec<f64>>) {
-        if let Frames::Local { spare, .. } = self {
-            *spare = frame;
         }
     }
 
@@ -668,98 +646,92 @@ impl<'a> InterfaceMaster<'a> {
     /// interval (a whole multiple of the micro step); all are called at the start time too.
     pub fn run(&mut self, observers: &mut [(&mut dyn Observer, Ticks)]) -> Result<MasterStats, MasterError> {
         let o = self.options;
-        let mut p = self.prepare(observers)?;
-        let mut stats = std::mem::take(&mut p.stats);
-        let (all_macro, width, macro_steps) = (std::mem::take(&mut p.all_macro), p.width, p.macro_steps);
+        let p = self.prepare(observers)?;
+        let macro_side = MacroSide { all: p.all_macro.clone(), width: p.width, steps: p.macro_steps };
+        let mut s = Stepper::start(p, observers, o.start)?;
         let Self { macro_sub, micro_sub, .. } = self;
         let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
-        let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| -> Result<(), MasterError> {
-            let mut state = RunState::new(&p);
-            p.observe_start(observers, o.start)?;
-            for step in 0..p.macro_steps {
+        let mut run = |frames: &mut Frames<'_>| -> Result<(), MasterError> {
+            for step in 0..s.p.macro_steps {
                 let t_k = Ticks(o.start.0 + step as i64 * o.macro_step.0);
                 // Two-way: save the macro at t_k and predict with the eccentricity extrapolated.
-                let saved = match &p.target_inputs {
-                    Some(vrs) => Some((frames.save()?, *vrs)),
+                let saved = match s.p.target_inputs {
+                    Some(vrs) => Some((frames.save()?, vrs)),
                     None => None,
                 };
                 if saved.is_some() {
-                    state.predict(&p);
+                    s.predict();
                 }
-                while state.produced < (step + p.ahead).min(p.macro_steps) {
-                    let t = Ticks(o.start.0 + state.produced as i64 * o.macro_step.0);
-                    let predicted = saved.as_ref().map(|(_, vrs)| (vrs, &state.targets[..]));
-                    state.window.push_back(frames.next(t, o.macro_step, predicted)?);
-                    state.produced += 1;
-                    stats.macro_steps += 1;
+                while let Some(t) = s.wants_frame(step, &o) {
+                    let spare = s.take_spare();
+                    let predicted = saved.as_ref().map(|(_, vrs)| (vrs, s.targets()));
+                    let frame = frames.next(t, o.macro_step, predicted, spare)?;
+                    s.push_frame(frame);
                 }
-                let started = Instant::now();
-                let _span = tracing::trace_span!("micro_interval", t = t_k.seconds()).entered();
-                let result = state.micro_interval(&mut p, &o, micro_sub, observers, t_k);
-                stats.micro_steps = state.micro_count;
-                result?;
-                drop(_span);
-                stats.micro_seconds += started.elapsed().as_secs_f64();
+                s.micro_interval(&o, micro_sub, observers, t_k)?;
                 if let Some((saved, vrs)) = saved {
                     // Corrector: the macro steps again with the micro's eccentricities at t_k+1
                     // and its mean friction forces over the step.
                     frames.restore(&saved)?;
-                    micro_sub.get_f64(&p.coupling_outputs, &mut p.coupling_values).map_err(micro_err)?;
-                    state.correct(&p);
-                    state.window[1] = frames.next(t_k, o.macro_step, Some((&vrs, &state.targets[..])))?;
-                    stats.macro_steps += 1;
+                    s.correct(micro_sub)?;
+                    let frame = frames.next(t_k, o.macro_step, Some((&vrs, s.targets())), None)?;
+                    s.replace_end(frame);
                 }
-                frames.recycle(std::mem::replace(&mut state.prev, state.window.pop_front()));
+                s.end_step();
             }
             Ok(())
         };
         // A subsystem that stops the run ends it cleanly: the observers keep what they have.
-        let mut run = |frames: &mut Frames<'_>, stats: &mut MasterStats| match run(frames, stats) {
+        let mut stopped = None;
+        let mut run = |frames: &mut Frames<'_>| match run(frames) {
             Err(MasterError::Stopped { subsystem, reason }) => {
-                stats.stopped = Some((subsystem.to_string(), reason));
+                stopped = Some((subsystem.to_string(), reason));
                 Ok(())
             }
             other => other,
         };
-        let macro_side = MacroSide { sub: &mut **macro_sub, all: all_macro, width, steps: macro_steps };
-        execute(&o, macro_side, &mut stats, &mut run)?;
-        Ok(stats)
+        let macro_seconds = execute(&o, &mut **macro_sub, macro_side, &mut run)?;
+        let stats = s.stats();
+        stats.macro_seconds = macro_seconds;
+        stats.stopped = stopped;
+        Ok(stats.clone())
     }
 }
 
-/// The macro subsystem of a run as [`execute`] drives it.
-struct MacroSide<'s> {
-    sub: &'s mut dyn Subsystem,
+/// The macro outputs of a run as [`execute`] reads them, and its number of macro steps.
+struct MacroSide {
     all: Vec<ValueReference>,
     width: usize,
     steps: usize,
 }
 
-/// Runs `run` over the macro frames: produced on this thread as it asks for them (sequential),
-/// or by a producer thread over a bounded channel (threaded, one-way).
+/// Runs `run` over the macro frames of `sub`: produced on this thread as it asks for them
+/// (sequential), or by a producer thread over a bounded channel (threaded, one-way). Returns the
+/// wall time spent in macro steps.
 fn execute(
     o: &MasterOptions,
-    m: MacroSide<'_>,
-    stats: &mut MasterStats,
-    run: &mut dyn FnMut(&mut Frames<'_>, &mut MasterStats) -> Result<(), MasterError>,
-) -> Result<(), MasterError> {
+    sub: &mut dyn Subsystem,
+    m: MacroSide,
+    run: &mut dyn FnMut(&mut Frames<'_>) -> Result<(), MasterError>,
+) -> Result<f64, MasterError> {
     match o.execution {
         Execution::Sequential => {
-            let mut frames = Frames::Local { sub: m.sub, all: m.all, width: m.width, seconds: 0.0, spare: None };
-            run(&mut frames, stats)?;
-            if let Frames::Local { seconds, .. } = frames {
-                stats.macro_seconds = seconds;
+            let mut frames = Frames::Local { sub, all: m.all, width: m.width, seconds: 0.0 };
+            run(&mut frames)?;
+            match frames {
+                Frames::Local { seconds, .. } => Ok(seconds),
+                Frames::Channel(_) => unreachable!("sequential frames are local"),
             }
         }
         Execution::Threaded => {
             let (tx, rx) = bounded::<Result<Vec<f64>, MasterError>>(8);
-            let (origin, h, macro_sub) = (o.start, o.macro_step, m.sub);
-            let result = std::thread::scope(|scope| {
+            let (origin, h) = (o.start, o.macro_step);
+            let (result, macro_time) = std::thread::scope(|scope| {
                 let producer = scope.spawn(move || {
                     let started = Instant::now();
                     for k in 0..m.steps {
                         let t = Ticks(origin.0 + k as i64 * h.0);
-                        let frame = step_macro(macro_sub, &m.all, m.width, t, h, None, None);
+                        let frame = step_macro(sub, &m.all, m.width, t, h, None, None);
                         let failed = frame.is_err();
                         if tx.send(frame).is_err() || failed {
                             break;
@@ -768,177 +740,13 @@ fn execute(
                     started.elapsed()
                 });
                 let mut frames = Frames::Channel(rx);
-                let r = run(&mut frames, stats);
+                let r = run(&mut frames);
                 drop(frames);
-                let macro_time = producer.join().unwrap_or(Duration::ZERO);
-                (r, macro_time)
+                (r, producer.join().unwrap_or(Duration::ZERO))
             });
-            result.0?;
-            stats.macro_seconds = result.1.as_secs_f64();
+            result?;
+            Ok(macro_time.as_secs_f64())
         }
-    }
-    Ok(())
-}
-
-/// What a single run carries from macro step to macro step.
-struct RunState {
-    window: VecDeque<Vec<f64>>,
-    prev: Option<Vec<f64>>,
-    produced: usize,
-    micro_count: u64,
-    inputs: Vec<f64>,
-    /// Two-way: the targets (e, ė at the step end, mean F_T over the step), the friction
-    /// impulses at the step start and the last step's mean friction forces.
-    targets: Vec<f64>,
-    impulse_start: Vec<f64>,
-    mean_friction: Vec<f64>,
-    /// Countdown of each observer to its next sample (in micro steps): no division per step.
-    left: Vec<u64>,
-    /// Which micro steps of an interval any observer samples (the micro outputs are read only
-    /// there), and the rows the micro subsystem records at them.
-    due: Vec<bool>,
-    scratch: Vec<u64>,
-    rows: Vec<f64>,
-}
-
-impl RunState {
-    fn new(p: &Prepared) -> Self {
-        let mut window = VecDeque::with_capacity(4);
-        window.push_back(p.first.clone());
-        RunState {
-            window,
-            prev: None,
-            produced: 0,
-            micro_count: 0,
-            inputs: vec![0.0; p.width_in],
-            targets: vec![0.0; 2 * p.n + p.k],
-            impulse_start: vec![0.0; p.k],
-            mean_friction: vec![0.0; p.k],
-            left: p.decimation.clone(),
-            due: vec![false; p.per_macro],
-            scratch: p.decimation.clone(),
-            rows: vec![0.0; p.per_macro * p.micro_width],
-        }
-    }
-
-    /// Two-way predictor: e + ė h_m, ė, and the last step's mean friction forces.
-    fn predict(&mut self, p: &Prepared) {
-        let (n, k, c) = (p.n, p.k, &p.coupling_values);
-        for i in 0..n {
-            let (e, v) = (c[p.ecc_at + i], c[p.rate_at + i]);
-            self.targets[i] = e + v * p.h_m;
-            self.targets[n + i] = v;
-        }
-        self.targets[2 * n..].copy_from_slice(&self.mean_friction);
-        self.impulse_start.copy_from_slice(&c[p.impulse_at..p.impulse_at + k]);
-    }
-
-    /// Two-way corrector targets: the micro's e and ė at the step end, its mean friction
-    /// forces over the step.
-    fn correct(&mut self, p: &Prepared) {
-        let (n, c) = (p.n, &p.coupling_values);
-        self.targets[..2 * n].copy_from_slice(&c[..2 * n]);
-        for j in 0..p.k {
-            self.mean_friction[j] = (c[p.impulse_at + j] - self.impulse_start[j]) / p.h_m;
-        }
-        self.targets[2 * n..].copy_from_slice(&self.mean_friction);
-    }
-
-    /// The micro subsystem over the macro step from `t_k`, its samples to the observers.
-    /// Linear and held inputs are exact as value + rate from the macro node: the micro
-    /// subsystem extrapolates u(t_k) + u̇ (τ − t_k) itself, so they are set once and the whole
-    /// interval is one call (as FMI input derivatives); cubic Hermite inputs are set before
-    /// every micro step.
-    #[inline(always)]
-    fn micro_interval(
-        &mut self,
-        p: &mut Prepared,
-        o: &MasterOptions,
-        micro_sub: &mut dyn Subsystem,
-        observers: &mut [(&mut dyn Observer, Ticks)],
-        t_k: Ticks,
-    ) -> Result<(), MasterError> {
-        let w = Window {
-            prev: self.prev.as_deref(),
-            a: &self.window[0],
-            b: &self.window[1],
-            next: self.window.get(2).map(|v| v.as_slice()),
-            h: p.h_m,
-        };
-        p.table.prepare(&w);
-        let kind = o.interpolation;
-        let batch = if kind == Interpolation::CubicHermite { 1 } else { p.per_macro };
-        let mut j = 0;
-        while j < p.per_macro {
-            p.index.fill(&w, kind, p.fractions[j], &mut self.inputs);
-            micro_sub.set_f64(&p.micro_inputs, &self.inputs).map_err(micro_err)?;
-            let due = &mut self.due[..batch];
-            due_steps(&self.left, &p.decimation, &mut self.scratch, due);
-            let t = Ticks(t_k.0 + j as i64 * o.micro_step.0);
-            let (completed, outcome) =
-                advance_steps(micro_sub, "micro", t, o.micro_step, due, &p.micro_outputs, &mut self.rows);
-            self.micro_count += completed as u64;
-            p.deliver(observers, &mut self.left, (due, completed), &self.rows, (t_k, j), o.micro_step)?;
-            if let Some(reason) = outcome? {
-                return Err(MasterError::Stopped { subsystem: "micro", reason });
-            }
-            j += batch;
-        }
-        Ok(())
-    }
-}
-
-impl Prepared {
-    /// The observers' samples at the start.
-    fn observe_start(&mut self, observers: &mut [(&mut dyn Observer, Ticks)], start: Ticks) -> Result<(), MasterError> {
-        let w = Window { prev: None, a: &self.first, b: &self.first, next: None, h: self.h_m };
-        self.table.prepare(&w);
-        self.table.fill(0.0, &self.micro_values[..self.loads], &self.micro_values, &mut self.signals);
-        for (obs, _) in observers.iter_mut() {
-            obs.observe(start, &self.signals).map_err(MasterError::Observer)?;
-        }
-        Ok(())
-    }
-
-    /// The samples of the first `completed` micro steps of one call of the micro subsystem
-    /// that began at micro step `first` of the macro step from `t_k`, in order, to the observers
-    /// whose countdown (`left`) reaches zero. `due` flags the steps at which any observer
-    /// samples; `rows` holds their micro outputs, one row per flagged step. The countdowns reach
-    /// zero only at flagged steps, so each is taken down to the next one at once (what one step
-    /// at a time gives).
-    #[inline(always)]
-    fn deliver(
-        &mut self,
-        observers: &mut [(&mut dyn Observer, Ticks)],
-        left: &mut [u64],
-        (due, completed): (&[bool], usize),
-        rows: &[f64],
-        (t_k, first): (Ticks, usize),
-        micro_step: Ticks,
-    ) -> Result<(), MasterError> {
-        let width = self.micro_width;
-        let mut counted = 0;
-        let flagged = due[..completed].iter().enumerate().filter(|&(_, &d)| d).map(|(j, _)| j);
-        for (row, j) in flagged.enumerate() {
-            let steps = (j + 1 - counted) as u64;
-            counted = j + 1;
-            for c in left.iter_mut() {
-                *c -= steps;
-            }
-            let micro = &rows[row * width..(row + 1) * width];
-            self.table.fill(self.fractions[first + j + 1], &micro[..self.loads], micro, &mut self.signals);
-            let t1 = Ticks(t_k.0 + (first + j) as i64 * micro_step.0 + micro_step.0);
-            for (((ob, _), c), d) in observers.iter_mut().zip(left.iter_mut()).zip(&self.decimation) {
-                if *c == 0 {
-                    *c = *d;
-                    ob.observe(t1, &self.signals).map_err(MasterError::Observer)?;
-                }
-            }
-        }
-        for c in left.iter_mut() {
-            *c -= (completed - counted) as u64;
-        }
-        Ok(())
     }
 }
 

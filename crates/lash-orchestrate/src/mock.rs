@@ -301,3 +301,104 @@ fn two_way_coupling_hands_the_micro_state_back_to_the_corrector() {
         assert!((pair[1].0 - end).abs() < 1e-15, "step {k}: the corrector got e = {}, the micro's {end}", pair[1].0);
     }
 }
+
+/// Options of the group test: 10 ms in macro steps of 1 ms and micro steps of 0.1 ms.
+fn group_options(interpolation: Interpolation) -> MasterOptions {
+    let t = |s: f64| Ticks::from_seconds(s).unwrap();
+    MasterOptions {
+        start: Ticks::ZERO,
+        stop: t(0.01),
+        macro_step: t(1e-3),
+        micro_step: t(1e-4),
+        interpolation,
+        coupling: Coupling::OneWay,
+        execution: Execution::Sequential,
+    }
+}
+
+/// The micro signal and the propagated one.
+fn group_signals() -> Vec<Signal> {
+    vec![
+        Signal::Micro { name: "seen".into(), variable: "contact_force".into(), element: 0 },
+        Signal::Propagated { name: "propagated".into(), free: ("free".into(), 0), gain: ("gain".into(), 0) },
+    ]
+}
+
+/// Three mock pairs, set up.
+fn mock_pairs() -> Vec<(Macro, Micro)> {
+    (0..3)
+        .map(|_| {
+            let (mut mac, mut mic) = (Macro::new(), Micro::new());
+            mac.setup(Ticks::ZERO, None).unwrap();
+            mic.setup(Ticks::ZERO, None).unwrap();
+            (mac, mic)
+        })
+        .collect()
+}
+
+type Samples = Vec<(Ticks, Vec<f64>)>;
+
+/// Runs stepped together go through the same stepper as a run alone: three mock pairs in one
+/// group (their micro subsystems advanced by the group's step, each by its own `do_steps`) give
+/// every sample and count of a run alone, bit for bit; a group the lanes cannot take (cubic
+/// Hermite inputs) runs each alone with the same results.
+#[test]
+fn a_group_of_runs_steps_each_as_it_steps_alone() {
+    let t = |s: f64| Ticks::from_seconds(s).unwrap();
+    let (options, signals, pairs) = (group_options, group_signals, mock_pairs);
+    for interpolation in [Interpolation::Linear, Interpolation::CubicHermite] {
+        let alone: Vec<(Samples, MasterStats)> = pairs()
+            .iter_mut()
+            .map(|(mac, mic)| {
+                let mut master = InterfaceMaster::new(mac, mic, options(interpolation), signals()).unwrap();
+                let mut samples = Vec::new();
+                let mut obs = |t: Ticks, v: &[f64]| -> Result<(), String> {
+                    samples.push((t, v.to_vec()));
+                    Ok(())
+                };
+                let stats = master.run(&mut [(&mut obs, t(2e-4))]).unwrap();
+                (samples, stats)
+            })
+            .collect();
+        let mut subsystems = pairs();
+        let mut samples: Vec<Samples> = vec![Vec::new(); 3];
+        let (mut calls, mut aheads) = (0, 0);
+        let results = {
+            let mut masters: Vec<InterfaceMaster<'_>> = subsystems
+                .iter_mut()
+                .map(|(mac, mic)| InterfaceMaster::new(mac, mic, options(interpolation), signals()).unwrap())
+                .collect();
+            let mut observers: Vec<_> = samples
+                .iter_mut()
+                .map(|s| {
+                    move |t: Ticks, v: &[f64]| -> Result<(), String> {
+                        s.push((t, v.to_vec()));
+                        Ok(())
+                    }
+                })
+                .collect();
+            let mut lists: Vec<Vec<(&mut dyn Observer, Ticks)>> =
+                observers.iter_mut().map(|o| vec![(o as &mut dyn Observer, t(2e-4))]).collect();
+            let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = lists.iter_mut().map(|l| &mut l[..]).collect();
+            let mut step = |subs: &mut [&mut dyn Subsystem],
+                            t: Ticks,
+                            h: Ticks,
+                            due: &[bool],
+                            refs: &[ValueReference],
+                            rows: &mut [&mut [f64]]| {
+                calls += 1;
+                subs.iter_mut().zip(rows.iter_mut()).map(|(s, r)| s.do_steps(t, h, due, refs, r)).collect()
+            };
+            let mut ahead = |subs: &mut [&mut dyn Subsystem], _: Ticks, _: Ticks| aheads += subs.len();
+            InterfaceMaster::run_together(&mut masters, &mut lists, &mut step, &mut ahead)
+        };
+        for (i, (result, (alone_samples, alone_stats))) in results.into_iter().zip(&alone).enumerate() {
+            let stats = result.unwrap();
+            assert_eq!((stats.macro_steps, stats.micro_steps), (alone_stats.macro_steps, alone_stats.micro_steps));
+            assert_eq!(&samples[i], alone_samples, "{interpolation:?}: run {i}'s samples");
+            assert_eq!(alone_samples.len(), 51);
+        }
+        let together = interpolation != Interpolation::CubicHermite;
+        assert_eq!((calls, aheads), if together { (10, 30) } else { (0, 0) }, "{interpolation:?}");
+    }
+}

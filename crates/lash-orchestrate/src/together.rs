@@ -9,20 +9,6 @@ use super::*;
 /// make them.
 pub type GroupAhead<'f> = dyn FnMut(&mut [&mut dyn Subsystem], Ticks, Ticks) + 'f;
 
-/// One run of [`InterfaceMaster::run_together`] between macro steps.
-struct Lane {
-    p: Prepared,
-    window: VecDeque<Vec<f64>>,
-    prev: Option<Vec<f64>>,
-    /// A frame done with, whose storage the next macro frame takes.
-    spare: Option<Vec<f64>>,
-    produced: usize,
-    inputs: Vec<f64>,
-    left: Vec<u64>,
-    rows: Vec<f64>,
-    micro_count: u64,
-}
-
 impl<'a> InterfaceMaster<'a> {
     /// Runs several masters side by side, a macro step at a time, their micro subsystems advanced
     /// together by `step` once per macro step: each run's result is what its own
@@ -51,24 +37,22 @@ impl<'a> InterfaceMaster<'a> {
         }
         let o = o.expect("masters");
         let mut group = Group::start(masters, observers, o.start);
-        let (per_macro, macro_steps) = match group.lanes.iter().flatten().next() {
-            Some(l) => (l.p.per_macro, l.p.macro_steps),
-            None => (0, 0),
-        };
-        let (mut due, mut scratch) = (vec![false; per_macro], Vec::new());
+        let macro_steps = group.lanes.iter().flatten().next().map_or(0, |s| s.p.macro_steps);
+        let mut due = Vec::new();
         for step_index in 0..macro_steps {
             let t_k = Ticks(o.start.0 + step_index as i64 * o.macro_step.0);
             // Each run: its macro step. (Timed for the group and shared, as the micro steps are:
             // two clock reads per run and macro step were ~1 % of a sweep of scenario A.)
             let started = Instant::now();
             let stepping = group.lanes.iter().flatten().count();
-            group.macro_steps(masters, (step_index, macro_steps), &o, ahead);
+            group.macro_steps(masters, step_index, &o, ahead);
             let share = started.elapsed().as_secs_f64() / (stepping.max(1) as f64);
             group.set_micro_inputs(masters, o.interpolation, share);
             // The steps at which an observer is due (the same countdowns in every run).
-            let Some(first) = group.lanes.iter().flatten().next() else { break };
-            scratch.resize(first.left.len(), 0);
-            due_steps(&first.left, &first.p.decimation, &mut scratch, &mut due);
+            let Some(first) = group.lanes.iter_mut().flatten().next() else { break };
+            let per_macro = first.p.per_macro;
+            due.clear();
+            due.extend_from_slice(first.plan(per_macro));
             group.micro_interval(masters, observers, step, (t_k, o.micro_step), &due);
         }
         group.finish()
@@ -90,7 +74,7 @@ impl<'a> InterfaceMaster<'a> {
 /// The runs of [`InterfaceMaster::run_together`]: each one's lane while it runs, its result
 /// once it has ended.
 struct Group {
-    lanes: Vec<Option<Lane>>,
+    lanes: Vec<Option<Stepper>>,
     results: Vec<Option<Result<MasterStats, MasterError>>>,
     /// The micro outputs read from every micro subsystem (one list for the group call).
     refs: Vec<ValueReference>,
@@ -110,22 +94,7 @@ impl Group {
             refs: Vec::new(),
         };
         for (i, (m, obs)) in masters.iter_mut().zip(observers.iter_mut()).enumerate() {
-            let lane = m.prepare(obs).and_then(|mut p| {
-                p.observe_start(obs, start)?;
-                let mut window = VecDeque::with_capacity(4);
-                window.push_back(p.first.clone());
-                Ok(Lane {
-                    inputs: vec![0.0; p.width_in],
-                    left: p.decimation.clone(),
-                    rows: vec![0.0; p.per_macro * p.micro_width],
-                    window,
-                    prev: None,
-                    spare: None,
-                    produced: 0,
-                    micro_count: 0,
-                    p,
-                })
-            });
+            let lane = m.prepare(obs).and_then(|p| Stepper::start(p, obs, start));
             match lane {
                 Ok(l) => g.lanes.push(Some(l)),
                 Err(e) => {
@@ -150,7 +119,7 @@ impl Group {
     /// Ends run `i` with `e`.
     fn end(&mut self, i: usize, e: MasterError) {
         if let Some(mut l) = self.lanes[i].take() {
-            self.results[i] = Some(InterfaceMaster::ended(e, &mut l.p.stats));
+            self.results[i] = Some(InterfaceMaster::ended(e, l.stats()));
         }
     }
 
@@ -160,36 +129,28 @@ impl Group {
     fn macro_steps(
         &mut self,
         masters: &mut [InterfaceMaster<'_>],
-        (step_index, macro_steps): (usize, usize),
+        step_index: usize,
         o: &MasterOptions,
         ahead: &mut GroupAhead<'_>,
     ) {
-        loop {
-            let due = |l: &Lane| l.produced < (step_index + l.p.ahead).min(macro_steps);
-            let Some(produced) = self.lanes.iter().flatten().filter(|l| due(l)).map(|l| l.produced).min() else {
-                break;
-            };
-            let t = Ticks(o.start.0 + produced as i64 * o.macro_step.0);
+        while let Some(t) = self.lanes.iter().flatten().filter_map(|s| s.wants_frame(step_index, o)).min() {
             {
                 let mut subs: Vec<&mut dyn Subsystem> = Vec::with_capacity(self.lanes.len());
                 for (lane, m) in self.lanes.iter().zip(masters.iter_mut()) {
-                    if lane.as_ref().is_some_and(|l| due(l) && l.produced == produced) {
+                    if lane.as_ref().is_some_and(|s| s.wants_frame(step_index, o) == Some(t)) {
                         subs.push(&mut *m.macro_sub);
                     }
                 }
                 ahead(&mut subs, t, o.macro_step);
             }
             for (i, m) in masters.iter_mut().enumerate() {
-                let Some(l) = self.lanes[i].as_mut() else { continue };
-                if !due(l) || l.produced != produced {
+                let Some(s) = self.lanes[i].as_mut() else { continue };
+                if s.wants_frame(step_index, o) != Some(t) {
                     continue;
                 }
-                match step_macro(&mut *m.macro_sub, &l.p.all_macro, l.p.width, t, o.macro_step, None, l.spare.take()) {
-                    Ok(frame) => {
-                        l.window.push_back(frame);
-                        l.produced += 1;
-                        l.p.stats.macro_steps += 1;
-                    }
+                let spare = s.take_spare();
+                match step_macro(&mut *m.macro_sub, &s.p.all_macro, s.p.width, t, o.macro_step, None, spare) {
+                    Ok(frame) => s.push_frame(frame),
                     Err(e) => self.end(i, e),
                 }
             }
@@ -199,18 +160,10 @@ impl Group {
     /// Each run: its share of the macro time and its micro inputs for the interval.
     fn set_micro_inputs(&mut self, masters: &mut [InterfaceMaster<'_>], kind: Interpolation, share: f64) {
         for (i, m) in masters.iter_mut().enumerate() {
-            let Some(l) = self.lanes[i].as_mut() else { continue };
-            l.p.stats.macro_seconds += share;
-            let w = Window {
-                prev: l.prev.as_deref(),
-                a: &l.window[0],
-                b: &l.window[1],
-                next: l.window.get(2).map(|v| v.as_slice()),
-                h: l.p.h_m,
-            };
-            l.p.table.prepare(&w);
-            l.p.index.fill(&w, kind, 0.0, &mut l.inputs);
-            if let Err(e) = m.micro_sub.set_f64(&l.p.micro_inputs, &l.inputs).map_err(micro_err) {
+            let Some(s) = self.lanes[i].as_mut() else { continue };
+            s.stats().macro_seconds += share;
+            s.begin_interval();
+            if let Err(e) = s.set_inputs(&mut *m.micro_sub, kind, 0) {
                 self.end(i, e);
             }
         }
@@ -242,20 +195,12 @@ impl Group {
         let share = started.elapsed().as_secs_f64() / members.len().max(1) as f64;
         for (&i, steps) in members.iter().zip(outcomes) {
             let (Some(l), obs) = (self.lanes[i].as_mut(), &mut observers[i]) else { continue };
-            l.p.stats.micro_seconds += share;
-            let processed = (|| -> Result<(), MasterError> {
-                let (completed, outcome) = steps_outcome(steps, "micro", t_k, h, due.len());
-                l.micro_count += completed as u64;
-                l.p.deliver(obs, &mut l.left, (due, completed), &l.rows, (t_k, 0), h)?;
-                l.p.stats.micro_steps = l.micro_count;
-                if let Some(reason) = outcome? {
-                    return Err(MasterError::Stopped { subsystem: "micro", reason });
-                }
-                Ok(())
-            })();
-            match processed {
+            let (completed, outcome) = steps_outcome(steps, "micro", t_k, h, due.len());
+            let absorbed = l.absorb(obs, (due, completed), (t_k, 0), h, outcome);
+            l.stats().micro_seconds += share;
+            match absorbed {
                 Err(e) => self.end(i, e),
-                Ok(()) => l.spare = std::mem::replace(&mut l.prev, l.window.pop_front()),
+                Ok(()) => l.end_step(),
             }
         }
     }
@@ -264,9 +209,8 @@ impl Group {
     fn finish(self) -> Vec<Result<MasterStats, MasterError>> {
         let mut results = self.results;
         for (i, lane) in self.lanes.into_iter().enumerate() {
-            if let Some(mut l) = lane {
-                l.p.stats.micro_steps = l.micro_count;
-                results[i] = Some(Ok(l.p.stats));
+            if let Some(mut s) = lane {
+                results[i] = Some(Ok(s.stats().clone()));
             }
         }
         results.into_iter().map(|r| r.expect("every run ends")).collect()
