@@ -13,41 +13,58 @@ use lash_contact::micro::InterfaceSubsystem;
 use lash_core::Subsystem;
 use lash_fmi::{ModelInfo, instantiation_token};
 use lash_run::FullSubsystem;
-use lash_scenario::parameters::{clearance_parameters, mechanism_parameters};
-use lash_scenario::{AnyScenario, Scenario, WithParameters};
+use lash_scenario::parameters::{BuildError, ParameterError, clearance_parameters, mechanism_parameters};
+use lash_scenario::{AnyScenario, LoadError, Scenario, WithParameters};
 use std::path::Path;
+
+/// Why an exported model could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum CatalogError {
+    /// The built-in default scenario is missing (a build without it).
+    #[error("built-in scenario {0} is missing")]
+    MissingBuiltin(&'static str),
+    /// The FMU's scenario resource could not be read.
+    #[error(transparent)]
+    Scenario(#[from] LoadError),
+    /// The reduced model refuses the scenario (e.g. bushings without clearance).
+    #[error("the reduced model of this scenario")]
+    Reduced(#[source] lash_run::RunError),
+    /// The model's scenario parameters.
+    #[error(transparent)]
+    Parameters(#[from] ParameterError),
+}
 
 /// Where an FMU carries its scenario: `resources/scenario.toml` (written by `lash fmu pack`).
 pub const SCENARIO_RESOURCE: &str = "scenario.toml";
 
 /// The scenario of FMUs packed without one: scenario A with the channels the exported mechanism
 /// probes (slider acceleration and motor torque).
-pub fn default_scenario() -> Result<Scenario, String> {
-    let mut a = lash_scenario::builtin::by_name("A").ok_or("built-in scenario A is missing")?;
+pub fn default_scenario() -> Result<Scenario, CatalogError> {
+    let mut a = lash_scenario::builtin::by_name("A").ok_or(CatalogError::MissingBuiltin("A"))?;
     a.output.channels = vec!["slider.ax".into(), "slider.ay".into(), "motor.torque".into()];
     Ok(a)
 }
 
 /// The scenario of an FMU instance: its resources' `scenario.toml` when there is one, else
 /// [`default_scenario`] (a plugin loaded straight from its library, an archive of an older lash).
-pub fn scenario(resources: Option<&Path>) -> Result<AnyScenario, String> {
+pub fn scenario(resources: Option<&Path>) -> Result<AnyScenario, CatalogError> {
     let Some(file) = resources.map(|r| r.join(SCENARIO_RESOURCE)).filter(|f| f.is_file()) else {
         return default_scenario().map(AnyScenario::Planar);
     };
-    lash_scenario::read_any(&file).map_err(|e| e.to_string().trim_end().to_string())
+    Ok(lash_scenario::read_any(&file)?)
 }
 
 /// The reduced model's two subsystems of a scenario, planar or spatial: the mechanism (boxed: a
 /// planar or a spatial macro subsystem) and the interface of its clearance joints.
-fn reduced_subsystems(s: &AnyScenario) -> Result<(Box<dyn Subsystem>, InterfaceSubsystem), String> {
+fn reduced_subsystems(s: &AnyScenario) -> Result<(Box<dyn Subsystem>, InterfaceSubsystem), lash_run::RunError> {
     let options = lash_run::ReducedOptions::default();
     Ok(match s {
         AnyScenario::Planar(s) => {
-            let (m, i) = lash_run::ReducedRun::new(s, options).map_err(|e| e.to_string())?.into_subsystems();
+            let (m, i) = lash_run::ReducedRun::new(s, options)?.into_subsystems();
             (Box::new(m), i)
         }
         AnyScenario::Spatial(s) => {
-            let (m, i) = lash_run::SpatialReducedRun::new(s, options).map_err(|e| e.to_string())?.into_subsystems();
+            let (m, i) = lash_run::SpatialReducedRun::new(s, options)?.into_subsystems();
             (Box::new(m), i)
         }
     })
@@ -69,22 +86,23 @@ pub type ExportedFullModel = WithParameters<FullSubsystem>;
 
 /// The clearance interface (micro subsystem) of the scenario's clearance joints, sized by them
 /// (n = 2 per planar revolute joint, 3 per spherical joint), RK4 at the scenario's micro step.
-pub fn interface(s: &AnyScenario) -> Result<InterfaceSubsystem, String> {
-    reduced_subsystems(s).map(|x| x.1)
+pub fn interface(s: &AnyScenario) -> Result<InterfaceSubsystem, CatalogError> {
+    reduced_subsystems(s).map(|x| x.1).map_err(CatalogError::Reduced)
 }
 
 /// The scenario's mechanism with ideal joints (macro subsystem, one-way), probing the scenario's
 /// output channels, its numbers as parameters.
-pub fn mechanism(s: &AnyScenario) -> Result<ExportedMechanism, String> {
-    WithParameters::new(s, mechanism_parameters(s)?, |s| reduced_subsystems(s).map(|x| x.0))
+pub fn mechanism(s: &AnyScenario) -> Result<ExportedMechanism, CatalogError> {
+    let build = |s: &AnyScenario| reduced_subsystems(s).map(|x| x.0).map_err(BuildError::from);
+    Ok(WithParameters::new(s, mechanism_parameters(s)?, build)?)
 }
 
 /// The scenario's full model (its integrator settings) with every channel as an output and the
 /// mechanism's and the clearance joints' numbers as parameters.
-pub fn full(s: &AnyScenario) -> Result<ExportedFullModel, String> {
+pub fn full(s: &AnyScenario) -> Result<ExportedFullModel, CatalogError> {
     let mut parameters = mechanism_parameters(s)?;
     parameters.extend(clearance_parameters(s)?);
-    WithParameters::new(s, parameters, FullSubsystem::new)
+    Ok(WithParameters::new(s, parameters, |s| Ok(FullSubsystem::new(s)))?)
 }
 
 fn info(
@@ -181,14 +199,14 @@ pub enum FmiVersion {
 /// Why the reduced model's two FMUs (mechanism, interface) cannot be made for `s`, if they cannot
 /// (a scenario the reduced model refuses, e.g. bushings without clearance): its full-model FMU
 /// is still exported.
-pub fn reduced_refusal(s: &AnyScenario) -> Option<String> {
+pub fn reduced_refusal(s: &AnyScenario) -> Option<lash_run::RunError> {
     reduced_subsystems(s).err()
 }
 
 /// `(model identifier, version, modelDescription.xml)` of every exported FMU of `s`, in both
 /// versions: the interface, the mechanism and the full model, or the full model alone when
 /// [`reduced_refusal`] says why the other two cannot be made.
-pub fn descriptions(s: &AnyScenario) -> Result<Vec<(&'static str, FmiVersion, String)>, String> {
+pub fn descriptions(s: &AnyScenario) -> Result<Vec<(&'static str, FmiVersion, String)>, CatalogError> {
     use lash_fmi::description::{fmi2, fmi3};
     let f = full(s)?;
     let mut reduced = None;

@@ -79,8 +79,8 @@ pub fn pack_quiet(scenario: &lash_scenario::AnyScenario, out: &Path) -> Result<V
     let reread = lash_scenario::parse_any(&text)
         .map_err(|p| CliError::Failure(format!("the scenario written into the FMUs does not read back: {p}")))?;
     let descriptions = lash_catalog::descriptions(scenario)
-        .map_err(|e| CliError::Input(format!("scenario {}: {e}", scenario.name())))?;
-    if lash_catalog::descriptions(&reread).map_err(CliError::Failure)? != descriptions {
+        .map_err(|e| CliError::Input(format!("scenario {}: {}", scenario.name(), lash_core::error_chain(&e))))?;
+    if lash_catalog::descriptions(&reread)? != descriptions {
         return Err(CliError::Failure(
             "the scenario written into the FMUs builds other models than the one given".into(),
         ));

@@ -472,6 +472,13 @@ impl From<lash_sweep::dataset::DatasetError> for CliError {
     }
 }
 
+impl From<lash_catalog::CatalogError> for CliError {
+    /// An exported model lash itself describes could not be made (exit 1).
+    fn from(e: lash_catalog::CatalogError) -> Self {
+        CliError::Failure(lash_core::error_chain(&e))
+    }
+}
+
 /// Loads a scenario from a built-in name or a file path.
 pub fn load_scenario(arg: &str) -> Result<lash_scenario::Scenario, CliError> {
     lash_scenario::by_name_or_file(arg).map_err(|e| CliError::Input(e.to_string()))
@@ -775,9 +782,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {
             let scenario = match scenario {
                 Some(arg) => lash_scenario::any_by_name_or_file(&arg).map_err(|e| CliError::Input(e.to_string()))?,
-                None => {
-                    lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario().map_err(CliError::Failure)?)
-                }
+                None => lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario()?),
             };
             fmu::pack(&scenario, &out)
         }

@@ -11,7 +11,7 @@ mod time;
 pub mod units;
 
 pub use names::{csv_header, did_you_mean};
-pub use problems::{Problem, Problems};
+pub use problems::{Problem, Problems, error_chain};
 pub use subsystem::{
     Causality, Coupling, Phase, SavedState, StepOutcome, Steps, StopReason, Subsystem, SubsystemError, ValueKind,
     ValueReference, Variability, Variable, VariableTable, check_variable_table, split_element_name,

@@ -111,6 +111,18 @@ impl fmt::Display for Problems {
 
 impl std::error::Error for Problems {}
 
+/// An error and its causes on one line, `error: cause: cause's cause` — for the places where a
+/// typed error must become text (an FMI log message, a subsystem's `Other` error).
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -128,5 +140,24 @@ mod tests {
         assert!(outer.to_string().contains("3 problems"));
         assert!(outer.clone().into_result().is_err());
         assert!(Problems::new().into_result().is_ok());
+    }
+
+    /// The chain names every cause, outermost first.
+    #[test]
+    fn an_error_chain_names_every_cause() {
+        #[derive(Debug)]
+        struct Outer(std::io::Error);
+        impl std::fmt::Display for Outer {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("reading scenario.toml")
+            }
+        }
+        impl std::error::Error for Outer {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                Some(&self.0)
+            }
+        }
+        let e = Outer(std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"));
+        assert_eq!(super::error_chain(&e), "reading scenario.toml: no such file");
     }
 }

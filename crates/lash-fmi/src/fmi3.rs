@@ -78,10 +78,14 @@ pub trait Exportable: 'static {
     /// Model name, identifier, token, description, default experiment of `model`, an instance
     /// created from the same `resources` (a generic binary takes its identity from the model its
     /// resources describe).
-    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<ModelInfo, String>;
+    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<ModelInfo, ExportError>;
     /// A fresh instance (the FMU's resources folder, if the importer gave one).
-    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String>;
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, ExportError>;
 }
+
+/// Why an exported model could not be made: the model's own error, with its causes (logged
+/// through the importer's callback as `error: cause: …`).
+pub type ExportError = Box<dyn std::error::Error + Send + Sync>;
 
 /// Life-cycle state of an instance (FMI 3.0 co-simulation state machine, without event mode).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -235,7 +239,7 @@ pub(crate) unsafe fn create_instance<M: Exportable>(
             .and_then(|model| M::info(resources.as_deref(), &model).map(|info| (model, info)));
         match created {
             Err(e) => {
-                say(format!("instantiation failed: {e}"));
+                say(format!("instantiation failed: {}", lash_core::error_chain(&*e)));
                 std::ptr::null_mut()
             }
             Ok((_, info)) if token.as_deref() != Some(info.instantiation_token.as_str()) => {
@@ -391,7 +395,7 @@ pub unsafe fn reset<M: Exportable>(instance: *mut c_void) -> Status {
             inst.pending.clear();
             OK
         }
-        Err(e) => inst.fail(&format!("reset failed: {e}")),
+        Err(e) => inst.fail(&format!("reset failed: {}", lash_core::error_chain(&*e))),
     };
     // SAFETY: forwarded.
     unsafe { with_instance::<M>(instance, "fmi3Reset", body) }

@@ -546,17 +546,6 @@ struct Functions {
     free_state: GetState,
 }
 
-/// An error with its causes (libloading puts `dlerror`'s text in the source).
-fn chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        text.push_str(&format!(": {c}"));
-        cause = c.source();
-    }
-    text
-}
-
 /// PythonFMU binaries embed the Python interpreter but do not link libpython: the host process
 /// must provide its symbols (as a Python host such as fmpy does). lash loads it once, globally:
 /// `LASH_LIBPYTHON` names the library, else the `python3` on the PATH says where its own is.
@@ -577,7 +566,7 @@ fn preload_libpython() -> Result<(), String> {
         let flags = libloading::os::unix::RTLD_NOW | libloading::os::unix::RTLD_GLOBAL;
         // SAFETY: loading libpython runs no Python code; its symbols become visible to the FMU.
         unsafe { libloading::os::unix::Library::open(Some(&path), flags) }
-            .map_err(|e| format!("{}: {}", path.display(), chain(&e)))
+            .map_err(|e| format!("{}: {}", path.display(), lash_core::error_chain(&e)))
     });
     loaded.as_ref().map(|_| ()).map_err(Clone::clone)
 }
@@ -909,8 +898,8 @@ impl ImportedFmu {
         if description.generation_tool.starts_with("PythonFMU") {
             preload_libpython().map_err(|m| lerr(format!("a PythonFMU binary needs libpython in the process: {m}")))?;
         }
-        let library =
-            unsafe { libloading::Library::new(&lib_path) }.map_err(|e| lerr(format!("cannot load: {}", chain(&e))))?;
+        let library = unsafe { libloading::Library::new(&lib_path) }
+            .map_err(|e| lerr(format!("cannot load: {}", lash_core::error_chain(&e))))?;
         Self::with_library(description, &lib_path, library, &dir.join("resources"), instance_name)
     }
 
@@ -925,11 +914,14 @@ impl ImportedFmu {
         // SAFETY: loading a shared library runs its initialisers; a plugin is trusted code by the
         // user's choice.
         let library = unsafe { libloading::Library::new(library_path) }
-            .map_err(|e| lerr(format!("cannot load: {}", chain(&e))))?;
+            .map_err(|e| lerr(format!("cannot load: {}", lash_core::error_chain(&e))))?;
         // SAFETY: `export_plugin!` defines the symbol with this signature.
         let describe: libloading::Symbol<'_, unsafe extern "C" fn() -> *const c_char> =
             unsafe { library.get(b"lash_plugin_model_description\0") }.map_err(|e| {
-                lerr(format!("not a lash plugin (missing symbol lash_plugin_model_description: {})", chain(&e)))
+                lerr(format!(
+                    "not a lash plugin (missing symbol lash_plugin_model_description: {})",
+                    lash_core::error_chain(&e)
+                ))
             })?;
         // SAFETY: the function returns a static NUL-terminated string or null.
         let text = unsafe { describe() };
@@ -963,7 +955,7 @@ impl ImportedFmu {
             ($name:literal, $ty:ty) => {{
                 // SAFETY: the symbol has this signature in fmi3Functions.h / fmi2Functions.h.
                 let s: libloading::Symbol<'_, $ty> = unsafe { library.get(concat!($name, "\0").as_bytes()) }
-                    .map_err(|e| lerr(format!("missing symbol {}: {}", $name, chain(&e))))?;
+                    .map_err(|e| lerr(format!("missing symbol {}: {}", $name, lash_core::error_chain(&e))))?;
                 *s
             }};
         }

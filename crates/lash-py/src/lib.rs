@@ -155,7 +155,7 @@ impl Scenario {
 
     /// The number at a field path (`clearances[0].bearing_radius`, `simulation.horizon`).
     fn get(&self, py: Python<'_>, path: &str) -> PyResult<f64> {
-        lash_scenario::paths::get_path(&self.table(py)?, path).map_err(|m| field_error(py, path, m))
+        lash_scenario::paths::get_path(&self.table(py)?, path).map_err(|e| field_error(py, path, e.problem.to_string()))
     }
 
     /// A copy with the numbers at the given field paths changed, validated like a file (the
@@ -174,10 +174,7 @@ impl Scenario {
         let edits = values.iter().map(|(p, v)| (p.as_str(), *v));
         match lash_scenario::paths::edited_any(&table, edits) {
             Ok(inner) => Ok(Self { inner }),
-            Err(lash_scenario::paths::EditError::Path(m)) => {
-                let field = values.iter().map(|(p, _)| p.as_str()).find(|p| m.contains(&format!("{p:?}")));
-                Err(field_error(py, field.unwrap_or("path"), m))
-            }
+            Err(lash_scenario::paths::EditError::Path(e)) => Err(field_error(py, &e.path, e.problem.to_string())),
             Err(lash_scenario::paths::EditError::Invalid(p)) => Err(problems_error(py, "invalid scenario", &p)),
         }
     }

@@ -175,7 +175,7 @@ struct Snapshot {
 
 impl FullSubsystem {
     /// The full model of a validated scenario.
-    pub fn new(scenario: &AnyScenario) -> Result<Self, String> {
+    pub fn new(scenario: &AnyScenario) -> Self {
         let (engine, channels, name, method): (Box<dyn FullEngine>, Vec<Channel>, &str, Method) = match scenario {
             AnyScenario::Planar(s) => {
                 let sources = channel_sources(s, false);
@@ -211,7 +211,7 @@ impl FullSubsystem {
                 &[0.0],
             );
         }
-        Ok(Self {
+        Self {
             name: format!("{name} full model"),
             engine,
             method,
@@ -222,7 +222,7 @@ impl FullSubsystem {
             next_step: None,
             phase: Phase::Instantiated,
             stats: lash_ode::Stats::default(),
-        })
+        }
     }
 
     /// Samples every channel at `(t, y)` into `outputs`.
@@ -369,7 +369,7 @@ mod tests {
     fn a_restored_full_model_repeats_its_steps_exactly() {
         for name in ["A", "E"] {
             let scenario = lash_scenario::any_by_name_or_file(name).unwrap();
-            let mut sub = FullSubsystem::new(&scenario).unwrap();
+            let mut sub = FullSubsystem::new(&scenario);
             sub.setup(Ticks::ZERO, None).unwrap();
             sub.initialize().unwrap();
             let h = Ticks::from_seconds(1e-4).unwrap();

@@ -71,8 +71,34 @@ fn number(v: &toml::Value) -> f64 {
     v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).unwrap_or(f64::NAN)
 }
 
-fn scenario_table(s: &AnyScenario) -> Result<toml::Table, String> {
-    s.to_table().map_err(|e| format!("scenario {:?} does not serialise: {e}", s.name()))
+/// Why a subsystem with scenario parameters could not be made, or its parameters not applied.
+#[derive(Debug, thiserror::Error)]
+pub enum ParameterError {
+    /// The scenario could not be written as a table (to find its numbers).
+    #[error("scenario {scenario:?} does not serialise")]
+    Serialise {
+        /// The scenario's name.
+        scenario: String,
+        /// Why.
+        #[source]
+        source: toml::ser::Error,
+    },
+    /// A parameter has the name of a model variable.
+    #[error("two variables are named {0:?} (a scenario name clashes with a model variable)")]
+    Duplicate(String),
+    /// The parameters' values do not make a scenario.
+    #[error("the parameters make no valid scenario")]
+    Edit(#[from] EditError),
+    /// The model could not be built from the scenario.
+    #[error("the model could not be built from the scenario")]
+    Build(#[source] BuildError),
+}
+
+/// Why a model could not be built from a scenario (the builder's own error, boxed).
+pub type BuildError = Box<dyn std::error::Error + Send + Sync>;
+
+fn scenario_table(s: &AnyScenario) -> Result<toml::Table, ParameterError> {
+    s.to_table().map_err(|source| ParameterError::Serialise { scenario: s.name().to_string(), source })
 }
 
 /// The `name` of each item of the array `section` of a scenario table.
@@ -96,7 +122,7 @@ fn named(table: &toml::Table, section: &str, names: &[String], out: &mut Vec<Sce
 /// The mechanism's parameters (planar or spatial): gravity, each body's mass and inertia (and
 /// products of inertia in space), each joint's points (and axes), each driver's motion, each
 /// load's numbers.
-pub fn mechanism_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, String> {
+pub fn mechanism_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, ParameterError> {
     let table = scenario_table(s)?;
     let mut out = Vec::new();
     if let Some(g) = table.get("gravity") {
@@ -123,7 +149,7 @@ pub fn mechanism_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, S
 
 /// The clearance joints' parameters (radii, contact and friction law coefficients), named after
 /// the joint: `crank_pivot.bearing_radius`, `crank_pivot.contact.restitution`.
-pub fn clearance_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, String> {
+pub fn clearance_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, ParameterError> {
     let table = scenario_table(s)?;
     let names: Vec<String> = match table.get("clearances") {
         Some(toml::Value::Array(items)) => items
@@ -138,7 +164,7 @@ pub fn clearance_parameters(s: &AnyScenario) -> Result<Vec<ScenarioParameter>, S
 }
 
 /// How a subsystem is built from a (validated) scenario.
-pub type Builder<S> = fn(&AnyScenario) -> Result<S, String>;
+pub type Builder<S> = fn(&AnyScenario) -> Result<S, BuildError>;
 
 /// A subsystem built from a scenario, with scenario numbers as FMI parameters (appended after the
 /// subsystem's own variables). Setting a parameter before initialization rebuilds the subsystem
@@ -161,8 +187,12 @@ pub struct WithParameters<S: Subsystem> {
 
 impl<S: Subsystem> WithParameters<S> {
     /// Builds the subsystem from `scenario` and appends `parameters` to its variables.
-    pub fn new(scenario: &AnyScenario, parameters: Vec<ScenarioParameter>, build: Builder<S>) -> Result<Self, String> {
-        let inner = build(scenario)?;
+    pub fn new(
+        scenario: &AnyScenario,
+        parameters: Vec<ScenarioParameter>,
+        build: Builder<S>,
+    ) -> Result<Self, ParameterError> {
+        let inner = build(scenario).map_err(ParameterError::Build)?;
         let mut variables = inner.variables().to_vec();
         let first = variables.len() as ValueReference;
         let mut offsets = Vec::with_capacity(parameters.len() + 1);
@@ -184,7 +214,7 @@ impl<S: Subsystem> WithParameters<S> {
         }
         offsets.push(values.len());
         if let Some(dup) = duplicate(&variables) {
-            return Err(format!("two variables are named {dup:?} (a scenario name clashes with a model variable)"));
+            return Err(ParameterError::Duplicate(dup));
         }
         Ok(Self {
             base: scenario_table(scenario)?,
@@ -207,16 +237,13 @@ impl<S: Subsystem> WithParameters<S> {
     }
 
     /// The scenario with the parameters' current values, validated.
-    pub fn edited_scenario(&self) -> Result<AnyScenario, String> {
+    pub fn edited_scenario(&self) -> Result<AnyScenario, EditError> {
         let edits = self
             .parameters
             .iter()
             .enumerate()
             .flat_map(|(k, p)| p.paths.iter().map(String::as_str).zip(self.parameter_values(k).iter().copied()));
-        crate::paths::edited_any(&self.base, edits).map_err(|e| match e {
-            EditError::Path(m) => m,
-            EditError::Invalid(problems) => format!("the parameters make an invalid scenario: {problems}"),
-        })
+        crate::paths::edited_any(&self.base, edits)
     }
 }
 
@@ -251,9 +278,10 @@ impl<S: Subsystem> Subsystem for WithParameters<S> {
                     .filter(|(k, p)| self.parameter_values(*k) != p.start.as_slice())
                     .map(|(_, p)| p.name.as_str())
                     .collect();
-                SubsystemError::BadValue { name: names.join(", "), problem }
+                SubsystemError::BadValue { name: names.join(", "), problem: lash_core::error_chain(&problem) }
             })?;
-            let mut inner = (self.build)(&scenario).map_err(SubsystemError::Other)?;
+            let mut inner = (self.build)(&scenario)
+                .map_err(|e| SubsystemError::Other(lash_core::error_chain(&ParameterError::Build(e))))?;
             let same = inner.variables().len() == self.first as usize
                 && inner.variables().iter().zip(&self.variables).all(|(a, b)| a.name == b.name && a.shape == b.shape);
             if !same {

@@ -3,12 +3,80 @@
 //! a scenario.
 
 /// Why an edited scenario could not be made.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EditError {
     /// A path that does not name a number of the scenario.
-    Path(String),
+    #[error(transparent)]
+    Path(#[from] PathError),
     /// The edited scenario is not valid (every problem, with its field).
+    #[error("the edited scenario is not valid: {0}")]
     Invalid(lash_core::Problems),
+}
+
+/// A path that names no number of a scenario: the path and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{path:?}: {problem}")]
+pub struct PathError {
+    /// The path as given.
+    pub path: String,
+    /// What is wrong with it.
+    pub problem: PathProblem,
+}
+
+/// What is wrong with a path ([`PathError`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PathProblem {
+    /// The path is empty.
+    #[error("empty path")]
+    Empty,
+    /// A segment has no name (`a..b`).
+    #[error("empty name in the path")]
+    EmptyName,
+    /// An index that is not a whole number.
+    #[error("index [{0}] is not a number")]
+    Index(String),
+    /// A field that is not there.
+    #[error("no field {name:?} in {within} (fields there: {fields:?})")]
+    NoField {
+        /// The field looked for.
+        name: String,
+        /// Where it was looked for (`the scenario`, `clearances[0]`).
+        within: String,
+        /// The fields there are.
+        fields: Vec<String>,
+    },
+    /// An index past the end of a list.
+    #[error("index {index} out of range ({within} has {len} entries)")]
+    OutOfRange {
+        /// The index.
+        index: usize,
+        /// The list.
+        within: String,
+        /// Its length.
+        len: usize,
+    },
+    /// A field looked for in a value that has none.
+    #[error("{within} has no fields (looking for {name:?})")]
+    NotATable {
+        /// The value.
+        within: String,
+        /// The field looked for.
+        name: String,
+    },
+    /// An index into a value that is not a list.
+    #[error("{within} is not a list (looking for [{index}])")]
+    NotAList {
+        /// The value.
+        within: String,
+        /// The index.
+        index: usize,
+    },
+    /// The path ends at something other than a number.
+    #[error("not a number (it is a {0})")]
+    NotANumber(&'static str),
+    /// A whole-number field given a fraction.
+    #[error("a whole number; {0} is not")]
+    NotWhole(f64),
 }
 
 /// The scenario `base` (as a TOML table, planar or spatial: its `space` key decides) with each
@@ -27,7 +95,7 @@ pub fn edited_any<'a>(
     let write = || -> Result<toml::Table, EditError> {
         let mut table = base.clone();
         for &(path, value) in &edits {
-            set_path(&mut table, path, value).map_err(EditError::Path)?;
+            set_path(&mut table, path, value)?;
         }
         Ok(table)
     };
@@ -143,56 +211,71 @@ fn set_field(s: &mut crate::Scenario, key: &str, value: toml::Value) -> Option<(
 
 /// Writes `value` at a dotted path with indices (`clearances[0].contact.restitution`) of a TOML
 /// table. The field must exist and be a number.
-pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {
-    match walk(table, path)? {
-        toml::Value::Float(f) => *f = value,
-        toml::Value::Integer(i) if value.fract() == 0.0 && value.abs() < 9.0e15 => *i = value as i64,
-        toml::Value::Integer(_) => return Err(format!("{path:?} is a whole number; {value} is not")),
-        other => return Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
-    }
-    Ok(())
+pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), PathError> {
+    let problem = match walk(table, path)? {
+        toml::Value::Float(f) => {
+            *f = value;
+            return Ok(());
+        }
+        toml::Value::Integer(i) if value.fract() == 0.0 && value.abs() < 9.0e15 => {
+            *i = value as i64;
+            return Ok(());
+        }
+        toml::Value::Integer(_) => PathProblem::NotWhole(value),
+        other => PathProblem::NotANumber(other.type_str()),
+    };
+    Err(PathError { path: path.to_string(), problem })
 }
 
 /// The number at a dotted path with indices of a TOML table (the paths of [`set_path`]).
-pub fn get_path(table: &toml::Table, path: &str) -> Result<f64, String> {
+pub fn get_path(table: &toml::Table, path: &str) -> Result<f64, PathError> {
     let mut table = table.clone();
     match walk(&mut table, path)? {
         toml::Value::Float(f) => Ok(*f),
         toml::Value::Integer(i) => Ok(*i as f64),
-        other => Err(format!("{path:?} is not a number (it is a {})", other.type_str())),
+        other => Err(PathError { path: path.to_string(), problem: PathProblem::NotANumber(other.type_str()) }),
     }
 }
 
-/// The value at `path`, or why the path names nothing.
-fn walk<'t>(table: &'t mut toml::Table, path: &str) -> Result<&'t mut toml::Value, String> {
+/// The segments of `path`.
+fn segments(path: &str) -> Result<Vec<Segment>, PathProblem> {
     let mut segments = Vec::new();
     for part in path.split('.') {
         let (name, rest) = part.split_once('[').unwrap_or((part, ""));
         if name.is_empty() {
-            return Err(format!("{path:?}: empty name in the path"));
+            return Err(PathProblem::EmptyName);
         }
         segments.push(Segment::Key(name.to_string()));
         if !rest.is_empty() {
             for idx in rest.trim_end_matches(']').split("][") {
-                let i = idx.parse::<usize>().map_err(|_| format!("{path:?}: index [{idx}] is not a number"))?;
+                let i = idx.parse::<usize>().map_err(|_| PathProblem::Index(idx.to_string()))?;
                 segments.push(Segment::Index(i));
             }
         }
     }
+    Ok(segments)
+}
+
+/// The value at `path`, or why the path names nothing.
+fn walk<'t>(table: &'t mut toml::Table, path: &str) -> Result<&'t mut toml::Value, PathError> {
+    let error = |problem| PathError { path: path.to_string(), problem };
+    let segments = segments(path).map_err(error)?;
     let Some(Segment::Key(first)) = segments.first() else {
-        return Err(format!("{path:?}: empty path"));
+        return Err(error(PathProblem::Empty));
     };
-    let keys: Vec<String> = table.keys().cloned().collect();
-    let Some(mut here) = table.get_mut(first) else {
-        return Err(format!("{path:?}: no field {first:?} in the scenario (fields: {keys:?})"));
-    };
+    let fields = |t: &toml::Table| t.keys().cloned().collect::<Vec<String>>();
+    if !table.contains_key(first) {
+        let (name, within, fields) = (first.clone(), "the scenario".into(), fields(table));
+        return Err(error(PathProblem::NoField { name, within, fields }));
+    }
+    let mut here = table.get_mut(first).expect("checked");
     let mut walked = first.clone();
     for seg in &segments[1..] {
         here = match (seg, here) {
             (Segment::Key(k), toml::Value::Table(t)) => {
                 if !t.contains_key(k) {
-                    let keys: Vec<&String> = t.keys().collect();
-                    return Err(format!("{path:?}: no field {k:?} in {walked} (fields there: {keys:?})"));
+                    let (name, within, fields) = (k.clone(), walked, fields(t));
+                    return Err(error(PathProblem::NoField { name, within, fields }));
                 }
                 walked.push_str(&format!(".{k}"));
                 t.get_mut(k).expect("checked")
@@ -200,13 +283,13 @@ fn walk<'t>(table: &'t mut toml::Table, path: &str) -> Result<&'t mut toml::Valu
             (Segment::Index(i), toml::Value::Array(a)) => {
                 let len = a.len();
                 if *i >= len {
-                    return Err(format!("{path:?}: index {i} out of range ({walked} has {len} entries)"));
+                    return Err(error(PathProblem::OutOfRange { index: *i, within: walked, len }));
                 }
                 walked.push_str(&format!("[{i}]"));
                 &mut a[*i]
             }
-            (Segment::Key(k), _) => return Err(format!("{path:?}: {walked} has no fields (looking for {k:?})")),
-            (Segment::Index(i), _) => return Err(format!("{path:?}: {walked} is not a list (looking for [{i}])")),
+            (Segment::Key(k), _) => return Err(error(PathProblem::NotATable { within: walked, name: k.clone() })),
+            (Segment::Index(i), _) => return Err(error(PathProblem::NotAList { within: walked, index: *i })),
         };
     }
     Ok(here)
@@ -343,7 +426,7 @@ mod tests {
     fn bad_edits_name_the_path_or_the_problem() {
         let base = table_of("A");
         match edited_any(&base, [("clearances[0].no_such_field", 1.0)]) {
-            Err(EditError::Path(m)) => assert!(m.contains("no_such_field"), "{m}"),
+            Err(EditError::Path(e)) => assert!(e.to_string().contains("no_such_field"), "{e}"),
             other => panic!("expected a path error, got {:?}", other.map(|_| ())),
         }
         match edited_any(&base, [("clearances[0].bearing_radius", -1.0)]) {

@@ -91,7 +91,7 @@ impl Plan {
         for (k, par) in spec.parameters.iter().enumerate() {
             let mut t = base_table.clone();
             if let Err(m) = set_path(&mut t, &par.path, 0.0) {
-                p.push(format!("parameters[{k}].path"), m);
+                p.push(format!("parameters[{k}].path"), m.to_string());
             }
         }
         let known: Vec<String> = base
@@ -143,7 +143,7 @@ impl Plan {
     pub fn scenario(&self, run: &RunSpec) -> Result<AnyScenario, String> {
         let edits = self.spec.parameters.iter().map(|p| p.path.as_str()).zip(run.values.iter().copied());
         self.edits.edited(edits).map_err(|e| match e {
-            EditError::Path(m) => m,
+            EditError::Path(e) => e.to_string(),
             EditError::Invalid(p) => format!("invalid parameter combination: {p}"),
         })
     }

@@ -158,7 +158,9 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
         ElementSource::Builtin(id, scenario) => {
             let scenario = match scenario {
                 Some(s) => lash_scenario::any_by_name_or_file(s).map_err(|e| format!("scenario: {e}"))?,
-                None => lash_scenario::AnyScenario::Planar(lash_catalog::default_scenario()?),
+                None => lash_scenario::AnyScenario::Planar(
+                    lash_catalog::default_scenario().map_err(|e| lash_core::error_chain(&e))?,
+                ),
             };
             builtin(id, &scenario)?
         }
@@ -167,10 +169,11 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
 
 /// A built-in subsystem of `scenario` by model identifier.
 fn builtin(id: &str, scenario: &lash_scenario::AnyScenario) -> Result<Box<dyn Subsystem>, String> {
+    let text = |e: lash_catalog::CatalogError| lash_core::error_chain(&e);
     Ok(match id {
-        lash_catalog::INTERFACE => Box::new(lash_catalog::interface(scenario)?),
-        lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism(scenario)?),
-        lash_catalog::FULL => Box::new(lash_catalog::full(scenario)?),
+        lash_catalog::INTERFACE => Box::new(lash_catalog::interface(scenario).map_err(text)?),
+        lash_catalog::MECHANISM => Box::new(lash_catalog::mechanism(scenario).map_err(text)?),
+        lash_catalog::FULL => Box::new(lash_catalog::full(scenario).map_err(text)?),
         other => {
             return Err(format!(
                 "no built-in subsystem {other:?} (built-ins: {}, {}, {})",

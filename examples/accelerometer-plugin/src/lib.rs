@@ -215,7 +215,10 @@ pub struct AccelerometerPlugin;
 impl lash_fmi::fmi3::Exportable for AccelerometerPlugin {
     type Model = Accelerometer;
 
-    fn info(_resources: Option<&std::path::Path>, model: &Accelerometer) -> Result<lash_fmi::ModelInfo, String> {
+    fn info(
+        _resources: Option<&std::path::Path>,
+        model: &Accelerometer,
+    ) -> Result<lash_fmi::ModelInfo, lash_fmi::fmi3::ExportError> {
         let vars = model.variables();
         Ok(lash_fmi::ModelInfo {
             model_name: "accelerometer".into(),
@@ -226,7 +229,7 @@ impl lash_fmi::fmi3::Exportable for AccelerometerPlugin {
         })
     }
 
-    fn create(_resources: Option<&std::path::Path>) -> Result<Accelerometer, String> {
+    fn create(_resources: Option<&std::path::Path>) -> Result<Accelerometer, lash_fmi::fmi3::ExportError> {
         Ok(Accelerometer::new())
     }
 }

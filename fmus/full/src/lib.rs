@@ -13,13 +13,16 @@ pub struct FullModelFmu;
 impl Exportable for FullModelFmu {
     type Model = lash_catalog::ExportedFullModel;
 
-    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<lash_fmi::ModelInfo, String> {
+    fn info(
+        resources: Option<&std::path::Path>,
+        model: &Self::Model,
+    ) -> Result<lash_fmi::ModelInfo, lash_fmi::fmi3::ExportError> {
         use lash_core::Subsystem;
         Ok(lash_catalog::full_info(&lash_catalog::scenario(resources)?, model.variables()))
     }
 
-    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
-        lash_catalog::full(&lash_catalog::scenario(resources)?)
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, lash_fmi::fmi3::ExportError> {
+        Ok(lash_catalog::full(&lash_catalog::scenario(resources)?)?)
     }
 }
 

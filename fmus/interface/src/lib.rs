@@ -16,13 +16,16 @@ pub struct InterfaceFmu;
 impl Exportable for InterfaceFmu {
     type Model = lash_contact::micro::InterfaceSubsystem;
 
-    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<lash_fmi::ModelInfo, String> {
+    fn info(
+        resources: Option<&std::path::Path>,
+        model: &Self::Model,
+    ) -> Result<lash_fmi::ModelInfo, lash_fmi::fmi3::ExportError> {
         use lash_core::Subsystem;
         Ok(lash_catalog::interface_info(&lash_catalog::scenario(resources)?, model.variables()))
     }
 
-    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
-        lash_catalog::interface(&lash_catalog::scenario(resources)?)
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, lash_fmi::fmi3::ExportError> {
+        Ok(lash_catalog::interface(&lash_catalog::scenario(resources)?)?)
     }
 }
 

@@ -13,13 +13,16 @@ pub struct MechanismFmu;
 impl Exportable for MechanismFmu {
     type Model = lash_catalog::ExportedMechanism;
 
-    fn info(resources: Option<&std::path::Path>, model: &Self::Model) -> Result<lash_fmi::ModelInfo, String> {
+    fn info(
+        resources: Option<&std::path::Path>,
+        model: &Self::Model,
+    ) -> Result<lash_fmi::ModelInfo, lash_fmi::fmi3::ExportError> {
         use lash_core::Subsystem;
         Ok(lash_catalog::mechanism_info(&lash_catalog::scenario(resources)?, model.variables()))
     }
 
-    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, String> {
-        lash_catalog::mechanism(&lash_catalog::scenario(resources)?)
+    fn create(resources: Option<&std::path::Path>) -> Result<Self::Model, lash_fmi::fmi3::ExportError> {
+        Ok(lash_catalog::mechanism(&lash_catalog::scenario(resources)?)?)
     }
 }
 
