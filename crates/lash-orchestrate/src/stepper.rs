@@ -116,18 +116,19 @@ impl Stepper {
     }
 
     /// The rows of `completed` micro steps from micro step `first` of the macro step from
-    /// `t_k` (sampled where `due`), to the observers; `outcome` is how the micro call ended.
+    /// `t_k` (sampled where the last [`Stepper::plan`] of `len` steps said), to the observers;
+    /// `outcome` is how the micro call ended.
     pub(crate) fn absorb(
         &mut self,
         observers: &mut [(&mut dyn Observer, Ticks)],
-        (due, completed): (&[bool], usize),
+        (len, completed): (usize, usize),
         (t_k, first): (Ticks, usize),
         h: Ticks,
         outcome: Result<Option<StopReason>, MasterError>,
     ) -> Result<(), MasterError> {
         self.micro_count += completed as u64;
         self.p.stats.micro_steps = self.micro_count;
-        self.p.deliver(observers, &mut self.left, (due, completed), &self.rows, (t_k, first), h)?;
+        self.p.deliver(observers, &mut self.left, (&self.due[..len], completed), &self.rows, (t_k, first), h)?;
         match outcome? {
             Some(reason) => Err(MasterError::Stopped { subsystem: "micro", reason }),
             None => Ok(()),
@@ -165,10 +166,7 @@ impl Stepper {
             let due = &self.due[..batch];
             let (completed, outcome) =
                 advance_steps(micro_sub, "micro", t, o.micro_step, due, &self.p.micro_outputs, &mut self.rows);
-            let due = std::mem::take(&mut self.due);
-            let absorbed = self.absorb(observers, (&due[..batch], completed), (t_k, j), o.micro_step, outcome);
-            self.due = due;
-            if let Err(e) = absorbed {
+            if let Err(e) = self.absorb(observers, (batch, completed), (t_k, j), o.micro_step, outcome) {
                 break Err(e);
             }
             j += batch;

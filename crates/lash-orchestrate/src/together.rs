@@ -48,11 +48,14 @@ impl<'a> InterfaceMaster<'a> {
             group.macro_steps(masters, step_index, &o, ahead);
             let share = started.elapsed().as_secs_f64() / (stepping.max(1) as f64);
             group.set_micro_inputs(masters, o.interpolation, share);
-            // The steps at which an observer is due (the same countdowns in every run).
-            let Some(first) = group.lanes.iter_mut().flatten().next() else { break };
+            // The steps at which an observer is due (the same countdowns in every run): each
+            // run plans its own, the first one's go to the group's step.
+            let mut lanes = group.lanes.iter_mut().flatten();
+            let Some(first) = lanes.next() else { break };
             let per_macro = first.p.per_macro;
             due.clear();
             due.extend_from_slice(first.plan(per_macro));
+            lanes.for_each(|s| _ = s.plan(per_macro));
             group.micro_interval(masters, observers, step, (t_k, o.micro_step), &due);
         }
         group.finish()
@@ -196,7 +199,7 @@ impl Group {
         for (&i, steps) in members.iter().zip(outcomes) {
             let (Some(l), obs) = (self.lanes[i].as_mut(), &mut observers[i]) else { continue };
             let (completed, outcome) = steps_outcome(steps, "micro", t_k, h, due.len());
-            let absorbed = l.absorb(obs, (due, completed), (t_k, 0), h, outcome);
+            let absorbed = l.absorb(obs, (due.len(), completed), (t_k, 0), h, outcome);
             l.stats().micro_seconds += share;
             match absorbed {
                 Err(e) => self.end(i, e),
