@@ -189,11 +189,11 @@ fn observers_record_at_their_own_rates() {
     let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
     assert_eq!(master.signal_names(), ["force", "slider.ax"]);
     let (mut fast, mut slow) = (Vec::new(), Vec::new());
-    let mut fast_observer = |t: Ticks, v: &[f64]| -> Result<(), String> {
+    let mut fast_observer = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
         fast.push((t, v.to_vec()));
         Ok(())
     };
-    let mut slow_observer = |t: Ticks, v: &[f64]| -> Result<(), String> {
+    let mut slow_observer = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
         slow.push((t, v.to_vec()));
         Ok(())
     };
@@ -212,7 +212,7 @@ fn observers_record_at_their_own_rates() {
     m2.setup(Ticks::ZERO, Some(stop)).unwrap();
     i2.setup(Ticks::ZERO, Some(stop)).unwrap();
     let mut master = InterfaceMaster::new(&mut m2, &mut i2, options, vec![]).unwrap();
-    let mut none = |_: Ticks, _: &[f64]| -> Result<(), String> { Ok(()) };
+    let mut none = |_: Ticks, _: &[f64]| -> Result<(), lash_core::BoxError> { Ok(()) };
     let mut bad: [(&mut dyn Observer, Ticks); 1] = [(&mut none, Ticks::from_seconds(1.5e-5).unwrap())];
     let e = master.run(&mut bad).unwrap_err().to_string();
     assert!(e.contains("observer interval"), "{e}");
@@ -293,7 +293,7 @@ fn the_interface_master_honours_early_returns_and_stop_requests() {
             vec![Signal::Micro { name: "force".into(), variable: "contact_force_magnitude".into(), element: 0 }];
         let mut master = InterfaceMaster::new(&mut mechanism, &mut interface, options, signals).unwrap();
         let mut times = Vec::new();
-        let mut observer = |t: Ticks, _: &[f64]| -> Result<(), String> {
+        let mut observer = |t: Ticks, _: &[f64]| -> Result<(), lash_core::BoxError> {
             times.push(t);
             Ok(())
         };
@@ -362,8 +362,8 @@ fn runs_stepped_together_equal_each_run_alone() {
             .collect()
     };
     type Samples = Vec<(i64, Vec<u64>)>;
-    type Sink<'a> = Box<dyn FnMut(Ticks, &[f64]) -> Result<(), String> + 'a>;
-    let record = |into: &mut Samples, t: Ticks, v: &[f64]| -> Result<(), String> {
+    type Sink<'a> = Box<dyn FnMut(Ticks, &[f64]) -> Result<(), lash_core::BoxError> + 'a>;
+    let record = |into: &mut Samples, t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
         into.push((t.0, v.iter().map(|x| x.to_bits()).collect()));
         Ok(())
     };
@@ -371,8 +371,8 @@ fn runs_stepped_together_equal_each_run_alone() {
     let mut alone: Vec<(Samples, Samples)> = Vec::new();
     for (mut m, mut i) in subsystems() {
         let (mut fast, mut slow) = (Vec::new(), Vec::new());
-        let mut f = |t: Ticks, v: &[f64]| -> Result<(), String> { record(&mut fast, t, v) };
-        let mut s = |t: Ticks, v: &[f64]| -> Result<(), String> { record(&mut slow, t, v) };
+        let mut f = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> { record(&mut fast, t, v) };
+        let mut s = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> { record(&mut slow, t, v) };
         let mut observers: [(&mut dyn Observer, Ticks); 2] =
             [(&mut f, Ticks::from_seconds(1e-5).unwrap()), (&mut s, Ticks::from_seconds(2e-4).unwrap())];
         InterfaceMaster::new(&mut *m, &mut *i, options, signals()).unwrap().run(&mut observers).unwrap();

@@ -169,7 +169,7 @@ fn runs_executed_together_equal_each_run_alone() {
     let mut sinks: Vec<_> = together
         .iter_mut()
         .map(|rows| {
-            move |r: &[f64]| -> Result<(), String> {
+            move |r: &[f64]| -> Result<(), lash_core::BoxError> {
                 rows.push(r.to_vec());
                 Ok(())
             }

@@ -25,7 +25,8 @@ pub mod fe;
 pub mod hertz;
 pub mod mesh;
 
-use fe::{Annulus, SolveError, lame, plane_strain};
+pub use fe::SolveError;
+use fe::{Annulus, lame, plane_strain};
 use hertz::LineContact;
 use lash_core::Problems;
 pub use mesh::{AnnulusMesh, MeshOptions};

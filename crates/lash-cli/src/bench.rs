@@ -595,7 +595,7 @@ fn fmi_section(quick: bool) -> Result<(), CliError> {
         micro.setup(Ticks::ZERO, Some(stop)).map_err(|e| fail(&e))?;
         let mut master = InterfaceMaster::new(mech, micro, options, signals.clone()).map_err(|e| fail(&e))?;
         let mut sum = 0.0;
-        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), String> {
+        let mut observer = |_t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
             sum += v[0];
             Ok(())
         };
@@ -789,7 +789,7 @@ pub fn fmu(path: &std::path::Path, quick: bool, isolate: bool) -> Result<(), Cli
         let host = std::env::current_exe().map_err(|e| CliError::Failure(format!("the lash executable: {e}")))?;
         let mut isolated =
             lash_fmi::isolate::IsolatedFmu::spawn(&host, path, &cache, "bench", std::time::Duration::from_secs(60))
-                .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+                .map_err(|e| CliError::Input(format!("{}: {}", path.display(), lash_core::error_chain(&e))))?;
         // A round trip between processes costs microseconds: a hundredth of the steps.
         let (ia, ig, _) = measure(&mut isolated, (steps / 100).max(1000))?;
         println!("  isolated:    do_step alone {:>10.1} ns per step ({:.0}× in process)", ia * 1e9, ia / a);

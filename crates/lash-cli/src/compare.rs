@@ -2,7 +2,7 @@
 
 use crate::CliError;
 use lash_metrics as compare;
-use lash_run::{BuildOptions, FullRun, ReducedOptions, ReducedRun, Runner, SpatialReducedRun, SpatialRun};
+use lash_run::{BuildOptions, FullRun, ReducedOptions, Runner, SpatialRun};
 use lash_scenario::AnyScenario;
 use std::path::Path;
 
@@ -43,7 +43,7 @@ fn error_check(
 ) -> serde_json::Value {
     let estimate = match crate::probe::estimate(s, options) {
         Ok(e) => e,
-        Err(e) => return serde_json::json!({ "error": e }),
+        Err(e) => return serde_json::json!({ "error": e.to_string() }),
     };
     let measured: serde_json::Map<String, serde_json::Value> = estimate
         .channels
@@ -98,8 +98,8 @@ fn steady_speedups(
     with_fixed: bool,
     reduced: crate::steady::Make<'_>,
 ) -> Result<(Vec<crate::steady::Timed>, usize), CliError> {
-    let mut full_make = || -> Result<Box<dyn Runner>, String> { Ok(full_runner(s, false)) };
-    let mut fixed_make = || -> Result<Box<dyn Runner>, String> { Ok(full_runner(fixed, false)) };
+    let mut full_make = || -> Result<Box<dyn Runner>, lash_run::RunError> { Ok(full_runner(s, false)) };
+    let mut fixed_make = || -> Result<Box<dyn Runner>, lash_run::RunError> { Ok(full_runner(fixed, false)) };
     let mut makers: Vec<crate::steady::Make<'_>> = vec![reduced, &mut full_make];
     if with_fixed {
         makers.push(&mut fixed_make);
@@ -145,12 +145,8 @@ pub fn run(
     quiet: bool,
 ) -> Result<(), CliError> {
     let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
-    let reduced_runner = |options: ReducedOptions| -> Result<Box<dyn Runner>, CliError> {
-        Ok(match s {
-            AnyScenario::Planar(p) => Box::new(ReducedRun::new(p, options).map_err(refuse)?),
-            AnyScenario::Spatial(p) => Box::new(SpatialReducedRun::new(p, options).map_err(refuse)?),
-        })
-    };
+    let reduced_runner =
+        |options: ReducedOptions| lash_run::runner(s, lash_run::Model::Reduced(options)).map_err(refuse);
     // Refused settings are said before the full model runs.
     reduced_runner(options)?;
     // What the comparison looks at: every sensor's accelerations, the drivers' torques, the
@@ -228,7 +224,7 @@ pub fn run(
     };
 
     // The headline speed-ups: each model's simulation alone, in rounds (crate::steady).
-    let mut reduced_make = || reduced_runner(options).map_err(|e| e.to_string());
+    let mut reduced_make = || lash_run::runner(s, lash_run::Model::Reduced(options));
     let (steady, rounds) = steady_speedups(s, &fixed, fixed_timing.is_ok(), &mut reduced_make)?;
     let (reduced_steady, full_steady, fixed_steady) = (steady[0], steady[1], steady.get(2).copied());
 
@@ -257,8 +253,8 @@ pub fn run(
     for m in &s.output().measurements {
         channels.extend(m.forces.iter().filter(|f| !channels.contains(f)).cloned().collect::<Vec<_>>());
     }
-    let mut metrics =
-        compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW).map_err(CliError::Failure)?;
+    let mut metrics = compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW)
+        .map_err(|e| CliError::Failure(e.to_string()))?;
     // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
     metrics.retain(|_, m| m.peak_full > 1e-6);
     // Figures (the reduced-interface-model papers' figures 2–3): every compared channel over time and its spectrum.

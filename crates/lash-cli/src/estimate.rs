@@ -14,6 +14,8 @@ fn cli(e: EstimateError) -> CliError {
         EstimateError::Failure(m) => CliError::Failure(m),
         EstimateError::Sweep(lash_sweep::SweepError::Input(m)) => CliError::Input(m),
         EstimateError::Sweep(other) => CliError::Failure(other.to_string()),
+        EstimateError::Run(e) => CliError::Failure(e.to_string()),
+        EstimateError::Acquisition(e) => CliError::Input(e.to_string()),
     }
 }
 

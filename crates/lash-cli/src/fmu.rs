@@ -116,7 +116,7 @@ pub fn check(fmu: &Path, isolate: bool, timeout: f64) -> Result<(), CliError> {
             })?;
         let host = std::env::current_exe().map_err(|e| CliError::Failure(format!("the lash executable: {e}")))?;
         let isolated = lash_fmi::isolate::IsolatedFmu::spawn(&host, fmu, &cache, "check", timeout)
-            .map_err(|e| CliError::Input(format!("{}: {e}", fmu.display())))?;
+            .map_err(|e| CliError::Input(format!("{}: {}", fmu.display(), lash_core::error_chain(&e))))?;
         let version = isolated.fmi_version().to_string();
         (Box::new(isolated), version)
     } else {

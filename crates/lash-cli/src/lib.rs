@@ -590,7 +590,8 @@ fn run_reduced(
                 }
             }
             if let Some(tolerance) = settings.tolerance {
-                let (chosen, search) = p.meet_tolerance(options, tolerance, 8).map_err(CliError::Failure)?;
+                let (chosen, search) =
+                    p.meet_tolerance(options, tolerance, 8).map_err(|e| CliError::Failure(e.to_string()))?;
                 options = chosen;
                 eprintln!("{}", search.line());
                 notes.insert(

@@ -15,6 +15,25 @@ static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// The message of a run ended by a signal.
 pub const INTERRUPTED_MESSAGE: &str = "interrupted (SIGINT/SIGTERM)";
 
+/// Why a row was not taken by a [`SeriesOutput`].
+#[derive(Debug, thiserror::Error)]
+pub enum RowError {
+    /// The run was interrupted (SIGINT/SIGTERM).
+    #[error("{INTERRUPTED_MESSAGE}")]
+    Interrupted,
+    /// A row of another width than the table's.
+    #[error("output: a row of {values} values in a table of {columns} columns")]
+    Width {
+        /// Values in the row.
+        values: usize,
+        /// Columns of the table.
+        columns: usize,
+    },
+    /// Writing the file failed.
+    #[error("output: {0}")]
+    Write(std::io::Error),
+}
+
 /// Installs the SIGINT/SIGTERM handler (once; later calls do nothing). A run writing through a
 /// [`SeriesOutput`] then stops at its next row, keeps the rows so far and exits with a message.
 pub fn catch_interrupts() {
@@ -139,19 +158,19 @@ impl SeriesOutput {
 
     /// Takes one row (written in batches; [`SeriesOutput::finish`] and [`SeriesOutput::abandon`] write
     /// what is pending). Every row of a file has the width of the first.
-    pub fn row(&mut self, row: &[f64]) -> Result<(), String> {
+    pub fn row(&mut self, row: &[f64]) -> Result<(), RowError> {
         if interrupted() {
-            return Err(INTERRUPTED_MESSAGE.into());
+            return Err(RowError::Interrupted);
         }
         if self.rows == 0 && self.pending.is_empty() {
             self.width = row.len();
             self.pending.reserve(BATCH_ROWS * row.len().max(1));
         } else if row.len() != self.width {
-            return Err(format!("output: a row of {} values in a table of {} columns", row.len(), self.width));
+            return Err(RowError::Width { values: row.len(), columns: self.width });
         }
         self.pending.extend_from_slice(row);
         if self.pending.len() >= BATCH_ROWS * self.width.max(1) {
-            self.write_pending().map_err(|e| format!("output: {e}"))?;
+            self.write_pending().map_err(RowError::Write)?;
         }
         Ok(())
     }

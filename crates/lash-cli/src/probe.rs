@@ -85,20 +85,29 @@ pub fn main_channels(scenario: &AnyScenario) -> Vec<String> {
         .collect()
 }
 
+/// Why a probe or an error estimate could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ProbeError {
+    /// A run (the full model's probe, or the reduced run compared with it) failed.
+    #[error(transparent)]
+    Run(#[from] lash_run::RunError),
+    /// The two runs could not be compared.
+    #[error(transparent)]
+    Compare(#[from] lash_metrics::CompareError),
+}
+
 /// Runs `model` of `scenario` and keeps its rows and summary.
-fn rows(scenario: &AnyScenario, model: lash_run::Model) -> Result<Rows, String> {
+fn rows(scenario: &AnyScenario, model: lash_run::Model) -> Result<Rows, ProbeError> {
     let mut runner = lash_run::runner(scenario, model)?;
     let header = runner.header();
     let mut rows = Vec::new();
-    let summary = runner
-        .execute(
-            &mut |row: &[f64]| {
-                rows.push(row.to_vec());
-                Ok(())
-            },
-            &mut |_| {},
-        )
-        .map_err(|e| e.to_string())?;
+    let summary = runner.execute(
+        &mut |row: &[f64]| {
+            rows.push(row.to_vec());
+            Ok(())
+        },
+        &mut |_| {},
+    )?;
     Ok(Rows { header, rows, summary })
 }
 
@@ -123,7 +132,7 @@ impl FullProbe {
     /// Runs the converged full model of `scenario` over the probe window of a reduced run with
     /// macro step `macro_step`: [`window`] for an error estimate, [`choice_window`] for the
     /// micro step alone (`estimate` false).
-    pub fn run(scenario: &AnyScenario, macro_step: f64, estimate: bool) -> Result<Self, String> {
+    pub fn run(scenario: &AnyScenario, macro_step: f64, estimate: bool) -> Result<Self, ProbeError> {
         let clock = std::time::Instant::now();
         let mut s = scenario.clone();
         let horizon = s.simulation().horizon;
@@ -145,7 +154,7 @@ impl FullProbe {
     }
 
     /// The error estimate of the reduced model with `options` against this probe.
-    pub fn estimate(&self, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, String> {
+    pub fn estimate(&self, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, ProbeError> {
         let clock = std::time::Instant::now();
         let channels = main_channels(&self.scenario);
         let reduced_options = lash_run::ReducedOptions { channels_only: true, ..options };
@@ -247,7 +256,7 @@ impl FullProbe {
         options: lash_run::ReducedOptions,
         tolerance: f64,
         budget: usize,
-    ) -> Result<(lash_run::ReducedOptions, ToleranceSearch), String> {
+    ) -> Result<(lash_run::ReducedOptions, ToleranceSearch), ProbeError> {
         let output_interval = self.scenario.simulation().output_interval;
         let tried_as = |o: lash_run::ReducedOptions, e: &ErrorEstimate| Tried {
             macro_step: o.macro_step,
@@ -317,7 +326,7 @@ pub fn choose_micro_step(
 }
 
 /// The error estimate of the reduced model of `scenario` with `options` (its horizon the run's).
-pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, String> {
+pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, ProbeError> {
     FullProbe::run(scenario, options.macro_step, true)?.estimate(options)
 }
 
@@ -325,14 +334,18 @@ pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Re
 /// (none without a probe) and `notes` (how its steps were chosen); prints the estimate. A probe
 /// that failed is recorded as such: the run stands.
 pub fn attach(
-    probe: Option<&Result<FullProbe, String>>,
+    probe: Option<&Result<FullProbe, ProbeError>>,
     options: lash_run::ReducedOptions,
     notes: serde_json::Map<String, serde_json::Value>,
     out: &std::path::Path,
     quiet: bool,
 ) -> Result<(), crate::CliError> {
     let fail = |e: String| crate::CliError::Failure(e);
-    let value = match probe.map(|p| p.as_ref().map_err(String::clone).and_then(|p| p.estimate(options))) {
+    let estimated = |p: &Result<FullProbe, ProbeError>| match p {
+        Ok(p) => p.estimate(options).map_err(|e| e.to_string()),
+        Err(e) => Err(e.to_string()),
+    };
+    let value = match probe.map(estimated) {
         None => None,
         Some(Ok(e)) => {
             if !quiet {

@@ -85,7 +85,7 @@ pub fn run<S: serde::Serialize>(
         }
         bar.set_position(now);
     };
-    let mut sink = |row: &[f64]| csv.row(row);
+    let mut sink = |row: &[f64]| csv.row(row).map_err(lash_core::BoxError::from);
     let run_started = Instant::now();
     let result = runner.execute(&mut sink, &mut progress);
     let mut total = run_started.elapsed();
@@ -107,7 +107,7 @@ pub fn run<S: serde::Serialize>(
         let mut logged =
             SeriesOutput::create_named(out, &format!("measurement_{}.csv", table.name), &table.header, &[])?;
         for row in &table.rows {
-            logged.row(row).map_err(CliError::Failure)?;
+            logged.row(row).map_err(|e| CliError::Failure(e.to_string()))?;
         }
         logged.finish()?; // inside the flush time below, which counts as output
     }

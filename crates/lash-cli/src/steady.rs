@@ -7,7 +7,7 @@
 //! A single reduced run of A's default horizon lasts about a millisecond, where a busy 2-core
 //! machine moves one timing by a factor of several.
 
-use lash_run::Runner;
+use lash_run::{RunError, Runner};
 use serde::Serialize;
 
 /// Wall time the rounds add up to, at least \[s\].
@@ -29,24 +29,22 @@ pub struct Timed {
 }
 
 /// Builds a runner of one model (each built outside the timing).
-pub type Make<'a> = &'a mut dyn FnMut() -> Result<Box<dyn Runner>, String>;
+pub type Make<'a> = &'a mut dyn FnMut() -> Result<Box<dyn Runner>, RunError>;
 
 /// Wall time of `runs` runs of `make`'s model, rows discarded \[s\].
-fn run(make: &mut dyn FnMut() -> Result<Box<dyn Runner>, String>, runs: usize) -> Result<f64, String> {
+fn run(make: &mut dyn FnMut() -> Result<Box<dyn Runner>, RunError>, runs: usize) -> Result<f64, RunError> {
     let mut total = 0.0;
     for _ in 0..runs {
         let mut runner = make()?;
         let clock = std::time::Instant::now();
-        runner
-            .execute(&mut |row| Ok(std::hint::black_box(row).len()).map(|_| ()), &mut |_| {})
-            .map_err(|e| e.to_string())?;
+        runner.execute(&mut |row| Ok(std::hint::black_box(row).len()).map(|_| ()), &mut |_| {})?;
         total += clock.elapsed().as_secs_f64();
     }
     Ok(total)
 }
 
 /// Times the models in rounds; returns each one's timing and the number of rounds.
-pub fn time(makers: &mut [Make<'_>]) -> Result<(Vec<Timed>, usize), String> {
+pub fn time(makers: &mut [Make<'_>]) -> Result<(Vec<Timed>, usize), RunError> {
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
@@ -106,10 +104,8 @@ mod tests {
         let reduced = |horizon: f64| {
             let mut s = a.clone();
             s.simulation.horizon = horizon;
-            move || -> Result<Box<dyn Runner>, String> {
-                Ok(Box::new(
-                    lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default()).map_err(|e| e.to_string())?,
-                ))
+            move || -> Result<Box<dyn Runner>, RunError> {
+                Ok(Box::new(lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default())?))
             }
         };
         let (mut short, mut long) = (reduced(0.002), reduced(0.02));

@@ -29,7 +29,7 @@ pub fn execute(
     cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
     on_event: &(dyn Fn(Event) + Sync),
 ) -> Result<lash_sweep::Report, CliError> {
-    let shard = shard.map(lash_sweep::parse_shard).transpose().map_err(CliError::Input)?;
+    let shard = shard.map(lash_sweep::parse_shard).transpose().map_err(|e| CliError::Input(e.to_string()))?;
     if threads == Some(0) {
         return Err(CliError::Input("threads must be ≥ 1".into()));
     }

@@ -51,10 +51,10 @@ fn load(
     let input = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let (mut spec, base) = if path.extension().is_some_and(|e| e == "ssd" || e == "ssp") {
         let fallback = lash_system::ssp::Fallback { step, horizon: stop };
-        lash_system::ssp::load(path, scratch, fallback).map_err(CliError::Input)?
+        lash_system::ssp::load(path, scratch, fallback).map_err(|e| CliError::Input(e.to_string()))?
     } else {
         let text = std::fs::read_to_string(path).map_err(|e| input(e.to_string()))?;
-        let spec = lash_system::spec::parse(&text).map_err(input)?;
+        let spec = lash_system::spec::parse(&text).map_err(|e| input(e.to_string().trim_end().to_string()))?;
         (spec, path.parent().unwrap_or(Path::new(".")).to_path_buf())
     };
     if let Some(s) = step {
@@ -107,7 +107,7 @@ pub fn validate(arg: &str) -> Result<String, CliError> {
 pub fn run_rows(
     arg: &str,
     (step, stop): (Option<f64>, Option<f64>),
-    on_row: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+    on_row: &mut dyn FnMut(&[f64]) -> Result<(), lash_core::BoxError>,
 ) -> Result<(Vec<String>, String), CliError> {
     let path = Path::new(arg);
     let cache = lash_fmi::import::default_cache();
@@ -157,7 +157,7 @@ fn run_in(
     let mut system = load(path, cache, scratch, step, stop)?;
     sized(&system, path, out, format)?;
     let mut csv = SeriesOutput::create_as(out, system.header(), &["summary.json"], format)?;
-    let result = system.run(&mut |row| csv.row(row));
+    let result = system.run(&mut |row| csv.row(row).map_err(lash_core::BoxError::from));
     let summary = match result {
         Ok(s) => s,
         Err(e) => {

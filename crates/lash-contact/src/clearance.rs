@@ -9,6 +9,27 @@ use serde::Serialize;
 /// models, micro model and its lanes alike).
 pub const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
 
+/// A contact indented beyond [`PENETRATION_LIMIT_FRACTION`] of its radius (or a state no longer
+/// finite): the run blew up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "penetration {penetration:.6e} m of {kind} {joint:?} exceeds {limit} × the {radius}: the simulation blew up \
+     ({step} too large for the contact stiffness?)",
+    limit = PENETRATION_LIMIT_FRACTION
+)]
+pub struct PenetrationError {
+    /// The joint's name.
+    pub joint: String,
+    /// Its penetration \[m\] (NaN when the state is no longer finite).
+    pub penetration: f64,
+    /// What kind of joint, in which model ("clearance joint", "spherical clearance joint").
+    pub kind: &'static str,
+    /// The radius the limit refers to ("journal radius", "ball radius").
+    pub radius: &'static str,
+    /// The step to blame ("step", "micro step").
+    pub step: &'static str,
+}
+
 /// A bush in series with a contact carries its damping as a state of its own (its deflection,
 /// [`ClearanceJoint::bush_damping`]) when its relaxation time c/k is at least this \[s\]; below, it
 /// follows its load quasi-statically. At 1e-7 s the loss factor ωc/k it leaves out is under 2 %

@@ -397,20 +397,22 @@ impl OdeSystem for FullModel {
         self.dense_buffer = y;
     }
 
-    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), lash_ode::BoxError> {
         if let Some(e) = self.error.take() {
-            return Err(e);
+            return Err(e.into());
         }
         for k in 0..self.clearances.len() {
             let onset = self.clearances[k].onset_velocity;
             let s = self.contact_state(k, y, onset);
             let c = &self.clearances[k];
             if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
-                return Err(format!(
-                    "penetration {:.6e} m of clearance joint {:?} exceeds {} × the journal radius: the simulation blew up \
-                     (step too large for the contact stiffness?)",
-                    s.penetration, c.name, PENETRATION_LIMIT_FRACTION
-                ));
+                return Err(Box::new(crate::PenetrationError {
+                    joint: c.name.clone(),
+                    penetration: s.penetration,
+                    kind: "clearance joint",
+                    radius: "journal radius",
+                    step: "step",
+                }));
             }
             if let Some(tr) = self.open[k].as_mut() {
                 tr.sample(t, s.normal_force, s.penetration);

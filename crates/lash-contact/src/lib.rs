@@ -16,7 +16,7 @@ pub mod parameters;
 pub mod spatial_model;
 pub mod spherical;
 
-pub use clearance::{ClearanceJoint, ContactState, Impact};
+pub use clearance::{ClearanceJoint, ContactState, Impact, PenetrationError};
 pub use friction::FrictionLaw;
 pub use full_model::{FullModel, ModelError};
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};

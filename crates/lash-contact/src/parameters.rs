@@ -110,38 +110,34 @@ impl ClearanceDefinition {
     }
 
     /// The definition with `values` (one per [`ClearanceDefinition::parameters`] entry) written
-    /// in, checked; errors name the parameter.
-    pub fn with_values(&self, values: &[f64]) -> Result<Self, String> {
+    /// in, checked; each problem names its parameter.
+    pub fn with_values(&self, values: &[f64]) -> Result<Self, lash_core::Problems> {
+        let mut problems = lash_core::Problems::new();
         let mut d = self.clone();
         for (info, &v) in self.parameters().iter().zip(values) {
             match &info.slot {
                 Slot::JournalRadius => d.journal_radius = v,
                 Slot::BearingRadius => d.bearing_radius = v,
-                Slot::Contact(f) => {
-                    d.contact = with_field(&d.contact, f, v).map_err(|e| format!("{}: {e}", info.name))?
-                }
-                Slot::Friction(f) => {
-                    d.friction = with_field(&d.friction, f, v).map_err(|e| format!("{}: {e}", info.name))?
-                }
+                Slot::Contact(f) => match with_field(&d.contact, f, v) {
+                    Ok(law) => d.contact = law,
+                    Err(e) => problems.push(info.name.clone(), e),
+                },
+                Slot::Friction(f) => match with_field(&d.friction, f, v) {
+                    Ok(law) => d.friction = law,
+                    Err(e) => problems.push(info.name.clone(), e),
+                },
             }
         }
-        let mut problems = Vec::new();
-        if !(d.journal_radius > 0.0 && d.journal_radius.is_finite()) {
-            problems.push(format!("journal_radius: must be > 0, got {}", d.journal_radius));
-        }
+        problems.positive("journal_radius", d.journal_radius);
         if !(d.bearing_radius > d.journal_radius && d.bearing_radius.is_finite()) {
-            problems.push(format!(
-                "bearing_radius: must exceed journal_radius ({} m), got {} m",
-                d.journal_radius, d.bearing_radius
-            ));
+            problems.push(
+                "bearing_radius",
+                format!("must exceed journal_radius ({} m), got {} m", d.journal_radius, d.bearing_radius),
+            );
         }
-        for p in d.contact.validate().0 {
-            problems.push(format!("contact.{}: {}", p.field, p.message));
-        }
-        for p in d.friction.validate().0 {
-            problems.push(format!("friction.{}: {}", p.field, p.message));
-        }
-        if problems.is_empty() { Ok(d) } else { Err(problems.join("; ")) }
+        problems.extend_prefixed("contact", d.contact.validate());
+        problems.extend_prefixed("friction", d.friction.validate());
+        problems.into_result().map(|()| d)
     }
 
     /// The law resolved to numbers.
@@ -197,9 +193,9 @@ mod tests {
         }
         v[k] = 1.5;
         let e = d.with_values(&v).unwrap_err();
-        assert!(e.contains("contact.restitution"), "{e}");
+        assert_eq!(e.0.iter().map(|p| p.field.as_str()).collect::<Vec<_>>(), ["contact.restitution"], "{e}");
         let mut v: Vec<f64> = d.parameters().iter().map(|p| p.value).collect();
         v[1] = 0.009;
-        assert!(d.with_values(&v).unwrap_err().contains("bearing_radius"));
+        assert_eq!(d.with_values(&v).unwrap_err().0[0].field, "bearing_radius");
     }
 }

@@ -292,9 +292,9 @@ impl OdeSystem for SpatialFullModel {
         self.dense_buffer = y;
     }
 
-    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), lash_ode::BoxError> {
         if let Some(e) = self.error.take() {
-            return Err(e);
+            return Err(e.into());
         }
         frames_of(&self.mechanism, y, &mut self.frames);
         for k in 0..self.clearances.len() {
@@ -302,11 +302,13 @@ impl OdeSystem for SpatialFullModel {
             let s = self.contact_in_frames(k, onset);
             let c = &self.clearances[k];
             if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
-                return Err(format!(
-                    "penetration {:.6e} m of spherical clearance joint {:?} exceeds {} × the ball radius: the simulation \
-                     blew up (step too large for the contact stiffness?)",
-                    s.penetration, c.name, PENETRATION_LIMIT_FRACTION
-                ));
+                return Err(Box::new(crate::PenetrationError {
+                    joint: c.name.clone(),
+                    penetration: s.penetration,
+                    kind: "spherical clearance joint",
+                    radius: "ball radius",
+                    step: "step",
+                }));
             }
             if let Some(tr) = self.open[k].as_mut() {
                 tr.sample(t, s.normal_force, s.penetration);

@@ -13,7 +13,12 @@ pub mod units;
 pub use names::{csv_header, did_you_mean};
 pub use problems::{Problem, Problems, error_chain};
 pub use subsystem::{
-    Causality, Coupling, Phase, SavedState, StepOutcome, Steps, StopReason, Subsystem, SubsystemError, ValueKind,
-    ValueReference, Variability, Variable, VariableTable, check_variable_table, split_element_name,
+    Causality, Coupling, Phase, SavedState, StepOutcome, Steps, StopReason, Subsystem, SubsystemError, ValueError,
+    ValueKind, ValueReference, Variability, Variable, VariableTable, VariableTableError, check_variable_table,
+    split_element_name,
 };
 pub use time::{TICKS_PER_SECOND, Ticks, TicksError};
+
+/// Any error with its chain of sources, for what callers plug in (an output sink, an observer, a
+/// model builder): lash passes it on without knowing its type, and [`error_chain`] prints it.
+pub type BoxError = Box<dyn std::error::Error + Send + Sync + 'static>;

@@ -143,24 +143,19 @@ impl ValueKind {
 
     /// Whether `v` can be written to a variable of this kind without loss: finite, and for
     /// integer kinds integral and in range (Booleans 0 or 1); the error says why not.
-    pub fn check(self, v: f64) -> Result<(), String> {
-        let integral = |lo: f64, hi: f64| {
-            if v.fract() != 0.0 || !(lo..=hi).contains(&v) {
-                Err(format!("{v} is not a valid {} (an integer in [{lo}, {hi}])", self.name()))
+    pub fn check(self, v: f64) -> Result<(), ValueError> {
+        let integral = |low: f64, high: f64| {
+            if v.fract() != 0.0 || !(low..=high).contains(&v) {
+                Err(ValueError::NotInteger { value: v, kind: self, low, high })
             } else {
                 Ok(())
             }
         };
         match self {
-            _ if v.is_nan() => Err(format!("NaN is not a {}", self.name())),
+            _ if v.is_nan() => Err(ValueError::NotANumber(self)),
             ValueKind::Float64 => Ok(()),
-            ValueKind::Float32 => {
-                if v.is_finite() && (v as f32).is_infinite() {
-                    Err(format!("{v} is out of the Float32 range"))
-                } else {
-                    Ok(())
-                }
-            }
+            ValueKind::Float32 if v.is_finite() && (v as f32).is_infinite() => Err(ValueError::OutOfFloat32(v)),
+            ValueKind::Float32 => Ok(()),
             ValueKind::Int8 => integral(-128.0, 127.0),
             ValueKind::UInt8 => integral(0.0, 255.0),
             ValueKind::Int16 => integral(-32768.0, 32767.0),
@@ -171,16 +166,9 @@ impl ValueKind {
             // beyond it rather than rounded silently.
             ValueKind::Int64 | ValueKind::Enumeration => integral(-9007199254740992.0, 9007199254740992.0),
             ValueKind::UInt64 => integral(0.0, 9007199254740992.0),
-            ValueKind::Boolean => {
-                if v == 0.0 || v == 1.0 {
-                    Ok(())
-                } else {
-                    Err(format!("{v} is not a Boolean (0 or 1)"))
-                }
-            }
-            ValueKind::String | ValueKind::Binary | ValueKind::Clock => {
-                Err(format!("a {} variable takes no number", self.name()))
-            }
+            ValueKind::Boolean if v == 0.0 || v == 1.0 => Ok(()),
+            ValueKind::Boolean => Err(ValueError::NotBoolean(v)),
+            ValueKind::String | ValueKind::Binary | ValueKind::Clock => Err(ValueError::NotNumeric(self)),
         }
     }
 }
@@ -301,7 +289,7 @@ macro_rules! value_references {
 pub struct VariableTable {
     variables: Vec<Variable>,
     /// The first [`VariableTable::add_at`] whose value reference was not the next one.
-    misplaced: Option<String>,
+    misplaced: Option<VariableTableError>,
 }
 
 impl VariableTable {
@@ -356,14 +344,13 @@ impl VariableTable {
     ) {
         let given = self.add(name, causality, variability, unit, description, shape, start);
         if given != vr && self.misplaced.is_none() {
-            self.misplaced =
-                Some(format!("variable {name:?} is declared as value reference {vr} but added as {given}"));
+            self.misplaced = Some(VariableTableError::Misplaced { name: name.to_string(), declared: vr, added: given });
         }
     }
 
     /// The variables, or the first variable added out of its declared order (a defect of the
     /// subsystem's code, reported instead of a panic).
-    pub fn into_checked_variables(self) -> Result<Vec<Variable>, String> {
+    pub fn into_checked_variables(self) -> Result<Vec<Variable>, VariableTableError> {
         match self.misplaced {
             Some(m) => Err(m),
             None => Ok(self.variables),
@@ -743,6 +730,66 @@ pub fn steps_one_by_one<S: Subsystem + ?Sized>(
     Steps { taken: record.len(), last: Ok(last) }
 }
 
+/// Why a number cannot be written to a variable of a [`ValueKind`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ValueError {
+    /// NaN for any kind.
+    #[error("NaN is not a {}", .0.name())]
+    NotANumber(ValueKind),
+    /// A finite number beyond the Float32 range.
+    #[error("{0} is out of the Float32 range")]
+    OutOfFloat32(f64),
+    /// Not an integer in the kind's range.
+    #[error("{value} is not a valid {} (an integer in [{low}, {high}])", .kind.name())]
+    NotInteger {
+        /// The number given.
+        value: f64,
+        /// The variable's kind.
+        kind: ValueKind,
+        /// Smallest value of the kind.
+        low: f64,
+        /// Largest value of the kind.
+        high: f64,
+    },
+    /// A Boolean other than 0 or 1.
+    #[error("{0} is not a Boolean (0 or 1)")]
+    NotBoolean(f64),
+    /// A kind that takes no number (String, Binary, Clock).
+    #[error("a {} variable takes no number", .0.name())]
+    NotNumeric(ValueKind),
+}
+
+/// A variable table that breaks the [`Subsystem::variables`] contract (a defect of the subsystem's
+/// code, reported instead of a panic).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum VariableTableError {
+    /// A variable added at another position than the value reference it was declared with.
+    #[error("variable {name:?} is declared as value reference {declared} but added as {added}")]
+    Misplaced {
+        /// The variable.
+        name: String,
+        /// Its declared value reference.
+        declared: ValueReference,
+        /// The position it was added at.
+        added: ValueReference,
+    },
+    /// A value reference that is not the variable's position.
+    #[error(
+        "variable {name:?} at position {position} has value reference {value_reference} (a subsystem's value references must be its positions)"
+    )]
+    NotItsPosition {
+        /// The variable.
+        name: String,
+        /// Its position in the table.
+        position: usize,
+        /// Its value reference.
+        value_reference: ValueReference,
+    },
+    /// Two variables with one name.
+    #[error("variable name {0:?} is used twice")]
+    DuplicateName(String),
+}
+
 /// The variable with value reference `vr` (its position, by the [`Subsystem::variables`] contract).
 pub fn variable(variables: &[Variable], vr: ValueReference) -> Option<&Variable> {
     variables.get(vr as usize).filter(|v| v.value_reference == vr)
@@ -750,17 +797,18 @@ pub fn variable(variables: &[Variable], vr: ValueReference) -> Option<&Variable>
 
 /// Checks the [`Subsystem::variables`] contract (variable `i` has value reference `i`) and that
 /// names are unique; the error names the first offending variable.
-pub fn check_variable_table(variables: &[Variable]) -> Result<(), String> {
+pub fn check_variable_table(variables: &[Variable]) -> Result<(), VariableTableError> {
     let mut names = std::collections::HashSet::with_capacity(variables.len());
     for (i, v) in variables.iter().enumerate() {
         if v.value_reference as usize != i {
-            return Err(format!(
-                "variable {:?} at position {i} has value reference {} (a subsystem's value references must be its positions)",
-                v.name, v.value_reference
-            ));
+            return Err(VariableTableError::NotItsPosition {
+                name: v.name.clone(),
+                position: i,
+                value_reference: v.value_reference,
+            });
         }
         if !names.insert(v.name.as_str()) {
-            return Err(format!("variable name {:?} is used twice", v.name));
+            return Err(VariableTableError::DuplicateName(v.name.clone()));
         }
     }
     Ok(())
@@ -872,7 +920,8 @@ mod tests {
         let mut t = VariableTable::new();
         t.add_at(declared::SECOND, "second", Causality::Output, Variability::Continuous, "1", "", &[], &[0.0]);
         let e = t.into_checked_variables().unwrap_err();
-        assert!(e.contains("\"second\" is declared as value reference 1 but added as 0"), "{e}");
+        assert_eq!(e, VariableTableError::Misplaced { name: "second".into(), declared: 1, added: 0 });
+        assert!(e.to_string().contains("\"second\" is declared as value reference 1 but added as 0"), "{e}");
         assert_eq!(declared::DECLARED, 2);
     }
 

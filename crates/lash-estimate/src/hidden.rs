@@ -164,7 +164,7 @@ pub fn calibrate_bands(
         .into_par_iter()
         .filter_map(|i| {
             let snr = setup.snr_db[0] + (setup.snr_db[1] - setup.snr_db[0]) * (i as f64 + 0.5) / cases as f64;
-            let case = held_out(frozen, &r, seed, i, snr).and_then(|t| {
+            let case = held_out(&frozen.setup, &r, seed, i, snr).and_then(|t| {
                 let (f0, features) = crate::prepare::measured_features(setup, band_hz, &t.measured)?;
                 let hidden = reconstruct(frozen, &features, f0, &t.measured[0]).ok()?;
                 Some((t, hidden))
@@ -226,7 +226,7 @@ fn sensor_signal(
     dt: f64,
 ) -> Result<Vec<f64>, EstimateError> {
     let chain = lash_measure::Acquisition { sample_rate: 1.0 / dt, cutoff: setup.anti_alias, order: 4, settle: 0.0 };
-    let mut logger = chain.logger(dt).map_err(EstimateError::Failure)?;
+    let mut logger = chain.logger(dt)?;
     let driven = match mount {
         Some(m) => m.acceleration(column, dt),
         None => column.to_vec(),
@@ -306,7 +306,7 @@ fn simulate(
         let channels = joint_channels(vec![sensor], r);
         scenario.output_mut().channels = channels.clone();
         dt = scenario.simulation().output_interval;
-        let runner = lash_run::runner(&scenario, lash_run::Model::Reduced(options)).map_err(EstimateError::Failure)?;
+        let runner = lash_run::runner(&scenario, lash_run::Model::Reduced(options))?;
         indices.push(columns(runner.as_ref(), &channels)?);
         runners.push(runner);
     }
@@ -315,7 +315,7 @@ fn simulate(
         let mut keep: Vec<_> = rows
             .iter_mut()
             .map(|r| {
-                move |row: &[f64]| -> Result<(), String> {
+                move |row: &[f64]| -> Result<(), lash_core::BoxError> {
                     r.push(row.to_vec());
                     Ok(())
                 }
@@ -514,9 +514,8 @@ struct Truth {
 
 /// Case `i` of the held-out set: parameters drawn from the priors with a stream of `seed` of its
 /// own, the converged full model run, its sensor channels logged and measured at `snr_db`.
-fn held_out(estimator: &Estimator, r: &Resolved, seed: u64, i: u64, snr_db: f64) -> Option<Truth> {
+fn held_out(setup: &crate::setup::Setup, r: &Resolved, seed: u64, i: u64, snr_db: f64) -> Option<Truth> {
     use rand::{Rng, SeedableRng};
-    let setup = &estimator.setup;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x6869_6464_656e);
     rng.set_stream(i);
     let joints = r.joints.len();
@@ -641,7 +640,7 @@ pub fn validate_hidden(
     let results: Vec<Option<(Truth, Hidden, f64)>> = (0..cases)
         .into_par_iter()
         .map(|i| {
-            let truth = held_out(estimator, &r, seed, i, snr_db);
+            let truth = held_out(setup, &r, seed, i, snr_db);
             let clock = std::time::Instant::now();
             let hidden = truth.as_ref().and_then(|t| {
                 let (f0, features) = crate::prepare::measured_features(setup, band_hz, &t.measured)?;

@@ -55,4 +55,10 @@ pub enum EstimateError {
     /// A sweep of the preparation or validation failed.
     #[error(transparent)]
     Sweep(#[from] lash_sweep::SweepError),
+    /// A model could not be built or run.
+    #[error(transparent)]
+    Run(#[from] lash_run::RunError),
+    /// The logger's chain does not fit the simulation's output interval.
+    #[error(transparent)]
+    Acquisition(#[from] lash_measure::AcquisitionError),
 }

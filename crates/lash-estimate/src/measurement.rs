@@ -211,7 +211,7 @@ impl Measurement {
                 settle: 0.0,
             };
             for values in channels.iter_mut() {
-                *values = logger.acquire(values, dt, None).map_err(input)?;
+                *values = logger.acquire(values, dt, None).map_err(|e| input(e.to_string()))?;
             }
             notes.push(format!(
                 "decimated from {rate:.1} Hz to {} Hz behind a {} Hz anti-alias filter",

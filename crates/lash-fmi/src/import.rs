@@ -93,8 +93,38 @@ fn attr(e: &quick_xml::events::BytesStart<'_>, name: &str) -> Option<String> {
 /// `f64`), so a description cannot make a master allocate without bound.
 pub const MAX_ELEMENTS: usize = 1 << 24;
 
+/// Why a `modelDescription.xml` cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum DescriptionError {
+    /// Not well-formed XML.
+    #[error("XML error at byte {position}")]
+    Xml {
+        /// Where the reader stopped.
+        position: u64,
+        /// The XML reader's error.
+        #[source]
+        source: quick_xml::Error,
+    },
+    /// Well-formed, but missing or contradicting what lash needs (the text names the element or
+    /// variable).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for DescriptionError {
+    fn from(message: String) -> Self {
+        Self::Invalid(message)
+    }
+}
+
+impl From<&str> for DescriptionError {
+    fn from(message: &str) -> Self {
+        Self::Invalid(message.into())
+    }
+}
+
 /// Parses a model description.
-pub fn parse_description(xml: &str) -> Result<Description, String> {
+pub fn parse_description(xml: &str) -> Result<Description, DescriptionError> {
     use quick_xml::events::Event;
     let mut reader = quick_xml::Reader::from_str(xml);
     let mut d = Description {
@@ -126,7 +156,9 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
             .collect()
     };
     loop {
-        let event = reader.read_event().map_err(|e| format!("XML error at byte {}: {e}", reader.buffer_position()))?;
+        let event = reader
+            .read_event()
+            .map_err(|source| DescriptionError::Xml { position: reader.buffer_position(), source })?;
         let (e, empty) = match &event {
             Event::Start(e) => (e, false),
             Event::Empty(e) => (e, true),
@@ -195,12 +227,15 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                             return Err(format!(
                                 "variable {:?}: a Dimension needs a start or a valueReference",
                                 v.name
-                            ));
+                            )
+                            .into());
                         }
                     };
                     let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
                     if total.is_none_or(|t| t > MAX_ELEMENTS) {
-                        return Err(format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name));
+                        return Err(
+                            format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name).into()
+                        );
                     }
                     v.shape.push(n);
                     dims.push(if literal.is_some() { None } else { sized_by });
@@ -238,7 +273,7 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
                 };
                 let Some(causality) = causality else { continue };
                 let Some(vr) = attr(e, "valueReference").and_then(|v| v.trim().parse::<u32>().ok()) else {
-                    return Err(format!("variable {:?} has no valid valueReference", attr(e, "name")));
+                    return Err(format!("variable {:?} has no valid valueReference", attr(e, "name")).into());
                 };
                 let variable = Variable {
                     name: attr(e, "name").ok_or("a variable without a name")?,
@@ -287,7 +322,8 @@ pub fn parse_description(xml: &str) -> Result<Description, String> {
         return Err(format!(
             "modelIdentifier {:?} is not a C identifier (letters, digits and '_', not starting with a digit)",
             d.model_identifier
-        ));
+        )
+        .into());
     }
     Ok(d)
 }
@@ -859,7 +895,7 @@ impl ImportedFmu {
         imported.origin = fmu.to_path_buf();
         // The checks every master applies to a subsystem, here once for `fmu check` and `run` alike.
         lash_core::check_variable_table(&imported.description.variables)
-            .map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: m })?;
+            .map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: m.to_string() })?;
         Ok(imported)
     }
 
@@ -869,8 +905,8 @@ impl ImportedFmu {
             path: fmu.to_path_buf(),
             message: format!("modelDescription.xml: {e}"),
         })?;
-        let description =
-            parse_description(&xml).map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: m })?;
+        let description = parse_description(&xml)
+            .map_err(|m| ImportError::Description { path: fmu.to_path_buf(), message: lash_core::error_chain(&m) })?;
         let v3 = description.fmi_version.starts_with("3.");
         if !v3 && !description.fmi_version.starts_with("2.") {
             return Err(ImportError::Description {
@@ -932,8 +968,10 @@ impl ImportedFmu {
         }
         // SAFETY: non-null, NUL-terminated, static.
         let xml = unsafe { CStr::from_ptr(text) }.to_string_lossy().into_owned();
-        let description = parse_description(&xml)
-            .map_err(|m| ImportError::Description { path: library_path.to_path_buf(), message: m })?;
+        let description = parse_description(&xml).map_err(|m| ImportError::Description {
+            path: library_path.to_path_buf(),
+            message: lash_core::error_chain(&m),
+        })?;
         if !description.fmi_version.starts_with("3.") {
             return Err(lerr(format!("plugin description has fmiVersion {:?}, expected 3.0", description.fmi_version)));
         }
@@ -1333,7 +1371,9 @@ impl ImportedFmu {
             bytes.clear();
             bytes.resize(n * native.size(), 0);
             for (k, &v) in given.iter().enumerate() {
-                var.kind.check(v).map_err(|problem| SubsystemError::BadValue { name: var.name.clone(), problem })?;
+                var.kind
+                    .check(v)
+                    .map_err(|p| SubsystemError::BadValue { name: var.name.clone(), problem: p.to_string() })?;
                 native.write(v, &mut bytes[k * native.size()..]);
             }
             let mut vrs = Vec::with_capacity(n);

@@ -262,6 +262,26 @@ fn signal_name(signal: i32) -> String {
     format!("signal {signal} ({name})")
 }
 
+/// Why an isolated FMU could not be started.
+#[derive(Debug, thiserror::Error)]
+pub enum SpawnError {
+    /// The host process or its watchdog thread could not be started.
+    #[error("cannot start the {what}")]
+    Start {
+        /// The host program or the watchdog thread.
+        what: String,
+        /// The operating system's error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The host started but did not import the FMU (its own message, or a broken exchange).
+    #[error("{0}")]
+    Import(String),
+    /// The call to the host failed (crash, hang, broken pipe).
+    #[error(transparent)]
+    Call(#[from] SubsystemError),
+}
+
 impl IsolatedFmu {
     /// Starts `host` (a program that runs [`serve`]; lash's own binary with `fmu host`) for `fmu`,
     /// named `name`, FMUs unpacked under `cache`; every call waits at most `timeout` for its answer.
@@ -269,7 +289,7 @@ impl IsolatedFmu {
     /// A call is a write and a blocking read on the calling thread (one round trip between the
     /// processes); a watchdog thread, waking every `timeout / 8` (at most 0.1 s), kills a child
     /// whose call has run longer than `timeout`, which ends the read.
-    pub fn spawn(host: &Path, fmu: &Path, cache: &Path, name: &str, timeout: Duration) -> Result<Self, String> {
+    pub fn spawn(host: &Path, fmu: &Path, cache: &Path, name: &str, timeout: Duration) -> Result<Self, SpawnError> {
         let mut child = Command::new(host)
             .env(PARENT_VARIABLE, std::process::id().to_string())
             .args(["fmu", "host"])
@@ -282,9 +302,9 @@ impl IsolatedFmu {
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
-            .map_err(|e| format!("cannot start the FMU host {}: {e}", host.display()))?;
+            .map_err(|source| SpawnError::Start { what: format!("FMU host {}", host.display()), source })?;
         let (Some(input), Some(output)) = (child.stdin.take(), child.stdout.take()) else {
-            return Err("the FMU host has no pipes".into());
+            return Err(SpawnError::Import("the FMU host has no pipes".into()));
         };
         let watch = Arc::new(Watch {
             child: Mutex::new(child),
@@ -310,7 +330,7 @@ impl IsolatedFmu {
                     }
                 }
             })
-            .map_err(|e| format!("cannot start the watchdog thread: {e}"))?;
+            .map_err(|source| SpawnError::Start { what: "watchdog thread".into(), source })?;
         let mut isolated = Self {
             name: name.to_string(),
             fmu: fmu.to_path_buf(),
@@ -321,14 +341,14 @@ impl IsolatedFmu {
             channel: Mutex::new(Channel { input, output: BufReader::with_capacity(1 << 16, output), dead: None }),
             watch,
         };
-        match isolated.answer("import", None).map_err(|e| e.to_string())? {
+        match isolated.answer("import", None)? {
             Reply::Hello(version, variables) => {
                 isolated.fmi_version = version;
                 isolated.variables = variables;
                 Ok(isolated)
             }
-            Reply::Error(m) => Err(m),
-            other => Err(format!("the FMU host answered {other:?} to its start")),
+            Reply::Error(m) => Err(SpawnError::Import(m)),
+            other => Err(SpawnError::Import(format!("the FMU host answered {other:?} to its start"))),
         }
     }
 

@@ -125,6 +125,29 @@ fn default_order() -> usize {
     4
 }
 
+/// Why an acquisition chain cannot log samples at a simulation's output interval.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AcquisitionError {
+    /// The output interval does not divide the logger's period.
+    #[error("sample_rate {sample_rate} Hz: the output interval {dt} s must divide the logger's period {} s", 1.0 / sample_rate)]
+    Period {
+        /// The logger's rate \[Hz\].
+        sample_rate: f64,
+        /// The simulation's output interval \[s\].
+        dt: f64,
+    },
+    /// The anti-alias filter cannot be designed at this rate.
+    #[error("anti-alias filter at {cutoff} Hz for samples every {dt} s: {problem}")]
+    Filter {
+        /// Its cutoff \[Hz\].
+        cutoff: f64,
+        /// The simulation's output interval \[s\].
+        dt: f64,
+        /// What the filter design said.
+        problem: String,
+    },
+}
+
 impl Acquisition {
     /// Every problem of the numbers.
     pub fn validate(&self) -> Problems {
@@ -144,7 +167,7 @@ impl Acquisition {
     /// The samples a logger would keep of `signal` (uniform step `dt` from time `t0`): low-passed,
     /// decimated, those from `t0 + settle` on, minus `baseline_mean` (None: minus their own mean,
     /// as an AC-coupled accelerometer). Errors name the setting that does not fit.
-    pub fn acquire(&self, signal: &[f64], dt: f64, baseline_mean: Option<f64>) -> Result<Vec<f64>, String> {
+    pub fn acquire(&self, signal: &[f64], dt: f64, baseline_mean: Option<f64>) -> Result<Vec<f64>, AcquisitionError> {
         let mut logger = self.logger(dt)?;
         let mut kept = Vec::with_capacity(signal.len() / logger.every + 1);
         kept.extend(signal.iter().filter_map(|&x| logger.push(x)));
@@ -156,15 +179,11 @@ impl Acquisition {
     /// The chain as a stream for samples every `dt`: [`Logger::push`] one sample at a time, and it
     /// returns the logged ones (what [`Acquisition::acquire`] keeps, before the mean is removed),
     /// holding nothing but the filter's state.
-    pub fn logger(&self, dt: f64) -> Result<Logger, String> {
+    pub fn logger(&self, dt: f64) -> Result<Logger, AcquisitionError> {
         let ratio = 1.0 / (self.sample_rate * dt);
         let every = ratio.round();
         if !(every >= 1.0 && (ratio - every).abs() <= 1e-9 * ratio) {
-            return Err(format!(
-                "sample_rate {} Hz: the output interval {dt} s must divide the logger's period {} s",
-                self.sample_rate,
-                1.0 / self.sample_rate
-            ));
+            return Err(AcquisitionError::Period { sample_rate: self.sample_rate, dt });
         }
         let fs = (1.0 / dt).hz();
         let mut sections = Vec::with_capacity(self.order / 2);
@@ -172,7 +191,7 @@ impl Acquisition {
             // Butterworth poles in pairs: Q_k = 1 / (2 cos((2k + 1) π / (2n))).
             let q = 1.0 / (2.0 * ((2 * k + 1) as f64 * std::f64::consts::PI / (2 * self.order) as f64).cos());
             let coefficients = Coefficients::<f64>::from_params(Type::LowPass, fs, self.cutoff.hz(), q)
-                .map_err(|e| format!("anti-alias filter at {} Hz for samples every {dt} s: {e:?}", self.cutoff))?;
+                .map_err(|e| AcquisitionError::Filter { cutoff: self.cutoff, dt, problem: format!("{e:?}") })?;
             sections.push(DirectForm2Transposed::<f64>::new(coefficients));
         }
         Ok(Logger {
@@ -325,7 +344,8 @@ mod tests {
         assert_eq!(fields, ["cutoff", "order", "settle"]);
         let ok = Acquisition { sample_rate: 300.0, cutoff: 100.0, order: 4, settle: 0.0 };
         let e = ok.acquire(&[0.0; 100], 1e-5 * 1.5, None).unwrap_err();
-        assert!(e.contains("sample_rate"), "{e}");
+        assert_eq!(e, AcquisitionError::Period { sample_rate: 300.0, dt: 1e-5 * 1.5 });
+        assert!(e.to_string().contains("sample_rate"), "{e}");
         let m = Mount { mass: 0.0, natural_frequency: -1.0, damping_ratio: 0.05 }.validate();
         assert_eq!(m.0.len(), 2);
     }

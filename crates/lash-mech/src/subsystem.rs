@@ -165,8 +165,8 @@ impl OdeSystem for MechanismOde<'_> {
         }
     }
 
-    fn accept_step(&mut self, _t: f64, _y: &[f64]) -> Result<(), String> {
-        self.error.take().map_or(Ok(()), Err)
+    fn accept_step(&mut self, _t: f64, _y: &[f64]) -> Result<(), lash_ode::BoxError> {
+        self.error.take().map_or(Ok(()), |message| Err(message.into()))
     }
 }
 
@@ -879,7 +879,7 @@ impl Subsystem for MechanismSubsystem {
                     self.integration_stats.rhs_evaluations += stats.rhs_evaluations;
                     Ok(None)
                 }
-                Err(e) => Err(format!("macro integration: {e}")),
+                Err(e) => Err(format!("macro integration: {}", lash_core::error_chain(&e))),
             }
         };
         self.time = Ticks(t.0 + h.0);

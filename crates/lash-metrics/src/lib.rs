@@ -63,6 +63,22 @@ pub struct ChannelComparison {
     pub band_powers_reduced: Vec<f64>,
 }
 
+/// Why two runs cannot be compared.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CompareError {
+    /// Sample counts that differ, or fewer than two.
+    #[error("the runs have {full} and {reduced} samples; they must match (≥ 2)")]
+    Samples {
+        /// Samples of the full run.
+        full: usize,
+        /// Samples of the reduced run.
+        reduced: usize,
+    },
+    /// A channel one of the runs lacks.
+    #[error("channel {0:?} is missing from one of the runs")]
+    MissingChannel(String),
+}
+
 /// Compares the columns of two runs sampled on the same grid. `header`s carry units
 /// (`name [unit]`); `channels` names the channels to compare.
 pub fn compare_series(
@@ -72,16 +88,16 @@ pub fn compare_series(
     reduced: &[Vec<f64>],
     channels: &[String],
     first_window_s: f64,
-) -> Result<BTreeMap<String, ChannelComparison>, String> {
+) -> Result<BTreeMap<String, ChannelComparison>, CompareError> {
     if full.len() != reduced.len() || full.len() < 2 {
-        return Err(format!("the runs have {} and {} samples; they must match (≥ 2)", full.len(), reduced.len()));
+        return Err(CompareError::Samples { full: full.len(), reduced: reduced.len() });
     }
     let dt = full[1][0] - full[0][0];
     let find = |h: &[String], name: &str| h.iter().position(|c| c.starts_with(&format!("{name} [")));
     let mut out = BTreeMap::new();
     for name in channels {
         let (Some(kf), Some(kr)) = (find(header_full, name), find(header_reduced, name)) else {
-            return Err(format!("channel {name:?} is missing from one of the runs"));
+            return Err(CompareError::MissingChannel(name.clone()));
         };
         let unit = header_full[kf].split('[').nth(1).unwrap_or("").trim_end_matches(']').to_string();
         let f: Vec<f64> = full.iter().map(|r| r[kf]).collect();

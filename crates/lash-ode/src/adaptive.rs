@@ -108,7 +108,7 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     let out_time = |i: u64| (t0 + i as f64 * output_interval).min(t_end);
 
     check_finite(t0, y)?;
-    observer.observe(system, t0, y).map_err(|message| OdeError::Observer { t: t0, message })?;
+    observer.observe(system, t0, y).map_err(|source| OdeError::Observer { t: t0, source })?;
     let mut t = t0;
     let mut h = first_step.filter(|h| *h > 0.0 && h.is_finite()).unwrap_or(opt.initial_step).min(opt.max_step);
     let mut err_old: f64 = 1e-4;
@@ -207,7 +207,7 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
             system.on_event(k_event, t, y);
             stats.events += 1;
             stats.steps += 1;
-            system.accept_step(t, y).map_err(|message| OdeError::System { t, message })?;
+            system.accept_step(t, y).map_err(|source| OdeError::System { t, source })?;
             system.events(t, y, &mut w.g_start);
             need_k1 = true;
             // The right side changed its form at the event (contact force on or off): the proposal
@@ -234,7 +234,7 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
         w.pair.reuse_last_stage();
         std::mem::swap(&mut w.g_start, &mut w.g_end);
         stats.steps += 1;
-        system.accept_step(t, y).map_err(|message| OdeError::System { t, message })?;
+        system.accept_step(t, y).map_err(|source| OdeError::System { t, source })?;
         // The last step was cut to reach t_end: continue with the size it proposed before the cut.
         stats.next_step = if last { stats.next_step.max(h_next) } else { h_next };
         h = h_next;
@@ -297,7 +297,7 @@ fn emit_outputs<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
         let y_out = std::mem::take(&mut w.y_dense);
         let r = observer.observe(system, to, &y_out);
         w.y_dense = y_out;
-        r.map_err(|message| OdeError::Observer { t: to, message })?;
+        r.map_err(|source| OdeError::Observer { t: to, source })?;
         *next_out += 1;
     }
     Ok(())

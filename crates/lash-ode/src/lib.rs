@@ -13,6 +13,7 @@
 //! either allocate per step or lack the mode-aware root finding with stage guard that contact
 //! onset needs (capturing the approach velocity at the located onset).
 
+pub use lash_core::BoxError;
 mod adaptive;
 mod dop853;
 mod dopri5;
@@ -102,7 +103,7 @@ pub trait OdeSystem {
     fn accept_dense(&mut self, _t: f64, _h: f64, _dense: &Dense<'_>) {}
 
     /// Called after every accepted step: a place to check for blow-up. An error stops the run.
-    fn accept_step(&mut self, _t: f64, _y: &[f64]) -> Result<(), String> {
+    fn accept_step(&mut self, _t: f64, _y: &[f64]) -> Result<(), BoxError> {
         Ok(())
     }
 }
@@ -140,7 +141,7 @@ pub struct Stats {
 }
 
 /// Why an integration stopped early.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum OdeError {
     /// The adaptive step fell below its minimum.
     #[error("step size {step:e} s fell below the minimum at t = {t} s")]
@@ -161,20 +162,20 @@ pub enum OdeError {
         value: f64,
     },
     /// The system refused an accepted step (blow-up check).
-    #[error("at t = {t} s: {message}")]
+    #[error("the system stopped the run at t = {t} s")]
     System {
         /// Time of the step.
         t: f64,
         /// What the system said.
-        message: String,
+        source: BoxError,
     },
     /// The observer asked to stop.
-    #[error("output failed at t = {t} s: {message}")]
+    #[error("output failed at t = {t} s")]
     Observer {
         /// Time of the sample.
         t: f64,
         /// What the observer said.
-        message: String,
+        source: BoxError,
     },
     /// The settings do not fit (e.g. output interval not a multiple of the fixed step).
     #[error("integrator settings: {0}")]
@@ -184,11 +185,11 @@ pub enum OdeError {
 /// An observer receives the system and the state at each output time.
 pub trait Observer<S: ?Sized> {
     /// Records the state `y` at time `t`.
-    fn observe(&mut self, system: &mut S, t: f64, y: &[f64]) -> Result<(), String>;
+    fn observe(&mut self, system: &mut S, t: f64, y: &[f64]) -> Result<(), BoxError>;
 }
 
-impl<S: ?Sized, F: FnMut(&mut S, f64, &[f64]) -> Result<(), String>> Observer<S> for F {
-    fn observe(&mut self, system: &mut S, t: f64, y: &[f64]) -> Result<(), String> {
+impl<S: ?Sized, F: FnMut(&mut S, f64, &[f64]) -> Result<(), BoxError>> Observer<S> for F {
+    fn observe(&mut self, system: &mut S, t: f64, y: &[f64]) -> Result<(), BoxError> {
         self(system, t, y)
     }
 }

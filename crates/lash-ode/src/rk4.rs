@@ -44,7 +44,7 @@ pub(crate) fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
 
     check_finite(t0, y)?;
     system.events(t0, y, &mut g_old);
-    observer.observe(system, t0, y).map_err(|message| OdeError::Observer { t: t0, message })?;
+    observer.observe(system, t0, y).map_err(|source| OdeError::Observer { t: t0, source })?;
     for i in 0..n_steps {
         let t = t0 + i as f64 * step;
         let t_next = t0 + (i + 1) as f64 * step;
@@ -94,9 +94,9 @@ pub(crate) fn integrate<S: OdeSystem + ?Sized, O: Observer<S>>(
             }
             std::mem::swap(&mut g_old, &mut g_new);
         }
-        system.accept_step(t_next, y).map_err(|message| OdeError::System { t: t_next, message })?;
+        system.accept_step(t_next, y).map_err(|source| OdeError::System { t: t_next, source })?;
         if (i + 1) % every == 0 {
-            observer.observe(system, t_next, y).map_err(|message| OdeError::Observer { t: t_next, message })?;
+            observer.observe(system, t_next, y).map_err(|source| OdeError::Observer { t: t_next, source })?;
         }
     }
     Ok(stats)

@@ -43,7 +43,7 @@ pub enum MasterError {
     },
     /// An observer refused a sample.
     #[error("observer: {0}")]
-    Observer(String),
+    Observer(lash_core::BoxError),
     /// An element of a connected execution failed.
     #[error("at t = {} s, element {name:?}: {source}", t.seconds())]
     Element {

@@ -537,7 +537,7 @@ mod tests {
         )
         .unwrap();
         let mut rows = Vec::new();
-        let mut observer = |t: Ticks, v: &[f64]| -> Result<(), String> {
+        let mut observer = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
             rows.push([t.seconds(), v[0], v[1]]);
             Ok(())
         };
@@ -599,7 +599,7 @@ mod tests {
             .unwrap()
             .with_initialization(initialization);
             let mut first = None;
-            let mut observer = |_: Ticks, v: &[f64]| -> Result<(), String> {
+            let mut observer = |_: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
                 first.get_or_insert([v[0], v[1]]);
                 Ok(())
             };

@@ -535,7 +535,7 @@ impl<'a> InterfaceMaster<'a> {
         let o = &options;
         for sub in [&*macro_sub, &*micro_sub] {
             lash_core::check_variable_table(sub.variables())
-                .map_err(|problem| MasterError::Variables { subsystem: sub.name().to_string(), problem })?;
+                .map_err(|e| MasterError::Variables { subsystem: sub.name().to_string(), problem: e.to_string() })?;
         }
         o.check()?;
         Ok(Self { macro_sub, micro_sub, options, signals })

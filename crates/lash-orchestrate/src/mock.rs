@@ -236,11 +236,11 @@ fn the_master_couples_a_mock_pair_as_the_closed_form_says() {
         ];
         let mut master = InterfaceMaster::new(&mut mac, &mut mic, options, signals).unwrap();
         let (mut every, mut sparse) = (Vec::new(), Vec::new());
-        let mut a = |t: Ticks, v: &[f64]| -> Result<(), String> {
+        let mut a = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
             every.push((t, v.to_vec()));
             Ok(())
         };
-        let mut b = |t: Ticks, v: &[f64]| -> Result<(), String> {
+        let mut b = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
             sparse.push((t, v.to_vec()));
             Ok(())
         };
@@ -352,7 +352,7 @@ fn a_group_of_runs_steps_each_as_it_steps_alone() {
             .map(|(mac, mic)| {
                 let mut master = InterfaceMaster::new(mac, mic, options(interpolation), signals()).unwrap();
                 let mut samples = Vec::new();
-                let mut obs = |t: Ticks, v: &[f64]| -> Result<(), String> {
+                let mut obs = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
                     samples.push((t, v.to_vec()));
                     Ok(())
                 };
@@ -371,7 +371,7 @@ fn a_group_of_runs_steps_each_as_it_steps_alone() {
             let mut observers: Vec<_> = samples
                 .iter_mut()
                 .map(|s| {
-                    move |t: Ticks, v: &[f64]| -> Result<(), String> {
+                    move |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> {
                         s.push((t, v.to_vec()));
                         Ok(())
                     }

@@ -50,11 +50,11 @@ impl Signal {
 /// Receives the requested signals at its interval.
 pub trait Observer {
     /// Called with the time and the signal values (in the order the master was given them).
-    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String>;
+    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), lash_core::BoxError>;
 }
 
-impl<F: FnMut(Ticks, &[f64]) -> Result<(), String>> Observer for F {
-    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
+impl<F: FnMut(Ticks, &[f64]) -> Result<(), lash_core::BoxError>> Observer for F {
+    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), lash_core::BoxError> {
         self(t, signals)
     }
 }

@@ -316,7 +316,7 @@ fn run<'py>(
     let mut interrupted: Option<PyErr> = None;
     // Built, checked and run without the GIL (the runner stays on this thread).
     let outcome = py.detach(|| -> Result<_, (&'static str, String)> {
-        let mut runner = lash_run::runner(&scenario, model).map_err(|m| ("model", m))?;
+        let mut runner = lash_run::runner(&scenario, model).map_err(|e| ("model", e.to_string()))?;
         let header = runner.header();
         // Held in memory: refused before any work when it cannot fit (as `lash run` refuses).
         let sim = scenario.simulation();
@@ -363,14 +363,14 @@ fn keep_row(
     count: &mut u32,
     interrupted: &mut Option<PyErr>,
     row: &[f64],
-) -> Result<(), String> {
+) -> Result<(), lash_core::BoxError> {
     values.extend_from_slice(row);
     *count = count.wrapping_add(1);
     if *count & 4095 == 0
         && let Err(e) = Python::attach(|py| py.check_signals())
     {
         *interrupted = Some(e);
-        return Err("interrupted".to_string());
+        return Err("interrupted".into());
     }
     Ok(())
 }

@@ -279,7 +279,7 @@ impl Content {
         let animation = match crate::mechanism::animation(s, &folder.runs[0]) {
             Ok(a) => Some(a),
             Err(e) => {
-                notes.push(e);
+                notes.push(e.to_string());
                 None
             }
         };

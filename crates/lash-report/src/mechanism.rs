@@ -156,8 +156,18 @@ fn projection(points: &[[f64; 3]]) -> [usize; 2] {
     }
 }
 
+/// Why a run has no animation: it did not record its bodies' poses.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("the {run} run did not record its bodies' poses (`<body>.{channels}` channels): no animation")]
+pub struct NoAnimation {
+    /// The run's label.
+    pub run: String,
+    /// The pose channels it lacks.
+    pub channels: &'static str,
+}
+
 /// The animation of `run`, or why there is none (a run that did not record its bodies' poses).
-pub fn animation(scenario: &AnyScenario, run: &Run) -> Result<Animation, String> {
+pub fn animation(scenario: &AnyScenario, run: &Run) -> Result<Animation, NoAnimation> {
     let spatial = matches!(scenario, AnyScenario::Spatial(_));
     let (bodies, joints, sensors) = joints_of(scenario);
     let mut points: Vec<Vec<[f64; 3]>> = vec![Vec::new(); bodies.len()];
@@ -188,8 +198,8 @@ pub fn animation(scenario: &AnyScenario, run: &Run) -> Result<Animation, String>
     }
     let placements: Vec<Placement> =
         bodies.iter().map(|b| Placement::of(run, spatial, b)).collect::<Option<_>>().ok_or_else(|| {
-            let q = if spatial { "centroid_x, …, orientation_z" } else { "centroid_x, centroid_y, angle" };
-            format!("the {} run did not record its bodies' poses (`<body>.{q}` channels): no animation", run.label)
+            let channels = if spatial { "centroid_x, …, orientation_z" } else { "centroid_x, centroid_y, angle" };
+            NoAnimation { run: run.label.clone(), channels }
         })?;
     let n = run.time().len();
     let count = MAX_FRAMES.min(n);

@@ -56,11 +56,12 @@ fn advance<S: OdeSystem>(
     first_step: Option<f64>,
     take_error: fn(&mut S) -> Option<String>,
 ) -> Result<lash_ode::Stats, String> {
-    let mut ignore = |_: &mut S, _: f64, _: &[f64]| -> Result<(), String> { Ok(()) };
+    let mut ignore = |_: &mut S, _: f64, _: &[f64]| -> Result<(), lash_core::BoxError> { Ok(()) };
     lash_ode::integrate_from(method, model, t0, y, t1, t1 - t0, &mut ignore, first_step).map_err(|e| {
+        let e = lash_core::error_chain(&e);
         match take_error(model) {
             Some(cause) => format!("{e} ({cause})"),
-            None => e.to_string(),
+            None => e,
         }
     })
 }
@@ -88,7 +89,9 @@ impl FullEngine for PlanarEngine {
             outputs.copy_from_slice(&row[1..]);
             Ok(())
         };
-        recorder.record(t, &self.model.mechanism, &self.model.solver, &self.model.contacts, q, qd, &mut sink)
+        recorder
+            .record(t, &self.model.mechanism, &self.model.solver, &self.model.contacts, q, qd, &mut sink)
+            .map_err(|e| e.to_string())
     }
 
     fn advance(

@@ -40,13 +40,13 @@ pub enum Model {
 /// The runner of `model` for a planar or spatial scenario: the one place that picks it (the
 /// command line, sweeps and the Python package all come here). The error says why the model
 /// cannot be built (a reduced model asked of an ideal run, an unsupported option).
-pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Box<dyn Runner>, String> {
+pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Box<dyn Runner>, RunError> {
     use lash_scenario::AnyScenario::{Planar, Spatial};
     Ok(match (scenario, model) {
         (Planar(s), Model::Full { ideal }) => Box::new(FullRun::new(s, BuildOptions { ideal })),
-        (Planar(s), Model::Reduced(o)) => Box::new(ReducedRun::new(s, o).map_err(|e| e.to_string())?),
+        (Planar(s), Model::Reduced(o)) => Box::new(ReducedRun::new(s, o)?),
         (Spatial(s), Model::Full { ideal }) => Box::new(SpatialRun::new(s, ideal)),
-        (Spatial(s), Model::Reduced(o)) => Box::new(SpatialReducedRun::new(s, o).map_err(|e| e.to_string())?),
+        (Spatial(s), Model::Reduced(o)) => Box::new(SpatialReducedRun::new(s, o)?),
     })
 }
 

@@ -66,6 +66,16 @@ pub(crate) struct MeasurementRecorder {
     series: Vec<Vec<Vec<f64>>>,
 }
 
+/// A measurement whose logger cannot take the run's samples.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("output.measurements {name:?}: {problem}")]
+pub struct MeasurementError {
+    /// The measurement's name.
+    pub name: String,
+    /// What does not fit.
+    pub problem: lash_measure::AcquisitionError,
+}
+
 impl MeasurementRecorder {
     /// For `specs` (validated) over the channels called `names`.
     pub fn new(specs: &[MeasurementSpec], names: &[&str]) -> Self {
@@ -89,7 +99,7 @@ impl MeasurementRecorder {
 
     /// Housing responses, logger samples and their analysis; `dt` the output interval, `t0` the
     /// first sample's time.
-    pub fn finish(self, t0: f64, dt: f64) -> Result<(Vec<MeasurementSummary>, Vec<MeasuredTable>), String> {
+    pub fn finish(self, t0: f64, dt: f64) -> Result<(Vec<MeasurementSummary>, Vec<MeasuredTable>), MeasurementError> {
         let (mut summaries, mut tables) = (Vec::new(), Vec::new());
         for (spec, series) in self.specs.iter().zip(self.series) {
             let a = &spec.acquisition;
@@ -101,8 +111,9 @@ impl MeasurementRecorder {
             let mut columns = Vec::new();
             for ((force, samples), channel) in spec.forces.iter().zip(&series).zip(&channels) {
                 let clean = spec.mount.acceleration(samples, dt);
-                let logged =
-                    a.acquire(&clean, dt, None).map_err(|e| format!("output.measurements {:?}: {e}", spec.name))?;
+                let logged = a
+                    .acquire(&clean, dt, None)
+                    .map_err(|problem| MeasurementError { name: spec.name.clone(), problem })?;
                 let window = clean.get(first..).unwrap_or(&[]);
                 let mean = window.iter().sum::<f64>() / window.len().max(1) as f64;
                 let clean_rms =

@@ -4,6 +4,7 @@
 
 use crate::run::{ChannelStats, ClearanceSummary};
 use lash_contact::{ContactState, Impact};
+use lash_core::BoxError;
 use lash_mech::{BodyId, Mechanism, Solver, Vec2, driver_torque, kinematics, point_kinematics};
 use lash_scenario::channels::{Channel, Source};
 use std::collections::BTreeMap;
@@ -77,8 +78,8 @@ impl<'a> Recorder<'a> {
         contacts: &[ContactState],
         q: &[f64],
         qd: &[f64],
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
-    ) -> Result<(), String> {
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
+    ) -> Result<(), BoxError> {
         let qdd = &solver.accelerations;
         for (k, (body, point)) in self.sensors.iter().enumerate() {
             let p = point_kinematics(q, qd, qdd, *body, *point);

@@ -17,7 +17,7 @@
 use crate::build::{BuildOptions, build_model};
 use crate::run::{RunError, Summary, driver_period};
 use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
-use lash_core::{Coupling, Subsystem, Ticks};
+use lash_core::{BoxError, Coupling, Subsystem, Ticks};
 use lash_mech::{ClearanceInterface, Interface, MechanismSubsystem, Probe, Vec2};
 use lash_ode::AdaptiveOptions;
 use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
@@ -314,7 +314,7 @@ impl ReducedRun {
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
     pub fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         let recording = self.recording();
@@ -428,15 +428,14 @@ struct Recorder<'c, 's> {
     samples: u64,
     max_ecc: Vec<f64>,
     sum_force: Vec<f64>,
-    last_error: Option<String>,
-    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
     progress: Option<&'s mut dyn FnMut(f64)>,
 }
 
 impl<'c, 's> Recorder<'c, 's> {
     fn new(
         c: &Coupled<'c>,
-        sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &'s mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: Option<&'s mut dyn FnMut(f64)>,
     ) -> Self {
         let recording = c.recording;
@@ -453,7 +452,6 @@ impl<'c, 's> Recorder<'c, 's> {
             samples: 0,
             max_ecc: vec![0.0; joints],
             sum_force: vec![0.0; joints],
-            last_error: None,
             sink,
             progress,
         }
@@ -461,7 +459,7 @@ impl<'c, 's> Recorder<'c, 's> {
 }
 
 impl Observer for Recorder<'_, '_> {
-    fn observe(&mut self, t: Ticks, values: &[f64]) -> Result<(), String> {
+    fn observe(&mut self, t: Ticks, values: &[f64]) -> Result<(), BoxError> {
         // Normal forces that stand for interface stresses become the stresses (a copy only then).
         let values = if self.recording.stresses.is_empty() {
             values
@@ -489,11 +487,7 @@ impl Observer for Recorder<'_, '_> {
         {
             progress(((t.seconds() - self.start_time) * self.per_horizon).clamp(0.0, 1.0));
         }
-        let written = (self.sink)(&self.row);
-        if let Err(e) = &written {
-            self.last_error = Some(e.clone());
-        }
-        written
+        (self.sink)(&self.row)
     }
 }
 
@@ -511,7 +505,7 @@ fn setup(c: &mut Coupled<'_>) -> Result<(), RunError> {
 pub(crate) fn run_reduced(
     mut c: Coupled<'_>,
     details: impl FnOnce(MasterStats) -> ReducedDetails,
-    sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+    sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Summary, RunError> {
     setup(&mut c)?;
@@ -595,10 +589,10 @@ fn summarise(
     details: impl FnOnce(MasterStats) -> ReducedDetails,
 ) -> Result<Summary, RunError> {
     let sim = c.simulation;
-    let Recorder { stats, measurements, samples, max_ecc, sum_force, last_error, recording, .. } = recorder;
+    let Recorder { stats, measurements, samples, max_ecc, sum_force, recording, .. } = recorder;
     let master_stats = match master_stats {
         Ok(s) => s,
-        Err(lash_orchestrate::MasterError::Observer(m)) => return Err(RunError::Output(last_error.unwrap_or(m))),
+        Err(lash_orchestrate::MasterError::Observer(e)) => return Err(RunError::Output(e)),
         Err(lash_orchestrate::MasterError::Subsystem { subsystem, source }) => {
             let (t, message) = match source {
                 lash_core::SubsystemError::Simulation { t, message } => (t, message),
@@ -612,7 +606,7 @@ fn summarise(
     let t_end = sim.start_time + sim.horizon;
     let (measurements, measured) = measurements
         .finish(sim.start_time, sim.output_interval)
-        .map_err(|message| RunError::Simulation { t: t_end, message })?;
+        .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
     let micro = &*c.micro_sub;
     let m = samples.max(1) as f64;
     let joints = recording.summary.len();

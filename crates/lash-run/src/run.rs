@@ -4,6 +4,7 @@
 use crate::build::{BuildOptions, build_model};
 use crate::record::Recorder;
 use lash_contact::{FullModel, Impact};
+use lash_core::BoxError;
 use lash_mech::{BodyId, Motion, Vec2};
 use lash_ode::{OdeError, OdeSystem};
 use lash_scenario::channels::{Channel, Source, channel_sources};
@@ -27,7 +28,7 @@ pub enum RunError {
     },
     /// The sink refused a row.
     #[error("writing output failed: {0}")]
-    Output(String),
+    Output(BoxError),
     /// The scenario is outside what the chosen model covers.
     #[error("{0}")]
     Unsupported(String),
@@ -293,7 +294,7 @@ impl FullRun {
     /// `progress` the fraction done.
     pub fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         let sim = &self.scenario.simulation;
@@ -306,10 +307,12 @@ impl FullRun {
         let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, nc).with_stresses(&self.stresses);
         let names: Vec<&str> = self.sources.iter().map(|(c, _)| c.name.as_str()).collect();
         let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
-        let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), String> {
-            model.evaluate(t, y).map_err(|e| e.to_string())?;
+        let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), BoxError> {
+            model.evaluate(t, y)?;
             let (q, qd) = (&y[..n], &y[n..2 * n]);
-            recorder.record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, sink)?;
+            recorder
+                .record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, sink)
+                .map_err(SinkFailed::boxed)?;
             measurements.record(recorder.values());
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
             Ok(())
@@ -334,7 +337,7 @@ impl FullRun {
         };
         let (measurements, measured) = measurements
             .finish(t0, sim.output_interval)
-            .map_err(|message| RunError::Simulation { t: t_end, message })?;
+            .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
         let period = driver_period(&self.scenario);
         let clearances: Vec<ClearanceSummary> = (0..nc)
             .map(|k| {
@@ -387,7 +390,7 @@ impl FullRun {
                 }
                 RunError::Simulation { t, message }
             }
-            OdeError::System { t, message } => RunError::Simulation { t, message },
+            OdeError::System { t, source } => RunError::Simulation { t, message: lash_core::error_chain(&*source) },
             OdeError::StepSizeUnderflow { t, step } => RunError::Simulation {
                 t,
                 message: format!(
@@ -396,13 +399,7 @@ impl FullRun {
                      adams_stick_slip friction laws)"
                 ),
             },
-            OdeError::Observer { t, message } => {
-                if message.starts_with("output:") {
-                    RunError::Output(message)
-                } else {
-                    RunError::Simulation { t, message }
-                }
-            }
+            OdeError::Observer { t, source } => SinkFailed::sort(t, source),
             OdeError::Settings(m) => RunError::Simulation { t: self.scenario.simulation.start_time, message: m },
         }
     }
@@ -421,8 +418,30 @@ pub(crate) fn driver_period(s: &Scenario) -> Option<f64> {
     })
 }
 
+/// An error of the sink, told apart from the model's own errors on their way through the
+/// integrator's observer.
+#[derive(Debug, thiserror::Error)]
+#[error(transparent)]
+pub(crate) struct SinkFailed(BoxError);
+
+impl SinkFailed {
+    /// The sink's error, marked as the sink's.
+    pub(crate) fn boxed(e: BoxError) -> BoxError {
+        Box::new(SinkFailed(e))
+    }
+
+    /// An observer's error at `t`: the sink's becomes [`RunError::Output`], any other (the model
+    /// evaluated for the sample) [`RunError::Simulation`].
+    pub(crate) fn sort(t: f64, e: BoxError) -> RunError {
+        match e.downcast::<SinkFailed>() {
+            Ok(sink) => RunError::Output(sink.0),
+            Err(other) => RunError::Simulation { t, message: lash_core::error_chain(&*other) },
+        }
+    }
+}
+
 /// Where a run's rows go (time first, then the written channels); an error stops the run.
-pub type Sink<'a> = &'a mut dyn FnMut(&[f64]) -> Result<(), String>;
+pub type Sink<'a> = &'a mut dyn FnMut(&[f64]) -> Result<(), BoxError>;
 
 /// Anything that runs a scenario into rows and a summary (full, ideal or reduced model).
 pub trait Runner {
@@ -431,7 +450,7 @@ pub trait Runner {
     /// Runs the horizon.
     fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError>;
     /// The planar reduced run this is, if it is one (runs that [`crate::execute_together`] can
@@ -447,7 +466,7 @@ impl Runner for FullRun {
     }
     fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         FullRun::execute(self, sink, progress)
@@ -460,7 +479,7 @@ impl Runner for crate::reduced::ReducedRun {
     }
     fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         crate::reduced::ReducedRun::execute(self, sink, progress)

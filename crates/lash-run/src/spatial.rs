@@ -4,6 +4,7 @@
 
 use crate::run::{ClearanceSummary, RunError, Runner, Summary};
 use lash_contact::{Material, SpatialFullModel, SphericalClearance};
+use lash_core::BoxError;
 use lash_mech::{BodyId, Motion};
 use lash_ode::OdeError;
 use lash_scenario::Channel;
@@ -277,7 +278,7 @@ impl SpatialRun {
     /// Integrates over the horizon; rows go to `sink`, the fraction done to `progress`.
     pub fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         let sim = self.scenario.simulation.clone();
@@ -297,8 +298,8 @@ impl SpatialRun {
         let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
         let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let horizon = sim.horizon;
-        let mut observer = |model: &mut SpatialFullModel, t: f64, y: &[f64]| -> Result<(), String> {
-            model.evaluate(t, y).map_err(|e| e.to_string())?;
+        let mut observer = |model: &mut SpatialFullModel, t: f64, y: &[f64]| -> Result<(), BoxError> {
+            model.evaluate(t, y)?;
             sampler.sample(model, sources, &mut values);
             let solver = &model.solver;
             for (k, c) in model.contacts.iter().enumerate() {
@@ -314,7 +315,7 @@ impl SpatialRun {
                 *r = values[k];
             }
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
-            sink(&row)
+            sink(&row).map_err(crate::run::SinkFailed::boxed)
         };
         let cpu0 = cpu_time::ThreadTime::now();
         let wall0 = std::time::Instant::now();
@@ -329,7 +330,8 @@ impl SpatialRun {
         );
         let (cpu, wall) = (cpu0.elapsed().as_secs_f64(), wall0.elapsed().as_secs_f64());
         let ode = result.map_err(|e| match e {
-            OdeError::System { t, message } | OdeError::Observer { t, message } => RunError::Simulation { t, message },
+            OdeError::System { t, source } => RunError::Simulation { t, message: lash_core::error_chain(&*source) },
+            OdeError::Observer { t, source } => crate::run::SinkFailed::sort(t, source),
             OdeError::NonFinite { t, index, value } => RunError::Simulation {
                 t,
                 message: format!("state component {index} became {value}: the simulation blew up"),
@@ -342,7 +344,7 @@ impl SpatialRun {
         })?;
         let (measurements, measured) = measurements
             .finish(t0, sim.output_interval)
-            .map_err(|message| RunError::Simulation { t: t_end, message })?;
+            .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
         let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
             Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
             _ => None,
@@ -396,7 +398,7 @@ impl Runner for SpatialRun {
     }
     fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         SpatialRun::execute(self, sink, progress)
@@ -642,7 +644,7 @@ impl SpatialReducedRun {
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
     pub fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
@@ -674,7 +676,7 @@ impl Runner for SpatialReducedRun {
     }
     fn execute(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Summary, RunError> {
         SpatialReducedRun::execute(self, sink, progress)

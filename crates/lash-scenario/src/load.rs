@@ -674,7 +674,7 @@ fn cross_check(s: &Scenario) -> Problems {
                 if problems.is_empty()
                     && let Err(e) = b.stiffness_damping()
                 {
-                    p.push(f("bush"), e);
+                    p.push(f("bush"), e.to_string());
                 }
                 p.0.extend(problems.0);
                 if bush.inner_radius != bush.pin_radius {

@@ -215,10 +215,29 @@ pub struct BushingSpec {
     pub curve: Option<lash_mech::RadialCurve>,
 }
 
+/// Why a bushing has no stiffness.
+#[derive(Debug, thiserror::Error)]
+pub enum BushingError {
+    /// Neither a stiffness nor a bush is given.
+    #[error("bushing {joint:?}: give stiffness or bush")]
+    Unspecified {
+        /// The bushing's joint.
+        joint: String,
+    },
+    /// The bush's finite-element solution failed.
+    #[error("bushing {joint:?}: {problem}")]
+    Solve {
+        /// The bushing's joint.
+        joint: String,
+        /// The solver's error.
+        problem: lash_bush::SolveError,
+    },
+}
+
 impl BushingSpec {
     /// (stiffness [N/m], damping [N s/m]): as given, or the bush's bonded-pin values by finite
     /// elements (computed once per bush in a process).
-    pub fn stiffness_damping(&self) -> Result<(f64, f64), String> {
+    pub fn stiffness_damping(&self) -> Result<(f64, f64), BushingError> {
         if let Some(c) = &self.curve {
             // The secant at the first point stands for the stiffness (its small-deflection value).
             let secant = c.forces.first().zip(c.deflections.first()).map_or(f64::NAN, |(f, u)| f / u);
@@ -226,11 +245,12 @@ impl BushingSpec {
         }
         match (&self.bush, self.stiffness) {
             (Some(bush), _) => {
-                let b = lash_bush::bonded_pin(bush).map_err(|e| format!("bushing {:?}: {e}", self.joint))?;
+                let b = lash_bush::bonded_pin(bush)
+                    .map_err(|problem| BushingError::Solve { joint: self.joint.clone(), problem })?;
                 Ok((b.stiffness, b.damping))
             }
             (None, Some(k)) => Ok((k, self.damping.unwrap_or(0.0))),
-            (None, None) => Err(format!("bushing {:?}: give stiffness or bush", self.joint)),
+            (None, None) => Err(BushingError::Unspecified { joint: self.joint.clone() }),
         }
     }
 }

@@ -593,7 +593,7 @@ impl Subsystem for SpatialMechanismSubsystem {
                 self.integration_stats.next_step = stats.next_step;
                 Ok(())
             }
-            Err(e) => Err(format!("macro integration: {e}")),
+            Err(e) => Err(format!("macro integration: {}", lash_core::error_chain(&e))),
         };
         self.time = Ticks(t.0 + h.0);
         if let Err(m) = result.and_then(|_| self.refresh()) {

@@ -152,14 +152,25 @@ pub fn read(path: &Path) -> Result<(SweepSpec, String, lash_scenario::AnyScenari
 }
 
 /// Parses `i/N` (0 ≤ i < N).
-pub fn parse_shard(text: &str) -> Result<Shard, String> {
-    let (i, n) = text.split_once('/').ok_or_else(|| format!("--shard {text:?}: expected i/N, e.g. 0/4"))?;
-    let index: u64 = i.trim().parse().map_err(|_| format!("--shard {text:?}: {i:?} is not a whole number"))?;
-    let count: u64 = n.trim().parse().map_err(|_| format!("--shard {text:?}: {n:?} is not a whole number"))?;
+pub fn parse_shard(text: &str) -> Result<Shard, ShardError> {
+    let bad = |problem: String| ShardError { text: text.to_string(), problem };
+    let (i, n) = text.split_once('/').ok_or_else(|| bad("expected i/N, e.g. 0/4".into()))?;
+    let number = |s: &str| s.trim().parse::<u64>().map_err(|_| bad(format!("{s:?} is not a whole number")));
+    let (index, count) = (number(i)?, number(n)?);
     if count == 0 || index >= count {
-        return Err(format!("--shard {text:?}: need 0 ≤ i < N, got i = {index}, N = {count}"));
+        return Err(bad(format!("need 0 ≤ i < N, got i = {index}, N = {count}")));
     }
     Ok(Shard { index, count })
+}
+
+/// A `--shard` that is not `i/N` with 0 ≤ i < N.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("--shard {text:?}: {problem}")]
+pub struct ShardError {
+    /// What was given.
+    pub text: String,
+    /// What is wrong with it.
+    pub problem: String,
 }
 
 /// The channels (name, unit) a run of the plan writes, in dataset order: the channels (with their
@@ -212,7 +223,7 @@ struct Simulation {
 impl Simulation {
     /// The runner of run `run` of `plan`, and what keeps its `channels`.
     fn new(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Box<dyn lash_run::Runner>, Self), String> {
-        let mut scenario = plan.scenario(run)?;
+        let mut scenario = plan.scenario(run).map_err(|e| e.to_string())?;
         // The runner samples the forces; the sweep emulates the measurement as they stream.
         let measurements = std::mem::take(&mut scenario.output_mut().measurements);
         let (horizon, output_interval) = match &scenario {
@@ -223,7 +234,7 @@ impl Simulation {
             ModelKind::Full => lash_run::Model::Full { ideal: false },
             ModelKind::Reduced => lash_run::Model::Reduced(plan::reduced_options(&plan.spec)),
         };
-        let runner = lash_run::runner(&scenario, model)?;
+        let runner = lash_run::runner(&scenario, model).map_err(|e| e.to_string())?;
         let header = runner.header();
         let name_of = |h: &String| h.split(" [").next().unwrap_or(h).to_string();
         // The simulated channels (the clean copies, if any, follow them in `channels`).
@@ -250,7 +261,7 @@ impl Simulation {
                     order: a.order,
                     settle: 0.0,
                 };
-                vec![logger.logger(output_interval)?; index.len()]
+                vec![logger.logger(output_interval).map_err(|e| e.to_string())?; index.len()]
             }
             None => Vec::new(),
         };
@@ -335,7 +346,7 @@ fn simulate(plan: &Plan, runs: &[&RunSpec], channels: &[ChannelInfo]) -> Vec<Res
     let mut sinks: Vec<_> = simulations
         .iter_mut()
         .map(|s| {
-            move |row: &[f64]| -> Result<(), String> {
+            move |row: &[f64]| -> Result<(), lash_core::BoxError> {
                 s.keep(row);
                 Ok(())
             }

@@ -140,13 +140,24 @@ impl Plan {
     }
 
     /// The scenario of one run: the base with the run's values at their paths, validated.
-    pub fn scenario(&self, run: &RunSpec) -> Result<AnyScenario, String> {
+    pub fn scenario(&self, run: &RunSpec) -> Result<AnyScenario, RunScenarioError> {
         let edits = self.spec.parameters.iter().map(|p| p.path.as_str()).zip(run.values.iter().copied());
         self.edits.edited(edits).map_err(|e| match e {
-            EditError::Path(e) => e.to_string(),
-            EditError::Invalid(p) => format!("invalid parameter combination: {p}"),
+            EditError::Path(e) => RunScenarioError::Path(e),
+            EditError::Invalid(p) => RunScenarioError::Invalid(p),
         })
     }
+}
+
+/// Why a run's values do not make a scenario.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RunScenarioError {
+    /// A parameter path that names no number of the base scenario.
+    #[error(transparent)]
+    Path(#[from] lash_scenario::paths::PathError),
+    /// The values together make an invalid scenario (every problem, with its field).
+    #[error("invalid parameter combination: {0}")]
+    Invalid(Problems),
 }
 
 /// Applies the sweep's horizon and sampling to `base`; the problems of the sampling.
@@ -372,7 +383,11 @@ linspace = { start = 400.0, stop = 600.0, count = 3 }
     fn an_invalid_combination_is_a_per_run_error() {
         let p = plan(&GRID.replace("values = [0.01005, 0.0101]", "values = [0.01005, 0.009]")).unwrap();
         let e = p.scenario(&p.runs[3]).unwrap_err();
-        assert!(e.contains("bearing_radius") || e.contains("journal_radius"), "{e}");
+        let RunScenarioError::Invalid(problems) = &e else { panic!("{e}") };
+        assert!(
+            problems.0.iter().any(|p| p.field.contains("bearing_radius") || p.field.contains("journal_radius")),
+            "{e}"
+        );
         assert!(p.scenario(&p.runs[0]).is_ok());
     }
 

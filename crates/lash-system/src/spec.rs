@@ -186,11 +186,22 @@ pub enum ElementSource {
     Builtin(String, Option<String>),
 }
 
+/// An element that does not name exactly one source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SourceError {
+    /// A scenario given to an FMU or a plugin.
+    #[error("scenario: only a built-in element takes a scenario (an FMU carries its own)")]
+    ScenarioWithoutBuiltin,
+    /// None, or more than one, of fmu, plugin, builtin.
+    #[error("give exactly one of fmu, plugin, builtin")]
+    NotExactlyOne,
+}
+
 impl ElementSpec {
     /// The one source the element names, resolved against the system file's folder.
-    pub fn source(&self, base: &std::path::Path) -> Result<ElementSource, String> {
+    pub fn source(&self, base: &std::path::Path) -> Result<ElementSource, SourceError> {
         if self.scenario.is_some() && self.builtin.is_none() {
-            return Err("scenario: only a built-in element takes a scenario (an FMU carries its own)".into());
+            return Err(SourceError::ScenarioWithoutBuiltin);
         }
         match (&self.fmu, &self.plugin, &self.builtin) {
             (Some(f), None, None) => Ok(ElementSource::Fmu(base.join(f))),
@@ -202,7 +213,7 @@ impl ElementSpec {
                     if file.is_file() { file.display().to_string() } else { s.clone() }
                 }),
             )),
-            _ => Err("give exactly one of fmu, plugin, builtin".into()),
+            _ => Err(SourceError::NotExactlyOne),
         }
     }
 }
@@ -229,7 +240,7 @@ pub struct OutputSpec {
     pub channels: Vec<String>,
 }
 
-/// Parses a TOML system file.
-pub fn parse(text: &str) -> Result<SystemSpec, String> {
-    toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())
+/// Parses a TOML system file (the error names the line and the field).
+pub fn parse(text: &str) -> Result<SystemSpec, toml::de::Error> {
+    toml::from_str(text)
 }

@@ -20,6 +20,39 @@ use quick_xml::events::{BytesStart, Event};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// Why an SSP system structure cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum SspError {
+    /// Not well-formed XML.
+    #[error("not valid XML: {0}")]
+    Xml(quick_xml::Error),
+    /// Well-formed, but missing or contradicting what lash needs (the text names the element).
+    #[error("{0}")]
+    Invalid(String),
+    /// A file of the system, or the archive, that cannot be read or unpacked.
+    #[error("{}: {problem}", path.display())]
+    Read {
+        /// The file or archive.
+        path: PathBuf,
+        /// What the file system or the unpacking said.
+        problem: lash_core::BoxError,
+    },
+    /// What is wrong inside a file of the system.
+    #[error("{}: {problem}", path.display())]
+    In {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong in it.
+        problem: Box<SspError>,
+    },
+}
+
+impl From<String> for SspError {
+    fn from(message: String) -> Self {
+        Self::Invalid(message)
+    }
+}
+
 fn unescape(v: &str) -> String {
     v.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&apos;", "'").replace("&amp;", "&")
 }
@@ -53,12 +86,12 @@ fn ssv_value(tag: &str, value: Option<String>, name: &str) -> Result<Option<Para
 
 /// Parameter values of an `.ssv` document (or an inline `ssv:ParameterValues`): `name → value`
 /// (Real, Integer, Enumeration, Boolean and String parameters).
-pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, ParameterValue>, String> {
+pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, ParameterValue>, SspError> {
     let mut reader = quick_xml::Reader::from_str(xml);
     let mut out = BTreeMap::new();
     let mut current: Option<String> = None;
     loop {
-        match reader.read_event().map_err(|e| format!("not valid XML: {e}"))? {
+        match reader.read_event().map_err(SspError::Xml)? {
             Event::Start(e) | Event::Empty(e) => match local(&e).as_str() {
                 "Parameter" => current = attr(&e, "name"),
                 tag => {
@@ -87,32 +120,37 @@ pub struct Fallback {
 
 /// Reads an `.ssd` file (component sources and `.ssv` files relative to its folder), or an `.ssp`
 /// archive (unpacked under `cache`, confined and within the FMU archive limits).
-pub fn load(path: &Path, cache: &Path, fallback: Fallback) -> Result<(SystemSpec, PathBuf), String> {
+pub fn load(path: &Path, cache: &Path, fallback: Fallback) -> Result<(SystemSpec, PathBuf), SspError> {
+    let read = |at: &Path| {
+        let path = at.to_path_buf();
+        move |e: lash_core::BoxError| SspError::Read { path, problem: e }
+    };
     let (ssd, base) = if path.extension().is_some_and(|e| e == "ssp") {
         // Untrusted like an FMU: confined to its folder, within the same limits.
-        let err = |m: String| format!("{}: {m}", path.display());
-        let limits = lash_fmi::archive::UnpackLimits::from_env().map_err(|e| err(e.to_string()))?;
-        let size = std::fs::metadata(path).map_err(|e| err(e.to_string()))?.len();
+        let limits = lash_fmi::archive::UnpackLimits::from_env().map_err(|e| read(path)(e.into()))?;
+        let size = std::fs::metadata(path).map_err(|e| read(path)(e.into()))?.len();
         if size > limits.max_archive_bytes {
-            return Err(err(format!("{size} bytes, more than the {} an archive may have", limits.max_archive_bytes)));
+            let problem = format!("{size} bytes, more than the {} an archive may have", limits.max_archive_bytes);
+            return Err(read(path)(problem.into()));
         }
-        let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+        let bytes = std::fs::read(path).map_err(|e| read(path)(e.into()))?;
         let dir = cache.join(format!("ssp-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).map_err(|e| err(format!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(&dir).map_err(|e| read(path)(format!("{}: {e}", dir.display()).into()))?;
         lash_fmi::archive::unpack_archive_into(&bytes, &dir, &limits, "SystemStructure.ssd")
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(|e| read(path)(e.into()))?;
         (dir.join("SystemStructure.ssd"), dir)
     } else {
         (path.to_path_buf(), path.parent().unwrap_or(Path::new(".")).to_path_buf())
     };
-    let xml = std::fs::read_to_string(&ssd).map_err(|e| format!("{}: {e}", ssd.display()))?;
-    let spec = parse_ssd(&xml, &base, fallback).map_err(|m| format!("{}: {m}", ssd.display()))?;
+    let xml = std::fs::read_to_string(&ssd).map_err(|e| read(&ssd)(e.into()))?;
+    let spec =
+        parse_ssd(&xml, &base, fallback).map_err(|e| SspError::In { path: ssd.clone(), problem: Box::new(e) })?;
     Ok((spec, base))
 }
 
 /// Parses the text of an `.ssd`.
-pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpec, String> {
+pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpec, SspError> {
     let mut reader = quick_xml::Reader::from_str(xml);
     let mut name = String::from("system");
     let (mut start, mut stop, mut file_step, mut osp_step) = (0.0, None, None, None);
@@ -127,7 +165,7 @@ pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpe
         s.map(|v| v.trim().parse::<f64>().map_err(|_| format!("{what}: {v:?} is not a number"))).transpose()
     };
     loop {
-        let event = reader.read_event().map_err(|e| format!("not valid XML: {e}"))?;
+        let event = reader.read_event().map_err(SspError::Xml)?;
         let (e, empty) = match &event {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
@@ -178,7 +216,7 @@ pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpe
             "Step" => file_step = number(attr(&e, "value"), "lash:Step value")?,
             "FixedStepMaster" => osp_step = number(attr(&e, "stepSize"), "osp:FixedStepMaster stepSize")?,
             "Component" => {
-                let cname = attr(&e, "name").ok_or("a Component without a name")?;
+                let cname = attr(&e, "name").ok_or_else(|| SspError::Invalid("a Component without a name".into()))?;
                 let source = attr(&e, "source").ok_or_else(|| format!("component {cname:?}: no source"))?;
                 let mut spec = ElementSpec {
                     name: cname,
@@ -207,7 +245,8 @@ pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpe
                     let path = base.join(&src);
                     let text =
                         std::fs::read_to_string(&path).map_err(|err| format!("parameter binding {src}: {err}"))?;
-                    let values = parse_ssv(&text).map_err(|m| format!("{src}: {m}"))?;
+                    let values =
+                        parse_ssv(&text).map_err(|e| SspError::In { path: src.into(), problem: Box::new(e) })?;
                     bind(&mut elements[k], values);
                 }
             }
@@ -223,11 +262,12 @@ pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpe
     }
     let stop = stop
         .or(fallback.horizon.map(|h| start + h))
-        .ok_or("no DefaultExperiment stopTime: add one, or pass --horizon")?;
-    let step = file_step
-        .or(osp_step)
-        .or(fallback.step)
-        .ok_or("no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step")?;
+        .ok_or_else(|| SspError::Invalid("no DefaultExperiment stopTime: add one, or pass --horizon".into()))?;
+    let step = file_step.or(osp_step).or(fallback.step).ok_or_else(|| {
+        SspError::Invalid(
+            "no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step".into(),
+        )
+    })?;
     // A file written for libcosim (its fixed-step master's annotation) runs as libcosim runs it:
     // Jacobi, the initial values iterated in initialization mode.
     let (algorithm, initialization) = match osp_step {

@@ -9,7 +9,7 @@ use lash_orchestrate::{
 use std::path::Path;
 
 /// Why a system cannot be built or run.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum SystemError {
     /// Bad input: the message names the field (`elements[1].fmu: …`).
     #[error("{0}")]
@@ -27,7 +27,7 @@ pub enum SystemError {
     },
     /// The sink refused a row.
     #[error("output: {0}")]
-    Output(String),
+    Output(lash_core::BoxError),
 }
 
 /// A parameter's value as it will be set: numbers (any numeric kind), text (a String) or bytes
@@ -145,7 +145,7 @@ fn load(source: &ElementSource, name: &str, cache: &Path, isolation: Isolation) 
     if let (ElementSource::Fmu(path), Isolation::Child(timeout)) = (source, isolation) {
         let host = std::env::current_exe().map_err(|e| format!("the lash executable: {e}"))?;
         let isolated = lash_fmi::isolate::IsolatedFmu::spawn(&host, path, cache, name, timeout)
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .map_err(|e| format!("{}: {}", path.display(), lash_core::error_chain(&e)))?;
         return Ok(Box::new(isolated));
     }
     Ok(match source {
@@ -374,7 +374,10 @@ impl System {
     /// Sets up and parameterises every element, then hands the run to the coupling algorithm
     /// (Gauss–Seidel, Jacobi or the interface master) of lash-orchestrate; `sink` receives each
     /// recorded row (time first).
-    pub fn run(&mut self, sink: &mut dyn FnMut(&[f64]) -> Result<(), String>) -> Result<RunSummary, SystemError> {
+    pub fn run(
+        &mut self,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), lash_core::BoxError>,
+    ) -> Result<RunSummary, SystemError> {
         let wall = std::time::Instant::now();
         if self.interface.is_some() {
             return self.run_interface(sink, wall);
@@ -444,14 +447,14 @@ impl System {
 
 /// The system's one observer: rows (time first) into the sink.
 struct Rows<'s> {
-    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), String>,
+    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), lash_core::BoxError>,
     row: Vec<f64>,
     samples: u64,
     last: Ticks,
 }
 
 impl Observer for Rows<'_> {
-    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), String> {
+    fn observe(&mut self, t: Ticks, signals: &[f64]) -> Result<(), lash_core::BoxError> {
         self.last = t;
         self.row.clear();
         self.row.push(t.seconds());
@@ -481,7 +484,7 @@ impl System {
     /// stepped by [`InterfaceMaster`].
     fn run_interface(
         &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), String>,
+        sink: &mut dyn FnMut(&[f64]) -> Result<(), lash_core::BoxError>,
         wall: std::time::Instant,
     ) -> Result<RunSummary, SystemError> {
         let (start, stop) = (self.start, self.stop);

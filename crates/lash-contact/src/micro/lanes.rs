@@ -60,7 +60,7 @@ pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
 }
 
 /// How a lane's advance ended: the steps completed, and the failure (time reached, message).
-pub type LaneOutcome = Result<(), (usize, f64, String)>;
+pub type LaneOutcome = Result<(), (usize, f64, crate::PenetrationError)>;
 
 /// Runs advanced together.
 pub const LANES: usize = 8;
@@ -973,7 +973,7 @@ fn advance_lanes(
         for l in (0..L).filter(|_| bad != 0) {
             if bad >> l & 1 == 1 && running[l] {
                 kept.scatter(l, models[l]);
-                let message = models[l].check_penetration(0).err().unwrap_or_default();
+                let message = models[l].penetration_error(0);
                 outcome[l] = Err((i, Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds(), message));
                 running[l] = false;
                 lanes_changed = true;

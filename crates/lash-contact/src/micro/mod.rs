@@ -24,6 +24,7 @@ pub mod joint;
 pub mod lanes;
 pub mod model;
 
+use crate::PenetrationError;
 use crate::clearance::{ClearanceJoint, Impact};
 use crate::parameters::ClearanceDefinition;
 use crate::spherical::SphericalClearance;
@@ -257,7 +258,7 @@ fn rk4_steps<J: MicroJoint, const N: usize, const K: usize, const M: usize, cons
     step: Ticks,
     steps: i64,
     rest: i64,
-) -> Result<(), (f64, String)> {
+) -> Result<(), (f64, PenetrationError)> {
     let mut now = t;
     for i in 0..steps + i64::from(rest > 0) {
         let dh = if i < steps { step } else { Ticks(rest) };
@@ -280,7 +281,7 @@ pub fn rk4_steps_as_in_a_run<J: MicroJoint, const N: usize, const K: usize, cons
     t: Ticks,
     step: Ticks,
     steps: usize,
-) -> Result<(), (usize, f64, String)> {
+) -> Result<(), (usize, f64, PenetrationError)> {
     const CHUNK: [bool; 256] = [false; 256];
     let mut done = 0;
     while done < steps {
@@ -306,7 +307,7 @@ fn rk4_recorded<J: MicroJoint, const N: usize, const K: usize, const M: usize, c
     refs: &[ValueReference],
     width: usize,
     rows: &mut [f64],
-) -> Result<(), (usize, f64, String)> {
+) -> Result<(), (usize, f64, PenetrationError)> {
     if N == 2 {
         // One planar joint: the step outlined, in the baseline instruction set (the AVX2 copy
         // below, with the step inlined, measured 3 % slower on scenario A).
@@ -332,7 +333,7 @@ fn rk4_recorded_dispatched<J: MicroJoint, const N: usize, const K: usize, const 
     refs: &[ValueReference],
     width: usize,
     rows: &mut [f64],
-) -> Result<(), (usize, f64, String)> {
+) -> Result<(), (usize, f64, PenetrationError)> {
     rk4_recorded_in::<J, N, K, M, R, true>(m, t, step, record, context, refs, width, rows)
 }
 
@@ -355,7 +356,7 @@ fn rk4_recorded_in<
     refs: &[ValueReference],
     width: usize,
     rows: &mut [f64],
-) -> Result<(), (usize, f64, String)> {
+) -> Result<(), (usize, f64, PenetrationError)> {
     let h = step.seconds();
     let mut row = 0;
     for (i, &flag) in record.iter().enumerate() {
@@ -452,10 +453,10 @@ pub fn do_steps_together(
                     micro.time = Ticks(t.0 + record.len() as i64 * h.0);
                     Steps { taken: record.len(), last: Ok(StepOutcome::Completed) }
                 }
-                Err((taken, at, message)) => {
+                Err((taken, at, e)) => {
                     micro.micro_steps += taken as u64 + 1;
                     micro.phase = Phase::Failed;
-                    Steps { taken, last: Err(SubsystemError::Simulation { t: at, message }) }
+                    Steps { taken, last: Err(SubsystemError::Simulation { t: at, message: e.to_string() }) }
                 }
             });
         }
@@ -949,9 +950,12 @@ impl Subsystem for InterfaceSubsystem {
         self.phase.require("initialize", &[Phase::Configured])?;
         let mut resolved = Vec::with_capacity(self.definitions.len());
         for (definition, range) in &self.definitions {
-            let d = definition
-                .with_values(&self.parameter_values[range.clone()])
-                .map_err(|problem| SubsystemError::BadValue { name: "parameters".into(), problem })?;
+            let d = definition.with_values(&self.parameter_values[range.clone()]).map_err(|problems| {
+                SubsystemError::BadValue {
+                    name: "parameters".into(),
+                    problem: problems.0.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "),
+                }
+            })?;
             resolved.push(d);
         }
         let t = self.time.seconds();
@@ -1065,12 +1069,12 @@ impl Subsystem for InterfaceSubsystem {
                 };
                 self.micro_steps += (steps + i64::from(rest > 0)) as u64;
                 let step = self.micro_step;
-                each_core!(&mut self.core, m => rk4_steps(m, t, step, steps, rest))
+                each_core!(&mut self.core, m => rk4_steps(m, t, step, steps, rest)).map_err(|(t, e)| (t, e.to_string()))
             }
             MicroIntegrator::Dopri5(options) => {
                 each_core!(&mut self.core, m => m.dopri5_step(&options, t.seconds(), h.seconds()))
                     .map(|steps| self.micro_steps += steps)
-                    .map_err(|message| (t.seconds(), message))
+                    .map_err(|e| (t.seconds(), lash_core::error_chain(&e)))
             }
         };
         if let Err((t, message)) = result {
@@ -1110,10 +1114,10 @@ impl Subsystem for InterfaceSubsystem {
                 self.time = Ticks(t.0 + taken as i64 * h.0);
                 Steps { taken, last: Ok(StepOutcome::Completed) }
             }
-            Err((taken, t, message)) => {
+            Err((taken, t, e)) => {
                 self.micro_steps += taken as u64 + 1;
                 self.phase = Phase::Failed;
-                Steps { taken, last: Err(SubsystemError::Simulation { t, message }) }
+                Steps { taken, last: Err(SubsystemError::Simulation { t, message: e.to_string() }) }
             }
         }
     }

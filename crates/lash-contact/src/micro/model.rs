@@ -22,6 +22,7 @@
 //! which multiplies instead of solving.
 
 use super::joint::MicroJoint;
+use crate::PenetrationError;
 use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{ClearanceJoint, Impact, ImpactTracker};
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
@@ -943,7 +944,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
 
     /// Integrates from `t` to `t + h` with DOPRI5 and event location. Returns the number of
     /// accepted steps.
-    pub fn dopri5_step(&mut self, options: &AdaptiveOptions, t: f64, h: f64) -> Result<u64, String> {
+    pub fn dopri5_step(&mut self, options: &AdaptiveOptions, t: f64, h: f64) -> Result<u64, lash_ode::OdeError> {
         let mut y = [0.0; 3 * super::MAX_COORDINATES + super::MAX_FRICTION_LOADS];
         let y = &mut y[..3 * N + M];
         y[..N].copy_from_slice(self.eccentricity.as_slice());
@@ -951,8 +952,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         y[2 * N..3 * N].copy_from_slice(self.impulse.as_slice());
         y[3 * N..].copy_from_slice(self.friction_impulse.as_slice());
         let method = Method::Dopri5(AdaptiveOptions { max_step: options.max_step.min(h), ..*options });
-        let stats = lash_ode::integrate(&method, self, t, y, t + h, h, &mut |_: &mut Self, _: f64, _: &[f64]| Ok(()))
-            .map_err(|e| e.to_string())?;
+        let stats = lash_ode::integrate(&method, self, t, y, t + h, h, &mut |_: &mut Self, _: f64, _: &[f64]| Ok(()))?;
         self.eccentricity.copy_from_slice(&y[..N]);
         self.eccentricity_rate.copy_from_slice(&y[N..2 * N]);
         self.impulse.copy_from_slice(&y[2 * N..3 * N]);
@@ -968,8 +968,14 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     }
 
     /// Joint `j`'s penetration is within bounds (and its eccentricity finite).
-    pub fn check_penetration(&self, j: usize) -> Result<(), String> {
+    pub fn check_penetration(&self, j: usize) -> Result<(), PenetrationError> {
         check_penetration(&self.joints[j], &self.states[j])
+    }
+
+    /// Joint `j`'s penetration as a blow-up error (what [`Self::check_penetration`] returns when
+    /// it is out of bounds).
+    pub fn penetration_error(&self, j: usize) -> PenetrationError {
+        penetration_error(&self.joints[j], &self.states[j])
     }
 }
 
@@ -1057,7 +1063,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         }
     }
 
-    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), String> {
+    fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), lash_ode::BoxError> {
         let d = J::COORDINATES;
         for j in 0..self.joints.len() {
             let s = self.contact_at(t, j, &y[d * j..d * (j + 1)], &y[N + d * j..N + d * (j + 1)]);
@@ -1070,17 +1076,23 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     }
 }
 
-fn check_penetration<J: MicroJoint>(joint: &J, s: &J::State) -> Result<(), String> {
+fn check_penetration<J: MicroJoint>(joint: &J, s: &J::State) -> Result<(), PenetrationError> {
     if J::penetration(s) <= PENETRATION_LIMIT_FRACTION * joint.journal_radius() && J::eccentricity_norm(s).is_finite() {
         Ok(())
     } else {
-        Err(format!(
-            "penetration {:e} m of clearance joint {:?} in the micro model exceeds {} × the journal radius: the \
-             simulation blew up (micro step too large for the contact stiffness?)",
-            J::penetration(s),
-            joint.name(),
-            PENETRATION_LIMIT_FRACTION
-        ))
+        Err(penetration_error(joint, s))
+    }
+}
+
+/// The blow-up error of a joint of the micro model in state `s`.
+fn penetration_error<J: MicroJoint>(joint: &J, s: &J::State) -> PenetrationError {
+    let penetration = if J::eccentricity_norm(s).is_finite() { J::penetration(s) } else { f64::NAN };
+    PenetrationError {
+        joint: joint.name().to_string(),
+        penetration,
+        kind: "clearance joint of the micro model",
+        radius: "journal radius",
+        step: "micro step",
     }
 }
 
