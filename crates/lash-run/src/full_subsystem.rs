@@ -46,108 +46,129 @@ trait FullEngine: Send {
     fn restore(&mut self, state: &dyn Any) -> bool;
 }
 
-/// Integrates `model` from `t0` to `t1`; the error carries the model's own cause when it has one.
-fn advance<S: OdeSystem>(
-    method: &Method,
-    model: &mut S,
-    t0: f64,
-    y: &mut [f64],
-    t1: f64,
-    first_step: Option<f64>,
-    take_error: fn(&mut S) -> Option<String>,
-) -> Result<lash_ode::Stats, String> {
-    let mut ignore = |_: &mut S, _: f64, _: &[f64]| -> Result<(), lash_core::BoxError> { Ok(()) };
-    lash_ode::integrate_from(method, model, t0, y, t1, t1 - t0, &mut ignore, first_step).map_err(|e| {
-        let e = lash_core::error_chain(&e);
-        match take_error(model) {
-            Some(cause) => format!("{e} ({cause})"),
-            None => e,
-        }
-    })
+/// A full model, planar or spatial, as the engine drives it.
+trait Model: OdeSystem + Send + Sized {
+    /// Its history besides the state vector.
+    type Snapshot: Any + Send;
+    /// Consistent initial state at `t0`.
+    fn initial(&mut self, t0: f64) -> Result<Vec<f64>, String>;
+    /// The cause the model kept of its last failed evaluation.
+    fn cause(&mut self) -> Option<String>;
+    /// Its history now.
+    fn history(&self) -> Self::Snapshot;
+    /// Returns to a [`Model::history`].
+    fn go_back(&mut self, state: &Self::Snapshot);
 }
 
-struct PlanarEngine {
-    model: FullModel,
+/// Both full models carry the same inherent methods under these names.
+macro_rules! full_model {
+    ($model:ty, $snapshot:ty) => {
+        impl Model for $model {
+            type Snapshot = $snapshot;
+            fn initial(&mut self, t0: f64) -> Result<Vec<f64>, String> {
+                self.initial_state(t0).map_err(|e| e.to_string())
+            }
+            fn cause(&mut self) -> Option<String> {
+                self.take_error()
+            }
+            fn history(&self) -> Self::Snapshot {
+                self.snapshot()
+            }
+            fn go_back(&mut self, state: &Self::Snapshot) {
+                self.restore(state)
+            }
+        }
+    };
+}
+
+full_model!(FullModel, lash_contact::full_model::FullModelState);
+full_model!(SpatialFullModel, lash_contact::SpatialFullModelState);
+
+/// How an engine reads every channel of its model at `(t, y)`.
+trait Sampling<M>: Send {
+    /// Every channel into `outputs`.
+    fn sample(&mut self, model: &mut M, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String>;
+}
+
+/// A model and its sampling: the one [`FullEngine`] of both kinds.
+struct Engine<M, S> {
+    model: M,
+    sampling: S,
+}
+
+impl<M: Model, S: Sampling<M>> FullEngine for Engine<M, S> {
+    fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, String> {
+        self.model.initial(t0)
+    }
+
+    fn sample(&mut self, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
+        self.sampling.sample(&mut self.model, t, y, outputs)
+    }
+
+    /// The error carries the model's own cause when it has one.
+    fn advance(
+        &mut self,
+        method: &Method,
+        t0: f64,
+        y: &mut [f64],
+        t1: f64,
+        first_step: Option<f64>,
+    ) -> Result<lash_ode::Stats, String> {
+        let mut ignore = |_: &mut M, _: f64, _: &[f64]| -> Result<(), lash_core::BoxError> { Ok(()) };
+        lash_ode::integrate_from(method, &mut self.model, t0, y, t1, t1 - t0, &mut ignore, first_step).map_err(|e| {
+            let e = lash_core::error_chain(&e);
+            match self.model.cause() {
+                Some(cause) => format!("{e} ({cause})"),
+                None => e,
+            }
+        })
+    }
+
+    fn snapshot(&self) -> Box<dyn Any + Send> {
+        Box::new(self.model.history())
+    }
+
+    fn restore(&mut self, state: &dyn Any) -> bool {
+        state.downcast_ref().map(|s| self.model.go_back(s)).is_some()
+    }
+}
+
+/// The planar model's channels, through the recorder of a run.
+struct PlanarSampling {
     sources: Vec<(Channel, Source)>,
     all: Vec<usize>,
     sensors: Vec<(BodyId, Vec2)>,
     stresses: Vec<Option<std::sync::Arc<lash_bush::InterfaceStress>>>,
 }
 
-impl FullEngine for PlanarEngine {
-    fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, String> {
-        self.model.initial_state(t0).map_err(|e| e.to_string())
-    }
-
-    fn sample(&mut self, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
-        let n = self.model.mechanism.coordinate_count();
-        let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), self.model.clearances.len())
+impl Sampling<FullModel> for PlanarSampling {
+    fn sample(&mut self, model: &mut FullModel, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
+        let n = model.mechanism.coordinate_count();
+        let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), model.clearances.len())
             .with_stresses(&self.stresses);
-        self.model.evaluate(t, y).map_err(|e| e.to_string())?;
+        model.evaluate(t, y).map_err(|e| e.to_string())?;
         let (q, qd) = (&y[..n], &y[n..2 * n]);
         let mut sink = |row: &[f64]| {
             outputs.copy_from_slice(&row[1..]);
             Ok(())
         };
         recorder
-            .record(t, &self.model.mechanism, &self.model.solver, &self.model.contacts, q, qd, &mut sink)
+            .record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, &mut sink)
             .map_err(|e| e.to_string())
-    }
-
-    fn advance(
-        &mut self,
-        method: &Method,
-        t0: f64,
-        y: &mut [f64],
-        t1: f64,
-        first_step: Option<f64>,
-    ) -> Result<lash_ode::Stats, String> {
-        advance(method, &mut self.model, t0, y, t1, first_step, FullModel::take_error)
-    }
-
-    fn snapshot(&self) -> Box<dyn Any + Send> {
-        Box::new(self.model.snapshot())
-    }
-
-    fn restore(&mut self, state: &dyn Any) -> bool {
-        state.downcast_ref().map(|s| self.model.restore(s)).is_some()
     }
 }
 
-struct SpatialEngine {
-    model: SpatialFullModel,
+/// The spatial model's channels, through its sampler.
+struct SpatialSampling {
     sources: Vec<(Channel, SpatialSource)>,
     sampler: SpatialSampler,
 }
 
-impl FullEngine for SpatialEngine {
-    fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, String> {
-        self.model.initial_state(t0).map_err(|e| e.to_string())
-    }
-
-    fn sample(&mut self, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
-        self.model.evaluate(t, y).map_err(|e| e.to_string())?;
-        self.sampler.sample(&self.model, &self.sources, outputs);
+impl Sampling<SpatialFullModel> for SpatialSampling {
+    fn sample(&mut self, model: &mut SpatialFullModel, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
+        model.evaluate(t, y).map_err(|e| e.to_string())?;
+        self.sampler.sample(model, &self.sources, outputs);
         Ok(())
-    }
-
-    fn advance(
-        &mut self,
-        method: &Method,
-        t0: f64,
-        y: &mut [f64],
-        t1: f64,
-        first_step: Option<f64>,
-    ) -> Result<lash_ode::Stats, String> {
-        advance(method, &mut self.model, t0, y, t1, first_step, SpatialFullModel::take_error)
-    }
-
-    fn snapshot(&self) -> Box<dyn Any + Send> {
-        Box::new(self.model.snapshot())
-    }
-
-    fn restore(&mut self, state: &dyn Any) -> bool {
-        state.downcast_ref().map(|s| self.model.restore(s)).is_some()
     }
 }
 
@@ -188,7 +209,7 @@ impl FullSubsystem {
                 let all = (0..sources.len()).collect();
                 let stresses = crate::build::interface_stresses(s);
                 (
-                    Box::new(PlanarEngine { model, sources, all, sensors, stresses }),
+                    Box::new(Engine { model, sampling: PlanarSampling { sources, all, sensors, stresses } }),
                     channels,
                     &s.name,
                     s.simulation.integrator,
@@ -199,7 +220,12 @@ impl FullSubsystem {
                 let model = crate::build_spatial(s, false);
                 let sampler = SpatialSampler::new(s, &model);
                 let channels = sources.iter().map(|(c, _)| c.clone()).collect();
-                (Box::new(SpatialEngine { model, sources, sampler }), channels, &s.name, s.simulation.integrator)
+                (
+                    Box::new(Engine { model, sampling: SpatialSampling { sources, sampler } }),
+                    channels,
+                    &s.name,
+                    s.simulation.integrator,
+                )
             }
         };
         let mut table = VariableTable::new();

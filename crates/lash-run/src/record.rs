@@ -251,3 +251,25 @@ impl RunningStats {
             .collect()
     }
 }
+
+/// Adds to `recorded` (indices into `sources`) the eccentricity and force channels of the first
+/// `joints` clearance joints, which a run's summary needs; `clearance` tells a source's joint and
+/// quantity name when it is a clearance channel.
+pub(crate) fn record_joint_summaries<S>(
+    recorded: &mut Vec<usize>,
+    sources: &[(Channel, S)],
+    joints: usize,
+    clearance: impl Fn(&S) -> Option<(usize, &'static str)>,
+) {
+    for j in 0..joints {
+        for name in ["eccentricity", "force"] {
+            let k = sources
+                .iter()
+                .position(|(_, s)| clearance(s) == Some((j, name)))
+                .expect("every clearance joint has its channels");
+            if !recorded.contains(&k) {
+                recorded.push(k);
+            }
+        }
+    }
+}

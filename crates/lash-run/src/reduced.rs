@@ -177,17 +177,10 @@ impl ReducedRun {
         // summary (unless only the channels are wanted).
         let mut recorded: Vec<usize> = selected.clone();
         let summarised = if options.channels_only { 0 } else { joints.len() };
-        for j in 0..summarised {
-            for name in ["eccentricity", "force"] {
-                let k = sources
-                    .iter()
-                    .position(|(_, s)| matches!(s, Source::Clearance(c, q) if *c == j && CLEARANCE_QUANTITIES[*q as usize].0 == name))
-                    .expect("clearance channels exist");
-                if !recorded.contains(&k) {
-                    recorded.push(k);
-                }
-            }
-        }
+        crate::record::record_joint_summaries(&mut recorded, &sources, summarised, |s| match *s {
+            Source::Clearance(j, q) => Some((j, CLEARANCE_QUANTITIES[q as usize].0)),
+            _ => None,
+        });
         // The force channels of the emulated measurements.
         let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
         crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);

@@ -317,20 +317,13 @@ impl FullRun {
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
             Ok(())
         };
-
-        let cpu0 = cpu_time::ThreadTime::now();
-        let wall0 = std::time::Instant::now();
-        let result = lash_ode::integrate(
+        let (result, (cpu, wall)) = timed_integration(
             &sim.integrator,
             &mut self.model,
-            t0,
+            (t0, t_end, sim.output_interval),
             &mut y,
-            t_end,
-            sim.output_interval,
             &mut observer,
         );
-        let cpu = cpu0.elapsed().as_secs_f64();
-        let wall = wall0.elapsed().as_secs_f64();
         let ode_stats = match result {
             Ok(s) => s,
             Err(e) => return Err(self.explain(e)),
@@ -378,30 +371,57 @@ impl FullRun {
     /// Names the quantity behind an integrator error.
     fn explain(&mut self, e: OdeError) -> RunError {
         let cause = self.model.take_error();
-        match e {
-            OdeError::NonFinite { t, index, value } => {
-                let n = self.model.dim() / 2;
-                let k = index % n;
-                let body = &self.model.mechanism.bodies[k / 3].name;
-                let q = ["x", "y", "angle", "vx", "vy", "angular_velocity"][(k % 3) + if index >= n { 3 } else { 0 }];
-                let mut message = format!("{body}.{q} became {value}: the simulation blew up");
-                if let Some(c) = cause {
-                    message.push_str(&format!(" ({c})"));
-                }
-                RunError::Simulation { t, message }
+        let mechanism = &self.model.mechanism;
+        let n = self.model.dim() / 2;
+        let non_finite = |index: usize, value: f64| {
+            let k = index % n;
+            let body = &mechanism.bodies[k / 3].name;
+            let q = ["x", "y", "angle", "vx", "vy", "angular_velocity"][(k % 3) + if index >= n { 3 } else { 0 }];
+            let mut message = format!("{body}.{q} became {value}: the simulation blew up");
+            if let Some(c) = cause {
+                message.push_str(&format!(" ({c})"));
             }
-            OdeError::System { t, source } => RunError::Simulation { t, message: lash_core::error_chain(&*source) },
-            OdeError::StepSizeUnderflow { t, step } => RunError::Simulation {
-                t,
-                message: format!(
-                    "step size fell to {step:e} s: the tolerances cannot be met (a blow-up, or a force that jumps \
-                     without an event, such as pure Coulomb friction once the slip stops: prefer the ambrosio or \
-                     adams_stick_slip friction laws)"
-                ),
-            },
-            OdeError::Observer { t, source } => SinkFailed::sort(t, source),
-            OdeError::Settings(m) => RunError::Simulation { t: self.scenario.simulation.start_time, message: m },
+            message
+        };
+        let underflow = "a blow-up, or a force that jumps without an event, such as pure Coulomb friction once the \
+                         slip stops: prefer the ambrosio or adams_stick_slip friction laws";
+        integration_error(e, self.scenario.simulation.start_time, non_finite, underflow)
+    }
+}
+
+/// Integrates `model` over `(t0, t_end)` with samples every `interval` to `observer`; the result
+/// and the (CPU, wall) seconds it took.
+pub(crate) fn timed_integration<S: OdeSystem>(
+    method: &lash_ode::Method,
+    model: &mut S,
+    (t0, t_end, interval): (f64, f64, f64),
+    y: &mut [f64],
+    observer: &mut impl lash_ode::Observer<S>,
+) -> (Result<lash_ode::Stats, OdeError>, (f64, f64)) {
+    let cpu = cpu_time::ThreadTime::now();
+    let wall = std::time::Instant::now();
+    let result = lash_ode::integrate(method, model, t0, y, t_end, interval, observer);
+    (result, (cpu.elapsed().as_secs_f64(), wall.elapsed().as_secs_f64()))
+}
+
+/// The run error of an integrator error: `non_finite` says which quantity a state index is,
+/// `underflow` what a step-size underflow usually means for the model, a sink's error becomes
+/// [`RunError::Output`].
+pub(crate) fn integration_error(
+    e: OdeError,
+    start_time: f64,
+    non_finite: impl FnOnce(usize, f64) -> String,
+    underflow: &str,
+) -> RunError {
+    let simulation = |t: f64, message: String| RunError::Simulation { t, message };
+    match e {
+        OdeError::NonFinite { t, index, value } => simulation(t, non_finite(index, value)),
+        OdeError::System { t, source } => simulation(t, lash_core::error_chain(&*source)),
+        OdeError::StepSizeUnderflow { t, step } => {
+            simulation(t, format!("step size fell to {step:e} s: the tolerances cannot be met ({underflow})"))
         }
+        OdeError::Observer { t, source } => SinkFailed::sort(t, source),
+        OdeError::Settings(m) => simulation(start_time, m),
     }
 }
 
@@ -460,18 +480,21 @@ pub trait Runner {
     }
 }
 
-impl Runner for FullRun {
-    fn header(&self) -> Vec<String> {
-        FullRun::header(self)
-    }
-    fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
-        FullRun::execute(self, sink, progress)
-    }
+/// Runs whose inherent `header` and `execute` are the trait's.
+macro_rules! inherent_runner {
+    ($($run:ty),*) => {$(
+        impl Runner for $run {
+            fn header(&self) -> Vec<String> {
+                <$run>::header(self)
+            }
+            fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
+                <$run>::execute(self, sink, progress)
+            }
+        }
+    )*};
 }
+
+inherent_runner!(FullRun, crate::spatial::SpatialRun, crate::spatial::SpatialReducedRun);
 
 impl Runner for crate::reduced::ReducedRun {
     fn header(&self) -> Vec<String> {

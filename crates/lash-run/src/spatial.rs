@@ -2,11 +2,10 @@
 //! ideal mechanism), integrated, every channel sampled at the output interval, and the same
 //! [`Summary`] as the planar runners.
 
-use crate::run::{ClearanceSummary, RunError, Runner, Summary};
+use crate::run::{ClearanceSummary, RunError, Summary};
 use lash_contact::{Material, SpatialFullModel, SphericalClearance};
 use lash_core::BoxError;
 use lash_mech::{BodyId, Motion};
-use lash_ode::OdeError;
 use lash_scenario::Channel;
 use lash_scenario::spatial::{
     SPATIAL_CLEARANCE_QUANTITIES, SpatialLoadSpec, SpatialScenario, SpatialSource, inertia_tensor, spatial_channels,
@@ -317,31 +316,16 @@ impl SpatialRun {
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
             sink(&row).map_err(crate::run::SinkFailed::boxed)
         };
-        let cpu0 = cpu_time::ThreadTime::now();
-        let wall0 = std::time::Instant::now();
-        let result = lash_ode::integrate(
+        let (result, (cpu, wall)) = crate::run::timed_integration(
             &sim.integrator,
             &mut self.model,
-            t0,
+            (t0, t_end, sim.output_interval),
             &mut y,
-            t_end,
-            sim.output_interval,
             &mut observer,
         );
-        let (cpu, wall) = (cpu0.elapsed().as_secs_f64(), wall0.elapsed().as_secs_f64());
-        let ode = result.map_err(|e| match e {
-            OdeError::System { t, source } => RunError::Simulation { t, message: lash_core::error_chain(&*source) },
-            OdeError::Observer { t, source } => crate::run::SinkFailed::sort(t, source),
-            OdeError::NonFinite { t, index, value } => RunError::Simulation {
-                t,
-                message: format!("state component {index} became {value}: the simulation blew up"),
-            },
-            OdeError::StepSizeUnderflow { t, step } => RunError::Simulation {
-                t,
-                message: format!("step size fell to {step:e} s: the tolerances cannot be met (a blow-up?)"),
-            },
-            OdeError::Settings(m) => RunError::Simulation { t: t0, message: m },
-        })?;
+        let non_finite =
+            |index: usize, value: f64| format!("state component {index} became {value}: the simulation blew up");
+        let ode = result.map_err(|e| crate::run::integration_error(e, t0, non_finite, "a blow-up?"))?;
         let (measurements, measured) = measurements
             .finish(t0, sim.output_interval)
             .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
@@ -389,19 +373,6 @@ impl SpatialRun {
             measurements,
             measured,
         })
-    }
-}
-
-impl Runner for SpatialRun {
-    fn header(&self) -> Vec<String> {
-        SpatialRun::header(self)
-    }
-    fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
-        SpatialRun::execute(self, sink, progress)
     }
 }
 
@@ -458,17 +429,10 @@ impl SpatialReducedRun {
             .filter(|&i| scenario.output.channels.is_empty() || scenario.output.channels.contains(&sources[i].0.name))
             .collect();
         let mut recorded = written.clone();
-        for j in 0..k {
-            for name in ["eccentricity", "force"] {
-                let i = sources
-                    .iter()
-                    .position(|(_, s)| matches!(s, SpatialSource::Clearance(c, q) if *c == j && SPATIAL_CLEARANCE_QUANTITIES[*q as usize].0 == name))
-                    .expect("clearance channels exist");
-                if !recorded.contains(&i) {
-                    recorded.push(i);
-                }
-            }
-        }
+        crate::record::record_joint_summaries(&mut recorded, &sources, k, |s| match *s {
+            SpatialSource::Clearance(j, q) => Some((j, SPATIAL_CLEARANCE_QUANTITIES[q as usize].0)),
+            _ => None,
+        });
         let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
         crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);
         let cut_joint_names: Vec<&str> = cut.joints.iter().map(|j| j.name.as_str()).collect();
@@ -667,18 +631,5 @@ impl SpatialReducedRun {
             sink,
             progress,
         )
-    }
-}
-
-impl Runner for SpatialReducedRun {
-    fn header(&self) -> Vec<String> {
-        SpatialReducedRun::header(self)
-    }
-    fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
-        SpatialReducedRun::execute(self, sink, progress)
     }
 }
