@@ -1090,9 +1090,9 @@ fn penetration_error<J: MicroJoint>(joint: &J, s: &J::State) -> PenetrationError
     PenetrationError {
         joint: joint.name().to_string(),
         penetration,
-        kind: "clearance joint of the micro model",
+        kind: "clearance joint",
         radius: "journal radius",
-        step: "micro step",
+        step: "the micro model's step",
     }
 }
 
