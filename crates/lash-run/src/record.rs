@@ -2,7 +2,7 @@
 //! all channel values from (q, q̇, q̈, λ, contact states), updates the statistics and hands the
 //! selected columns to the sink.
 
-use crate::run::{ChannelStats, ClearanceSummary};
+use crate::run::{ChannelStats, ClearanceSummary, Sink};
 use lash_contact::{ContactState, Impact};
 use lash_core::BoxError;
 use lash_mech::{BodyId, Mechanism, Solver, Vec2, driver_torque, kinematics, point_kinematics};
@@ -78,7 +78,7 @@ impl<'a> Recorder<'a> {
         contacts: &[ContactState],
         q: &[f64],
         qd: &[f64],
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
+        sink: Sink<'_>,
     ) -> Result<(), BoxError> {
         let qdd = &solver.accelerations;
         for (k, (body, point)) in self.sensors.iter().enumerate() {

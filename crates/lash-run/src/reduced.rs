@@ -15,7 +15,7 @@
 //! R_B F_T on the bearing body) act in the micro model and in every propagated channel.
 
 use crate::build::{BuildOptions, build_model};
-use crate::run::{RunError, Summary, driver_period};
+use crate::run::{RunError, Sink, Summary, driver_period};
 use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_core::{BoxError, Coupling, Subsystem, Ticks};
 use lash_mech::{ClearanceInterface, Interface, MechanismSubsystem, Probe, Vec2};
@@ -305,11 +305,7 @@ impl ReducedRun {
     }
 
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
-    pub fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
+    pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
         let recording = self.recording();
         let details = self.details();
         let summary = run_reduced(self.coupled(&recording), details, sink, progress)?;
@@ -324,10 +320,7 @@ impl ReducedRun {
     /// are those of its own [`ReducedRun::execute`], bit for bit, but for the CPU and wall times
     /// (the group's, shared equally); runs that cannot go together (two-way coupling, threads,
     /// cubic Hermite, different steps or output intervals) run one after the other.
-    pub fn execute_together(
-        runs: &mut [&mut ReducedRun],
-        sinks: Vec<crate::run::Sink<'_>>,
-    ) -> Vec<Result<Summary, RunError>> {
+    pub fn execute_together(runs: &mut [&mut ReducedRun], sinks: Vec<Sink<'_>>) -> Vec<Result<Summary, RunError>> {
         let recordings: Vec<Recording> = runs.iter().map(|r| r.recording()).collect();
         let details: Vec<_> = runs.iter().map(|r| r.details()).collect();
         let group: Vec<Coupled<'_>> = runs.iter_mut().zip(&recordings).map(|(r, rec)| r.coupled(rec)).collect();
@@ -421,16 +414,12 @@ struct Recorder<'c, 's> {
     samples: u64,
     max_ecc: Vec<f64>,
     sum_force: Vec<f64>,
-    sink: &'s mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
+    sink: Sink<'s>,
     progress: Option<&'s mut dyn FnMut(f64)>,
 }
 
 impl<'c, 's> Recorder<'c, 's> {
-    fn new(
-        c: &Coupled<'c>,
-        sink: &'s mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: Option<&'s mut dyn FnMut(f64)>,
-    ) -> Self {
+    fn new(c: &Coupled<'c>, sink: Sink<'s>, progress: Option<&'s mut dyn FnMut(f64)>) -> Self {
         let recording = c.recording;
         let joints = recording.summary.len();
         let names: Vec<&str> = recording.channels.iter().map(|ch| ch.name.as_str()).collect();
@@ -498,7 +487,7 @@ fn setup(c: &mut Coupled<'_>) -> Result<(), RunError> {
 pub(crate) fn run_reduced(
     mut c: Coupled<'_>,
     details: impl FnOnce(MasterStats) -> ReducedDetails,
-    sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
+    sink: Sink<'_>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Summary, RunError> {
     setup(&mut c)?;
@@ -524,7 +513,7 @@ pub(crate) fn run_reduced(
 /// different steps or output intervals) run one after the other, as [`run_reduced`] runs them.
 pub(crate) fn run_reduced_together<'c, 's>(
     mut group: Vec<Coupled<'c>>,
-    sinks: Vec<crate::run::Sink<'s>>,
+    sinks: Vec<Sink<'s>>,
     details: impl Fn(usize, MasterStats) -> ReducedDetails,
 ) -> Vec<Result<Summary, RunError>> {
     assert_eq!(group.len(), sinks.len(), "one sink per run");

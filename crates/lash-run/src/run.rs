@@ -292,11 +292,7 @@ impl FullRun {
 
     /// Integrates over the scenario's horizon. `sink` receives each row (time first);
     /// `progress` the fraction done.
-    pub fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
+    pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
         let sim = &self.scenario.simulation;
         let (t0, t_end) = (sim.start_time, sim.start_time + sim.horizon);
         let mut y = self.model.initial_state(t0)?;
@@ -468,11 +464,7 @@ pub trait Runner {
     /// Column names with units, time first.
     fn header(&self) -> Vec<String>;
     /// Runs the horizon.
-    fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError>;
+    fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError>;
     /// The planar reduced run this is, if it is one (runs that [`crate::execute_together`] can
     /// step side by side).
     fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {
@@ -500,11 +492,7 @@ impl Runner for crate::reduced::ReducedRun {
     fn header(&self) -> Vec<String> {
         crate::reduced::ReducedRun::header(self)
     }
-    fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
+    fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
         crate::reduced::ReducedRun::execute(self, sink, progress)
     }
     fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {

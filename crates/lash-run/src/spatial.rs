@@ -2,7 +2,7 @@
 //! ideal mechanism), integrated, every channel sampled at the output interval, and the same
 //! [`Summary`] as the planar runners.
 
-use crate::run::{ClearanceSummary, RunError, Summary};
+use crate::run::{ClearanceSummary, RunError, Sink, Summary};
 use lash_contact::{Material, SpatialFullModel, SphericalClearance};
 use lash_core::BoxError;
 use lash_mech::{BodyId, Motion};
@@ -275,11 +275,7 @@ impl SpatialRun {
     }
 
     /// Integrates over the horizon; rows go to `sink`, the fraction done to `progress`.
-    pub fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
+    pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
         let sim = self.scenario.simulation.clone();
         let (t0, t_end) = (sim.start_time, sim.start_time + sim.horizon);
         let mut y = self
@@ -606,11 +602,7 @@ impl SpatialReducedRun {
     }
 
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
-    pub fn execute(
-        &mut self,
-        sink: &mut dyn FnMut(&[f64]) -> Result<(), BoxError>,
-        progress: &mut dyn FnMut(f64),
-    ) -> Result<Summary, RunError> {
+    pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
         let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
             Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
             _ => None,
