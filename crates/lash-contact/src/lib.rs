@@ -13,6 +13,7 @@ pub mod full_model;
 pub mod law;
 pub mod micro;
 pub mod parameters;
+pub mod radial;
 pub mod spatial_model;
 pub mod spherical;
 
