@@ -7,8 +7,8 @@
 //! negative in contact, so the adaptive integrator locates every onset and exit; the approach
 //! velocity δ̇⁻ of the hysteresis laws is captured at the located onset.
 
-use crate::clearance::PENETRATION_LIMIT_FRACTION;
-use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use crate::clearance::{ClearanceJoint, ContactState, Impact, StepSearch};
+use crate::impact_log::ImpactLog;
 use lash_mech::constraints::pose_of;
 use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, assemble, kinematics, velocity_analysis};
 use lash_ode::OdeSystem;
@@ -31,12 +31,8 @@ pub struct FullModel {
     pub solver: Solver,
     /// Contact states at the last evaluation, one per clearance joint.
     pub contacts: Vec<ContactState>,
-    /// Completed impacts, per clearance joint.
-    pub impacts: Vec<Vec<Impact>>,
-    open: Vec<Option<ImpactTracker>>,
-    violation: bool,
+    log: ImpactLog,
     strict_modes: bool,
-    error: Option<String>,
     dense_buffer: Vec<f64>,
     n: usize,
     /// Per clearance joint, the index in y of its bush's deflection (a bush damped in series).
@@ -50,10 +46,7 @@ pub struct FullModel {
 pub struct FullModelState {
     clearances: Vec<ClearanceJoint>,
     contacts: Vec<ContactState>,
-    impacts: Vec<Vec<Impact>>,
-    open: Vec<Option<ImpactTracker>>,
-    violation: bool,
-    error: Option<String>,
+    log: ImpactLog,
 }
 
 impl FullModel {
@@ -77,13 +70,8 @@ impl FullModel {
             clearances,
             solver,
             contacts: vec![ContactState::default(); k],
-            // Impact records are reserved up front so that recording them does not allocate in
-            // the stepping loop (they grow beyond this only in very long runs).
-            impacts: (0..k).map(|_| Vec::with_capacity(1024)).collect(),
-            open: vec![None; k],
-            violation: false,
+            log: ImpactLog::new(k),
             strict_modes: false,
-            error: None,
             dense_buffer: vec![0.0; next],
             n,
             bush_states,
@@ -182,10 +170,7 @@ impl FullModel {
             c.in_contact = false;
             c.onset_velocity = 0.0;
         }
-        self.impacts.iter_mut().for_each(Vec::clear);
-        self.open.iter_mut().for_each(|o| *o = None);
-        self.error = None;
-        self.violation = false;
+        self.log.clear();
         for k in 0..self.clearances.len() {
             if self.indentation(k, y) > 0.0 {
                 self.on_event(k, t0, y);
@@ -196,24 +181,14 @@ impl FullModel {
     /// A copy of everything in the model that evolves during a run (contact modes, onset
     /// velocities, open and completed impacts), for rollback.
     pub fn snapshot(&self) -> FullModelState {
-        FullModelState {
-            clearances: self.clearances.clone(),
-            contacts: self.contacts.clone(),
-            impacts: self.impacts.clone(),
-            open: self.open.clone(),
-            violation: self.violation,
-            error: self.error.clone(),
-        }
+        FullModelState { clearances: self.clearances.clone(), contacts: self.contacts.clone(), log: self.log.clone() }
     }
 
     /// Returns to a [`FullModel::snapshot`] of this model.
     pub fn restore(&mut self, state: &FullModelState) {
         self.clearances.clone_from(&state.clearances);
         self.contacts.clone_from(&state.contacts);
-        self.impacts.clone_from(&state.impacts);
-        self.open.clone_from(&state.open);
-        self.violation = state.violation;
-        self.error.clone_from(&state.error);
+        self.log.clone_from(&state.log);
     }
 
     /// Evaluates contact forces, q̈ and λ at `(t, y)`; results in `solver` and `contacts` (and the
@@ -221,9 +196,8 @@ impl FullModel {
     pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
         let n = self.n;
         let (q, qd) = (&y[..n], &y[n..2 * n]);
-        let FullModel {
-            mechanism, clearances, solver, contacts, violation, strict_modes, bush_states, bush_rates, ..
-        } = self;
+        let FullModel { mechanism, clearances, solver, contacts, log, strict_modes, bush_states, bush_rates, .. } =
+            self;
         solver.set_state(mechanism, t, q, qd);
         for (k, (c, state)) in clearances.iter().zip(contacts.iter_mut()).enumerate() {
             let pj = pose_of(&solver.poses, c.journal_body);
@@ -239,7 +213,7 @@ impl FullModel {
             let (mut s, mut rate) = evaluate(onset);
             let indentation = s.penetration - deflection.unwrap_or(0.0);
             if (indentation > 0.0) != c.in_contact {
-                *violation = true;
+                log.flag_violation();
                 if !c.in_contact && indentation > 0.0 {
                     if *strict_modes {
                         s.normal_force = 0.0;
@@ -270,14 +244,19 @@ impl FullModel {
         &self.solver.accelerations
     }
 
+    /// Completed impacts, per clearance joint.
+    pub fn impacts(&self) -> &[Vec<Impact>] {
+        &self.log.impacts
+    }
+
     /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).
     pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
-        self.open[k].as_ref().map(|tr| tr.so_far(t))
+        self.log.open_impact(k, t)
     }
 
     /// The first error met inside a right-hand-side evaluation, if any.
     pub fn take_error(&mut self) -> Option<String> {
-        self.error.take()
+        self.log.take_error()
     }
 
     /// Clearance joint `k`'s state at `y` (and its damped bush's deflection rate, 0 without).
@@ -325,9 +304,7 @@ impl OdeSystem for FullModel {
                 }
             }
             Err(e) => {
-                if self.error.is_none() {
-                    self.error = Some(e.to_string());
-                }
+                self.log.note_error(|| e.to_string());
                 dydt.fill(f64::NAN);
             }
         }
@@ -353,24 +330,15 @@ impl OdeSystem for FullModel {
         let (mut s, rate) = self.contact_state_and_rate(k, y, f64::INFINITY);
         s.penetration_rate -= rate;
         let c = &mut self.clearances[k];
-        if c.in_contact {
-            c.in_contact = false;
-            if let Some(tr) = self.open[k].take() {
-                self.impacts[k].push(tr.close(t));
-            }
-        } else {
-            c.in_contact = true;
-            c.onset_velocity = s.penetration_rate.max(0.0);
-            self.open[k] = Some(ImpactTracker::open(t, s.penetration_rate, self.strict_modes));
-        }
+        self.log.switch(k, t, (&mut c.in_contact, &mut c.onset_velocity), s.penetration_rate, self.strict_modes);
     }
 
     fn take_mode_violation(&mut self) -> bool {
-        std::mem::take(&mut self.violation)
+        self.log.take_violation()
     }
 
     fn wants_dense(&self) -> bool {
-        self.open.iter().any(Option::is_some)
+        self.log.any_open()
     }
 
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
@@ -382,41 +350,36 @@ impl OdeSystem for FullModel {
         let mut y = std::mem::take(&mut self.dense_buffer);
         y.resize(self.dim(), 0.0);
         for k in 0..self.clearances.len() {
-            if self.open[k].is_none() {
+            if !self.log.is_open(k) {
                 continue;
             }
             let onset = self.clearances[k].onset_velocity;
-            let search = crate::clearance::StepSearch::run(t, h, |theta| {
+            let search = StepSearch::run(t, h, |theta| {
                 dense.eval(theta, &mut y);
                 self.contact_state(k, &y, onset)
             });
-            if let Some(tr) = self.open[k].as_mut() {
-                tr.accept(search);
-            }
+            self.log.accept_search(k, search);
         }
         self.dense_buffer = y;
     }
 
     fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), lash_ode::BoxError> {
-        if let Some(e) = self.error.take() {
+        if let Some(e) = self.log.take_error() {
             return Err(e.into());
         }
         for k in 0..self.clearances.len() {
             let onset = self.clearances[k].onset_velocity;
             let s = self.contact_state(k, y, onset);
             let c = &self.clearances[k];
-            if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
-                return Err(Box::new(crate::PenetrationError {
+            self.log.accept_step((k, t), (s.penetration, s.normal_force), c.journal_radius, || {
+                crate::PenetrationError {
                     joint: c.name.clone(),
                     penetration: s.penetration,
                     kind: "clearance joint",
                     radius: "journal radius",
                     step: "step",
-                }));
-            }
-            if let Some(tr) = self.open[k].as_mut() {
-                tr.sample(t, s.normal_force, s.penetration);
-            }
+                }
+            })?;
         }
         Ok(())
     }

@@ -10,6 +10,7 @@
 pub mod clearance;
 pub mod friction;
 pub mod full_model;
+pub mod impact_log;
 pub mod law;
 pub mod micro;
 pub mod parameters;

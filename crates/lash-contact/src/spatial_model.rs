@@ -2,8 +2,8 @@
 //! with the joints' contact forces and moments, as an [`OdeSystem`] with one event function per
 //! joint (δ in free flight, −δ in contact), like the planar [`crate::FullModel`].
 
-use crate::clearance::PENETRATION_LIMIT_FRACTION;
-use crate::clearance::{Impact, ImpactTracker, StepSearch};
+use crate::clearance::{Impact, StepSearch};
+use crate::impact_log::ImpactLog;
 use crate::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::BodyId;
 use lash_ode::OdeSystem;
@@ -23,12 +23,8 @@ pub struct SpatialFullModel {
     pub solver: SpatialSolver,
     /// Contact states at the last evaluation, one per clearance joint.
     pub contacts: Vec<SphericalContactState>,
-    /// Completed impacts, per clearance joint.
-    pub impacts: Vec<Vec<Impact>>,
-    open: Vec<Option<ImpactTracker>>,
-    violation: bool,
+    log: ImpactLog,
     strict_modes: bool,
-    error: Option<String>,
     dense_buffer: Vec<f64>,
     frames: Vec<BodyFrame>,
 }
@@ -38,10 +34,7 @@ pub struct SpatialFullModel {
 pub struct SpatialFullModelState {
     clearances: Vec<SphericalClearance>,
     contacts: Vec<SphericalContactState>,
-    impacts: Vec<Vec<Impact>>,
-    open: Vec<Option<ImpactTracker>>,
-    violation: bool,
-    error: Option<String>,
+    log: ImpactLog,
 }
 
 fn frame(frames: &[BodyFrame], id: BodyId) -> BodyFrame {
@@ -78,11 +71,8 @@ impl SpatialFullModel {
             clearances,
             solver,
             contacts: vec![SphericalContactState::default(); k],
-            impacts: (0..k).map(|_| Vec::with_capacity(1024)).collect(),
-            open: vec![None; k],
-            violation: false,
+            log: ImpactLog::new(k),
             strict_modes: false,
-            error: None,
             dense_buffer: vec![0.0; dim],
             frames: vec![BodyFrame::ground(); bodies],
         }
@@ -121,10 +111,7 @@ impl SpatialFullModel {
             c.in_contact = false;
             c.onset_velocity = 0.0;
         }
-        self.impacts.iter_mut().for_each(Vec::clear);
-        self.open.iter_mut().for_each(|o| *o = None);
-        self.error = None;
-        self.violation = false;
+        self.log.clear();
         for k in 0..self.clearances.len() {
             if self.contact_state(k, y, 0.0).penetration > 0.0 {
                 self.on_event(k, t0, y);
@@ -136,14 +123,14 @@ impl SpatialFullModel {
     pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), SpatialError> {
         let n = self.mechanism.coordinate_count();
         let (q, v) = y.split_at(n);
-        let Self { mechanism, clearances, solver, contacts, violation, strict_modes, .. } = self;
+        let Self { mechanism, clearances, solver, contacts, log, strict_modes, .. } = self;
         solver.set_state(mechanism, t, q, v);
         for (c, state) in clearances.iter().zip(contacts.iter_mut()) {
             let (fj, fb) = (frame(&solver.frames, c.journal_body), frame(&solver.frames, c.bearing_body));
             let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
             let mut s = c.evaluate(&fj, &fb, onset);
             if (s.penetration > 0.0) != c.in_contact {
-                *violation = true;
+                log.flag_violation();
                 if !c.in_contact && s.penetration > 0.0 {
                     if *strict_modes {
                         s.normal_force = 0.0;
@@ -175,10 +162,7 @@ impl SpatialFullModel {
         SpatialFullModelState {
             clearances: self.clearances.clone(),
             contacts: self.contacts.clone(),
-            impacts: self.impacts.clone(),
-            open: self.open.clone(),
-            violation: self.violation,
-            error: self.error.clone(),
+            log: self.log.clone(),
         }
     }
 
@@ -186,20 +170,22 @@ impl SpatialFullModel {
     pub fn restore(&mut self, state: &SpatialFullModelState) {
         self.clearances.clone_from(&state.clearances);
         self.contacts.clone_from(&state.contacts);
-        self.impacts.clone_from(&state.impacts);
-        self.open.clone_from(&state.open);
-        self.violation = state.violation;
-        self.error.clone_from(&state.error);
+        self.log.clone_from(&state.log);
     }
 
     /// The error a right-hand side recorded (a singular solve), if any; cleared.
     pub fn take_error(&mut self) -> Option<String> {
-        self.error.take()
+        self.log.take_error()
+    }
+
+    /// Completed impacts, per clearance joint.
+    pub fn impacts(&self) -> &[Vec<Impact>] {
+        &self.log.impacts
     }
 
     /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).
     pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
-        self.open[k].as_ref().map(|tr| tr.so_far(t))
+        self.log.open_impact(k, t)
     }
 
     /// Joint `k`'s contact state at `y` with onset velocity `onset` (no solve).
@@ -223,7 +209,7 @@ impl OdeSystem for SpatialFullModel {
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
         let n = self.mechanism.coordinate_count();
         if let Err(e) = self.evaluate(t, y) {
-            self.error.get_or_insert(e.to_string());
+            self.log.note_error(|| e.to_string());
             dydt.fill(f64::NAN);
             return;
         }
@@ -250,24 +236,15 @@ impl OdeSystem for SpatialFullModel {
     fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
         let s = self.contact_state(k, y, 0.0);
         let c = &mut self.clearances[k];
-        if c.in_contact {
-            c.in_contact = false;
-            if let Some(tr) = self.open[k].take() {
-                self.impacts[k].push(tr.close(t));
-            }
-        } else {
-            c.in_contact = true;
-            c.onset_velocity = s.penetration_rate.max(0.0);
-            self.open[k] = Some(ImpactTracker::open(t, s.penetration_rate, self.strict_modes));
-        }
+        self.log.switch(k, t, (&mut c.in_contact, &mut c.onset_velocity), s.penetration_rate, self.strict_modes);
     }
 
     fn take_mode_violation(&mut self) -> bool {
-        std::mem::take(&mut self.violation)
+        self.log.take_violation()
     }
 
     fn wants_dense(&self) -> bool {
-        self.open.iter().any(Option::is_some)
+        self.log.any_open()
     }
 
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
@@ -276,7 +253,7 @@ impl OdeSystem for SpatialFullModel {
         }
         let mut y = std::mem::take(&mut self.dense_buffer);
         for k in 0..self.clearances.len() {
-            if self.open[k].is_none() {
+            if !self.log.is_open(k) {
                 continue;
             }
             let onset = self.clearances[k].onset_velocity;
@@ -285,15 +262,13 @@ impl OdeSystem for SpatialFullModel {
                 let s = self.contact_state(k, &y, onset);
                 (s.normal_force, s.penetration)
             });
-            if let Some(tr) = self.open[k].as_mut() {
-                tr.accept(search);
-            }
+            self.log.accept_search(k, search);
         }
         self.dense_buffer = y;
     }
 
     fn accept_step(&mut self, t: f64, y: &[f64]) -> Result<(), lash_ode::BoxError> {
-        if let Some(e) = self.error.take() {
+        if let Some(e) = self.log.take_error() {
             return Err(e.into());
         }
         frames_of(&self.mechanism, y, &mut self.frames);
@@ -301,18 +276,15 @@ impl OdeSystem for SpatialFullModel {
             let onset = self.clearances[k].onset_velocity;
             let s = self.contact_in_frames(k, onset);
             let c = &self.clearances[k];
-            if !(s.penetration <= PENETRATION_LIMIT_FRACTION * c.journal_radius) {
-                return Err(Box::new(crate::PenetrationError {
+            self.log.accept_step((k, t), (s.penetration, s.normal_force), c.journal_radius, || {
+                crate::PenetrationError {
                     joint: c.name.clone(),
                     penetration: s.penetration,
                     kind: "spherical clearance joint",
                     radius: "ball radius",
                     step: "step",
-                }));
-            }
-            if let Some(tr) = self.open[k].as_mut() {
-                tr.sample(t, s.normal_force, s.penetration);
-            }
+                }
+            })?;
         }
         Ok(())
     }

@@ -74,7 +74,7 @@ fn library_restitution(law: &ContactLaw, v_in: f64) -> f64 {
         &mut |_: &mut FullModel, _: f64, _: &[f64]| Ok(()),
     )
     .unwrap();
-    assert_eq!(model.impacts[0].len(), 1, "one impact expected");
+    assert_eq!(model.impacts()[0].len(), 1, "one impact expected");
     -y[3] / v_in
 }
 
@@ -208,7 +208,7 @@ fn hertz_without_friction_conserves_energy_over_many_impacts() {
         Ok(())
     })
     .unwrap();
-    let impacts = model.impacts[0].len();
+    let impacts = model.impacts()[0].len();
     assert!(impacts >= 30, "only {impacts} impacts");
     assert!(worst < 1e-7, "relative energy error {worst} over {impacts} impacts");
 }
@@ -229,7 +229,7 @@ fn friction_turns_a_spinning_journal() {
     let t_end = 4e-4 / 0.8 + 3e-4;
     integrate(&tight(), &mut model, 0.0, &mut y, t_end, t_end, &mut |_: &mut FullModel, _: f64, _: &[f64]| Ok(()))
         .unwrap();
-    assert_eq!(model.impacts[0].len(), 1);
+    assert_eq!(model.impacts()[0].len(), 1);
     assert!(y[5] > 1.0, "spin after the impact: {} rad/s", y[5]);
     // Angular impulse equals the friction moment integrated: I Δω = R_J ∫ −F_T dt, and
     // |∫F_T| ≤ μ ∫F_N ≤ μ m |Δv_n|: a bound independent of the integrator.
@@ -251,7 +251,7 @@ fn bushed_impact(law: &ContactLaw, k_b: f64, c_b: f64, v_in: f64, t_end: f64) ->
     model.reset(0.0, &y);
     integrate(&tight(), &mut model, 0.0, &mut y, t_end, t_end, &mut |_: &mut FullModel, _: f64, _: &[f64]| Ok(()))
         .unwrap();
-    let peak = model.impacts[0].iter().map(|i| i.peak_force).fold(0.0, f64::max);
+    let peak = model.impacts()[0].iter().map(|i| i.peak_force).fold(0.0, f64::max);
     (y[3], peak)
 }
 

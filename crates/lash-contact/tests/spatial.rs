@@ -62,14 +62,14 @@ fn run(friction: FrictionLaw, check: &mut dyn FnMut(f64, f64, usize)) -> (usize,
     });
     let stats =
         integrate(&method, &mut model, 0.0, &mut y, 0.3, 1e-4, &mut |m: &mut SpatialFullModel, t: f64, y: &[f64]| {
-            let impacts = m.impacts[0].len();
+            let impacts = m.impacts()[0].len();
             let e = energy(m, y);
             check(t, e, impacts);
             Ok(())
         })
         .expect("integrates");
     assert!(stats.events >= 4, "the ball should hit and leave the socket, {} events", stats.events);
-    (model.impacts[0].len(), e0)
+    (model.impacts()[0].len(), e0)
 }
 
 #[test]

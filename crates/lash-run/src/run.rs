@@ -331,7 +331,7 @@ impl FullRun {
         let clearances: Vec<ClearanceSummary> = (0..nc)
             .map(|k| {
                 let c = &self.model.clearances[k];
-                let mut impacts = self.model.impacts[k].clone();
+                let mut impacts = self.model.impacts()[k].clone();
                 impacts.extend(self.model.open_impact(k, t_end));
                 recorder.clearance_summary(k, &c.name, c.radial_clearance(), impacts, horizon, period)
             })

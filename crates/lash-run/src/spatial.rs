@@ -333,7 +333,7 @@ impl SpatialRun {
         let clearances: Vec<crate::run::ClearanceSummary> = (0..nc)
             .map(|k| {
                 let c = &self.model.clearances[k];
-                let mut impacts = self.model.impacts[k].clone();
+                let mut impacts = self.model.impacts()[k].clone();
                 impacts.extend(self.model.open_impact(k, t_end));
                 ClearanceSummary::from_impacts(
                     c.name.clone(),

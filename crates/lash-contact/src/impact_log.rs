@@ -1,0 +1,126 @@
+//! What a full model keeps of its contacts besides the state vector, whatever its joints' shape
+//! (planar revolute, spherical): the impacts of each clearance joint (completed, and the one
+//! open), whether a stage left its joint's contact mode, and the first error met inside a
+//! right-hand side. The joints keep their own modes (in contact, onset velocity).
+
+use crate::clearance::{Impact, ImpactTracker, PENETRATION_LIMIT_FRACTION, PenetrationError, StepSearch};
+
+/// The impacts and mode flags of a full model's clearance joints (see the module).
+#[derive(Debug, Clone)]
+pub struct ImpactLog {
+    /// Completed impacts, per clearance joint.
+    pub impacts: Vec<Vec<Impact>>,
+    open: Vec<Option<ImpactTracker>>,
+    violation: bool,
+    error: Option<String>,
+}
+
+impl ImpactLog {
+    /// The log of `joints` clearance joints, empty. Impact records are reserved up front so that
+    /// recording them does not allocate in the stepping loop (they grow beyond this only in very
+    /// long runs).
+    pub fn new(joints: usize) -> Self {
+        Self {
+            impacts: (0..joints).map(|_| Vec::with_capacity(1024)).collect(),
+            open: vec![None; joints],
+            violation: false,
+            error: None,
+        }
+    }
+
+    /// Empties the log for a new run.
+    pub fn clear(&mut self) {
+        self.impacts.iter_mut().for_each(Vec::clear);
+        self.open.iter_mut().for_each(|o| *o = None);
+        self.error = None;
+        self.violation = false;
+    }
+
+    /// Joint `k`'s contact begins or ends at `t` (an event located, or a run starting in
+    /// contact): its mode (`in_contact`, `onset_velocity`) switches, an impact opens with the
+    /// approach rate `penetration_rate` as its onset velocity (`searched`: its peak will be
+    /// searched along the steps' dense output) or the open one is completed.
+    pub fn switch(
+        &mut self,
+        k: usize,
+        t: f64,
+        (in_contact, onset_velocity): (&mut bool, &mut f64),
+        penetration_rate: f64,
+        searched: bool,
+    ) {
+        if *in_contact {
+            *in_contact = false;
+            if let Some(tr) = self.open[k].take() {
+                self.impacts[k].push(tr.close(t));
+            }
+        } else {
+            *in_contact = true;
+            *onset_velocity = penetration_rate.max(0.0);
+            self.open[k] = Some(ImpactTracker::open(t, penetration_rate, searched));
+        }
+    }
+
+    /// A stage's contact disagreed with its joint's mode: the integrator is to cut or reject the
+    /// step.
+    pub fn flag_violation(&mut self) {
+        self.violation = true;
+    }
+
+    /// Whether a stage left its mode since the last call.
+    pub fn take_violation(&mut self) -> bool {
+        std::mem::take(&mut self.violation)
+    }
+
+    /// Keeps `message` if it is the first error met inside a right-hand side.
+    pub fn note_error(&mut self, message: impl FnOnce() -> String) {
+        if self.error.is_none() {
+            self.error = Some(message());
+        }
+    }
+
+    /// The first error met inside a right-hand side, if any; cleared.
+    pub fn take_error(&mut self) -> Option<String> {
+        self.error.take()
+    }
+
+    /// Whether any joint has an impact open (its peak is searched along the dense output).
+    pub fn any_open(&self) -> bool {
+        self.open.iter().any(Option::is_some)
+    }
+
+    /// Whether joint `k` has an impact open.
+    pub fn is_open(&self, k: usize) -> bool {
+        self.open[k].is_some()
+    }
+
+    /// Joint `k`'s open impact, as it stands at `t`.
+    pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
+        self.open[k].as_ref().map(|tr| tr.so_far(t))
+    }
+
+    /// Joint `k`'s open impact takes a step's dense-output search of its force.
+    pub(crate) fn accept_search(&mut self, k: usize, search: StepSearch) {
+        if let Some(tr) = self.open[k].as_mut() {
+            tr.accept(search);
+        }
+    }
+
+    /// At an accepted step end `t`: joint `k`'s penetration checked against the blow-up limit
+    /// ([`PENETRATION_LIMIT_FRACTION`] of `radius`; `blow_up` is the error beyond it) and its open
+    /// impact sampled with the normal force.
+    pub fn accept_step(
+        &mut self,
+        (k, t): (usize, f64),
+        (penetration, normal_force): (f64, f64),
+        radius: f64,
+        blow_up: impl FnOnce() -> PenetrationError,
+    ) -> Result<(), PenetrationError> {
+        if !(penetration <= PENETRATION_LIMIT_FRACTION * radius) {
+            return Err(blow_up());
+        }
+        if let Some(tr) = self.open[k].as_mut() {
+            tr.sample(t, normal_force, penetration);
+        }
+        Ok(())
+    }
+}
