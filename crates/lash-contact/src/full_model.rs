@@ -329,8 +329,7 @@ impl OdeSystem for FullModel {
         // The contact's own approach rate δ̇ − ṡ (ṡ = 0 without a damped bush).
         let (mut s, rate) = self.contact_state_and_rate(k, y, f64::INFINITY);
         s.penetration_rate -= rate;
-        let c = &mut self.clearances[k];
-        self.log.switch(k, t, (&mut c.in_contact, &mut c.onset_velocity), s.penetration_rate, self.strict_modes);
+        self.log.switch((k, &mut self.clearances[k]), t, s.penetration_rate, self.strict_modes);
     }
 
     fn take_mode_violation(&mut self) -> bool {
@@ -370,16 +369,7 @@ impl OdeSystem for FullModel {
         for k in 0..self.clearances.len() {
             let onset = self.clearances[k].onset_velocity;
             let s = self.contact_state(k, y, onset);
-            let c = &self.clearances[k];
-            self.log.accept_step((k, t), (s.penetration, s.normal_force), c.journal_radius, || {
-                crate::PenetrationError {
-                    joint: c.name.clone(),
-                    penetration: s.penetration,
-                    kind: "clearance joint",
-                    radius: "journal radius",
-                    step: "step",
-                }
-            })?;
+            self.log.accept_step((k, &self.clearances[k]), t, (s.penetration, s.normal_force))?;
         }
         Ok(())
     }

@@ -4,6 +4,7 @@
 //! right-hand side. The joints keep their own modes (in contact, onset velocity).
 
 use crate::clearance::{Impact, ImpactTracker, PENETRATION_LIMIT_FRACTION, PenetrationError, StepSearch};
+use crate::joint::Clearance;
 
 /// The impacts and mode flags of a full model's clearance joints (see the module).
 #[derive(Debug, Clone)]
@@ -36,26 +37,18 @@ impl ImpactLog {
         self.violation = false;
     }
 
-    /// Joint `k`'s contact begins or ends at `t` (an event located, or a run starting in
-    /// contact): its mode (`in_contact`, `onset_velocity`) switches, an impact opens with the
-    /// approach rate `penetration_rate` as its onset velocity (`searched`: its peak will be
-    /// searched along the steps' dense output) or the open one is completed.
-    pub fn switch(
-        &mut self,
-        k: usize,
-        t: f64,
-        (in_contact, onset_velocity): (&mut bool, &mut f64),
-        penetration_rate: f64,
-        searched: bool,
-    ) {
-        if *in_contact {
-            *in_contact = false;
+    /// Joint `k` (`joint`)'s contact begins or ends at `t` (an event located, or a run starting in
+    /// contact): its mode switches, an impact opens with the approach rate `penetration_rate` as
+    /// its onset velocity (`searched`: its peak will be searched along the steps' dense output) or
+    /// the open one is completed.
+    pub fn switch(&mut self, (k, joint): (usize, &mut impl Clearance), t: f64, penetration_rate: f64, searched: bool) {
+        if joint.in_contact() {
+            joint.set_mode(false, joint.onset_velocity());
             if let Some(tr) = self.open[k].take() {
                 self.impacts[k].push(tr.close(t));
             }
         } else {
-            *in_contact = true;
-            *onset_velocity = penetration_rate.max(0.0);
+            joint.set_mode(true, penetration_rate.max(0.0));
             self.open[k] = Some(ImpactTracker::open(t, penetration_rate, searched));
         }
     }
@@ -105,18 +98,17 @@ impl ImpactLog {
         }
     }
 
-    /// At an accepted step end `t`: joint `k`'s penetration checked against the blow-up limit
-    /// ([`PENETRATION_LIMIT_FRACTION`] of `radius`; `blow_up` is the error beyond it) and its open
-    /// impact sampled with the normal force.
+    /// At an accepted step end `t`: joint `k` (`joint`)'s penetration checked against the
+    /// blow-up limit ([`PENETRATION_LIMIT_FRACTION`] of its journal radius) and its open impact
+    /// sampled with the normal force.
     pub fn accept_step(
         &mut self,
-        (k, t): (usize, f64),
+        (k, joint): (usize, &impl Clearance),
+        t: f64,
         (penetration, normal_force): (f64, f64),
-        radius: f64,
-        blow_up: impl FnOnce() -> PenetrationError,
     ) -> Result<(), PenetrationError> {
-        if !(penetration <= PENETRATION_LIMIT_FRACTION * radius) {
-            return Err(blow_up());
+        if !(penetration <= PENETRATION_LIMIT_FRACTION * joint.journal_radius()) {
+            return Err(joint.penetration_error(penetration, "step"));
         }
         if let Some(tr) = self.open[k].as_mut() {
             tr.sample(t, normal_force, penetration);

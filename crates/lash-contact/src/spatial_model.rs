@@ -235,8 +235,7 @@ impl OdeSystem for SpatialFullModel {
 
     fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
         let s = self.contact_state(k, y, 0.0);
-        let c = &mut self.clearances[k];
-        self.log.switch(k, t, (&mut c.in_contact, &mut c.onset_velocity), s.penetration_rate, self.strict_modes);
+        self.log.switch((k, &mut self.clearances[k]), t, s.penetration_rate, self.strict_modes);
     }
 
     fn take_mode_violation(&mut self) -> bool {
@@ -275,16 +274,7 @@ impl OdeSystem for SpatialFullModel {
         for k in 0..self.clearances.len() {
             let onset = self.clearances[k].onset_velocity;
             let s = self.contact_in_frames(k, onset);
-            let c = &self.clearances[k];
-            self.log.accept_step((k, t), (s.penetration, s.normal_force), c.journal_radius, || {
-                crate::PenetrationError {
-                    joint: c.name.clone(),
-                    penetration: s.penetration,
-                    kind: "spherical clearance joint",
-                    radius: "ball radius",
-                    step: "step",
-                }
-            })?;
+            self.log.accept_step((k, &self.clearances[k]), t, (s.penetration, s.normal_force))?;
         }
         Ok(())
     }

@@ -7,6 +7,7 @@
 
 use super::MicroJoint;
 use crate::clearance::ContactState;
+use crate::joint::Clearance;
 use lash_mech::{RadialCurve, Vec2};
 
 /// A bushing of the micro model.
@@ -36,12 +37,10 @@ impl BushingJoint {
     }
 }
 
-impl MicroJoint for BushingJoint {
-    const COORDINATES: usize = 2;
-    const FRICTION_LOADS: usize = 1;
-    const ROTATIONS: usize = 1;
-    type State = ContactState;
-
+/// A bushing is always loaded: in contact from the start, with nothing to indent.
+impl Clearance for BushingJoint {
+    const KIND: &'static str = "bushing";
+    const RADIUS: &'static str = "journal radius";
     fn name(&self) -> &str {
         &self.name
     }
@@ -63,6 +62,14 @@ impl MicroJoint for BushingJoint {
         0.0
     }
     fn set_mode(&mut self, _in_contact: bool, _onset_velocity: f64) {}
+}
+
+impl MicroJoint for BushingJoint {
+    const COORDINATES: usize = 2;
+    const FRICTION_LOADS: usize = 1;
+    const ROTATIONS: usize = 1;
+    type State = ContactState;
+
     #[inline(always)]
     fn evaluate<const SERIES: bool>(
         &self,

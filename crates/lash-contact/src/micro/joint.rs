@@ -8,12 +8,13 @@
 //! macro side's map carries with the radii).
 
 use crate::clearance::{ClearanceJoint, ContactState};
+use crate::joint::Clearance;
 use crate::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::Vec2;
 use lash_spatial::Vec3;
 
 /// A clearance joint of the micro model.
-pub trait MicroJoint: Clone + std::fmt::Debug {
+pub trait MicroJoint: Clearance + Clone + std::fmt::Debug {
     /// Interface coordinates of one joint (its eccentricity): 2 planar, 3 spherical.
     const COORDINATES: usize;
     /// Friction loads of one joint: planar 1 (F_T), spherical 3 (n × F_T, world frame).
@@ -28,18 +29,6 @@ pub trait MicroJoint: Clone + std::fmt::Debug {
     /// Geometry, kinematics and forces at one state.
     type State: Copy + Default + std::fmt::Debug + PartialEq;
 
-    /// Name used in outputs and errors.
-    fn name(&self) -> &str;
-    /// Journal (ball) radius R_J \[m\].
-    fn journal_radius(&self) -> f64;
-    /// Radial clearance c \[m\].
-    fn radial_clearance(&self) -> f64;
-    /// Discrete state: contact closed.
-    fn in_contact(&self) -> bool;
-    /// Approach velocity δ̇⁻ of the current contact [m/s].
-    fn onset_velocity(&self) -> f64;
-    /// Sets the discrete state.
-    fn set_mode(&mut self, in_contact: bool, onset_velocity: f64);
     /// The state from the eccentricity `e`, its rate `e_dot` (COORDINATES each) and the journal's
     /// and bearing's angular velocities (ROTATIONS each).
     /// `SERIES = false` promises that the joint has no bush in series (see [`MicroJoint::in_series`]).
@@ -141,28 +130,6 @@ impl MicroJoint for ClearanceJoint {
     const ROTATIONS: usize = 1;
     type State = ContactState;
 
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn journal_radius(&self) -> f64 {
-        self.journal_radius
-    }
-    #[inline(always)]
-    fn radial_clearance(&self) -> f64 {
-        ClearanceJoint::radial_clearance(self)
-    }
-    #[inline(always)]
-    fn in_contact(&self) -> bool {
-        self.in_contact
-    }
-    #[inline(always)]
-    fn onset_velocity(&self) -> f64 {
-        self.onset_velocity
-    }
-    fn set_mode(&mut self, in_contact: bool, onset_velocity: f64) {
-        self.in_contact = in_contact;
-        self.onset_velocity = onset_velocity;
-    }
     #[inline(always)]
     fn evaluate<const SERIES: bool>(
         &self,
@@ -226,28 +193,6 @@ impl MicroJoint for SphericalClearance {
     const MOBILITY_FORM: bool = true;
     type State = SphericalContactState;
 
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn journal_radius(&self) -> f64 {
-        self.journal_radius
-    }
-    #[inline(always)]
-    fn radial_clearance(&self) -> f64 {
-        SphericalClearance::radial_clearance(self)
-    }
-    #[inline(always)]
-    fn in_contact(&self) -> bool {
-        self.in_contact
-    }
-    #[inline(always)]
-    fn onset_velocity(&self) -> f64 {
-        self.onset_velocity
-    }
-    fn set_mode(&mut self, in_contact: bool, onset_velocity: f64) {
-        self.in_contact = in_contact;
-        self.onset_velocity = onset_velocity;
-    }
     #[inline(always)]
     fn evaluate<const SERIES: bool>(
         &self,

@@ -26,6 +26,7 @@ pub mod model;
 
 use crate::PenetrationError;
 use crate::clearance::{ClearanceJoint, Impact};
+use crate::joint::Clearance;
 use crate::parameters::ClearanceDefinition;
 use crate::spherical::SphericalClearance;
 pub use bushing::BushingJoint;

@@ -1087,13 +1087,7 @@ fn check_penetration<J: MicroJoint>(joint: &J, s: &J::State) -> Result<(), Penet
 /// The blow-up error of a joint of the micro model in state `s`.
 fn penetration_error<J: MicroJoint>(joint: &J, s: &J::State) -> PenetrationError {
     let penetration = if J::eccentricity_norm(s).is_finite() { J::penetration(s) } else { f64::NAN };
-    PenetrationError {
-        joint: joint.name().to_string(),
-        penetration,
-        kind: "clearance joint",
-        radius: "journal radius",
-        step: "the micro model's step",
-    }
+    joint.penetration_error(penetration, "the micro model's step")
 }
 
 #[cfg(test)]
