@@ -2,7 +2,6 @@
 
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;
-use crate::radial::{Kinematics, Radii};
 use lash_mech::{BodyId, Pose, Vec2, perp};
 use serde::Serialize;
 
@@ -156,16 +155,16 @@ impl ClearanceJoint {
         onset: f64,
         deflection: f64,
     ) -> (ContactState, f64) {
-        let k = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
+        let (n, t, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
         let (fn_, rate) = self.law.force_in_series_damped(
-            k.penetration,
-            k.penetration_rate,
+            delta,
+            delta_dot,
             onset,
             deflection,
             self.bush_stiffness,
             self.bush_damping,
         );
-        (self.state(e, &k, fn_), rate)
+        (self.state(e, n, t, norm, delta, delta_dot, slip, fn_), rate)
     }
 
     /// [`ClearanceJoint::evaluate`], or [`ClearanceJoint::evaluate_damped`] when the bush's
@@ -197,36 +196,53 @@ impl ClearanceJoint {
         self.bush_damping > 0.0 && self.bush_stiffness.is_finite()
     }
 
-    /// The joint's radii ([`Radii`]).
+    /// n, t, |e|, δ, δ̇ and the slip from the relative kinematics.
     #[inline(always)]
-    fn radii(&self) -> Radii<f64> {
-        Radii { clearance: self.radial_clearance(), journal: self.journal_radius, bearing: self.bearing_radius }
+    fn relative_kinematics(
+        &self,
+        e: Vec2,
+        e_dot: Vec2,
+        omega_journal: f64,
+        omega_bearing: f64,
+    ) -> (Vec2, Vec2, f64, f64, f64, f64) {
+        let norm = e.norm();
+        // (One division for both components, as the spherical joint does: the micro step's
+        // lanes are bound by the divider.)
+        let n = if norm > 0.0 { e * (1.0 / norm) } else { Vec2::new(1.0, 0.0) };
+        let t = perp(n);
+        let delta = norm - self.radial_clearance();
+        let delta_dot = e_dot.dot(&n);
+        let slip = e_dot.dot(&t) + omega_journal * self.journal_radius - omega_bearing * self.bearing_radius;
+        (n, t, norm, delta, delta_dot, slip)
     }
 
-    /// n, |e|, δ, δ̇ and the slip from the relative kinematics ([`Radii::kinematics`]).
+    /// The state with the normal force `fn_` and the friction it carries.
     #[inline(always)]
-    fn relative_kinematics(&self, e: Vec2, e_dot: Vec2, omega_journal: f64, omega_bearing: f64) -> Kinematics<f64> {
-        let radii = self.radii();
-        let e = [e.x, e.y];
-        radii.kinematics(e, [e_dot.x, e_dot.y], radii.geometry(e), omega_journal, omega_bearing)
-    }
-
-    /// The state with the normal force `normal_force` and the friction it carries
-    /// ([`Kinematics::loads`]).
-    #[inline(always)]
-    fn state(&self, e: Vec2, k: &Kinematics<f64>, normal_force: f64) -> ContactState {
-        let (friction, f) = k.loads(normal_force, |slip| self.friction.coefficient(slip));
+    #[allow(clippy::too_many_arguments)]
+    fn state(
+        &self,
+        e: Vec2,
+        n: Vec2,
+        t: Vec2,
+        norm: f64,
+        delta: f64,
+        delta_dot: f64,
+        slip: f64,
+        fn_: f64,
+    ) -> ContactState {
+        // No normal force, no friction (skips the friction law in free flight).
+        let ft = if fn_ > 0.0 { self.friction.coefficient(slip) * fn_ } else { 0.0 };
         ContactState {
             journal_centre: Vec2::zeros(),
             eccentricity: e,
-            eccentricity_norm: k.norm,
-            normal: Vec2::new(k.normal[0], k.normal[1]),
-            penetration: k.penetration,
-            penetration_rate: k.penetration_rate,
-            slip_velocity: k.slip,
-            normal_force,
-            friction_force: friction,
-            force_on_journal: Vec2::new(f[0], f[1]),
+            eccentricity_norm: norm,
+            normal: n,
+            penetration: delta,
+            penetration_rate: delta_dot,
+            slip_velocity: slip,
+            normal_force: fn_,
+            friction_force: ft,
+            force_on_journal: -(n * fn_) - t * ft,
         }
     }
 
@@ -259,14 +275,13 @@ impl ClearanceJoint {
         onset: f64,
     ) -> ContactState {
         debug_assert!(SERIES || self.bush_stiffness == f64::INFINITY, "a bushed joint on the rigid path");
-        let k = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
-        let (delta, delta_dot) = (k.penetration, k.penetration_rate);
+        let (n, t, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
         let fn_ = if SERIES && self.bush_stiffness.is_finite() {
             self.law.force_in_series(delta, delta_dot, onset, self.bush_stiffness)
         } else {
             self.law.force(delta, delta_dot, onset)
         };
-        self.state(e, &k, fn_)
+        self.state(e, n, t, norm, delta, delta_dot, slip, fn_)
     }
 
     /// World-frame arms from the journal body's and the bearing body's centroids to the contact

@@ -3,7 +3,6 @@
 
 use crate::law::step;
 use lash_core::Problems;
-use lash_core::lanes::{Mask, Real};
 use serde::{Deserialize, Serialize};
 
 /// A friction law as written in a scenario file (`law = "ambrosio"`, …).
@@ -48,50 +47,46 @@ pub enum FrictionLaw {
     },
 }
 
-/// Coulomb's μ sign(v_t), for any lane width.
-#[inline(always)]
-pub fn coulomb<R: Real>(coefficient: R, v: R) -> R {
-    coefficient * v.signum_or_zero()
-}
-
-/// Ambrósio's modified Coulomb μ c_d(|v_t|) sign(v_t), c_d = 0 up to v0, linear to 1 at v1, for
-/// any lane width.
-#[inline(always)]
-pub fn ambrosio<R: Real>(coefficient: R, v0: R, v1: R, v: R) -> R {
-    let (zero, one) = (R::splat(0.0), R::splat(1.0));
-    let a = v.abs();
-    let (stuck, sliding) = (a.simd_le(v0), a.simd_ge(v1));
-    // The blend's division only where some lane is between v0 and v1 (rare at speed).
-    let between = if (stuck | sliding).all() { one } else { (a - v0) / (v1 - v0) };
-    coefficient * R::select(stuck, zero, R::select(sliding, one, between)) * v.signum_or_zero()
-}
-
 impl FrictionLaw {
     /// The signed coefficient μ(v_t).
     #[inline(always)]
     pub fn coefficient(&self, v: f64) -> f64 {
+        let s = if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        let a = v.abs();
         match *self {
             FrictionLaw::None => 0.0,
-            FrictionLaw::Coulomb { coefficient } => coulomb(coefficient, v),
-            FrictionLaw::Ambrosio { coefficient, v0, v1 } => ambrosio(coefficient, v0, v1, v),
+            FrictionLaw::Coulomb { coefficient } => coefficient * s,
+            FrictionLaw::Ambrosio { coefficient, v0, v1 } => {
+                let cd = if a <= v0 {
+                    0.0
+                } else if a >= v1 {
+                    1.0
+                } else {
+                    (a - v0) / (v1 - v0)
+                };
+                coefficient * cd * s
+            }
             FrictionLaw::AdamsStickSlip {
                 static_coefficient: ms,
                 dynamic_coefficient: md,
                 stiction_velocity: vs,
                 friction_velocity: vd,
             } => {
-                let a = v.abs();
                 if a < vs {
                     step(v, -vs, -ms, vs, ms)
                 } else if a <= vd {
-                    step(a, vs, ms, vd, md) * v.signum_or_zero()
+                    step(a, vs, ms, vd, md) * s
                 } else {
-                    md * v.signum_or_zero()
+                    md * s
                 }
             }
-            FrictionLaw::Threlfall { coefficient, v0 } => {
-                coefficient * (1.0 - (-3.0 * v.abs() / v0).exp()) * v.signum_or_zero()
-            }
+            FrictionLaw::Threlfall { coefficient, v0 } => coefficient * (1.0 - (-3.0 * a / v0).exp()) * s,
         }
     }
 

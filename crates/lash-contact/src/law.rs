@@ -1,7 +1,6 @@
 //! Normal contact force laws (F_N ≥ 0 always).
 
 use lash_core::Problems;
-use lash_core::lanes::Real;
 use serde::{Deserialize, Serialize};
 
 /// ADAMS STEP: a cubic from (x0, h0) to (x1, h1) with zero slope at both ends, constant outside.
@@ -184,24 +183,10 @@ pub enum NormalForce {
     },
 }
 
-/// 1 / max(δ̇⁻, floor): the reciprocal of the onset velocity the hysteresis laws divide by, for
-/// any lane width.
+/// 1 / max(δ̇⁻, floor): the reciprocal of the onset velocity the hysteresis laws divide by.
 #[inline(always)]
-pub fn onset_reciprocal<R: Real>(onset: R, floor: R) -> R {
-    R::splat(1.0) / onset.max(floor)
-}
-
-/// The hysteresis laws' K δⁿ (1 + χ δ̇ / max(δ̇⁻, floor)) from the elastic part K δⁿ and the onset
-/// velocity's reciprocal ([`onset_reciprocal`]), for any lane width (not clipped).
-#[inline(always)]
-pub fn hysteresis<R: Real>(elastic: R, chi: R, delta_dot: R, reciprocal: R) -> R {
-    elastic * (R::splat(1.0) + chi * delta_dot * reciprocal)
-}
-
-/// δ^{3/2}, the Hertzian exponent's power, for any lane width.
-#[inline(always)]
-pub fn three_halves<R: Real>(delta: R) -> R {
-    delta * delta.sqrt()
+pub fn onset_reciprocal(onset: f64, floor: f64) -> f64 {
+    1.0 / onset.max(floor)
 }
 
 impl NormalForce {
@@ -218,7 +203,7 @@ impl NormalForce {
             NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
                 // (χ δ̇ times the reciprocal of the onset velocity: a contact's reciprocal is one
                 // number for all its steps, which the micro step's lanes form once.)
-                hysteresis(stiffness * pow(delta, exponent), chi, delta_dot, onset_reciprocal(onset, floor))
+                stiffness * pow(delta, exponent) * (1.0 + chi * delta_dot * onset_reciprocal(onset, floor))
             }
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
                 stiffness * pow(delta, exponent) + step(delta, 0.0, 0.0, damping_depth, max_damping) * delta_dot
@@ -456,7 +441,7 @@ fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> (f64, f64)) -> (f64, f64)
 
 fn pow(delta: f64, n: f64) -> f64 {
     if n == 1.5 {
-        three_halves(delta)
+        delta * delta.sqrt()
     } else if n == 1.0 {
         delta
     } else {

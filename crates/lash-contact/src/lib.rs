@@ -15,7 +15,6 @@ pub mod joint;
 pub mod law;
 pub mod micro;
 pub mod parameters;
-pub mod radial;
 pub mod spatial_model;
 pub mod spherical;
 

@@ -1,11 +1,9 @@
 //! Core vocabulary shared by every lash crate: exact integer time ([`Ticks`]), validation
 //! problems that name the field they concern ([`Problem`], [`Problems`]), and the FMI-shaped
-//! [`Subsystem`] trait with its variable descriptions, and the numbers physics is written in once
-//! for one run or several side by side ([`lanes::Real`]).
+//! [`Subsystem`] trait with its variable descriptions.
 //!
 //! No physics and no FFI live here.
 
-pub mod lanes;
 mod names;
 mod problems;
 pub mod subsystem;

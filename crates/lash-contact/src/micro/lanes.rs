@@ -12,11 +12,6 @@
 //! code. A step that a lane cannot take this way (no kept step end to start from) is taken by the
 //! model itself.
 //!
-//! The physics inside a stage is the single run's source, instantiated on eight lanes
-//! ([`lash_core::lanes::Real`]): the joint's kinematics and loads ([`crate::radial`]), the
-//! hysteresis law ([`crate::law::hysteresis`]) and the friction laws ([`crate::friction::coulomb`],
-//! [`crate::friction::ambrosio`]). What is written here is the lockstep RK4 around them.
-//!
 //! Which models qualify ([`lane_laws`]): one planar revolute clearance joint without a bush, the
 //! hysteresis contact law (Hunt–Crossley, Lankarani–Nikravesh, Flores, Gonthier, …) with
 //! exponent 1.5, friction none, Coulomb or Ambrósio. The lanes of one group share the laws' kind,
@@ -27,9 +22,8 @@
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
 use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
-use crate::friction::{FrictionLaw, ambrosio, coulomb};
-use crate::law::{NormalForce, hysteresis, onset_reciprocal, three_halves};
-use crate::radial::Radii;
+use crate::friction::FrictionLaw;
+use crate::law::{NormalForce, onset_reciprocal};
 use lash_core::Ticks;
 use lash_mech::Vec2;
 use nalgebra::{SMatrix, SVector};
@@ -69,21 +63,171 @@ pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
 pub type LaneOutcome = Result<(), (usize, f64, crate::PenetrationError)>;
 
 /// Runs advanced together.
-pub use lash_core::lanes::LANES;
+pub const LANES: usize = 8;
 const L: usize = LANES;
 
 /// One number per lane.
 type V = [f64; L];
 
-/// The lanes as one value ([`lash_core::lanes::F64x8`]: each lane gets the bits the scalar code
-/// gets): [`advance`] runs in a copy compiled for AVX-512 or AVX2 where the CPU has it (chosen at
-/// run time), else for the baseline (SSE2 pairs).
-type X = lash_core::lanes::F64x8;
+/// The lanes as one value: IEEE operations lane by lane, correctly rounded, so each lane gets the
+/// bits the scalar code gets. Written as plain loops over the lanes that the compiler turns into
+/// vector instructions of whatever width the CPU offers: [`advance`] runs in a copy compiled for
+/// AVX-512 or AVX2 where the CPU has it (chosen at run time), else for the baseline (SSE2 pairs).
+type X = vector::F64x8;
+
+mod vector {
+    use super::L;
+    use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
+
+    /// Eight numbers, one per lane; a comparison gives a mask (all bits set where true).
+    #[derive(Clone, Copy, Debug)]
+    pub struct F64x8(pub [f64; L]);
+
+    #[inline(always)]
+    fn each(f: impl Fn(usize) -> f64) -> F64x8 {
+        F64x8(std::array::from_fn(f))
+    }
+
+    #[inline(always)]
+    fn flag(b: bool) -> f64 {
+        f64::from_bits(if b { u64::MAX } else { 0 })
+    }
+
+    impl F64x8 {
+        pub const ZERO: Self = Self([0.0; L]);
+        pub const ONE: Self = Self([1.0; L]);
+
+        #[inline(always)]
+        pub fn splat(v: f64) -> Self {
+            Self([v; L])
+        }
+        #[inline(always)]
+        pub fn sqrt(self) -> Self {
+            each(|l| self.0[l].sqrt())
+        }
+        /// `f64::max` lane by lane.
+        #[inline(always)]
+        pub fn max(self, o: Self) -> Self {
+            each(|l| self.0[l].max(o.0[l]))
+        }
+        #[inline(always)]
+        pub fn abs(self) -> Self {
+            each(|l| self.0[l].abs())
+        }
+        #[inline(always)]
+        pub fn simd_gt(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] > o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_ge(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] >= o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_lt(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] < o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_le(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] <= o.0[l]))
+        }
+        #[inline(always)]
+        pub fn simd_ne(self, o: Self) -> Self {
+            each(|l| flag(self.0[l] != o.0[l]))
+        }
+        /// For a mask: `t` where set, `f` elsewhere.
+        #[inline(always)]
+        pub fn select(self, t: Self, f: Self) -> Self {
+            each(|l| {
+                let m = self.0[l].to_bits();
+                f64::from_bits((m & t.0[l].to_bits()) | (!m & f.0[l].to_bits()))
+            })
+        }
+        /// For a mask: whether every lane is set.
+        #[inline(always)]
+        pub fn all(self) -> bool {
+            self.to_bitmask() == (1 << L) - 1
+        }
+        /// For a mask: bit l set where lane l is.
+        #[inline(always)]
+        pub fn to_bitmask(self) -> u32 {
+            self.0.iter().enumerate().fold(0, |b, (l, v)| b | (((v.to_bits() >> 63) as u32) << l))
+        }
+    }
+
+    impl From<[f64; L]> for F64x8 {
+        #[inline(always)]
+        fn from(a: [f64; L]) -> Self {
+            Self(a)
+        }
+    }
+
+    impl From<F64x8> for [f64; L] {
+        #[inline(always)]
+        fn from(v: F64x8) -> Self {
+            v.0
+        }
+    }
+
+    impl From<f64> for F64x8 {
+        #[inline(always)]
+        fn from(v: f64) -> Self {
+            Self([v; L])
+        }
+    }
+
+    macro_rules! arithmetic {
+        ($($trait:ident $method:ident $op:tt),*) => {$(
+            impl $trait for F64x8 {
+                type Output = Self;
+                #[inline(always)]
+                fn $method(self, o: Self) -> Self {
+                    each(|l| self.0[l] $op o.0[l])
+                }
+            }
+        )*};
+    }
+    arithmetic!(Add add +, Sub sub -, Mul mul *, Div div /);
+
+    macro_rules! bitwise {
+        ($($trait:ident $method:ident $op:tt),*) => {$(
+            impl $trait for F64x8 {
+                type Output = Self;
+                #[inline(always)]
+                fn $method(self, o: Self) -> Self {
+                    each(|l| f64::from_bits(self.0[l].to_bits() $op o.0[l].to_bits()))
+                }
+            }
+        )*};
+    }
+    bitwise!(BitAnd bitand &, BitOr bitor |, BitXor bitxor ^);
+
+    impl Neg for F64x8 {
+        type Output = Self;
+        #[inline(always)]
+        fn neg(self) -> Self {
+            each(|l| -self.0[l])
+        }
+    }
+
+    impl Not for F64x8 {
+        type Output = Self;
+        #[inline(always)]
+        fn not(self) -> Self {
+            each(|l| f64::from_bits(!self.0[l].to_bits()))
+        }
+    }
+}
 
 /// The lanes of an array in vector registers.
 #[inline(always)]
 fn x(a: &V) -> X {
     X::from(*a)
+}
+
+/// A mask from per-lane flags.
+#[inline(always)]
+fn mask(flags: &[bool; L]) -> X {
+    X::from(flags.map(flag))
 }
 
 /// A lane of a mask: all bits set where `f`.
@@ -180,16 +324,11 @@ impl Joint {
         gated(&contact, &self.clearance)
     }
 
-    /// The radii of every lane.
-    #[inline(always)]
-    fn radii(&self) -> Radii<X> {
-        Radii { clearance: x(&self.clearance), journal: x(&self.journal_radius), bearing: x(&self.bearing_radius) }
-    }
-
     /// |e| and the penetration δ = |e| − c of every lane at the eccentricity (ex, ey).
     #[inline(always)]
     fn geometry(&self, ex: X, ey: X) -> (X, X) {
-        self.radii().geometry([ex, ey])
+        let norm = (ex * ex + ey * ey).sqrt();
+        (norm, norm - x(&self.clearance))
     }
 
     /// The contact of every lane at (e, ė) with the bodies' angular velocities, each lane in its
@@ -203,41 +342,57 @@ impl Joint {
     fn contact(
         &self,
         (ex, ey, u, v): (X, X, X, X),
-        geometry: (X, X),
+        (norm, delta): (X, X),
         (wj, wb): (&V, &V),
         in_contact: X,
         reciprocal: &V,
     ) -> Contact {
-        let zero = X::ZERO;
-        let k = self.radii().kinematics([ex, ey], [u, v], geometry, x(wj), x(wb));
-        let (delta, delta_dot) = (k.penetration, k.penetration_rate);
+        let (zero, one, sign_bit) = (X::ZERO, X::ONE, X::splat(-0.0));
+        let positive = norm.simd_gt(zero);
+        let inverse = one / norm;
+        let nx = positive.select(ex * inverse, one);
+        let ny = positive.select(ey * inverse, zero);
+        // t = (−n_y, n_x).
+        let tx = ny ^ sign_bit;
+        let delta_dot = u * nx + v * ny;
+        let slip = (u * tx + v * nx) + x(wj) * x(&self.journal_radius) - x(wb) * x(&self.bearing_radius);
         // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
         let indenting = !in_contact & delta.simd_gt(zero);
         let reciprocal = if indenting.to_bitmask() == 0 {
             x(reciprocal)
         } else {
-            indenting.select(onset_reciprocal(delta_dot.max(zero), x(&self.floor)), x(reciprocal))
+            indenting.select(one / delta_dot.max(zero).max(x(&self.floor)), x(reciprocal))
         };
-        let f = hysteresis(x(&self.stiffness) * three_halves(delta), x(&self.chi), delta_dot, reciprocal);
+        let f = x(&self.stiffness) * (delta * delta.sqrt()) * (one + x(&self.chi) * delta_dot * reciprocal);
         let normal = delta.simd_le(zero).select(zero, f.max(zero));
-        let (tangential, force) = k.loads(normal, |slip| match self.friction {
+        let sign = slip.simd_gt(zero).select(one, slip.simd_lt(zero).select(-one, zero));
+        let coefficient = match self.friction {
             LaneFriction::None => zero,
-            LaneFriction::Coulomb => coulomb(x(&self.mu), slip),
-            LaneFriction::Ambrosio => ambrosio(x(&self.mu), x(&self.v0), x(&self.v1), slip),
-        });
+            LaneFriction::Coulomb => x(&self.mu) * sign,
+            LaneFriction::Ambrosio => {
+                let a = slip.abs();
+                let (v0, v1) = (x(&self.v0), x(&self.v1));
+                let (stuck, sliding) = (a.simd_le(v0), a.simd_ge(v1));
+                // The blend's division only when a lane is between v0 and v1 (rare at speed).
+                let between = if (stuck | sliding).all() { one } else { (a - v0) / (v1 - v0) };
+                let cd = stuck.select(zero, sliding.select(one, between));
+                x(&self.mu) * cd * sign
+            }
+        };
+        let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
         Contact {
             ex,
             ey,
-            norm: k.norm,
-            nx: k.normal[0],
-            ny: k.normal[1],
+            norm,
+            nx,
+            ny,
             delta,
             delta_dot,
-            slip: k.slip,
+            slip,
             normal,
             tangential,
-            fx: force[0],
-            fy: force[1],
+            fx: ((nx * normal) ^ sign_bit) - tx * tangential,
+            fy: ((ny * normal) ^ sign_bit) - nx * tangential,
         }
     }
 }
@@ -664,11 +819,11 @@ fn advance_lanes(
     let penetration_limit: V = std::array::from_fn(|l| PENETRATION_LIMIT_FRACTION * models[l].joints[0].journal_radius);
     let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
     // (As a mask for the lanes' arithmetic, formed again where a lane's mode changes.)
-    let mut contact_mask = X::mask(in_contact);
+    let mut contact_mask = mask(&in_contact);
     // The lanes stepped here (running, not by their models) as a mask, and whether any running
     // lane is stepped by its model: formed again only where a lane changes.
     let masks = |running: &[bool; L], by_model: &[bool; L]| {
-        (X::mask(*running) & !X::mask(*by_model), (0..L).any(|l| running[l] && by_model[l]))
+        (mask(running) & !mask(by_model), (0..L).any(|l| running[l] && by_model[l]))
     };
     let (mut stepped, mut any_by_model) = masks(&running, &by_model);
     let mut lanes_changed = false;
@@ -777,7 +932,7 @@ fn advance_lanes(
             kept.trackers.set(l, m.open[0]);
             in_contact[l] = m.joints[0].in_contact;
             reciprocal[l] = onset_reciprocal(m.joints[0].onset_velocity, joint.floor[l]);
-            contact_mask = X::mask(in_contact);
+            contact_mask = mask(&in_contact);
         }
         // The step end's contact state (not gated), then the impact trackers.
         let end = joint.contact(
@@ -806,7 +961,7 @@ fn advance_lanes(
                     by_model[l] = !kept.gather(l, models[l], next);
                     in_contact[l] = models[l].joints[0].in_contact;
                     reciprocal[l] = onset_reciprocal(models[l].joints[0].onset_velocity, joint.floor[l]);
-                    contact_mask = X::mask(in_contact);
+                    contact_mask = mask(&in_contact);
                     lanes_changed = true;
                 }
             }
