@@ -166,11 +166,7 @@ impl FullModel {
     /// sets each contact mode from the state (a journal already penetrating starts in contact,
     /// with its current approach velocity as onset velocity).
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
-        for c in &mut self.clearances {
-            c.in_contact = false;
-            c.onset_velocity = 0.0;
-        }
-        self.log.clear();
+        self.log.clear(&mut self.clearances);
         for k in 0..self.clearances.len() {
             if self.indentation(k, y) > 0.0 {
                 self.on_event(k, t0, y);

@@ -29,8 +29,10 @@ impl ImpactLog {
         }
     }
 
-    /// Empties the log for a new run.
-    pub fn clear(&mut self) {
+    /// Empties the log for a new run and opens every joint's contact (`joints`, in the log's
+    /// order).
+    pub fn clear(&mut self, joints: &mut [impl Clearance]) {
+        joints.iter_mut().for_each(|j| j.set_mode(false, 0.0));
         self.impacts.iter_mut().for_each(Vec::clear);
         self.open.iter_mut().for_each(|o| *o = None);
         self.error = None;

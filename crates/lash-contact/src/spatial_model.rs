@@ -107,11 +107,7 @@ impl SpatialFullModel {
 
     /// Prepares a run from a state chosen by the caller (contact modes from the state).
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
-        for c in &mut self.clearances {
-            c.in_contact = false;
-            c.onset_velocity = 0.0;
-        }
-        self.log.clear();
+        self.log.clear(&mut self.clearances);
         for k in 0..self.clearances.len() {
             if self.contact_state(k, y, 0.0).penetration > 0.0 {
                 self.on_event(k, t0, y);
