@@ -372,15 +372,8 @@ pub(crate) struct StepSearch {
 }
 
 impl StepSearch {
-    /// Searches the step [t, t + h]; `contact(θ)` is the contact state at t + θ h.
-    pub fn run(t: f64, h: f64, mut contact: impl FnMut(f64) -> ContactState) -> Self {
-        Self::run_with(t, h, |theta| {
-            let s = contact(theta);
-            (s.normal_force, s.penetration)
-        })
-    }
-
-    /// [`StepSearch::run`] for any joint: `contact(θ)` gives (normal force, penetration).
+    /// Searches the step [t, t + h]; `contact(θ)` gives a contact's (normal force, penetration)
+    /// at t + θ h.
     pub fn run_with(t: f64, h: f64, mut contact: impl FnMut(f64) -> (f64, f64)) -> Self {
         let mut deepest = 0.0f64;
         let peak = step_peak(|theta| {

@@ -1,6 +1,10 @@
 //! The full (monolithic) model: the mechanism's equations of motion with the clearance joints'
 //! contact forces, as an [`OdeSystem`] with one event function per clearance joint.
 //!
+//! Contacts: one per revolute clearance joint, then four per translational clearance joint (its
+//! block's corners, [`crate::translational::CORNER_SIGNS`] order); event function, impact record
+//! and contact mode are per contact.
+//!
 //! State y = [q; q̇; s], s the deflections of the bushes whose damping is in series with their
 //! contact (one per such clearance joint, in joint order; none for rigid bearings and quasi-static
 //! bushes). Event function k is the contact's own indentation δ_k − s_k in free flight and its
@@ -9,8 +13,10 @@
 
 use crate::clearance::{ClearanceJoint, ContactState, Impact, StepSearch};
 use crate::impact_log::ImpactLog;
+use crate::joint::Clearance;
+use crate::translational::{CornerState, SlotState, TranslationalClearance};
 use lash_mech::constraints::pose_of;
-use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, assemble, kinematics, velocity_analysis};
+use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, Vec2, assemble, kinematics, velocity_analysis};
 use lash_ode::OdeSystem;
 
 /// Errors of building or running the full model.
@@ -31,6 +37,10 @@ pub struct FullModel {
     pub solver: Solver,
     /// Contact states at the last evaluation, one per clearance joint.
     pub contacts: Vec<ContactState>,
+    /// The translational clearance joints.
+    pub slots: Vec<TranslationalClearance>,
+    /// Their corners' states at the last evaluation, one per translational clearance joint.
+    pub slot_contacts: Vec<SlotState>,
     log: ImpactLog,
     strict_modes: bool,
     dense_buffer: Vec<f64>,
@@ -46,6 +56,8 @@ pub struct FullModel {
 pub struct FullModelState {
     clearances: Vec<ClearanceJoint>,
     contacts: Vec<ContactState>,
+    slots: Vec<TranslationalClearance>,
+    slot_contacts: Vec<SlotState>,
     log: ImpactLog,
 }
 
@@ -70,6 +82,8 @@ impl FullModel {
             clearances,
             solver,
             contacts: vec![ContactState::default(); k],
+            slots: Vec::new(),
+            slot_contacts: Vec::new(),
             log: ImpactLog::new(k),
             strict_modes: false,
             dense_buffer: vec![0.0; next],
@@ -77,6 +91,27 @@ impl FullModel {
             bush_states,
             bush_rates: vec![0.0; k],
         }
+    }
+
+    /// The model with translational clearance joints too (their contacts follow the revolute
+    /// joints').
+    pub fn with_slots(mut self, slots: Vec<TranslationalClearance>) -> Self {
+        self.slot_contacts = vec![SlotState::default(); slots.len()];
+        self.log = ImpactLog::new(self.clearances.len() + 4 * slots.len());
+        self.slots = slots;
+        self
+    }
+
+    /// The number of contacts (events, impact records): one per revolute clearance joint, four
+    /// per translational one.
+    pub fn contact_count(&self) -> usize {
+        self.clearances.len() + 4 * self.slots.len()
+    }
+
+    /// Contact `k`'s translational joint and corner, None for a revolute joint's contact.
+    fn corner_of(&self, k: usize) -> Option<(usize, usize)> {
+        let k = k.checked_sub(self.clearances.len())?;
+        Some((k / 4, k % 4))
     }
 
     /// The mechanism with every clearance joint replaced by an ideal revolute joint at the bearing
@@ -92,6 +127,18 @@ impl FullModel {
                 point_i: c.journal_point,
                 body_j: c.bearing_body,
                 point_j: c.bearing_point,
+            });
+        }
+        // A translational clearance joint by an ideal prismatic joint holding the block centred
+        // and aligned in its guide.
+        for s in &self.slots {
+            m.joints.push(Joint {
+                name: s.name.clone(),
+                kind: JointKind::Prismatic { axis_j: s.guide.axis, angle_offset: s.aligned_angle() },
+                body_i: s.block.body,
+                point_i: s.block.centre,
+                body_j: s.guide.body,
+                point_j: s.guide.point,
             });
         }
         // Bushings closed too: their two points joined by an ideal revolute joint.
@@ -167,7 +214,8 @@ impl FullModel {
     /// with its current approach velocity as onset velocity).
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
         self.log.clear(&mut self.clearances);
-        for k in 0..self.clearances.len() {
+        self.slots.iter_mut().for_each(|s| s.corners_mut().iter_mut().for_each(|c| c.set_mode(false, 0.0)));
+        for k in 0..self.contact_count() {
             if self.indentation(k, y) > 0.0 {
                 self.on_event(k, t0, y);
             }
@@ -177,13 +225,21 @@ impl FullModel {
     /// A copy of everything in the model that evolves during a run (contact modes, onset
     /// velocities, open and completed impacts), for rollback.
     pub fn snapshot(&self) -> FullModelState {
-        FullModelState { clearances: self.clearances.clone(), contacts: self.contacts.clone(), log: self.log.clone() }
+        FullModelState {
+            clearances: self.clearances.clone(),
+            contacts: self.contacts.clone(),
+            slots: self.slots.clone(),
+            slot_contacts: self.slot_contacts.clone(),
+            log: self.log.clone(),
+        }
     }
 
     /// Returns to a [`FullModel::snapshot`] of this model.
     pub fn restore(&mut self, state: &FullModelState) {
         self.clearances.clone_from(&state.clearances);
         self.contacts.clone_from(&state.contacts);
+        self.slots.clone_from(&state.slots);
+        self.slot_contacts.clone_from(&state.slot_contacts);
         self.log.clone_from(&state.log);
     }
 
@@ -192,8 +248,19 @@ impl FullModel {
     pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
         let n = self.n;
         let (q, qd) = (&y[..n], &y[n..2 * n]);
-        let FullModel { mechanism, clearances, solver, contacts, log, strict_modes, bush_states, bush_rates, .. } =
-            self;
+        let FullModel {
+            mechanism,
+            clearances,
+            solver,
+            contacts,
+            slots,
+            slot_contacts,
+            log,
+            strict_modes,
+            bush_states,
+            bush_rates,
+            ..
+        } = self;
         solver.set_state(mechanism, t, q, qd);
         for (k, (c, state)) in clearances.iter().zip(contacts.iter_mut()).enumerate() {
             let pj = pose_of(&solver.poses, c.journal_body);
@@ -230,6 +297,9 @@ impl FullModel {
             *state = s;
             bush_rates[k] = rate;
         }
+        for (slot, state) in slots.iter().zip(slot_contacts.iter_mut()) {
+            evaluate_slot(slot, state, solver, log, *strict_modes);
+        }
         solver.factor()?;
         solver.solve(mechanism, qd);
         Ok(())
@@ -255,6 +325,56 @@ impl FullModel {
         self.log.take_error()
     }
 
+    /// Contact `k`'s (penetration, penetration rate, normal force) at `y`, under onset velocity
+    /// `onset`; a revolute joint's penetration and rate are its contact's own (less its damped
+    /// bush's deflection and rate).
+    fn contact_numbers(&self, k: usize, y: &[f64], onset: f64) -> (f64, f64, f64) {
+        match self.corner_of(k) {
+            Some((j, corner)) => {
+                let s = self.corner_state(j, corner, y, onset);
+                (s.penetration, s.penetration_rate, s.normal_force)
+            }
+            None => {
+                let (s, rate) = self.contact_state_and_rate(k, y, onset);
+                let deflection = self.bush_states[k].map_or(0.0, |i| y[i]);
+                (s.penetration - deflection, s.penetration_rate - rate, s.normal_force)
+            }
+        }
+    }
+
+    /// Contact `k`'s (normal force, penetration) at `y` as its impact record keeps them (a
+    /// revolute joint's penetration is its journal's approach δ, bush deflection included).
+    fn searched(&self, k: usize, y: &[f64], onset: f64) -> (f64, f64) {
+        match self.corner_of(k) {
+            Some((j, corner)) => {
+                let s = self.corner_state(j, corner, y, onset);
+                (s.normal_force, s.penetration)
+            }
+            None => {
+                let s = self.contact_state(k, y, onset);
+                (s.normal_force, s.penetration)
+            }
+        }
+    }
+
+    /// Corner `corner` of translational joint `j` at `y`.
+    fn corner_state(&self, j: usize, corner: usize, y: &[f64], onset: f64) -> CornerState {
+        let n = self.n;
+        let (q, qd) = (&y[..n], &y[n..2 * n]);
+        let s = &self.slots[j];
+        let pb = lash_mech::Pose::of(s.block.body, q, qd);
+        let pg = lash_mech::Pose::of(s.guide.body, q, qd);
+        s.evaluate_corner(&pb, &pg, corner, onset)
+    }
+
+    /// Contact `k`'s mode: in contact, onset velocity.
+    fn contact_mode(&self, k: usize) -> (bool, f64) {
+        match self.corner_of(k) {
+            Some((j, c)) => (self.slots[j].corner(c).in_contact, self.slots[j].corner(c).onset_velocity),
+            None => (self.clearances[k].in_contact, self.clearances[k].onset_velocity),
+        }
+    }
+
     /// Clearance joint `k`'s state at `y` (and its damped bush's deflection rate, 0 without).
     fn contact_state_and_rate(&self, k: usize, y: &[f64], onset: f64) -> (ContactState, f64) {
         let n = self.n;
@@ -269,10 +389,10 @@ impl FullModel {
         self.contact_state_and_rate(k, y, onset).0
     }
 
-    /// The contact's own indentation δ − s of clearance joint `k` at `y` (δ for a joint without a
-    /// damped bush): positive in contact.
+    /// Contact `k`'s own indentation at `y` (δ − s for a revolute joint with a damped bush, δ
+    /// otherwise): positive in contact.
     fn indentation(&self, k: usize, y: &[f64]) -> f64 {
-        self.contact_state(k, y, 0.0).penetration - self.bush_states[k].map_or(0.0, |i| y[i])
+        self.contact_numbers(k, y, 0.0).0
     }
 
     /// The deflection of clearance joint `k`'s bush in series at `y` when it is a state (a bush
@@ -311,21 +431,23 @@ impl OdeSystem for FullModel {
     }
 
     fn event_count(&self) -> usize {
-        self.clearances.len()
+        self.contact_count()
     }
 
     fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
-        for k in 0..self.clearances.len() {
+        for (k, g) in g.iter_mut().enumerate().take(self.contact_count()) {
             let indentation = self.indentation(k, y);
-            g[k] = if self.clearances[k].in_contact { -indentation } else { indentation };
+            *g = if self.contact_mode(k).0 { -indentation } else { indentation };
         }
     }
 
     fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
-        // The contact's own approach rate δ̇ − ṡ (ṡ = 0 without a damped bush).
-        let (mut s, rate) = self.contact_state_and_rate(k, y, f64::INFINITY);
-        s.penetration_rate -= rate;
-        self.log.switch((k, &mut self.clearances[k]), t, s.penetration_rate, self.strict_modes);
+        // The contact's own approach rate (δ̇ − ṡ for a revolute joint with a damped bush).
+        let (_, rate, _) = self.contact_numbers(k, y, f64::INFINITY);
+        match self.corner_of(k) {
+            Some((j, c)) => self.log.switch((k, self.slots[j].corner_mut(c)), t, rate, self.strict_modes),
+            None => self.log.switch((k, &mut self.clearances[k]), t, rate, self.strict_modes),
+        }
     }
 
     fn take_mode_violation(&mut self) -> bool {
@@ -344,14 +466,14 @@ impl OdeSystem for FullModel {
         // refined where the step holds the peak); the samples also update the largest penetration.
         let mut y = std::mem::take(&mut self.dense_buffer);
         y.resize(self.dim(), 0.0);
-        for k in 0..self.clearances.len() {
+        for k in 0..self.contact_count() {
             if !self.log.is_open(k) {
                 continue;
             }
-            let onset = self.clearances[k].onset_velocity;
-            let search = StepSearch::run(t, h, |theta| {
+            let onset = self.contact_mode(k).1;
+            let search = StepSearch::run_with(t, h, |theta| {
                 dense.eval(theta, &mut y);
-                self.contact_state(k, &y, onset)
+                self.searched(k, &y, onset)
             });
             self.log.accept_search(k, search);
         }
@@ -367,6 +489,50 @@ impl OdeSystem for FullModel {
             let s = self.contact_state(k, y, onset);
             self.log.accept_step((k, &self.clearances[k]), t, (s.penetration, s.normal_force))?;
         }
+        for k in self.clearances.len()..self.contact_count() {
+            let Some((j, c)) = self.corner_of(k) else { continue };
+            let corner = self.slots[j].corner(c);
+            let s = self.corner_state(j, c, y, corner.onset_velocity);
+            self.log.accept_step((k, corner), t, (s.penetration, s.normal_force))?;
+        }
         Ok(())
     }
+}
+
+/// Adds translational joint `slot`'s corner forces to the solver's load (the revolute joints'
+/// evaluation in [`FullModel::evaluate`], for a joint of four contacts without a bush).
+fn evaluate_slot(
+    slot: &TranslationalClearance,
+    state: &mut SlotState,
+    solver: &mut Solver,
+    log: &mut ImpactLog,
+    strict_modes: bool,
+) {
+    let pb = pose_of(&solver.poses, slot.block.body);
+    let pg = pose_of(&solver.poses, slot.guide.body);
+    for (k, corner_state) in state.corners.iter_mut().enumerate() {
+        let corner = slot.corner(k);
+        let onset = if corner.in_contact { corner.onset_velocity } else { f64::INFINITY };
+        let mut s = slot.evaluate_corner(&pb, &pg, k, onset);
+        if (s.penetration > 0.0) != corner.in_contact {
+            log.flag_violation();
+            if !corner.in_contact && s.penetration > 0.0 {
+                s = if strict_modes {
+                    CornerState { normal_force: 0.0, friction_force: 0.0, force_on_block: Vec2::zeros(), ..s }
+                } else {
+                    slot.evaluate_corner(&pb, &pg, k, s.penetration_rate.max(0.0))
+                };
+            }
+        }
+        if s.normal_force != 0.0 || s.friction_force != 0.0 {
+            solver.add_force(slot.block.body, s.point - pb.position, s.force_on_block);
+            solver.add_force(slot.guide.body, s.point - pg.position, -s.force_on_block);
+        }
+        *corner_state = s;
+    }
+    let (u, m) = (pg.rotate(slot.guide.axis), lash_mech::perp(pg.rotate(slot.guide.axis)));
+    let centre = pb.position + pb.rotate(slot.block.centre) - pg.position - pg.rotate(slot.guide.point);
+    let us = pb.rotate(slot.block.axis);
+    state.offset = m.dot(&centre);
+    state.tilt = u.perp(&us).atan2(u.dot(&us));
 }

@@ -17,6 +17,7 @@ pub mod micro;
 pub mod parameters;
 pub mod spatial_model;
 pub mod spherical;
+pub mod translational;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact, PenetrationError};
 pub use friction::FrictionLaw;
@@ -26,3 +27,4 @@ pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};
 pub use parameters::ClearanceDefinition;
 pub use spatial_model::{SpatialFullModel, SpatialFullModelState};
 pub use spherical::{SphericalClearance, SphericalContactState};
+pub use translational::{Block, CornerState, Guide, SlotState, TranslationalClearance};

@@ -206,6 +206,16 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
             check_finite(t, y)?;
             system.on_event(k_event, t, y);
             stats.events += 1;
+            // Events that fire at the same instant (a block landing flat on two corners): every
+            // function already past its root at the event switches there too, or its mode would
+            // be left from the next step's first stage on.
+            system.events(t, y, &mut w.g_start);
+            for k in (0..m).filter(|&k| k != k_event) {
+                if w.g_start[k] > 0.0 {
+                    system.on_event(k, t, y);
+                    stats.events += 1;
+                }
+            }
             stats.steps += 1;
             system.accept_step(t, y).map_err(|source| OdeError::System { t, source })?;
             system.events(t, y, &mut w.g_start);
