@@ -1,6 +1,7 @@
 //! From a validated scenario to a runnable full model.
 
-use lash_contact::{ClearanceJoint, FullModel, Material};
+use lash_contact::translational::{Block, Guide};
+use lash_contact::{ClearanceJoint, FullModel, Material, TranslationalClearance};
 use lash_mech::{Body, BodyId, Driver, Joint, JointKind, Load, Mechanism, Vec2};
 use lash_scenario::schema::*;
 
@@ -68,10 +69,7 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
             angular_velocity: b.angular_velocity,
         })
         .collect();
-    let is_cut = |j: &JointSpec| {
-        !options.ideal
-            && (s.clearances.iter().any(|c| c.joint == j.name) || s.bushings.iter().any(|b| b.joint == j.name))
-    };
+    let is_cut = |j: &JointSpec| !options.ideal && s.is_cut(&j.name);
     let joints = s
         .joints
         .iter()
@@ -167,7 +165,42 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
             })
             .collect()
     };
-    FullModel::new(mechanism, clearances)
+    let slots = if options.ideal { Vec::new() } else { s.guides.iter().map(|g| guide(s, g, &id)).collect() };
+    FullModel::new(mechanism, clearances).with_slots(slots)
+}
+
+/// The translational clearance joint of guide `g`: the block centred on the slider's joint point
+/// with its long side along the joint's axis, the guide's mid-line through the other body's point.
+fn guide(s: &Scenario, g: &GuideSpec, id: &dyn Fn(&str) -> BodyId) -> TranslationalClearance {
+    let j = s.joints.iter().find(|j| j.name == g.joint).expect("validated guide joint");
+    let guess_angle = |name: &str| s.bodies.iter().find(|b| b.name == name).map_or(0.0, |b| b.angle);
+    // The prismatic joint holds θ1 − θ2 = offset with body1's point on the line through body2's
+    // point along `axis` (body2's frame); seen from body1 that line runs along R(−offset) axis.
+    let offset = j.angle_offset.unwrap_or(guess_angle(&j.body1) - guess_angle(&j.body2));
+    let axis2 = v2(j.axis.unwrap_or([1.0, 0.0])).normalize();
+    let axis1 = nalgebra::Rotation2::new(-offset) * axis2;
+    let ((slider, centre, slider_axis), (guide, point, guide_axis)) = if g.slider == j.body1 {
+        ((&j.body1, j.point1, axis1), (&j.body2, j.point2, axis2))
+    } else {
+        ((&j.body2, j.point2, axis2), (&j.body1, j.point1, axis1))
+    };
+    let block = Block {
+        body: id(slider),
+        centre: v2(centre),
+        axis: slider_axis,
+        half_length: g.length / 2.0,
+        half_height: g.height / 2.0,
+    };
+    // The law's stiffness is given (validated): the materials and radii are not used.
+    let law = g.contact.resolve(&Material::STEEL, &Material::STEEL, 1.0, 1.0 + g.clearance);
+    TranslationalClearance::new(
+        g.joint.clone(),
+        block,
+        Guide { body: id(guide), point: v2(point), axis: guide_axis },
+        g.clearance,
+        law,
+        g.friction,
+    )
 }
 
 /// Whether a bush in series with a contact carries its damping as a state (its relaxation time

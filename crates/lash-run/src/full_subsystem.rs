@@ -144,7 +144,7 @@ struct PlanarSampling {
 impl Sampling<FullModel> for PlanarSampling {
     fn sample(&mut self, model: &mut FullModel, t: f64, y: &[f64], outputs: &mut [f64]) -> Result<(), String> {
         let n = model.mechanism.coordinate_count();
-        let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), model.clearances.len())
+        let mut recorder = Recorder::new(&self.sources, &self.all, self.sensors.clone(), model.contact_count())
             .with_stresses(&self.stresses);
         model.evaluate(t, y).map_err(|e| e.to_string())?;
         let (q, qd) = (&y[..n], &y[n..2 * n]);
@@ -152,9 +152,7 @@ impl Sampling<FullModel> for PlanarSampling {
             outputs.copy_from_slice(&row[1..]);
             Ok(())
         };
-        recorder
-            .record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, &mut sink)
-            .map_err(|e| e.to_string())
+        recorder.record(t, model, q, qd, &mut sink).map_err(|e| e.to_string())
     }
 }
 

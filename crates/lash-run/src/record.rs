@@ -3,9 +3,9 @@
 //! selected columns to the sink.
 
 use crate::run::{ChannelStats, ClearanceSummary, Sink};
-use lash_contact::{ContactState, Impact};
+use lash_contact::{FullModel, Impact, SlotState};
 use lash_core::BoxError;
-use lash_mech::{BodyId, Mechanism, Solver, Vec2, driver_torque, kinematics, point_kinematics};
+use lash_mech::{BodyId, Mechanism, Vec2, driver_torque, kinematics, point_kinematics};
 use lash_scenario::channels::{Channel, Source};
 use std::collections::BTreeMap;
 
@@ -21,6 +21,19 @@ fn bushing_value(mech: &Mechanism, q: &[f64], qd: &[f64], k: usize, quantity: u8
     let (pose_i, pose_j) = (lash_mech::Pose::of(bi, q, qd), lash_mech::Pose::of(bj, q, qd));
     let (s, _, _) = lash_mech::bushing_state(&pose_i, pi, &pose_j, pj, spring, c);
     [s.force.x, s.force.y, s.force.norm(), s.deflection.norm()][quantity as usize]
+}
+
+/// Quantity `quantity` of a guide's channels ([`lash_scenario::channels::GUIDE_QUANTITIES`]).
+fn guide_value(state: &SlotState, quantity: u8) -> f64 {
+    let f = state.force_on_block();
+    match quantity {
+        0 => f.x,
+        1 => f.y,
+        2 => state.offset,
+        3 => state.tilt,
+        4..=7 => state.corners[quantity as usize - 4].normal_force,
+        _ => state.corners[quantity as usize - 8].penetration,
+    }
 }
 
 /// Channel sampler with running statistics.
@@ -40,11 +53,13 @@ pub(crate) struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
+    /// A recorder of `contacts` contacts (the full model's: one per clearance joint, four per
+    /// guide).
     pub fn new(
         sources: &'a [(Channel, Source)],
         selected: &'a [usize],
         sensors: Vec<(BodyId, Vec2)>,
-        clearances: usize,
+        contacts: usize,
     ) -> Self {
         Self {
             sources,
@@ -56,8 +71,8 @@ impl<'a> Recorder<'a> {
             stats: RunningStats::new(sources.len()),
             samples: 0,
             max_constraint_error: 0.0,
-            max_eccentricity: vec![0.0; clearances],
-            sum_force: vec![0.0; clearances],
+            max_eccentricity: vec![0.0; contacts],
+            sum_force: vec![0.0; contacts],
             stresses: &[],
         }
     }
@@ -68,18 +83,10 @@ impl<'a> Recorder<'a> {
         self
     }
 
-    /// Records one sample. `solver` holds the state's constraint terms, q̈ and λ.
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
-        &mut self,
-        t: f64,
-        mech: &Mechanism,
-        solver: &Solver,
-        contacts: &[ContactState],
-        q: &[f64],
-        qd: &[f64],
-        sink: Sink<'_>,
-    ) -> Result<(), BoxError> {
+    /// Records one sample of `model`, evaluated at (q, q̇): its solver holds the state's
+    /// constraint terms, q̈ and λ.
+    pub fn record(&mut self, t: f64, model: &FullModel, q: &[f64], qd: &[f64], sink: Sink<'_>) -> Result<(), BoxError> {
+        let (mech, solver, contacts) = (&model.mechanism, &model.solver, &model.contacts);
         let qdd = &solver.accelerations;
         for (k, (body, point)) in self.sensors.iter().enumerate() {
             let p = point_kinematics(q, qd, qdd, *body, *point);
@@ -118,11 +125,20 @@ impl<'a> Recorder<'a> {
                     .and_then(Option::as_ref)
                     .map_or(f64::NAN, |m| m.von_mises(contacts[k].normal_force)),
                 Source::BodyPose(k, quantity) => lash_mech::Pose::coordinates(BodyId::Body(k), q)[quantity as usize],
+                Source::Guide(k, quantity) => guide_value(&model.slot_contacts[k], quantity),
             };
         }
         for (k, c) in contacts.iter().enumerate() {
             self.max_eccentricity[k] = self.max_eccentricity[k].max(c.eccentricity_norm);
             self.sum_force[k] += c.force_on_journal.norm();
+        }
+        // A corner's "eccentricity" is its approach to its face from the centred block, δ + c.
+        let corners = model.slots.iter().zip(&model.slot_contacts).flat_map(|(slot, state)| {
+            state.corners.iter().map(move |c| (c.penetration + slot.clearance, c.force_on_block.norm()))
+        });
+        for (k, (approach, force)) in (contacts.len()..).zip(corners) {
+            self.max_eccentricity[k] = self.max_eccentricity[k].max(approach);
+            self.sum_force[k] += force;
         }
         self.max_constraint_error = self.max_constraint_error.max(solver.constraint_error());
         self.stats.add(&self.values);

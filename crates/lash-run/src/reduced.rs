@@ -92,6 +92,12 @@ fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
 impl ReducedRun {
     /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
+        if let Some(g) = scenario.guides.first() {
+            return Err(RunError::Unsupported(format!(
+                "the reduced model couples no translational clearance joint yet (guide {:?}); run the full model",
+                g.joint
+            )));
+        }
         // The interface is either the clearance joints or the bushings (each a micro model of
         // its own kind); both at once is not there yet.
         let bushed = !scenario.bushings.is_empty();
@@ -204,7 +210,11 @@ impl ReducedRun {
                     let name = scenario.bodies[k].name.clone();
                     Probe::Body { body: cut.body_id(&name).expect("validated"), name }
                 }
-                Source::Clearance(..) | Source::ConstraintError | Source::Bushing(..) | Source::InterfaceStress(..) => {
+                Source::Clearance(..)
+                | Source::ConstraintError
+                | Source::Bushing(..)
+                | Source::InterfaceStress(..)
+                | Source::Guide(..) => {
                     continue;
                 }
             };
@@ -709,6 +719,7 @@ fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: So
         }
         // The micro side's normal force, turned into the stress when recorded (Recording::stresses).
         Source::InterfaceStress(k) => Signal::Micro { name, variable: "normal_force".into(), element: k },
+        Source::Guide(..) => unreachable!("ReducedRun::new refuses guides"),
         Source::BodyPose(k, q) => {
             let b = &s.bodies[k].name;
             let q = q as usize;

@@ -298,17 +298,15 @@ impl FullRun {
         let mut y = self.model.initial_state(t0)?;
         let n = self.model.mechanism.coordinate_count();
         let sensors = sensor_points(&self.scenario, &self.model.mechanism);
-        let nc = self.model.clearances.len();
         let horizon = sim.horizon;
-        let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, nc).with_stresses(&self.stresses);
+        let mut recorder = Recorder::new(&self.sources, &self.selected, sensors, self.model.contact_count())
+            .with_stresses(&self.stresses);
         let names: Vec<&str> = self.sources.iter().map(|(c, _)| c.name.as_str()).collect();
         let mut measurements = crate::measure::MeasurementRecorder::new(&self.scenario.output.measurements, &names);
         let mut observer = |model: &mut FullModel, t: f64, y: &[f64]| -> Result<(), BoxError> {
             model.evaluate(t, y)?;
             let (q, qd) = (&y[..n], &y[n..2 * n]);
-            recorder
-                .record(t, &model.mechanism, &model.solver, &model.contacts, q, qd, sink)
-                .map_err(SinkFailed::boxed)?;
+            recorder.record(t, model, q, qd, sink).map_err(SinkFailed::boxed)?;
             measurements.record(recorder.values());
             progress(((t - t0) / horizon).clamp(0.0, 1.0));
             Ok(())
@@ -328,12 +326,19 @@ impl FullRun {
             .finish(t0, sim.output_interval)
             .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
         let period = driver_period(&self.scenario);
-        let clearances: Vec<ClearanceSummary> = (0..nc)
-            .map(|k| {
-                let c = &self.model.clearances[k];
+        // Each clearance joint, then each guide's corners (a contact each).
+        let corners = self
+            .model
+            .slots
+            .iter()
+            .flat_map(|s| (0..4).map(|k| (lash_contact::Clearance::name(s.corner(k)), s.clearance)));
+        let contacts = self.model.clearances.iter().map(|c| (c.name.as_str(), c.radial_clearance())).chain(corners);
+        let clearances: Vec<ClearanceSummary> = contacts
+            .enumerate()
+            .map(|(k, (name, clearance))| {
                 let mut impacts = self.model.impacts()[k].clone();
                 impacts.extend(self.model.open_impact(k, t_end));
-                recorder.clearance_summary(k, &c.name, c.radial_clearance(), impacts, horizon, period)
+                recorder.clearance_summary(k, name, clearance, impacts, horizon, period)
             })
             .collect();
         Ok(Summary {

@@ -30,7 +30,27 @@ pub enum Source {
     InterfaceStress(usize),
     /// Body k's pose, quantity (see [`POSE_QUANTITIES`]): what a report animates.
     BodyPose(usize, u8),
+    /// Guide k (a translational clearance joint), quantity (see [`GUIDE_QUANTITIES`]).
+    Guide(usize, u8),
 }
+
+/// The quantities of a guide's channels: the corners' resultant force on the block (x, y), the
+/// block centre's offset from the guide's mid-line and its tilt, then each corner's normal force
+/// and penetration (corners: rear top, front top, front bottom, rear bottom).
+pub const GUIDE_QUANTITIES: [(&str, &str); 12] = [
+    ("fx", "N"),
+    ("fy", "N"),
+    ("offset", "m"),
+    ("tilt", "rad"),
+    ("corner1.normal_force", "N"),
+    ("corner2.normal_force", "N"),
+    ("corner3.normal_force", "N"),
+    ("corner4.normal_force", "N"),
+    ("corner1.penetration", "m"),
+    ("corner2.penetration", "m"),
+    ("corner3.penetration", "m"),
+    ("corner4.penetration", "m"),
+];
 
 /// The quantities of a body's pose channels: its centroid's position and its angle (the names
 /// keep a body's pose apart from a sensor named like the body, whose channels are `x`, `y`, …).
@@ -93,13 +113,18 @@ pub fn channel_sources(s: &Scenario, ideal: bool) -> Vec<(Channel, Source)> {
                 out.push((Channel { name: dotted(&b.joint, name), unit }, Source::Bushing(k, q as u8)));
             }
         }
+        for (k, g) in s.guides.iter().enumerate() {
+            for (q, (name, unit)) in GUIDE_QUANTITIES.iter().enumerate() {
+                out.push((Channel { name: dotted(&g.joint, name), unit }, Source::Guide(k, q as u8)));
+            }
+        }
     }
     for (k, d) in s.drivers.iter().enumerate() {
         out.push((Channel { name: dotted(&d.name, "torque"), unit: "N m" }, Source::DriverTorque(k)));
     }
     let mut k = 0;
     for j in &s.joints {
-        if !ideal && (s.clearances.iter().any(|c| c.joint == j.name) || s.bushings.iter().any(|b| b.joint == j.name)) {
+        if !ideal && s.is_cut(&j.name) {
             continue;
         }
         if j.kind == crate::schema::JointType::Revolute {

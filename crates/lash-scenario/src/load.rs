@@ -6,7 +6,7 @@ use serde::de::DeserializeOwned;
 use std::collections::HashSet;
 
 /// Top-level keys of a scenario file.
-const TOP_KEYS: [&str; 13] = [
+const TOP_KEYS: [&str; 14] = [
     "name",
     "description",
     "gravity",
@@ -17,6 +17,7 @@ const TOP_KEYS: [&str; 13] = [
     "loads",
     "clearances",
     "bushings",
+    "guides",
     "sensors",
     "simulation",
     "output",
@@ -252,6 +253,7 @@ impl crate::format::Format for Scenario {
 
     fn own_arrays(table: &toml::Table, problems: &mut Problems) {
         array::<BushingSpec>(table, "bushings", problems);
+        array::<GuideSpec>(table, "guides", problems);
     }
     fn body(b: &BodySpec) -> Problems {
         validate_body(b)
@@ -459,6 +461,45 @@ pub(crate) fn validate_clearance_numbers(c: &ClearanceSpec) -> Problems {
     p
 }
 
+/// The guides' numbers and their joints (`[[guides]]`).
+fn check_guides(s: &Scenario, p: &mut Problems) {
+    let mut seen = HashSet::new();
+    for (k, g) in s.guides.iter().enumerate() {
+        let f = |x: &str| format!("guides[{k}].{x}");
+        match s.joints.iter().find(|j| j.name == g.joint) {
+            None => p.push(f("joint"), format!("no joint called {:?}", g.joint)),
+            Some(j) if j.kind != JointType::Prismatic => p.push(
+                f("joint"),
+                format!("joint {:?} is not prismatic; a revolute joint takes its clearance in [[clearances]]", g.joint),
+            ),
+            Some(j) if g.slider != j.body1 && g.slider != j.body2 => p.push(
+                f("slider"),
+                format!(
+                    "must name one of joint {:?}'s bodies ({:?} or {:?}), got {:?}",
+                    j.name, j.body1, j.body2, g.slider
+                ),
+            ),
+            Some(_) => {}
+        }
+        if !seen.insert(g.joint.as_str()) {
+            p.push(f("joint"), format!("joint {:?} already has a guide", g.joint));
+        }
+        p.positive(f("length"), g.length);
+        p.positive(f("height"), g.height);
+        p.positive(f("clearance"), g.clearance);
+        p.extend_prefixed(&f("contact"), g.contact.validate());
+        p.extend_prefixed(&f("friction"), g.friction.validate());
+        if matches!(g.contact, lash_contact::ContactLaw::Liu { .. }) {
+            p.push(f("contact.law"), "\"liu\" is the law of a pin in a bore; a corner on a face takes another");
+        } else if g.contact.needs_materials() {
+            p.push(
+                f("contact.stiffness"),
+                "missing: a corner on a flat face has no radii to take a Hertz stiffness from",
+            );
+        }
+    }
+}
+
 pub(crate) fn validate_simulation(s: &SimulationSpec) -> Problems {
     let mut p = Problems::new();
     p.finite("start_time", s.start_time);
@@ -576,7 +617,10 @@ fn cross_check(s: &Scenario) -> Problems {
                 if j.kind != JointType::Revolute {
                     p.push(
                         f("joint"),
-                        format!("joint {:?} is not revolute; only revolute joints can have clearance", c.joint),
+                        format!(
+                            "joint {:?} is not revolute; a prismatic joint takes its clearance in [[guides]]",
+                            c.joint
+                        ),
                     );
                 }
                 if c.journal != j.body1 && c.journal != j.body2 {
@@ -631,6 +675,7 @@ fn cross_check(s: &Scenario) -> Problems {
             }
         }
     }
+    check_guides(s, &mut p);
     let mut bushing_joints = HashSet::new();
     for (k, b) in s.bushings.iter().enumerate() {
         let f = |x: &str| format!("bushings[{k}].{x}");
@@ -797,6 +842,38 @@ mod tests {
         assert_eq!(f.as_deref(), Some("mass"));
         assert!(m.contains("expected f64"));
         assert_eq!(split_serde_message("unknown field `mas`, expected one of `a`").0.as_deref(), Some("mas"));
+    }
+
+    #[test]
+    fn a_guide_names_its_bad_fields() {
+        let g = crate::builtin::by_name("G").unwrap();
+        let problems = |edit: &dyn Fn(&mut Scenario)| {
+            let mut s = g.clone();
+            edit(&mut s);
+            validate(&s).to_string()
+        };
+        let p = problems(&|s| s.guides[0].joint = "crank_rod".into());
+        assert!(p.contains("guides[0].joint") && p.contains("not prismatic"), "{p}");
+        let p = problems(&|s| s.guides[0].slider = "rod".into());
+        assert!(p.contains("guides[0].slider") && p.contains("\"slider\" or \"ground\""), "{p}");
+        let p = problems(&|s| {
+            s.guides[0].height = -0.05;
+            s.guides[0].clearance = 0.0;
+        });
+        assert!(p.contains("guides[0].height") && p.contains("guides[0].clearance"), "{p}");
+        let p = problems(&|s| {
+            let lash_contact::ContactLaw::Flores(h) = &mut s.guides[0].contact else { panic!("G's law") };
+            h.stiffness = None;
+        });
+        assert!(p.contains("guides[0].contact.stiffness") && p.contains("no radii"), "{p}");
+        let p = problems(&|s| s.guides.push(s.guides[0].clone()));
+        assert!(p.contains("guides[1].joint") && p.contains("already has a guide"), "{p}");
+        let p = problems(&|s| {
+            let mut c = crate::builtin::by_name("B").unwrap().clearances[0].clone();
+            c.joint = "slider_guide".into();
+            s.clearances.push(c);
+        });
+        assert!(p.contains("clearances[0].joint") && p.contains("[[guides]]"), "{p}");
     }
 
     #[test]

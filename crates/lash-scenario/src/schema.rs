@@ -38,6 +38,9 @@ pub struct Scenario {
     /// Revolute joints made flexible by a bush (no clearance).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub bushings: Vec<BushingSpec>,
+    /// Prismatic joints with clearance (a block in a guide).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub guides: Vec<GuideSpec>,
     /// Body points whose position, velocity and acceleration are output.
     #[serde(default)]
     pub sensors: Vec<SensorSpec>,
@@ -46,6 +49,16 @@ pub struct Scenario {
     /// Output selection.
     #[serde(default)]
     pub output: OutputSpec,
+}
+
+impl Scenario {
+    /// Whether the joint called `joint` leaves the full model's mechanism: a clearance, a bushing
+    /// or a guide replaces it.
+    pub fn is_cut(&self, joint: &str) -> bool {
+        self.clearances.iter().any(|c| c.joint == joint)
+            || self.bushings.iter().any(|b| b.joint == joint)
+            || self.guides.iter().any(|g| g.joint == joint)
+    }
 }
 
 /// A rigid body. Points elsewhere in the file are given from its centroid, in its frame.
@@ -187,6 +200,29 @@ pub struct ClearanceSpec {
     /// `inner_radius` must be `bearing_radius` and its `pin_radius` `journal_radius`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bush: Option<lash_bush::BushSpec>,
+}
+
+/// Turns the prismatic joint `joint` into a translational clearance joint: a rectangular block on
+/// the `slider` body, centred on that body's joint point with its long side along the joint's
+/// axis, moving between two guide faces on the other body, `clearance` off each long side.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GuideSpec {
+    /// Name of a prismatic joint in `joints`.
+    pub joint: String,
+    /// Which of that joint's bodies carries the block; the other carries the guide.
+    pub slider: String,
+    /// The block's length along the guide \[m\].
+    pub length: f64,
+    /// The block's height across the guide \[m\].
+    pub height: f64,
+    /// Clearance c between each long face of the block and the guide face opposite \[m\] (> 0).
+    pub clearance: f64,
+    /// Normal contact law of a corner on a face (its `stiffness` is required: a corner on a flat
+    /// face has no radii to take a Hertz stiffness from).
+    pub contact: ContactLaw,
+    /// Friction law along the guide (required, as for a clearance joint).
+    pub friction: FrictionLaw,
 }
 
 /// Makes the revolute joint `joint` flexible: its two points are joined by an isotropic
