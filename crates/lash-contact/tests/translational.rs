@@ -2,7 +2,8 @@
 //! against computations of its own: a block dropped flat (Hertz's closed form for the deepest
 //! penetration, a 1-DOF integration here for the duration), dropped on a corner (the rigid-body
 //! impulse through the corner's effective mass), energy kept without damping over many impacts,
-//! and a driven slider-crank whose slider trajectory tends to the ideal prismatic joint's as the
+//! a block sliding on its face under Coulomb friction (μ g and the tilt that carries the
+//! friction's moment), and a driven slider-crank whose slider trajectory tends to the ideal prismatic joint's as the
 //! clearance goes to zero.
 
 use lash_contact::translational::{Block, Guide};
@@ -289,4 +290,34 @@ fn as_the_clearance_closes_the_slider_follows_the_ideal_prismatic_joint() {
     // falls with c.
     assert!(coarse < 1e-4 && fine < 1e-5, "{coarse:e}, {fine:e}");
     assert!(fine < coarse / 4.0, "{coarse:e} → {fine:e}: no convergence");
+}
+
+#[test]
+fn a_block_sliding_on_its_face_under_coulomb_friction_slows_at_mu_g() {
+    // Resting on the bottom face under gravity (Kelvin–Voigt corners at their static deflection)
+    // and sliding at 1 m/s: whatever the friction's moment does to the two corners' share of the
+    // weight, their normal forces sum to m g, so the friction μ Σ F_N slows the block at μ g. (With
+    // a linear law the tilt moves the two corners' deflections by ±a θ, which cancel in the sum:
+    // the centre stays at rest vertically and the deceleration is μ g to rounding.)
+    let (k, mu, g, v0) = (1e8, 0.2, 9.81, 1.0);
+    let mut model = free_block(NormalForce::KelvinVoigt { stiffness: k, damping: 2.0 * (MASS * k).sqrt() });
+    model.mechanism.gravity = Vec2::new(0.0, -g);
+    model.slots[0].friction = FrictionLaw::Coulomb { coefficient: mu };
+    let sag = MASS * g / (2.0 * k);
+    let mut y = vec![0.0, -C - sag, 0.0, v0, 0.0, 0.0];
+    model.reset(0.0, &y);
+    let t_end = 0.2;
+    let mut speeds = Vec::new();
+    run(&mut model, &mut y, t_end, 0.05, &mut |_, y| speeds.push(y[3]));
+    for (i, v) in speeds.iter().enumerate() {
+        let t = 0.05 * i as f64;
+        let expected = v0 - mu * g * t;
+        assert!((v - expected).abs() < 1e-12 * v0, "t = {t}: {v} vs {expected}");
+    }
+    let impacts = model.impacts();
+    assert!(impacts[0].is_empty() && impacts[1].is_empty(), "the block lifted to the top face");
+    // The friction at the bottom face turns the block nose-down with the moment μ m g b, which the
+    // corners carry by a force difference K 2a θ over the arm a: θ = −μ m g b / (2 K a²).
+    let tilt = -mu * MASS * g * B / (2.0 * k * A * A);
+    assert!((y[2] / tilt - 1.0).abs() < 1e-3, "tilt {} vs {tilt}", y[2]);
 }

@@ -3,6 +3,8 @@
 //! * `A` — the reduced-interface-model papers' case: clearance at the crank–ground joint (c = 100 µm); `A-200um`.
 //! * `B` — benchmark slider-crank, clearance at the rod–slider joint (c = 0.5 mm);
 //!   `B-0.25mm`, `B-0.1mm`, `B-0.02mm`, and `B-frictionless`.
+//! * `C` — A's and B's clearances in one mechanism; `F` — the flexible-bush crank–slider and its
+//!   variants; `G` — a translational clearance joint (the slider a block in a guide), `G-driven`.
 //!
 //! Shared data: crank L1 = 0.05 m, 0.17 kg, 1.0e-4 kg m²; rod L2 = 0.12 m, 0.15 kg, 2.5e-4 kg m²
 //! (centroids mid-length); slider 0.06 kg on the x axis through the crank pivot; crank at
