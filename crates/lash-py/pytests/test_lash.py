@@ -140,6 +140,24 @@ def test_bad_options_and_failing_runs_raise_the_right_errors():
         lash.run(soft, "reduced")
 
 
+def test_a_translational_clearance_joint_runs_and_edits_as_on_the_command_line(tmp_path):
+    # Scenario G's slider is a block in a guide: the full model runs it from Python as `lash run`
+    # does, its guide is edited by path, and the reduced model refuses it naming the guide.
+    r = lash.run("G-driven", "full", horizon=0.02)
+    done = cli("run", "G-driven", "--horizon", "0.02", "--out", str(tmp_path / "g"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    assert np.array_equal(r.samples, read_csv(tmp_path / "g" / "timeseries.csv")[1])
+    assert r.units["slider_guide.offset"] == "m"
+    assert [c["name"] for c in r.summary["clearances"]] == [f"slider_guide corner {k}" for k in range(1, 5)]
+    wider = lash.run(lash.load("G-driven").with_values({"guides[0].clearance": 2e-3}), "full", horizon=0.02)
+    assert np.max(np.abs(wider["slider_guide.offset"])) > 1.01e-3 >= np.max(np.abs(r["slider_guide.offset"])) - 1e-4
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.load("G").with_values({"guides[0].height": -0.05})
+    assert any(f == "guides[0].height" for f, _ in e.value.problems)
+    with pytest.raises(Exception, match="slider_guide"):
+        lash.run("G", "reduced", horizon=0.01)
+
+
 # Sweeps and datasets.
 
 SWEEP = """
