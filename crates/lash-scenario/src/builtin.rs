@@ -348,16 +348,16 @@ pub fn scenario_f(joint: FJoint) -> Scenario {
 /// edge radius on steel, K = (4/3) E* √R.
 pub fn scenario_g(driven: bool) -> Scenario {
     let (name, how) = if driven {
-        ("G-driven", "the crank driven at a constant 150 rad/s from the aligned position")
+        ("G-driven", "crank driven at 150 rad/s")
     } else {
-        ("G", "free motion from the aligned position, crank at 150 rad/s, rod at −75 rad/s")
+        ("G", "free motion from crank 150 rad/s, rod −75 rad/s")
     };
     let mut s = slider_crank(
         name,
         &format!(
-            "Translational clearance joint (scenario G): a slider-crank whose slider is a block 0.10 × 0.05 m \
-             in a guide with 1 mm clearance either side, {how}; crank 0.153 m, rod 0.306 m, gravity; no \
-             friction, restitution 0.4 at the block's corners."
+            "Translational clearance joint (scenario G), {how}: a slider-crank whose slider is a block \
+             0.10 × 0.05 m in a guide with 1 mm clearance either side; crank 0.153 m, rod 0.306 m, gravity; \
+             no friction, restitution 0.4 at the block's corners."
         ),
     );
     let (l1, l2) = (0.153, 0.306);
