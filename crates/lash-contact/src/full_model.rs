@@ -530,9 +530,5 @@ fn evaluate_slot(
         }
         *corner_state = s;
     }
-    let (u, m) = (pg.rotate(slot.guide.axis), lash_mech::perp(pg.rotate(slot.guide.axis)));
-    let centre = pb.position + pb.rotate(slot.block.centre) - pg.position - pg.rotate(slot.guide.point);
-    let us = pb.rotate(slot.block.axis);
-    state.offset = m.dot(&centre);
-    state.tilt = u.perp(&us).atan2(u.dot(&us));
+    (state.offset, state.tilt) = slot.placement(&pb, &pg);
 }

@@ -204,10 +204,17 @@ impl TranslationalClearance {
             let c = &self.corners[k];
             self.evaluate_corner(block, guide, k, if c.in_contact { c.onset_velocity } else { f64::INFINITY })
         });
+        let (offset, tilt) = self.placement(block, guide);
+        SlotState { corners, offset, tilt }
+    }
+
+    /// The block centre's offset from the mid-line (along its left normal) and the block axis'
+    /// angle to it, at the body poses.
+    pub fn placement(&self, block: &Pose, guide: &Pose) -> (f64, f64) {
         let (u, m, origin) = self.mid_line(guide);
         let centre = block.position + block.rotate(self.block.centre);
         let us = block.rotate(self.block.axis);
-        SlotState { corners, offset: m.dot(&(centre - origin)), tilt: u.perp(&us).atan2(u.dot(&us)) }
+        (m.dot(&(centre - origin)), u.perp(&us).atan2(u.dot(&us)))
     }
 
     /// The guide's mid-line direction u, its left normal m and its point o, in the world.
