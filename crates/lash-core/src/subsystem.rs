@@ -386,6 +386,55 @@ pub enum Coupling {
     TwoWay,
 }
 
+/// The interface coordinates prescribed to the macro mechanism across one communication step in
+/// two-way coupling: each coordinate the cubic Hermite from (e, ė) at `start` to (e, ė) at
+/// `start + span`, and the mean friction load of each joint over the step. One home for every
+/// macro subsystem (planar and spatial) that moves its closed clearance joints by them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrescribedInterface {
+    /// The step's start \[s\].
+    pub start: f64,
+    /// The step's length \[s\].
+    pub span: f64,
+    /// e then ė at the start (n each).
+    pub from: Vec<f64>,
+    /// e then ė at the end (n each).
+    pub to: Vec<f64>,
+    /// Mean friction load of each joint over the step (planar: F_T \[N\]; spherical: n × F_T).
+    pub friction: Vec<f64>,
+}
+
+impl PrescribedInterface {
+    /// Interface coordinates n.
+    pub fn coordinates(&self) -> usize {
+        self.from.len() / 2
+    }
+
+    /// e, ė, ë of coordinate `i` at `t` (held at the ends outside the step).
+    #[inline]
+    pub fn at(&self, t: f64, i: usize) -> [f64; 3] {
+        let n = self.coordinates();
+        let h = self.span;
+        let s = ((t - self.start) / h).clamp(0.0, 1.0);
+        let (s2, s3) = (s * s, s * s * s);
+        let (ea, va) = (self.from[i], self.from[n + i]);
+        let (eb, vb) = (self.to[i], self.to[n + i]);
+        let e = ea * (2.0 * s3 - 3.0 * s2 + 1.0)
+            + va * (h * (s3 - 2.0 * s2 + s))
+            + eb * (-2.0 * s3 + 3.0 * s2)
+            + vb * (h * (s3 - s2));
+        let v = (ea * (6.0 * s2 - 6.0 * s)
+            + va * (h * (3.0 * s2 - 4.0 * s + 1.0))
+            + eb * (-6.0 * s2 + 6.0 * s)
+            + vb * (h * (3.0 * s2 - 2.0 * s)))
+            / h;
+        let a =
+            (ea * (12.0 * s - 6.0) + va * (h * (6.0 * s - 4.0)) + eb * (-12.0 * s + 6.0) + vb * (h * (6.0 * s - 2.0)))
+                / (h * h);
+        [e, v, a]
+    }
+}
+
 /// How a step ended. A master must look at every outcome: only [`StepOutcome::Completed`] means
 /// that the subsystem reached `t + h` and may be stepped on; use [`StepOutcome::reached`] and
 /// [`StepOutcome::stop`] rather than matching on `Completed` alone.
@@ -876,6 +925,37 @@ impl Phase {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_prescribed_coordinate_meets_its_end_values_and_its_rates_are_its_derivatives() {
+        // e from 1e-4 (rate 0.3) to −2e-4 (rate −0.1) over 1 ms from t = 0.5 s; a second
+        // coordinate held at rest.
+        let p = PrescribedInterface {
+            start: 0.5,
+            span: 1e-3,
+            from: vec![1e-4, 0.0, 0.3, 0.0],
+            to: vec![-2e-4, 0.0, -0.1, 0.0],
+            friction: vec![],
+        };
+        assert_eq!(p.coordinates(), 2);
+        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-9 * scale;
+        let [e0, v0, _] = p.at(0.5, 0);
+        let [e1, v1, _] = p.at(0.501, 0);
+        assert!(close(e0, 1e-4, 1e-4) && close(v0, 0.3, 1.0), "start: {e0}, {v0}");
+        assert!(close(e1, -2e-4, 1e-4) && close(v1, -0.1, 1.0), "end: {e1}, {v1}");
+        assert_eq!(p.at(0.5004, 1), [0.0; 3]);
+        // Central differences of e and ė against ė and ë inside the step (their rounding, about
+        // 1e-16 × 0.5 s / 1e-7 s relative to the rates, sets the tolerance).
+        let d = 1e-7;
+        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-6 * scale;
+        for t in [0.5002, 0.5005, 0.5008] {
+            let ([ea, va, _], [eb, vb, _], [_, v, a]) = (p.at(t - d, 0), p.at(t + d, 0), p.at(t, 0));
+            assert!(close((eb - ea) / (2.0 * d), v, 1.0), "ė at {t}: {} vs {v}", (eb - ea) / (2.0 * d));
+            assert!(close((vb - va) / (2.0 * d), a, 1e3), "ë at {t}: {} vs {a}", (vb - va) / (2.0 * d));
+        }
+        // Held outside the step.
+        assert_eq!(p.at(0.7, 0)[0], p.at(0.501, 0)[0]);
+    }
 
     #[test]
     fn element_names_are_one_based_row_major_and_read_back() {

@@ -25,7 +25,10 @@ use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
 use crate::{Pose, Vec2};
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
-use lash_core::{Coupling, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_core::{
+    Coupling, PrescribedInterface as Prescribed, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks,
+    ValueReference, Variable,
+};
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 
 /// A quantity of the mechanism exported with its propagation map.
@@ -65,66 +68,31 @@ pub enum Probe {
     },
 }
 
-/// The eccentricities prescribed across a step: for each joint the cubic Hermite from (e, ė) at
-/// `start` to (e, ė) at `start + span`, and the mean friction force F_T of each joint over the
-/// step (its moments act on the journal and bearing bodies).
-#[derive(Debug, Clone, PartialEq)]
-struct Prescribed {
-    start: f64,
-    span: f64,
-    /// e then ė at the start (n each).
-    from: Vec<f64>,
-    /// e then ė at the end (n each).
-    to: Vec<f64>,
-    /// Mean friction force of each joint over the step \[N\].
-    friction: Vec<f64>,
+/// e, ė, ë of joint `j`'s eccentricity at `t`.
+fn joint_at(p: &Prescribed, t: f64, j: usize) -> [Vec2; 3] {
+    let (x, y) = (p.at(t, 2 * j), p.at(t, 2 * j + 1));
+    [Vec2::new(x[0], y[0]), Vec2::new(x[1], y[1]), Vec2::new(x[2], y[2])]
 }
 
-impl Prescribed {
-    /// e, ė, ë of joint `j` at `t`.
-    fn at(&self, t: f64, j: usize) -> [Vec2; 3] {
-        let n = self.from.len() / 2;
-        let pick = |v: &[f64], k: usize| Vec2::new(v[k + 2 * j], v[k + 2 * j + 1]);
-        let h = self.span;
-        let s = ((t - self.start) / h).clamp(0.0, 1.0);
-        let (s2, s3) = (s * s, s * s * s);
-        let (ea, va) = (pick(&self.from, 0), pick(&self.from, n));
-        let (eb, vb) = (pick(&self.to, 0), pick(&self.to, n));
-        let e = ea * (2.0 * s3 - 3.0 * s2 + 1.0)
-            + va * (h * (s3 - 2.0 * s2 + s))
-            + eb * (-2.0 * s3 + 3.0 * s2)
-            + vb * (h * (s3 - s2));
-        let v = (ea * (6.0 * s2 - 6.0 * s)
-            + va * (h * (3.0 * s2 - 4.0 * s + 1.0))
-            + eb * (-6.0 * s2 + 6.0 * s)
-            + vb * (h * (3.0 * s2 - 2.0 * s)))
-            / h;
-        let a =
-            (ea * (12.0 * s - 6.0) + va * (h * (6.0 * s - 4.0)) + eb * (-12.0 * s + 6.0) + vb * (h * (6.0 * s - 2.0)))
-                / (h * h);
-        [e, v, a]
+/// Shifts the rows of the closed clearance joints so that r_J − r_B = e(t) as `p` prescribes and
+/// adds the friction moments to the generalized forces (two-way coupling).
+fn apply_prescribed(p: &Prescribed, solver: &mut Solver, rows: &[usize], joints: &[ClearanceInterface], t: f64) {
+    for (j, &row) in rows.iter().enumerate() {
+        let [e, v, a] = joint_at(p, t, j);
+        solver.phi[row] -= e.x;
+        solver.phi[row + 1] -= e.y;
+        solver.nu[row] += v.x;
+        solver.nu[row + 1] += v.y;
+        solver.gamma[row] += a.x;
+        solver.gamma[row + 1] += a.y;
     }
-
-    /// Shifts the rows of the closed clearance joints so that r_J − r_B = e(t) and adds the
-    /// friction moments to the generalized forces.
-    fn apply(&self, solver: &mut Solver, rows: &[usize], joints: &[ClearanceInterface], t: f64) {
-        for (j, &row) in rows.iter().enumerate() {
-            let [e, v, a] = self.at(t, j);
-            solver.phi[row] -= e.x;
-            solver.phi[row + 1] -= e.y;
-            solver.nu[row] += v.x;
-            solver.nu[row + 1] += v.y;
-            solver.gamma[row] += a.x;
-            solver.gamma[row + 1] += a.y;
-        }
-        for (joint, &f) in joints.iter().zip(&self.friction) {
-            for (body, arm) in [
-                (joint.interface.journal_body, -joint.journal_radius),
-                (joint.interface.bearing_body, joint.bearing_radius),
-            ] {
-                if let BodyId::Body(b) = body {
-                    solver.forces[3 * b + 2] += arm * f;
-                }
+    for (joint, &f) in joints.iter().zip(&p.friction) {
+        for (body, arm) in [
+            (joint.interface.journal_body, -joint.journal_radius),
+            (joint.interface.bearing_body, joint.bearing_radius),
+        ] {
+            if let BodyId::Body(b) = body {
+                solver.forces[3 * b + 2] += arm * f;
             }
         }
     }
@@ -150,7 +118,7 @@ impl OdeSystem for MechanismOde<'_> {
         let prescribed = self.prescribed;
         let r = self.solver.accelerations(self.mech, t, q, qd, |s| {
             if let Some((p, rows, joints)) = prescribed {
-                p.apply(s, rows, joints, t);
+                apply_prescribed(p, s, rows, joints, t);
             }
         });
         match r {
@@ -591,7 +559,7 @@ impl MechanismSubsystem {
             (Coupling::TwoWay, Some(p)) => {
                 let mut wdd = nalgebra::DVector::zeros(n);
                 for j in 0..k {
-                    let a = p.at(t, j)[2];
+                    let a = joint_at(p, t, j)[2];
                     wdd[2 * j] = a.x;
                     wdd[2 * j + 1] = a.y;
                 }
@@ -642,7 +610,7 @@ impl MechanismSubsystem {
             None => {
                 self.ideal_solver.set_state(&self.ideal, t, &self.q, &self.qd);
                 if let (Coupling::TwoWay, Some(p)) = (self.coupling, &self.last_prescribed) {
-                    p.apply(&mut self.ideal_solver, &self.offset_rows, &self.joints, t);
+                    apply_prescribed(p, &mut self.ideal_solver, &self.offset_rows, &self.joints, t);
                 }
                 self.ideal_solver.constraint_error()
             }

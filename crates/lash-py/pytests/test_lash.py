@@ -118,10 +118,19 @@ def test_a_run_records_the_channels_asked_for():
     assert any("output.channels" in f for f, _ in e.value.problems)
 
 
-def test_a_spatial_run_and_its_summary():
+def test_a_spatial_run_and_its_summary(tmp_path):
     r = lash.run("E-0.5mm-250rpm", "reduced", horizon=0.01)
     assert r.summary["model"] == "reduced" and len(r.summary["clearances"]) == 2
     assert np.all(np.isfinite(r.values))
+    # Two-way coupling reaches the spatial model from Python as from the command line: the
+    # balls' friction spins the rod, which one-way coupling leaves at the ideal mechanism's rest.
+    two = lash.run("E-0.5mm-250rpm", "reduced", horizon=0.05, coupling="two_way")
+    one = lash.run("E-0.5mm-250rpm", "reduced", horizon=0.05)
+    assert np.max(np.abs(one["rod.wx"])) < 1e-9 < np.max(np.abs(two["rod.wx"]))
+    done = cli("run", "E-0.5mm-250rpm", "--model", "reduced", "--coupling", "two-way", "--horizon", "0.05",
+               "--out", str(tmp_path / "e"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    assert np.array_equal(two.samples, read_csv(tmp_path / "e" / "timeseries.csv")[1])
 
 
 def test_bad_options_and_failing_runs_raise_the_right_errors():

@@ -386,8 +386,8 @@ pub struct SpatialReducedRun {
 }
 
 impl SpatialReducedRun {
-    /// Prepares a run; refuses what the spatial reduced model does not cover (two-way coupling,
-    /// the threaded pipeline, more than four joints).
+    /// Prepares a run; refuses what the spatial reduced model does not cover (no spherical
+    /// clearance joint, more than four, a sensor on the ground).
     pub fn new(scenario: &SpatialScenario, options: crate::ReducedOptions) -> Result<Self, RunError> {
         use lash_orchestrate::Signal;
         let unsupported = |m: &str| Err(RunError::Unsupported(m.to_string()));
@@ -397,9 +397,6 @@ impl SpatialReducedRun {
                 "the reduced model couples 1 to {max_joints} spherical clearance joints; the scenario has {}",
                 scenario.clearances.len()
             )));
-        }
-        if options.coupling == lash_core::Coupling::TwoWay {
-            return unsupported("two-way coupling of spherical clearance joints is not there yet (use one-way)");
         }
         let master_options = crate::reduced::master_options(&scenario.simulation, options)?;
         let full = build_spatial(scenario, false);
@@ -559,7 +556,8 @@ impl SpatialReducedRun {
             measurements: scenario.output.measurements.clone(),
             stresses: Vec::new(),
         };
-        let macro_sub = lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes);
+        let macro_sub =
+            lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
         let integrator = if options.error_controlled_micro {
             lash_contact::micro::MicroIntegrator::Dopri5(lash_ode::AdaptiveOptions {
                 rtol: 1e-9,

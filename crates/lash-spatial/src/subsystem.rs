@@ -3,8 +3,12 @@
 //! [`Subsystem`] — the spatial counterpart of `lash_mech::MechanismSubsystem`, with the same
 //! variable names, so that the same master and micro subsystem run it.
 //!
-//! One-way coupling: the ideal mechanism (balls centred) is integrated (DOPRI5, rtol 1e-6)
-//! over each communication step; at each communication point the subsystem exports the cut
+//! The ideal mechanism is integrated (DOPRI5, rtol 1e-6) over each communication step: in
+//! one-way coupling with its balls centred, in two-way coupling with each ball moved to the
+//! eccentricity the micro model reached (the cubic Hermite across the step between the nodes'
+//! e and ė, inputs `eccentricity`, `eccentricity_rate`) and the mean friction loads' torques
+//! applied (input `friction_force`: each joint's mean n × F_T over the step), as the planar
+//! macro subsystem does. At each communication point the subsystem exports the cut
 //! system's effective terms (M̃, f̃, W, a_free), H = M̃ W_τ for the friction loads (each joint's
 //! n × F_T, world frame, whose torques are R_J n × F_T on the ball's body and −R_B n × F_T on the
 //! socket's), the journal and bearing bodies' world angular velocities and accelerations, and for
@@ -14,10 +18,12 @@
 use crate::interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms_into};
 use crate::model::SpatialMechanism;
 use crate::solver::SpatialSolver;
-use crate::system::SpatialSystem;
+use crate::system::{PrescribedJoints, SpatialSystem};
 use crate::{Vec3, assemble, velocity_analysis};
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
-use lash_core::{SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_core::{
+    Coupling, PrescribedInterface, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable,
+};
 use lash_mech::BodyId;
 use lash_ode::{AdaptiveOptions, Method};
 
@@ -94,6 +100,13 @@ pub mod vr {
         BEARING_ANGULAR_ACCELERATION,
         /// Output max |Φ| of the ideal mechanism.
         CONSTRAINT_ERROR,
+        /// Input (two-way coupling): eccentricities at the end of the next step (n) \[m\].
+        ECCENTRICITY,
+        /// Input (two-way coupling): their rates (n) [m/s].
+        ECCENTRICITY_RATE,
+        /// Input (two-way coupling): each joint's mean friction load n × F_T over the next step
+        /// (3k) \[N\].
+        FRICTION_FORCE,
     }
 }
 
@@ -108,9 +121,15 @@ pub struct SpatialMechanismSubsystem {
     joints: Vec<SphericalInterface>,
     probes: Vec<SpatialProbe>,
     integrator: AdaptiveOptions,
+    coupling: Coupling,
     y: Vec<f64>,
     time: Ticks,
     phase: Phase,
+    /// Two-way: e then ė at the current time (2n), the targets at the end of the next step (2n)
+    /// and the mean friction loads over it (3k).
+    eccentricity: Vec<f64>,
+    target: Vec<f64>,
+    friction: Vec<f64>,
     cut_solver: SpatialSolver,
     /// The effective terms at the current communication point.
     pub terms: Option<SpatialCoupledTerms>,
@@ -145,15 +164,17 @@ fn body_index(id: BodyId) -> Option<usize> {
 
 impl SpatialMechanismSubsystem {
     /// A macro subsystem for the cut mechanism `cut` (every spherical clearance joint removed) and
-    /// the ideal one `ideal` (with them), the interfaces and the probes (one-way coupling).
+    /// the ideal one `ideal` (with them, as its last joints, in the same order), the interfaces,
+    /// the probes and the coupling.
     pub fn new(
         name: &str,
         cut: SpatialMechanism,
         ideal: SpatialMechanism,
         joints: Vec<SphericalInterface>,
         probes: Vec<SpatialProbe>,
+        coupling: Coupling,
     ) -> Self {
-        use Causality::Output;
+        use Causality::{Input, Output};
         use Variability::Continuous as C;
         let k = joints.len();
         let (n, m) = (3 * k, 3 * k);
@@ -223,6 +244,14 @@ impl SpatialMechanismSubsystem {
             &rotations,
         );
         t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
+        let two_way = [
+            (vr::ECCENTRICITY, "eccentricity", "m", "ball minus socket centres at the step end (two-way)"),
+            (vr::ECCENTRICITY_RATE, "eccentricity_rate", "m/s", "their rates at the step end (two-way)"),
+            (vr::FRICTION_FORCE, "friction_force", "N", "mean friction load n x F_T over the next step (two-way)"),
+        ];
+        for (at, name, unit, description) in two_way {
+            t.add_at(at, name, Input, C, unit, description, &[n], &[0.0]);
+        }
         let gain = "per unit contact force (f_c), then per unit friction load (n x F_T)";
         for p in &probes {
             match p {
@@ -301,6 +330,10 @@ impl SpatialMechanismSubsystem {
             // it is far below the micro model's. (DOP853 at 1e-10: 16 right-hand sides; DOPRI5 at
             // 1e-8: 13.)
             integrator: AdaptiveOptions { rtol: 1e-6, atol: 1e-9, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 },
+            coupling,
+            eccentricity: vec![0.0; 2 * n],
+            target: vec![0.0; 2 * n],
+            friction: vec![0.0; m],
             y: vec![0.0; dim],
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
@@ -308,6 +341,26 @@ impl SpatialMechanismSubsystem {
             work: RefreshWork::default(),
             integration_stats: lash_ode::Stats::default(),
         }
+    }
+
+    /// Two-way: moves the closed clearance joints over the step from `start` over `span`, from
+    /// the current eccentricities to the targets, under the mean friction loads given.
+    fn prescribe(&mut self, start: f64, span: f64) {
+        let first = self.cut.joints.iter().map(|j| j.kind.equations()).sum::<usize>();
+        let targets = PrescribedInterface {
+            start,
+            span,
+            from: self.eccentricity.clone(),
+            to: self.target.clone(),
+            friction: self.friction.clone(),
+        };
+        let rows = (0..self.joints.len()).map(|j| first + 3 * j).collect();
+        let torque_arms = self
+            .joints
+            .iter()
+            .map(|j| [(j.journal_body, j.journal_radius), (j.bearing_body, -j.bearing_radius)])
+            .collect();
+        self.ideal.prescribe(Some(PrescribedJoints { targets, rows, torque_arms }));
     }
 
     /// The value of an output by value reference.
@@ -344,12 +397,25 @@ impl SpatialMechanismSubsystem {
         }
         mass.mul_to(&terms.moment_mobility, &mut work.moment_force);
         let moment_force = &work.moment_force;
-        // One-way: the macro's own motion has ẅ = 0, so its interface load is −f̃ (no friction).
+        // The macro's own motion has ẅ = 0 (one-way: its interface load is −f̃, no friction) or
+        // the prescribed ẅ with the mean friction loads L̄ (two-way: M̃ (ẅ − a_free) − H L̄).
         work.own_load.clear();
         work.own_load.resize(g, 0.0);
         let own_load = &mut work.own_load;
-        for (o, f) in own_load.iter_mut().zip(terms.effective_force.iter()) {
-            *o = -f;
+        match self.ideal.prescribed() {
+            Some(p) => {
+                let n = 3 * k;
+                let wdd = nalgebra::DVector::from_fn(n, |i, _| p.targets.at(t, i)[2]);
+                let friction = nalgebra::DVector::from_column_slice(&p.targets.friction);
+                let f = mass * (wdd - &terms.free_acceleration) - moment_force * &friction;
+                own_load[..n].copy_from_slice(f.as_slice());
+                own_load[n..].copy_from_slice(&p.targets.friction);
+            }
+            None => {
+                for (o, f) in own_load.iter_mut().zip(terms.effective_force.iter()) {
+                    *o = -f;
+                }
+            }
         }
         work.own.clone_from(&terms.free_accelerations);
         let own = &mut work.own;
@@ -391,9 +457,9 @@ impl SpatialMechanismSubsystem {
         let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
         put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
-        self.ideal.solver.set_state(&self.ideal.mechanism, t, q, v);
+        self.ideal.set_state(t, q, v);
         put(vr::CONSTRAINT_ERROR, &[self.ideal.solver.constraint_error()]);
-        let mut next = vr::CONSTRAINT_ERROR + 1;
+        let mut next = vr::FRICTION_FORCE + 1;
         work.gains.clear();
         work.gains.resize(3 * g, 0.0);
         let gains = &mut work.gains;
@@ -532,15 +598,38 @@ impl Subsystem for SpatialMechanismSubsystem {
         Ok(())
     }
 
-    fn set_f64(&mut self, refs: &[ValueReference], _values: &[f64]) -> Result<(), SubsystemError> {
+    fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        match refs.first() {
-            None => Ok(()),
-            Some(&r) => Err(SubsystemError::BadValue {
-                name: self.variables.get(r as usize).map_or_else(|| r.to_string(), |v| v.name.clone()),
-                problem: "is not an input (the spatial mechanism subsystem has no inputs: one-way coupling)".into(),
-            }),
+        let count = element_count(&self.variables, refs)?;
+        if count != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
+        let n = 3 * self.joints.len();
+        let mut at = 0;
+        for &r in refs {
+            let var = &self.variables[r as usize];
+            let v = &values[at..at + var.len()];
+            let problem = if !(vr::ECCENTRICITY..=vr::FRICTION_FORCE).contains(&r) {
+                Some("is not an input".to_string())
+            } else {
+                v.iter().find(|x| !x.is_finite()).map(|bad| format!("{bad} is not finite"))
+            };
+            if let Some(problem) = problem {
+                return Err(SubsystemError::BadValue { name: var.name.clone(), problem });
+            }
+            at += var.len();
+        }
+        let mut at = 0;
+        for &r in refs {
+            let v = &values[at..at + n];
+            match r {
+                vr::ECCENTRICITY => self.target[..n].copy_from_slice(v),
+                vr::ECCENTRICITY_RATE => self.target[n..].copy_from_slice(v),
+                _ => self.friction.copy_from_slice(v),
+            }
+            at += n;
+        }
+        Ok(())
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
@@ -568,6 +657,9 @@ impl Subsystem for SpatialMechanismSubsystem {
             )));
         }
         let (t0, t1) = (t.seconds(), Ticks(t.0 + h.0).seconds());
+        if self.coupling == Coupling::TwoWay {
+            self.prescribe(t0, t1 - t0);
+        }
         let method =
             Method::Dopri5(AdaptiveOptions { max_step: self.integrator.max_step.min(t1 - t0), ..self.integrator });
         let mut y = self.y.clone();
@@ -596,6 +688,9 @@ impl Subsystem for SpatialMechanismSubsystem {
             Err(e) => Err(format!("macro integration: {}", lash_core::error_chain(&e))),
         };
         self.time = Ticks(t.0 + h.0);
+        if self.coupling == Coupling::TwoWay {
+            self.eccentricity.clone_from(&self.target);
+        }
         if let Err(m) = result.and_then(|_| self.refresh()) {
             return Err(self.simulation_error(m));
         }
@@ -607,18 +702,47 @@ impl Subsystem for SpatialMechanismSubsystem {
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
-        Ok(SavedState(Box::new((self.y.clone(), self.time, self.phase, self.values.clone()))))
+        Ok(SavedState(Box::new(Snapshot {
+            y: self.y.clone(),
+            time: self.time,
+            phase: self.phase,
+            values: self.values.clone(),
+            eccentricity: self.eccentricity.clone(),
+            target: self.target.clone(),
+            friction: self.friction.clone(),
+            prescribed: self.ideal.prescribed().cloned(),
+            next_step: self.integration_stats.next_step,
+        })))
     }
 
     fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
-        let (y, time, phase, values) = state
+        let s = state
             .0
-            .downcast_ref::<(Vec<f64>, Ticks, Phase, Vec<f64>)>()
+            .downcast_ref::<Snapshot>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not a spatial mechanism subsystem's".into()))?;
-        self.y.clone_from(y);
-        self.time = *time;
-        self.phase = *phase;
-        self.values.clone_from(values);
+        self.y.clone_from(&s.y);
+        self.time = s.time;
+        self.phase = s.phase;
+        self.values.clone_from(&s.values);
+        self.eccentricity.clone_from(&s.eccentricity);
+        self.target.clone_from(&s.target);
+        self.friction.clone_from(&s.friction);
+        self.ideal.prescribe(s.prescribed.clone());
+        self.integration_stats.next_step = s.next_step;
         Ok(())
     }
+}
+
+/// What [`SpatialMechanismSubsystem::save_state`] keeps: the state, the outputs, the two-way
+/// targets and the prescription in force, the integrator's next step.
+struct Snapshot {
+    y: Vec<f64>,
+    time: Ticks,
+    phase: Phase,
+    values: Vec<f64>,
+    eccentricity: Vec<f64>,
+    target: Vec<f64>,
+    friction: Vec<f64>,
+    prescribed: Option<PrescribedJoints>,
+    next_step: f64,
 }
