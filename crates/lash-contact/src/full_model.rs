@@ -22,9 +22,12 @@ use lash_ode::OdeSystem;
 /// Errors of building or running the full model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModelError {
-    /// The mechanics layer failed.
+    /// The planar mechanics layer failed.
     #[error(transparent)]
     Mech(#[from] MechError),
+    /// The spatial mechanics layer failed.
+    #[error(transparent)]
+    Spatial(#[from] lash_spatial::SpatialError),
 }
 
 /// Mechanism + clearance joints, ready to integrate.
@@ -321,7 +324,7 @@ impl FullModel {
     }
 
     /// The first error met inside a right-hand-side evaluation, if any.
-    pub fn take_error(&mut self) -> Option<String> {
+    pub fn take_error(&mut self) -> Option<ModelError> {
         self.log.take_error()
     }
 
@@ -420,7 +423,7 @@ impl OdeSystem for FullModel {
                 }
             }
             Err(e) => {
-                self.log.note_error(|| e.to_string());
+                self.log.note_error(|| e.into());
                 dydt.fill(f64::NAN);
             }
         }

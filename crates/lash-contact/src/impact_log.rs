@@ -4,6 +4,7 @@
 //! right-hand side. The joints keep their own modes (in contact, onset velocity).
 
 use crate::clearance::{Impact, ImpactTracker, PENETRATION_LIMIT_FRACTION, PenetrationError, StepSearch};
+use crate::full_model::ModelError;
 use crate::joint::Clearance;
 
 /// The impacts and mode flags of a full model's clearance joints (see the module).
@@ -13,7 +14,7 @@ pub struct ImpactLog {
     pub impacts: Vec<Vec<Impact>>,
     open: Vec<Option<ImpactTracker>>,
     violation: bool,
-    error: Option<String>,
+    error: Option<ModelError>,
 }
 
 impl ImpactLog {
@@ -66,15 +67,15 @@ impl ImpactLog {
         std::mem::take(&mut self.violation)
     }
 
-    /// Keeps `message` if it is the first error met inside a right-hand side.
-    pub fn note_error(&mut self, message: impl FnOnce() -> String) {
+    /// Keeps the error `error` makes if it is the first met inside a right-hand side.
+    pub fn note_error(&mut self, error: impl FnOnce() -> ModelError) {
         if self.error.is_none() {
-            self.error = Some(message());
+            self.error = Some(error());
         }
     }
 
     /// The first error met inside a right-hand side, if any; cleared.
-    pub fn take_error(&mut self) -> Option<String> {
+    pub fn take_error(&mut self) -> Option<ModelError> {
         self.error.take()
     }
 

@@ -170,7 +170,7 @@ impl SpatialFullModel {
     }
 
     /// The error a right-hand side recorded (a singular solve), if any; cleared.
-    pub fn take_error(&mut self) -> Option<String> {
+    pub fn take_error(&mut self) -> Option<crate::ModelError> {
         self.log.take_error()
     }
 
@@ -205,7 +205,7 @@ impl OdeSystem for SpatialFullModel {
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) {
         let n = self.mechanism.coordinate_count();
         if let Err(e) = self.evaluate(t, y) {
-            self.log.note_error(|| e.to_string());
+            self.log.note_error(|| e.into());
             dydt.fill(f64::NAN);
             return;
         }

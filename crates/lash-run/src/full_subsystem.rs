@@ -69,7 +69,7 @@ macro_rules! full_model {
                 self.initial_state(t0).map_err(|e| e.to_string())
             }
             fn cause(&mut self) -> Option<String> {
-                self.take_error()
+                self.take_error().map(|e| e.to_string())
             }
             fn history(&self) -> Self::Snapshot {
                 self.snapshot()
