@@ -435,6 +435,105 @@ impl PrescribedInterface {
     }
 }
 
+/// The two-way coupling inputs of a macro subsystem (`eccentricity`, `eccentricity_rate`,
+/// `friction_force`, three consecutive value references) and the eccentricities the last step
+/// ended on: what the master hands over for the next step and what the step starts from. One home
+/// for every macro subsystem (planar and spatial).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwoWayInputs {
+    /// The value reference of `eccentricity` (then `eccentricity_rate`, `friction_force`).
+    first: ValueReference,
+    /// e then ė at the current time (2n).
+    current: Vec<f64>,
+    /// e then ė at the end of the next step (2n), as set.
+    target: Vec<f64>,
+    /// The mean friction loads over the next step (m), as set.
+    friction: Vec<f64>,
+}
+
+impl TwoWayInputs {
+    /// Inputs for n interface coordinates and m friction loads, all zero (the joints centred),
+    /// `eccentricity` at value reference `first`.
+    pub fn new(first: ValueReference, coordinates: usize, friction_loads: usize) -> Self {
+        let zeros = |n| vec![0.0; n];
+        Self { first, current: zeros(2 * coordinates), target: zeros(2 * coordinates), friction: zeros(friction_loads) }
+    }
+
+    /// Whether `vr` is one of the three inputs.
+    pub fn holds(&self, vr: ValueReference) -> bool {
+        (self.first..=self.first + 2).contains(&vr)
+    }
+
+    /// The value of input `vr` as set (`None`: not an input).
+    pub fn get(&self, vr: ValueReference) -> Option<&[f64]> {
+        let n = self.current.len() / 2;
+        match vr.checked_sub(self.first)? {
+            0 => Some(&self.target[..n]),
+            1 => Some(&self.target[n..]),
+            2 => Some(&self.friction),
+            _ => None,
+        }
+    }
+
+    /// `set_f64` of the inputs: every reference must be one of them and every value finite
+    /// (checked before anything is written).
+    pub fn set(
+        &mut self,
+        variables: &[Variable],
+        refs: &[ValueReference],
+        values: &[f64],
+    ) -> Result<(), SubsystemError> {
+        let count = element_count(variables, refs)?;
+        if count != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
+        }
+        let mut at = 0;
+        for &r in refs {
+            let var = &variables[r as usize];
+            let v = &values[at..at + var.len()];
+            let problem = if !self.holds(r) {
+                Some("is not an input".to_string())
+            } else {
+                v.iter().find(|x| !x.is_finite()).map(|bad| format!("{bad} is not finite"))
+            };
+            if let Some(problem) = problem {
+                return Err(SubsystemError::BadValue { name: var.name.clone(), problem });
+            }
+            at += var.len();
+        }
+        let n = self.current.len() / 2;
+        let mut at = 0;
+        for &r in refs {
+            let len = variables[r as usize].len();
+            let v = &values[at..at + len];
+            match r - self.first {
+                0 => self.target[..n].copy_from_slice(v),
+                1 => self.target[n..].copy_from_slice(v),
+                _ => self.friction.copy_from_slice(v),
+            }
+            at += len;
+        }
+        Ok(())
+    }
+
+    /// The prescription of the step from `start` over `span`: from the current eccentricities to
+    /// the targets, under the mean friction loads set.
+    pub fn prescription(&self, start: f64, span: f64) -> PrescribedInterface {
+        PrescribedInterface {
+            start,
+            span,
+            from: self.current.clone(),
+            to: self.target.clone(),
+            friction: self.friction.clone(),
+        }
+    }
+
+    /// The step ended: its targets are the current eccentricities.
+    pub fn step_done(&mut self) {
+        self.current.clone_from(&self.target);
+    }
+}
+
 /// How a step ended. A master must look at every outcome: only [`StepOutcome::Completed`] means
 /// that the subsystem reached `t + h` and may be stepped on; use [`StepOutcome::reached`] and
 /// [`StepOutcome::stop`] rather than matching on `Completed` alone.
@@ -925,6 +1024,40 @@ impl Phase {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn two_way_inputs_are_set_checked_read_back_and_prescribed_from_where_the_last_step_ended() {
+        let mut t = VariableTable::new();
+        t.add("out", Causality::Output, Variability::Continuous, "1", "", &[], &[0.0]);
+        for name in ["eccentricity", "eccentricity_rate", "friction_force"] {
+            t.add(name, Causality::Input, Variability::Continuous, "1", "", &[2], &[0.0; 2]);
+        }
+        let vars = t.into_checked_variables().unwrap();
+        let mut inputs = TwoWayInputs::new(1, 2, 2);
+        assert!(!inputs.holds(0) && inputs.holds(1) && inputs.holds(3) && !inputs.holds(4));
+        assert_eq!(inputs.get(0), None);
+        inputs.set(&vars, &[1, 3], &[1e-4, -2e-4, 5.0, 6.0]).unwrap();
+        inputs.set(&vars, &[2], &[0.1, 0.2]).unwrap();
+        assert_eq!(inputs.get(1), Some(&[1e-4, -2e-4][..]));
+        assert_eq!(inputs.get(2), Some(&[0.1, 0.2][..]));
+        assert_eq!(inputs.get(3), Some(&[5.0, 6.0][..]));
+        // A non-input or a non-finite value is refused by name, and nothing is written.
+        let refused = |r: Result<(), SubsystemError>, name: &str| {
+            assert!(matches!(r, Err(SubsystemError::BadValue { name: ref n, .. }) if n == name), "{r:?}");
+        };
+        refused(inputs.set(&vars, &[3, 0], &[0.0, 0.0, 1.0]), "out");
+        refused(inputs.set(&vars, &[1], &[f64::NAN, 0.0]), "eccentricity");
+        assert_eq!(inputs.get(3), Some(&[5.0, 6.0][..]));
+        assert!(matches!(inputs.set(&vars, &[1], &[0.0]), Err(SubsystemError::BadArguments(_))));
+        // The first step starts centred; the next from where the first ended.
+        let first = inputs.prescription(0.0, 1e-3);
+        assert_eq!(
+            (first.from, first.to.clone(), first.friction),
+            (vec![0.0; 4], vec![1e-4, -2e-4, 0.1, 0.2], vec![5.0, 6.0])
+        );
+        inputs.step_done();
+        assert_eq!(inputs.prescription(1e-3, 1e-3).from, first.to);
+    }
 
     #[test]
     fn a_prescribed_coordinate_meets_its_end_values_and_its_rates_are_its_derivatives() {

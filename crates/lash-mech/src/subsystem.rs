@@ -27,7 +27,7 @@ use crate::{Pose, Vec2};
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{
     Coupling, PrescribedInterface as Prescribed, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks,
-    ValueReference, Variable,
+    TwoWayInputs, ValueReference, Variable,
 };
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 
@@ -230,11 +230,8 @@ pub struct MechanismSubsystem {
     qdd: Vec<f64>,
     time: Ticks,
     phase: Phase,
-    /// e then ė at the current time (2n), the targets at the end of the next step (2n) and the
-    /// mean friction forces over it (k) (two-way).
-    eccentricity: Vec<f64>,
-    target: Vec<f64>,
-    friction: Vec<f64>,
+    /// The two-way inputs and the eccentricities the last step ended on.
+    two_way: TwoWayInputs,
     offset_rows: Vec<usize>,
     last_prescribed: Option<Prescribed>,
     ideal_solver: Solver,
@@ -459,9 +456,7 @@ impl MechanismSubsystem {
             qdd: vec![0.0; coordinates],
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
-            eccentricity: vec![0.0; 2 * n],
-            target: vec![0.0; 2 * n],
-            friction: vec![0.0; k],
+            two_way: TwoWayInputs::new(vr::ECCENTRICITY, n, k),
             offset_rows,
             last_prescribed: None,
             terms: None,
@@ -727,38 +722,7 @@ impl Subsystem for MechanismSubsystem {
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        let count = element_count(&self.variables, refs)?;
-        if count != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
-        }
-        let mut at = 0;
-        for &r in refs {
-            let var = &self.variables[r as usize];
-            if !(vr::ECCENTRICITY..=vr::FRICTION_FORCE).contains(&r) {
-                return Err(SubsystemError::BadValue { name: var.name.clone(), problem: "is not an input".into() });
-            }
-            let v = &values[at..at + var.len()];
-            if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
-                return Err(SubsystemError::BadValue {
-                    name: var.name.clone(),
-                    problem: format!("{bad} is not finite"),
-                });
-            }
-            at += var.len();
-        }
-        let n = 2 * self.joints.len();
-        let mut at = 0;
-        for &r in refs {
-            let len = self.variables[r as usize].len();
-            let v = &values[at..at + len];
-            match r {
-                vr::ECCENTRICITY => self.target[..n].copy_from_slice(v),
-                vr::ECCENTRICITY_RATE => self.target[n..].copy_from_slice(v),
-                _ => self.friction.copy_from_slice(v),
-            }
-            at += len;
-        }
-        Ok(())
+        self.two_way.set(&self.variables, refs, values)
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
@@ -766,16 +730,13 @@ impl Subsystem for MechanismSubsystem {
         if count != values.len() {
             return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
         }
-        let n = 2 * self.joints.len();
-        let input = |r: ValueReference| matches!(r, vr::ECCENTRICITY | vr::ECCENTRICITY_RATE | vr::FRICTION_FORCE);
+        let input = |r: ValueReference| self.two_way.holds(r);
         let (mut at, mut i) = (0, 0);
         while i < refs.len() {
             let r = refs[i];
-            let v = match r {
-                vr::ECCENTRICITY => &self.target[..n],
-                vr::ECCENTRICITY_RATE => &self.target[n..],
-                vr::FRICTION_FORCE => &self.friction[..],
-                _ => {
+            let v = match self.two_way.get(r) {
+                Some(v) => v,
+                None => {
                     // Consecutive outputs are one stretch of the values: one copy (a master
                     // reads every output at every step).
                     let mut last = i;
@@ -817,13 +778,7 @@ impl Subsystem for MechanismSubsystem {
                 _ => self.kinematic_motion(t1).map(Some),
             }
         } else {
-            self.last_prescribed = (self.coupling == Coupling::TwoWay).then(|| Prescribed {
-                start: t0,
-                span: t1 - t0,
-                from: self.eccentricity.clone(),
-                to: self.target.clone(),
-                friction: self.friction.clone(),
-            });
+            self.last_prescribed = (self.coupling == Coupling::TwoWay).then(|| self.two_way.prescription(t0, t1 - t0));
             let prescribed = self.last_prescribed.as_ref().map(|p| (p, &self.offset_rows[..], &self.joints[..]));
             let mut ode = MechanismOde { mech: &self.ideal, solver: &mut self.ideal_solver, prescribed, error: None };
             let mut y: Vec<f64> = self.q.iter().chain(&self.qd).copied().collect();
@@ -852,7 +807,7 @@ impl Subsystem for MechanismSubsystem {
         };
         self.time = Ticks(t.0 + h.0);
         if self.coupling == Coupling::TwoWay {
-            self.eccentricity.clone_from(&self.target);
+            self.two_way.step_done();
         }
         if let Err(m) = result.and_then(|assembled_error| self.refresh(assembled_error, solved)) {
             return Err(self.simulation_error(m));
@@ -874,9 +829,7 @@ impl Subsystem for MechanismSubsystem {
             qd: self.qd.clone(),
             time: self.time,
             phase: self.phase,
-            eccentricity: self.eccentricity.clone(),
-            target: self.target.clone(),
-            friction: self.friction.clone(),
+            two_way: self.two_way.clone(),
             last_prescribed: self.last_prescribed.clone(),
             values: self.values.clone(),
         })))
@@ -892,9 +845,7 @@ impl Subsystem for MechanismSubsystem {
         self.qd.clone_from(&s.qd);
         self.time = s.time;
         self.phase = s.phase;
-        self.eccentricity.clone_from(&s.eccentricity);
-        self.target.clone_from(&s.target);
-        self.friction.clone_from(&s.friction);
+        self.two_way.clone_from(&s.two_way);
         self.last_prescribed.clone_from(&s.last_prescribed);
         self.values.clone_from(&s.values);
         if self.phase == Phase::Stepping {
@@ -1003,9 +954,7 @@ struct Snapshot {
     qd: Vec<f64>,
     time: Ticks,
     phase: Phase,
-    eccentricity: Vec<f64>,
-    target: Vec<f64>,
-    friction: Vec<f64>,
+    two_way: TwoWayInputs,
     last_prescribed: Option<Prescribed>,
     values: Vec<f64>,
 }

@@ -22,7 +22,7 @@ use crate::system::{PrescribedJoints, SpatialSystem};
 use crate::{Vec3, assemble, velocity_analysis};
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{
-    Coupling, PrescribedInterface, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variable,
+    Coupling, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, TwoWayInputs, ValueReference, Variable,
 };
 use lash_mech::BodyId;
 use lash_ode::{AdaptiveOptions, Method};
@@ -125,11 +125,8 @@ pub struct SpatialMechanismSubsystem {
     y: Vec<f64>,
     time: Ticks,
     phase: Phase,
-    /// Two-way: e then ė at the current time (2n), the targets at the end of the next step (2n)
-    /// and the mean friction loads over it (3k).
-    eccentricity: Vec<f64>,
-    target: Vec<f64>,
-    friction: Vec<f64>,
+    /// The two-way inputs and the eccentricities the last step ended on.
+    two_way: TwoWayInputs,
     cut_solver: SpatialSolver,
     /// The effective terms at the current communication point.
     pub terms: Option<SpatialCoupledTerms>,
@@ -331,9 +328,7 @@ impl SpatialMechanismSubsystem {
             // 1e-8: 13.)
             integrator: AdaptiveOptions { rtol: 1e-6, atol: 1e-9, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 },
             coupling,
-            eccentricity: vec![0.0; 2 * n],
-            target: vec![0.0; 2 * n],
-            friction: vec![0.0; m],
+            two_way: TwoWayInputs::new(vr::ECCENTRICITY, n, m),
             y: vec![0.0; dim],
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
@@ -347,13 +342,7 @@ impl SpatialMechanismSubsystem {
     /// the current eccentricities to the targets, under the mean friction loads given.
     fn prescribe(&mut self, start: f64, span: f64) {
         let first = self.cut.joints.iter().map(|j| j.kind.equations()).sum::<usize>();
-        let targets = PrescribedInterface {
-            start,
-            span,
-            from: self.eccentricity.clone(),
-            to: self.target.clone(),
-            friction: self.friction.clone(),
-        };
+        let targets = self.two_way.prescription(start, span);
         let rows = (0..self.joints.len()).map(|j| first + 3 * j).collect();
         let torque_arms = self
             .joints
@@ -600,36 +589,7 @@ impl Subsystem for SpatialMechanismSubsystem {
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        let count = element_count(&self.variables, refs)?;
-        if count != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
-        }
-        let n = 3 * self.joints.len();
-        let mut at = 0;
-        for &r in refs {
-            let var = &self.variables[r as usize];
-            let v = &values[at..at + var.len()];
-            let problem = if !(vr::ECCENTRICITY..=vr::FRICTION_FORCE).contains(&r) {
-                Some("is not an input".to_string())
-            } else {
-                v.iter().find(|x| !x.is_finite()).map(|bad| format!("{bad} is not finite"))
-            };
-            if let Some(problem) = problem {
-                return Err(SubsystemError::BadValue { name: var.name.clone(), problem });
-            }
-            at += var.len();
-        }
-        let mut at = 0;
-        for &r in refs {
-            let v = &values[at..at + n];
-            match r {
-                vr::ECCENTRICITY => self.target[..n].copy_from_slice(v),
-                vr::ECCENTRICITY_RATE => self.target[n..].copy_from_slice(v),
-                _ => self.friction.copy_from_slice(v),
-            }
-            at += n;
-        }
-        Ok(())
+        self.two_way.set(&self.variables, refs, values)
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
@@ -639,7 +599,7 @@ impl Subsystem for SpatialMechanismSubsystem {
         }
         let mut at = 0;
         for &r in refs {
-            let v = self.output(r);
+            let v = self.two_way.get(r).unwrap_or_else(|| self.output(r));
             values[at..at + v.len()].copy_from_slice(v);
             at += v.len();
         }
@@ -689,7 +649,7 @@ impl Subsystem for SpatialMechanismSubsystem {
         };
         self.time = Ticks(t.0 + h.0);
         if self.coupling == Coupling::TwoWay {
-            self.eccentricity.clone_from(&self.target);
+            self.two_way.step_done();
         }
         if let Err(m) = result.and_then(|_| self.refresh()) {
             return Err(self.simulation_error(m));
@@ -707,9 +667,7 @@ impl Subsystem for SpatialMechanismSubsystem {
             time: self.time,
             phase: self.phase,
             values: self.values.clone(),
-            eccentricity: self.eccentricity.clone(),
-            target: self.target.clone(),
-            friction: self.friction.clone(),
+            two_way: self.two_way.clone(),
             prescribed: self.ideal.prescribed().cloned(),
             next_step: self.integration_stats.next_step,
         })))
@@ -724,9 +682,7 @@ impl Subsystem for SpatialMechanismSubsystem {
         self.time = s.time;
         self.phase = s.phase;
         self.values.clone_from(&s.values);
-        self.eccentricity.clone_from(&s.eccentricity);
-        self.target.clone_from(&s.target);
-        self.friction.clone_from(&s.friction);
+        self.two_way.clone_from(&s.two_way);
         self.ideal.prescribe(s.prescribed.clone());
         self.integration_stats.next_step = s.next_step;
         Ok(())
@@ -740,9 +696,7 @@ struct Snapshot {
     time: Ticks,
     phase: Phase,
     values: Vec<f64>,
-    eccentricity: Vec<f64>,
-    target: Vec<f64>,
-    friction: Vec<f64>,
+    two_way: TwoWayInputs,
     prescribed: Option<PrescribedJoints>,
     next_step: f64,
 }
