@@ -39,7 +39,7 @@ pub use lash_mech::{Baumgarte, BodyId, Motion};
 pub use model::{Marker, SpatialBody, SpatialDriver, SpatialJoint, SpatialJointKind, SpatialLoad, SpatialMechanism};
 pub use solver::{SpatialError, SpatialSolver};
 pub use subsystem::{SpatialMechanismSubsystem, SpatialProbe};
-pub use system::{PrescribedJoints, SpatialSystem};
+pub use system::{ClosedJoints, SpatialSystem};
 
 /// Spatial vector.
 pub type Vec3 = nalgebra::Vector3<f64>;

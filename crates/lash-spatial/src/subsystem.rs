@@ -18,7 +18,7 @@
 use crate::interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_terms_into};
 use crate::model::SpatialMechanism;
 use crate::solver::SpatialSolver;
-use crate::system::{PrescribedJoints, SpatialSystem};
+use crate::system::{ClosedJoints, SpatialSystem};
 use crate::{Vec3, assemble, velocity_analysis};
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
 use lash_core::{
@@ -300,6 +300,7 @@ impl SpatialMechanismSubsystem {
         // needs no stiffer stabilisation than a 10 ms time constant. (E's α = β = 1000 1/s, chosen
         // for the full model's contact phases, held the macro's integrator — then DOP853 at 1e-10 — to
         // 0.17 ms steps here: 123 right-hand sides per 1 ms step against 16 at 100 1/s.)
+        let first_closed_row = cut.joints.iter().map(|j| j.kind.equations()).sum::<usize>();
         let mut ideal = ideal;
         ideal.baumgarte = lash_mech::Baumgarte {
             alpha: ideal.baumgarte.alpha.min(MACRO_STABILISATION),
@@ -317,6 +318,14 @@ impl SpatialMechanismSubsystem {
                 // first right-hand side is the last one's final stage.
                 let mut system = SpatialSystem::new(ideal);
                 system.remember_last_evaluation();
+                // The closed clearance joints are the ideal mechanism's last ones, three rows each.
+                system.close_joints(ClosedJoints {
+                    rows: (0..joints.len()).map(|j| first_closed_row + 3 * j).collect(),
+                    torque_arms: joints
+                        .iter()
+                        .map(|j| [(j.journal_body, j.journal_radius), (j.bearing_body, -j.bearing_radius)])
+                        .collect(),
+                });
                 system
             },
             joints,
@@ -341,15 +350,7 @@ impl SpatialMechanismSubsystem {
     /// Two-way: moves the closed clearance joints over the step from `start` over `span`, from
     /// the current eccentricities to the targets, under the mean friction loads given.
     fn prescribe(&mut self, start: f64, span: f64) {
-        let first = self.cut.joints.iter().map(|j| j.kind.equations()).sum::<usize>();
-        let targets = self.two_way.prescription(start, span);
-        let rows = (0..self.joints.len()).map(|j| first + 3 * j).collect();
-        let torque_arms = self
-            .joints
-            .iter()
-            .map(|j| [(j.journal_body, j.journal_radius), (j.bearing_body, -j.bearing_radius)])
-            .collect();
-        self.ideal.prescribe(Some(PrescribedJoints { targets, rows, torque_arms }));
+        self.ideal.prescribe(Some(self.two_way.prescription(start, span)));
     }
 
     /// The value of an output by value reference.
@@ -394,11 +395,11 @@ impl SpatialMechanismSubsystem {
         match self.ideal.prescribed() {
             Some(p) => {
                 let n = 3 * k;
-                let wdd = nalgebra::DVector::from_fn(n, |i, _| p.targets.at(t, i)[2]);
-                let friction = nalgebra::DVector::from_column_slice(&p.targets.friction);
+                let wdd = nalgebra::DVector::from_fn(n, |i, _| p.at(t, i)[2]);
+                let friction = nalgebra::DVector::from_column_slice(&p.friction);
                 let f = mass * (wdd - &terms.free_acceleration) - moment_force * &friction;
                 own_load[..n].copy_from_slice(f.as_slice());
-                own_load[n..].copy_from_slice(&p.targets.friction);
+                own_load[n..].copy_from_slice(&p.friction);
             }
             None => {
                 for (o, f) in own_load.iter_mut().zip(terms.effective_force.iter()) {
@@ -697,6 +698,6 @@ struct Snapshot {
     phase: Phase,
     values: Vec<f64>,
     two_way: TwoWayInputs,
-    prescribed: Option<PrescribedJoints>,
+    prescribed: Option<lash_core::PrescribedInterface>,
     next_step: f64,
 }

@@ -7,13 +7,11 @@ use lash_core::PrescribedInterface;
 use lash_mech::BodyId;
 use lash_ode::OdeSystem;
 
-/// The closed spherical clearance joints of an ideal mechanism moved by two-way coupling: each
-/// ball centre held at e(t) from its socket centre (the joint's three rows shifted) and the mean
-/// friction load's torques, R_J L̄ on the ball's body and −R_B L̄ on the socket's, applied.
+/// The closed spherical clearance joints of an ideal mechanism, as two-way coupling moves them:
+/// each ball centre held at e(t) from its socket centre (the joint's three rows shifted) and the
+/// mean friction load's torques, R_J L̄ on the ball's body and −R_B L̄ on the socket's, applied.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PrescribedJoints {
-    /// e(t), ė(t), ë(t) of the 3k coordinates and the mean friction loads L̄ (3k, world).
-    pub targets: PrescribedInterface,
+pub struct ClosedJoints {
     /// Each joint's first row in the ideal mechanism (its three rows: Φ = (P_J − P_B)·e_x, e_y, e_z).
     pub rows: Vec<usize>,
     /// Each joint's (ball body, R_J) and (socket body, −R_B): where the friction load's torque acts
@@ -21,13 +19,13 @@ pub struct PrescribedJoints {
     pub torque_arms: Vec<[(BodyId, f64); 2]>,
 }
 
-impl PrescribedJoints {
-    /// Shifts the joints' rows to e(t) and adds the friction torques to the applied forces (after
-    /// [`SpatialSolver::set_state`] at `t`).
-    pub fn apply(&self, solver: &mut SpatialSolver, t: f64) {
+impl ClosedJoints {
+    /// Shifts the joints' rows to e(t) of `targets` (3k coordinates, 3k friction loads, world) and
+    /// adds the friction torques to the applied forces (after [`SpatialSolver::set_state`] at `t`).
+    pub fn apply(&self, targets: &PrescribedInterface, solver: &mut SpatialSolver, t: f64) {
         for (j, &row) in self.rows.iter().enumerate() {
             for c in 0..3 {
-                let [e, v, a] = self.targets.at(t, 3 * j + c);
+                let [e, v, a] = targets.at(t, 3 * j + c);
                 let r = &mut solver.rows[row + c];
                 r.phi -= e;
                 r.nu += v;
@@ -35,7 +33,7 @@ impl PrescribedJoints {
             }
         }
         for (j, arms) in self.torque_arms.iter().enumerate() {
-            let load = Vec3::from_column_slice(&self.targets.friction[3 * j..3 * j + 3]);
+            let load = Vec3::from_column_slice(&targets.friction[3 * j..3 * j + 3]);
             for &(body, arm) in arms {
                 if let BodyId::Body(k) = body {
                     solver.add_force(k, Vec3::zeros(), load * arm);
@@ -55,8 +53,10 @@ pub struct SpatialSystem {
     pub failure: Option<SpatialError>,
     /// Right-hand-side evaluations.
     pub evaluations: u64,
-    /// Clearance joints moved by two-way coupling ([`SpatialSystem::prescribe`]).
-    prescribed: Option<PrescribedJoints>,
+    /// The clearance joints two-way coupling moves ([`SpatialSystem::close_joints`]) and their
+    /// prescription now ([`SpatialSystem::prescribe`]).
+    closed: Option<ClosedJoints>,
+    prescribed: Option<PrescribedInterface>,
     /// The last evaluation's (t, y, ẏ), kept when [`SpatialSystem::remember_last_evaluation`] asked
     /// for it.
     last: Option<(f64, Vec<f64>, Vec<f64>)>,
@@ -66,7 +66,7 @@ impl SpatialSystem {
     /// The system of a validated mechanism.
     pub fn new(mechanism: SpatialMechanism) -> Self {
         let solver = SpatialSolver::new(&mechanism);
-        Self { mechanism, solver, failure: None, evaluations: 0, prescribed: None, last: None }
+        Self { mechanism, solver, failure: None, evaluations: 0, closed: None, prescribed: None, last: None }
     }
 
     /// From now on, a right-hand side asked for at exactly the (t, y) of the previous one (bit for
@@ -79,9 +79,14 @@ impl SpatialSystem {
         self.last = Some((f64::NAN, vec![f64::NAN; n], vec![0.0; n]));
     }
 
+    /// The clearance joints a prescription moves (once, before any [`SpatialSystem::prescribe`]).
+    pub fn close_joints(&mut self, joints: ClosedJoints) {
+        self.closed = Some(joints);
+    }
+
     /// Moves the closed clearance joints as `prescribed` says from now on (`None`: held centred);
     /// forgets the kept evaluation, which was made under the previous prescription.
-    pub fn prescribe(&mut self, prescribed: Option<PrescribedJoints>) {
+    pub fn prescribe(&mut self, prescribed: Option<PrescribedInterface>) {
         self.prescribed = prescribed;
         if let Some(last) = &mut self.last {
             last.0 = f64::NAN;
@@ -89,15 +94,15 @@ impl SpatialSystem {
     }
 
     /// The joints' current prescription.
-    pub fn prescribed(&self) -> Option<&PrescribedJoints> {
+    pub fn prescribed(&self) -> Option<&PrescribedInterface> {
         self.prescribed.as_ref()
     }
 
     /// Frames, rows and applied forces at `(t, q, v)`, the prescription applied.
     pub fn set_state(&mut self, t: f64, q: &[f64], v: &[f64]) {
         self.solver.set_state(&self.mechanism, t, q, v);
-        if let Some(p) = &self.prescribed {
-            p.apply(&mut self.solver, t);
+        if let (Some(joints), Some(p)) = (&self.closed, &self.prescribed) {
+            joints.apply(p, &mut self.solver, t);
         }
     }
 
