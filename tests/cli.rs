@@ -184,6 +184,8 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
     }
     assert!(c["channels"].get("slider.ay").is_none(), "a zero channel is left out");
     assert!(c["clearances"][0]["impacts"]["full"].as_u64().unwrap() > 0);
+    // 6 ms is within the first revolution (12 ms): no window of steady running, said so.
+    assert!(c["bounds"]["error"].as_str().unwrap().contains("steady running"), "{}", c["bounds"]);
     let figures: Vec<&str> = c["figures"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
     assert!(figures.contains(&"figures/slider.ax.svg") && figures.contains(&"figures/slider.ax_spectrum.svg"));
     for f in figures {
@@ -233,6 +235,56 @@ fn compare_of_the_spatial_scenario_draws_the_bearing_force_and_the_housing_vibra
         assert!(full > 0.1 && reduced > 0.1, "axis {axis}: {full} {reduced}");
         assert!(ideal < 0.01 * full, "axis {axis}: ideal {ideal} against {full} with clearance");
     }
+    stated_bounds_are_the_written_runs_statistics(&out, &c);
+}
+
+/// The stated bounds of a comparison (`bounds` in comparison.json, over the emulated
+/// measurement's steady window, bands below its anti-alias cut-off) recomputed from the two
+/// written time series: each load's mean and RMS, each joint's contact onsets per revolution, and
+/// each check's verdict against its bound.
+fn stated_bounds_are_the_written_runs_statistics(out: &Path, c: &serde_json::Value) {
+    let b = &c["bounds"];
+    assert_eq!(b["window"]["start"].as_f64(), Some(0.24), "{b}");
+    assert_eq!(b["window"]["sensor_band_hz"].as_f64(), Some(200.0), "{b}");
+    let checks = b["checks"].as_array().unwrap();
+    let check = |q: &str| checks.iter().find(|c| c["quantity"] == q).unwrap_or_else(|| panic!("{q}: {b}"));
+    let read = |model: &str| {
+        let text = std::fs::read_to_string(out.join(model).join("timeseries.csv")).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .filter(|r: &Vec<f64>| r[0] >= 0.24)
+            .collect();
+        (header, rows)
+    };
+    for model in ["full", "reduced"] {
+        let (header, rows) = read(model);
+        let column = |name: &str| {
+            let k = header.iter().position(|h| h.starts_with(&format!("{name} ["))).unwrap();
+            rows.iter().map(|r| r[k]).collect::<Vec<f64>>()
+        };
+        let fy = column("slider_guide.fy");
+        let mean = fy.iter().sum::<f64>() / fy.len() as f64;
+        let rms = (fy.iter().map(|x| x * x).sum::<f64>() / fy.len() as f64).sqrt();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-12);
+        assert!(close(check("slider_guide.fy mean")[model].as_f64().unwrap(), mean), "{model} mean {mean}");
+        assert!(close(check("slider_guide.fy rms")[model].as_f64().unwrap(), rms), "{model} rms {rms}");
+        // Onsets: samples where the contact force becomes non-zero; 0.06 s is a quarter turn at 250 rpm.
+        let force = column("crank_rod.force");
+        let onsets = force.windows(2).filter(|w| w[0] <= 0.0 && w[1] > 0.0).count() as f64;
+        let per_revolution = check("crank_rod.force impacts_per_revolution")[model].as_f64().unwrap();
+        assert!(close(per_revolution, onsets / (rows.len() as f64 * 1e-5 / 0.24)), "{model}: {onsets} onsets");
+    }
+    for c in checks {
+        let (error, bound) = (c["error"].as_f64().unwrap_or(f64::INFINITY), c["bound"].as_f64().unwrap());
+        let q = c["quantity"].as_str().unwrap();
+        if !(q.contains("power") || q.contains("impacts")) {
+            assert_eq!(c["met"], error.abs() <= bound, "{c}");
+        }
+        assert!(!q.contains("power") || q.contains("0-500 Hz"), "only the band below the 200 Hz cut-off: {q}");
+    }
+    assert_eq!(b["met"], checks.iter().all(|c| c["met"] == true));
 }
 
 /// `lash bush`: the study's bush characterised, the example file read, bad files refused with

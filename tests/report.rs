@@ -196,6 +196,8 @@ fn a_comparison_report_draws_the_mechanism_orbits_channels_and_spectra_in_a_brow
     let page = dir.join("report.html");
     let html = std::fs::read_to_string(&page).expect("report.html");
     assert!(!html.contains("src=\"http") && !html.contains("href=\"http"), "the page loads nothing from the network");
+    // The page says how the reduced model stands against its stated bounds (comparison.json's).
+    assert!(html.contains("Stated bounds of the reduced model over t ≥ 0.0120 s"), "the bounds' note");
     let browser = chromium();
     let drawn = screenshot(&browser, &page, &dir.join("drawn.png"));
     // The control: the same page and data without its drawing code.

@@ -243,20 +243,28 @@ pub fn run(
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;
     let (sf, sr) = (read_json(&full_dir.join("summary.json"))?, read_json(&reduced_dir.join("summary.json"))?);
-    let mut channels: Vec<String> = Vec::new();
+    use compare::Role;
+    let mut roles: Vec<(String, Role)> = Vec::new();
     for sensor in &sensors {
-        channels.extend(axes.iter().map(|a| format!("{sensor}.{a}")));
+        roles.extend(axes.iter().map(|a| (format!("{sensor}.{a}"), Role::Sensor)));
     }
-    channels.extend(drivers.iter().map(|d| format!("{d}.torque")));
-    channels.extend(clearances.iter().map(|c| format!("{c}.force")));
+    roles.extend(drivers.iter().map(|d| (format!("{d}.torque"), Role::Load)));
+    roles.extend(clearances.iter().map(|c| (format!("{c}.force"), Role::Contact)));
     // The forces that drive each emulated measurement (E's slider bearing force, on the guide).
     for m in &s.output().measurements {
-        channels.extend(m.forces.iter().filter(|f| !channels.contains(f)).cloned().collect::<Vec<_>>());
+        for f in &m.forces {
+            if !roles.iter().any(|(c, _)| c == f) {
+                roles.push((f.clone(), Role::Load));
+            }
+        }
     }
+    let channels: Vec<String> = roles.iter().map(|(c, _)| c.clone()).collect();
     let mut metrics = compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW)
         .map_err(|e| CliError::Failure(e.to_string()))?;
     // Channels that are zero to round-off in the full model (a slider's y on an x guide) say nothing.
     metrics.retain(|_, m| m.peak_full > 1e-6);
+    roles.retain(|(c, _)| metrics.contains_key(c));
+    let bounds = bounds_check(s, motion.as_ref(), (&hf, &full), (&hr, &red), &roles);
     // Figures (the reduced-interface-model papers' figures 2–3): every compared channel over time and its spectrum.
     let figures_dir = out.join("figures");
     std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
@@ -368,6 +376,7 @@ pub fn run(
         },
         "figures": figures,
         "clearances": joint_statistics,
+        "bounds": bounds,
     });
     let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(&comparison_path, text + "\n")
@@ -396,6 +405,85 @@ pub fn run(
             fraction(&rf)
         );
     }
+    print_bounds(&bounds);
     eprintln!("→ {}", comparison_path.display());
     Ok(())
+}
+
+/// Upper end of a sensor's band \[Hz\] when the scenario logs no measurement that says it (a
+/// general-purpose accelerometer's usable range).
+const SENSOR_BAND_HZ: f64 = 10_000.0;
+
+/// The window of steady running and the sensors' band: from an emulated measurement's settling
+/// time and anti-alias cut-off where the scenario has one; else past the first revolution of a
+/// constant-speed driver (a quarter of the run without one), and [`SENSOR_BAND_HZ`].
+fn steady_window(s: &AnyScenario, motion: Option<&lash_mech::Motion>) -> compare::Window {
+    let simulation = s.simulation();
+    let revolution = motion.and_then(|m| match *m {
+        lash_mech::Motion::ConstantSpeed { omega, .. } if omega != 0.0 => {
+            Some(2.0 * std::f64::consts::PI / omega.abs())
+        }
+        _ => None,
+    });
+    let start = simulation.start_time;
+    match s.output().measurements.first() {
+        Some(m) => {
+            compare::Window { start: start + m.acquisition.settle, revolution, sensor_band_hz: m.acquisition.cutoff }
+        }
+        None => compare::Window {
+            start: start + revolution.unwrap_or(0.25 * simulation.horizon),
+            revolution,
+            sensor_band_hz: SENSOR_BAND_HZ,
+        },
+    }
+}
+
+/// The stated bounds ([`compare::STATED`]) checked over the window of steady running; in
+/// comparison.json as `bounds` (or why they could not be checked).
+fn bounds_check(
+    s: &AnyScenario,
+    motion: Option<&lash_mech::Motion>,
+    full: (&[String], &[Vec<f64>]),
+    reduced: (&[String], &[Vec<f64>]),
+    roles: &[(String, compare::Role)],
+) -> serde_json::Value {
+    let window = steady_window(s, motion);
+    match compare::check_bounds(full, reduced, roles, &window, &compare::STATED) {
+        Ok(checks) => serde_json::json!({
+            "stated": compare::STATED,
+            "window": window,
+            "met": checks.iter().all(|c| c.met),
+            "checks": checks,
+        }),
+        Err(e) => serde_json::json!({ "window": window, "error": format!("no window of steady running: {e}") }),
+    }
+}
+
+/// One line for the bounds, and one per bound not met.
+fn print_bounds(bounds: &serde_json::Value) {
+    let start = bounds["window"]["start"].as_f64().unwrap_or(0.0);
+    let Some(checks) = bounds["checks"].as_array() else {
+        eprintln!("  bounds: not checked ({})", bounds["error"].as_str().unwrap_or(""));
+        return;
+    };
+    let missed: Vec<&serde_json::Value> = checks.iter().filter(|c| c["met"] == false).collect();
+    eprintln!(
+        "  stated bounds over t ≥ {start:.4} s (steady running): {} of {} met",
+        checks.len() - missed.len(),
+        checks.len()
+    );
+    for c in missed {
+        let (q, e, b) = (c["quantity"].as_str().unwrap_or(""), c["error"].as_f64(), c["bound"].as_f64());
+        let (e, b) = (e.unwrap_or(f64::NAN), b.unwrap_or(f64::NAN));
+        let (full, reduced) = (c["full"].as_f64().unwrap_or(f64::NAN), c["reduced"].as_f64().unwrap_or(f64::NAN));
+        if q.contains("impacts") {
+            eprintln!(
+                "    not met: {q}: full {full:.2} / reduced {reduced:.2} (bound: within a factor {b}, or one impact)"
+            );
+        } else if q.contains("power") {
+            eprintln!("    not met: {q}: reduced/full {e:.2}× (bound: within a factor {b})");
+        } else {
+            eprintln!("    not met: {q}: {:+.1} % (bound ±{:.0} %)", 100.0 * e, 100.0 * b);
+        }
+    }
 }

@@ -1,8 +1,12 @@
 //! Comparison metrics of two runs sampled on one grid (the full and the reduced model, or any two),
 //! chosen for chaotic impact responses, where pointwise errors say little (docs/validation.md):
 //! peaks, RMS, pointwise errors (whole run and over the first impacts), Hann-windowed one-sided
-//! amplitude spectra, their relative distance, and band powers.
+//! amplitude spectra, their relative distance, and band powers; and the reduced model's stated
+//! bounds, checked over a window of steady running ([`check_bounds`]).
 
+mod bounds;
+
+pub use bounds::{Bounds, Check, Role, STATED, Window, check_bounds};
 use rustfft::{FftPlanner, num_complex::Complex};
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -283,6 +283,7 @@ impl Content {
                 None
             }
         };
+        notes.extend(folder.comparison.as_ref().and_then(bounds_note));
         // The first sensor's acceleration (what the papers plot), else the first channel.
         let first_channel = channels
             .iter()
@@ -307,6 +308,33 @@ impl Content {
             notes,
         }
     }
+}
+
+/// A comparison's stated bounds in one line: how many hold over the window of steady running,
+/// and the ones that do not.
+fn bounds_note(comparison: &serde_json::Value) -> Option<String> {
+    let bounds = &comparison["bounds"];
+    let checks = bounds["checks"].as_array()?;
+    let missed: Vec<String> = checks
+        .iter()
+        .filter(|c| c["met"] == false)
+        .map(|c| {
+            let q = c["quantity"].as_str().unwrap_or("");
+            let (full, reduced) = (c["full"].as_f64().unwrap_or(f64::NAN), c["reduced"].as_f64().unwrap_or(f64::NAN));
+            if q.contains("power") || q.contains("impacts") {
+                format!("{q} (full {full:.3e}, reduced {reduced:.3e})")
+            } else {
+                format!("{q} {:+.1} %", 100.0 * c["error"].as_f64().unwrap_or(f64::NAN))
+            }
+        })
+        .collect();
+    let start = bounds["window"]["start"].as_f64().unwrap_or(0.0);
+    let head = format!(
+        "Stated bounds of the reduced model over t ≥ {start:.4} s (steady running): {} of {} met",
+        checks.len() - missed.len(),
+        checks.len()
+    );
+    Some(if missed.is_empty() { head } else { format!("{head}; not met: {}", missed.join(", ")) })
 }
 
 #[cfg(test)]
