@@ -843,6 +843,16 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
         }
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         assert!(!stderr(&o).contains("not converged"), "{name}: {}", stderr(&o));
+        // A pressed contact the step does not hold (docs/validation.md §6): F-0.25mm's alone,
+        // and said; with a tenth of the step it is held.
+        let unloaded = "carries no force";
+        assert_eq!(stderr(&o).contains(unloaded), name == "F-0.25mm", "{name}: {}", stderr(&o));
+        if name == "F-0.25mm" {
+            let fine = dir.join("F-0.25mm-fine");
+            let args = ["run", name, "--model", "reduced", "--micro-step", "1e-6", "--no-error-estimate", "--out"];
+            let o = lash(&[&args[..], &[fine.to_str().unwrap()]].concat());
+            assert!(o.status.success() && !stderr(&o).contains(unloaded), "{}", stderr(&o));
+        }
         let s: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
         let h = s["reduced"]["options"]["micro_step"].as_f64().unwrap();

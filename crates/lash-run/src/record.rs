@@ -278,7 +278,7 @@ pub(crate) fn record_joint_summaries<S>(
     clearance: impl Fn(&S) -> Option<(usize, &'static str)>,
 ) {
     for j in 0..joints {
-        for name in ["eccentricity", "force"] {
+        for name in ["eccentricity", "force", "penetration"] {
             let k = sources
                 .iter()
                 .position(|(_, s)| clearance(s) == Some((j, name)))

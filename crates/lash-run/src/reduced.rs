@@ -278,7 +278,13 @@ impl ReducedRun {
             channels: self.sources.iter().map(|(c, _)| c.clone()).collect(),
             written: self.selected.len(),
             statistics: !self.options.channels_only,
-            summary: (0..joints).map(|j| (quantity(j, "eccentricity"), quantity(j, "force"))).collect(),
+            summary: (0..joints)
+                .map(|j| JointSignals {
+                    eccentricity: quantity(j, "eccentricity"),
+                    force: quantity(j, "force"),
+                    penetration: quantity(j, "penetration"),
+                })
+                .collect(),
             measurements: self.scenario.output.measurements.clone(),
             stresses: {
                 let models = &self.stresses;
@@ -384,15 +390,23 @@ pub(crate) fn master_options(
     Ok(master_options)
 }
 
+/// Where a clearance joint's signals are among the recorded ones, for its summary.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct JointSignals {
+    pub eccentricity: usize,
+    /// The contact force's magnitude.
+    pub force: usize,
+    pub penetration: usize,
+}
+
 /// The channels a reduced run records: all of them (name, unit), the first `written` of which
-/// go to the rows, and for each joint the positions of its eccentricity and force magnitude (the
-/// clearance summary).
+/// go to the rows, and for each joint the positions of the signals its summary needs.
 pub(crate) struct Recording {
     pub channels: Vec<Channel>,
     pub written: usize,
     /// Whether the channel statistics are kept.
     pub statistics: bool,
-    pub summary: Vec<(usize, usize)>,
+    pub summary: Vec<JointSignals>,
     pub measurements: Vec<lash_scenario::schema::MeasurementSpec>,
     /// Recorded signals that are a clearance's normal force standing for its interface stress:
     /// (position, the stress model).
@@ -424,6 +438,8 @@ struct Recorder<'c, 's> {
     samples: u64,
     max_ecc: Vec<f64>,
     sum_force: Vec<f64>,
+    /// Per joint: samples in contact, and those of them at which the contact carries no force.
+    contact_samples: Vec<(u64, u64)>,
     sink: Sink<'s>,
     progress: Option<&'s mut dyn FnMut(f64)>,
 }
@@ -444,6 +460,7 @@ impl<'c, 's> Recorder<'c, 's> {
             samples: 0,
             max_ecc: vec![0.0; joints],
             sum_force: vec![0.0; joints],
+            contact_samples: vec![(0, 0); joints],
             sink,
             progress,
         }
@@ -466,9 +483,15 @@ impl Observer for Recorder<'_, '_> {
         if self.recording.statistics {
             self.stats.add(values);
         }
-        for (j, &(ecc, force)) in self.recording.summary.iter().enumerate() {
-            self.max_ecc[j] = self.max_ecc[j].max(values[ecc]);
-            self.sum_force[j] += values[force];
+        for (j, signals) in self.recording.summary.iter().enumerate() {
+            self.max_ecc[j] = self.max_ecc[j].max(values[signals.eccentricity]);
+            let force = values[signals.force];
+            self.sum_force[j] += force;
+            if values[signals.penetration] > 0.0 {
+                let (contact, unloaded) = &mut self.contact_samples[j];
+                *contact += 1;
+                *unloaded += u64::from(force == 0.0);
+            }
         }
         self.samples += 1;
         self.row[0] = t.seconds();
@@ -581,7 +604,7 @@ fn summarise(
     details: impl FnOnce(MasterStats) -> ReducedDetails,
 ) -> Result<Summary, RunError> {
     let sim = c.simulation;
-    let Recorder { stats, measurements, samples, max_ecc, sum_force, recording, .. } = recorder;
+    let Recorder { stats, measurements, samples, max_ecc, sum_force, contact_samples, recording, .. } = recorder;
     let master_stats = match master_stats {
         Ok(s) => s,
         Err(lash_orchestrate::MasterError::Observer(e)) => return Err(RunError::Output(e)),
@@ -642,7 +665,11 @@ fn summarise(
         events,
         max_constraint_error,
         channels,
-        warnings: crate::run::resolution_warnings(&integrator, &clearances),
+        warnings: [
+            crate::run::resolution_warnings(&integrator, &clearances),
+            crate::run::unloaded_contact_warnings(&integrator, &clearances, &contact_samples),
+        ]
+        .concat(),
         clearances,
         reduced: Some(details(master_stats)),
         measurements,

@@ -550,7 +550,11 @@ impl SpatialReducedRun {
                             .position(|&i| matches!(sources[i].1, SpatialSource::Clearance(c, q) if c == j && SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 == name))
                             .expect("recorded")
                     };
-                    (at("eccentricity"), at("force"))
+                    crate::reduced::JointSignals {
+                        eccentricity: at("eccentricity"),
+                        force: at("force"),
+                        penetration: at("penetration"),
+                    }
                 })
                 .collect(),
             measurements: scenario.output.measurements.clone(),
