@@ -843,18 +843,25 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
         }
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         assert!(!stderr(&o).contains("not converged"), "{name}: {}", stderr(&o));
-        // A pressed contact the step does not hold (docs/validation.md §6): F-0.25mm's alone,
-        // and said; with a tenth of the step it is held.
-        let unloaded = "carries no force";
+        // A pressed contact the step does not hold (docs/validation.md §6): F-0.25mm's alone; said,
+        // and the run made again at a tenth of the step, which holds it. A step given is kept.
+        let (unloaded, again) = ("carries no force", "the run was made again at a tenth of the step");
         assert_eq!(stderr(&o).contains(unloaded), name == "F-0.25mm", "{name}: {}", stderr(&o));
-        if name == "F-0.25mm" {
-            let fine = dir.join("F-0.25mm-fine");
-            let args = ["run", name, "--model", "reduced", "--micro-step", "1e-6", "--no-error-estimate", "--out"];
-            let o = lash(&[&args[..], &[fine.to_str().unwrap()]].concat());
-            assert!(o.status.success() && !stderr(&o).contains(unloaded), "{}", stderr(&o));
-        }
         let s: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(s["micro_step_refined"].is_string(), name == "F-0.25mm", "{name}: {s}");
+        if name == "F-0.25mm" {
+            assert_eq!(s["reduced"]["options"]["micro_step"].as_f64(), Some(1e-6), "{s}");
+            assert!(s["warnings"].as_array().unwrap().is_empty(), "{s}");
+            let given = dir.join("F-0.25mm-given");
+            let args = ["run", name, "--model", "reduced", "--micro-step", "1e-5", "--no-error-estimate", "--out"];
+            let o = lash(&[&args[..], &[given.to_str().unwrap()]].concat());
+            assert!(
+                o.status.success() && stderr(&o).contains(unloaded) && !stderr(&o).contains(again),
+                "{}",
+                stderr(&o)
+            );
+        }
         let h = s["reduced"]["options"]["micro_step"].as_f64().unwrap();
         for c in s["clearances"].as_array().unwrap() {
             if let Some(d) = c["median_impact_duration"].as_f64() {

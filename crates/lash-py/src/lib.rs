@@ -310,13 +310,45 @@ fn run<'py>(
         (other, _) => return Err(field_error(py, "model", format!("{other:?} is neither \"full\" nor \"reduced\""))),
     };
     let scenario = scenario.inner.clone();
+    let mut outcome = execute_in_memory(py, &scenario, model);
+    // A pressed contact the chosen step does not hold: again at a tenth of the step (as `lash run`).
+    let mut refined = None;
+    if let (None, Ok((_, _, summary)), lash_run::Model::Reduced(mut options)) = (given, &outcome, model)
+        && let Some((finer, why)) =
+            lash_run::micro_step_for_unheld_contacts(&summary.warnings, &options, scenario.simulation().output_interval)
+    {
+        options.micro_step = finer;
+        outcome = execute_in_memory(py, &scenario, lash_run::Model::Reduced(options));
+        refined = Some(why);
+    }
+    let (header, values, summary) = outcome?;
+    let mut summary = serde_json::to_value(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
+    if let Some(map) = summary.as_object_mut() {
+        if let Some(why) = choice {
+            map.insert("micro_step_choice".into(), why.into());
+        }
+        if let Some(why) = refined {
+            map.insert("micro_step_refined".into(), why.into());
+        }
+    }
+    let summary = summary.to_string();
+    run_result(py, &header, values, summary)
+}
+
+/// Runs a model of a scenario with its rows held in memory: (header, values row after row,
+/// summary), or the error as Python sees it.
+fn execute_in_memory(
+    py: Python<'_>,
+    scenario: &AnyScenario,
+    model: lash_run::Model,
+) -> PyResult<(Vec<String>, Vec<f64>, lash_run::Summary)> {
     // Ctrl-C (or any signal handler that raises) stops the run: the sink takes the GIL back every
     // 4096 rows to let Python check its signals (on this, the main, thread), which costs ~0.1 µs
     // per row-block.
     let mut interrupted: Option<PyErr> = None;
     // Built, checked and run without the GIL (the runner stays on this thread).
     let outcome = py.detach(|| -> Result<_, (&'static str, String)> {
-        let mut runner = lash_run::runner(&scenario, model).map_err(|e| ("model", e.to_string()))?;
+        let mut runner = lash_run::runner(scenario, model).map_err(|e| ("model", e.to_string()))?;
         let header = runner.header();
         // Held in memory: refused before any work when it cannot fit (as `lash run` refuses).
         let sim = scenario.simulation();
@@ -343,17 +375,11 @@ fn run<'py>(
     if let Some(e) = interrupted {
         return Err(e);
     }
-    let (header, values, summary) = outcome.map_err(|(what, m)| match what {
+    outcome.map_err(|(what, m)| match what {
         "run" => SimulationError::new_err(m),
         "limits" => input_error(py, m, &[]),
         field => field_error(py, field, m),
-    })?;
-    let mut summary = serde_json::to_value(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
-    if let (Some(why), Some(map)) = (choice, summary.as_object_mut()) {
-        map.insert("micro_step_choice".into(), why.into());
-    }
-    let summary = summary.to_string();
-    run_result(py, &header, values, summary)
+    })
 }
 
 /// Keeps a row of a run held in memory; every 4096 rows Python checks its signals (Ctrl-C stops

@@ -244,6 +244,10 @@ pub fn resolution_warnings(integrator: &lash_ode::Method, clearances: &[Clearanc
 /// B-0.1mm) 2.8–57 % (docs/validation.md §6).
 pub const UNLOADED_CONTACT_SHARE: f64 = 0.01;
 
+/// The words by which an [`unloaded_contact_warnings`] warning is known (`lash run` takes a finer
+/// micro step on it when the user gave none).
+pub const UNLOADED_CONTACT_MARK: &str = "carries no force";
+
 /// Warnings of a fixed-step run in which a clearance joint, while in contact, often carries no
 /// force: the contact law's damping (at a slow onset the hysteresis term of a law like
 /// Lankarani–Nikravesh outweighs the elastic one and the law clamps the pull to zero) is too stiff
@@ -261,7 +265,7 @@ pub fn unloaded_contact_warnings(
         .filter(|&(_, &(contact, unloaded))| unloaded as f64 > UNLOADED_CONTACT_SHARE * contact as f64)
         .map(|(c, &(contact, unloaded))| {
             format!(
-                "clearance joint {}: in contact at {contact} samples, it carries no force at {unloaded} of them \
+                "clearance joint {}: in contact at {contact} samples, it {UNLOADED_CONTACT_MARK} at {unloaded} of them \
                  ({:.1} %): a step of {step:e} s does not hold this pressed contact stable (the contact law's \
                  damping after a slow onset is too stiff for it), so the joint chatters and its loads are wrong; \
                  take a smaller --micro-step (a tenth), --micro dopri5, or --coupling two-way",
@@ -270,6 +274,36 @@ pub fn unloaded_contact_warnings(
             )
         })
         .collect()
+}
+
+/// When `warnings` (a reduced run's) say that a joint's pressed contact is not held at
+/// `options.micro_step` ([`unloaded_contact_warnings`]): the step on the ladder at a tenth of it
+/// or below (dividing the macro step and `output_interval`; [`micro_step_ladder`]), and why; none
+/// when there is no such warning or no finer step.
+pub fn micro_step_for_unheld_contacts(
+    warnings: &[String],
+    options: &crate::ReducedOptions,
+    output_interval: f64,
+) -> Option<(f64, String)> {
+    let unheld: Vec<&str> = warnings
+        .iter()
+        .filter(|w| w.contains(UNLOADED_CONTACT_MARK))
+        .filter_map(|w| w.strip_prefix("clearance joint ")?.split(':').next())
+        .collect();
+    if unheld.is_empty() {
+        return None;
+    }
+    let h = options.micro_step;
+    let ladder = micro_step_ladder(h, options.macro_step, output_interval);
+    let finer = ladder.iter().copied().find(|&x| x <= 0.1 * h * (1.0 + 1e-9)).or(ladder.last().copied())?;
+    (finer < h).then(|| {
+        let why = format!(
+            "micro step {finer:e} s: at {h:e} s the contact of {} carried no force at part of the samples in contact \
+             (a pressed contact the step does not hold), so the run was made again at a tenth of the step",
+            unheld.join(", ")
+        );
+        (finer, why)
+    })
 }
 
 /// Summary of a run (written as summary.json).
@@ -590,6 +624,12 @@ mod tests {
         assert!(said[0].contains("(1.1 %)") && said[0].contains("1e-5 s"), "{}", said[0]);
         let adaptive = lash_ode::Method::Dopri5(Default::default());
         assert!(unloaded_contact_warnings(&adaptive, &clearances, &[(1000, 500), (1000, 500)]).is_empty());
+        // The finer step it leads to: a tenth on the ladder, naming the joint; none without the warning.
+        let options = crate::ReducedOptions::default();
+        let (h, why) = micro_step_for_unheld_contacts(&said, &options, 1e-5).expect("a finer step");
+        assert_eq!(h, 1e-6);
+        assert!(why.contains("the contact of chattering carried no force"), "{why}");
+        assert!(micro_step_for_unheld_contacts(&["another warning".into()], &options, 1e-5).is_none());
     }
     use super::*;
 
