@@ -354,3 +354,30 @@ pub fn effective_terms(
         lambda_gain: [next(&mut lambda_gain), next(&mut lambda_gain)],
     })
 }
+
+/// The interface load that produces the macro mechanism's own motion over a macro step, into
+/// `own` (the interface forces, then the friction loads; planar and spatial macro subsystems
+/// alike). One-way coupling (`two_way` none): −f̃ and no friction load — the ideal mechanism's
+/// motion, ẅ = 0. Two-way coupling, with the prescribed ẅ and the step's mean friction loads L̄:
+/// M̃ (ẅ − a_free) − H L̄, then L̄ (H = M̃ W_T, the friction loads' columns `friction_gain`).
+pub fn own_interface_load(
+    own: &mut [f64],
+    effective_force: &DVector<f64>,
+    two_way: Option<(DVector<f64>, &[f64])>,
+    (effective_mass, free_acceleration, friction_gain): (&DMatrix<f64>, &DVector<f64>, &DMatrix<f64>),
+) {
+    match two_way {
+        Some((wdd, friction)) => {
+            let n = wdd.len();
+            let mean = DVector::from_column_slice(friction);
+            let f = effective_mass * (wdd - free_acceleration) - friction_gain * &mean;
+            own[..n].copy_from_slice(f.as_slice());
+            own[n..].copy_from_slice(friction);
+        }
+        None => {
+            for (o, f) in own.iter_mut().zip(effective_force.iter()) {
+                *o = -f;
+            }
+        }
+    }
+}

@@ -550,7 +550,7 @@ impl MechanismSubsystem {
         work.own.clear();
         work.own.resize(n + k, 0.0);
         let own = &mut work.own;
-        match (self.coupling, &self.last_prescribed) {
+        let two_way = match (self.coupling, &self.last_prescribed) {
             (Coupling::TwoWay, Some(p)) => {
                 let mut wdd = nalgebra::DVector::zeros(n);
                 for j in 0..k {
@@ -558,17 +558,16 @@ impl MechanismSubsystem {
                     wdd[2 * j] = a.x;
                     wdd[2 * j + 1] = a.y;
                 }
-                let friction = nalgebra::DVector::from_column_slice(&p.friction);
-                let f = mass * (wdd - &terms.free_acceleration) - friction_moment_force * &friction;
-                own[..n].copy_from_slice(f.as_slice());
-                own[n..].copy_from_slice(&p.friction);
+                Some((wdd, &p.friction[..]))
             }
-            _ => {
-                for (o, f) in own.iter_mut().zip(terms.effective_force.iter()) {
-                    *o = -f;
-                }
-            }
-        }
+            _ => None,
+        };
+        crate::own_interface_load(
+            own,
+            &terms.effective_force,
+            two_way,
+            (mass, &terms.free_acceleration, friction_moment_force),
+        );
         terms.accelerations(&own[..n], &own[n..], &mut self.qdd);
         let omega = |b: BodyId, v: &[f64]| match b {
             BodyId::Body(k) => v[3 * k + 2],

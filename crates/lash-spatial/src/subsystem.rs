@@ -392,21 +392,14 @@ impl SpatialMechanismSubsystem {
         work.own_load.clear();
         work.own_load.resize(g, 0.0);
         let own_load = &mut work.own_load;
-        match self.ideal.prescribed() {
-            Some(p) => {
-                let n = 3 * k;
-                let wdd = nalgebra::DVector::from_fn(n, |i, _| p.at(t, i)[2]);
-                let friction = nalgebra::DVector::from_column_slice(&p.friction);
-                let f = mass * (wdd - &terms.free_acceleration) - moment_force * &friction;
-                own_load[..n].copy_from_slice(f.as_slice());
-                own_load[n..].copy_from_slice(&p.friction);
-            }
-            None => {
-                for (o, f) in own_load.iter_mut().zip(terms.effective_force.iter()) {
-                    *o = -f;
-                }
-            }
-        }
+        let two_way =
+            self.ideal.prescribed().map(|p| (nalgebra::DVector::from_fn(3 * k, |i, _| p.at(t, i)[2]), &p.friction[..]));
+        lash_mech::own_interface_load(
+            own_load,
+            &terms.effective_force,
+            two_way,
+            (mass, &terms.free_acceleration, moment_force),
+        );
         work.own.clone_from(&terms.free_accelerations);
         let own = &mut work.own;
         for (column, &f) in terms.gain.iter().zip(own_load.iter()) {
