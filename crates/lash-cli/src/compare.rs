@@ -149,26 +149,7 @@ pub fn run(
         |options: ReducedOptions| lash_run::runner(s, lash_run::Model::Reduced(options)).map_err(refuse);
     // Refused settings are said before the full model runs.
     reduced_runner(options)?;
-    // What the comparison looks at: every sensor's accelerations, the drivers' torques, the
-    // clearance joints' force magnitudes.
-    let (name, sensors, drivers, clearances, axes, motion) = match s {
-        AnyScenario::Planar(p) => (
-            p.name.clone(),
-            p.sensors.iter().map(|x| x.name.clone()).collect::<Vec<_>>(),
-            p.drivers.iter().map(|d| d.name.clone()).collect::<Vec<_>>(),
-            p.clearances.iter().map(|c| c.joint.clone()).collect::<Vec<_>>(),
-            &["ax", "ay"][..],
-            p.drivers.first().map(|d| d.motion.clone()),
-        ),
-        AnyScenario::Spatial(p) => (
-            p.name.clone(),
-            p.sensors.iter().map(|x| x.name.clone()).collect(),
-            p.drivers.iter().map(|d| d.name.clone()).collect(),
-            p.clearances.iter().map(|c| c.joint.clone()).collect(),
-            &["ax", "ay", "az"][..],
-            p.drivers.first().map(|d| d.motion.clone()),
-        ),
-    };
+    let (name, mut roles, motion) = compared_roles(s);
     let (full_dir, reduced_dir) = (out.join("full"), out.join("reduced"));
     let comparison_path = out.join("comparison.json");
     if comparison_path.exists() {
@@ -258,21 +239,6 @@ pub fn run(
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;
     let (sf, sr) = (read_json(&full_dir.join("summary.json"))?, read_json(&reduced_dir.join("summary.json"))?);
-    use compare::Role;
-    let mut roles: Vec<(String, Role)> = Vec::new();
-    for sensor in &sensors {
-        roles.extend(axes.iter().map(|a| (format!("{sensor}.{a}"), Role::Sensor)));
-    }
-    roles.extend(drivers.iter().map(|d| (format!("{d}.torque"), Role::Load)));
-    roles.extend(clearances.iter().map(|c| (format!("{c}.force"), Role::Contact)));
-    // The forces that drive each emulated measurement (E's slider bearing force, on the guide).
-    for m in &s.output().measurements {
-        for f in &m.forces {
-            if !roles.iter().any(|(c, _)| c == f) {
-                roles.push((f.clone(), Role::Load));
-            }
-        }
-    }
     let channels: Vec<String> = roles.iter().map(|(c, _)| c.clone()).collect();
     let mut metrics = compare::compare_series(&hf, &full, &hr, &red, &channels, FIRST_WINDOW)
         .map_err(|e| CliError::Failure(e.to_string()))?;
@@ -284,7 +250,6 @@ pub fn run(
     let figures_dir = out.join("figures");
     std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
     let mut figures = Vec::new();
-    let col = |header: &[String], name: &str| header.iter().position(|h| h.starts_with(&format!("{name} [")));
     // Crank angle [°] against time, when the first driver turns its body at constant speed.
     let constant_speed = motion.and_then(|m| match m {
         lash_mech::Motion::ConstantSpeed { angle0, omega } => Some((angle0, omega)),
@@ -292,57 +257,18 @@ pub fn run(
     });
     let angle_of = constant_speed.map(|(angle0, omega)| move |t: f64| (angle0 + omega * t).to_degrees());
     let crank_angle = angle_of.as_ref().map(|f| f as &dyn Fn(f64) -> f64);
-    for name in metrics.keys() {
-        let (Some(kf), Some(kr)) = (col(&hf, name), col(&hr, name)) else { continue };
-        let unit = hf[kf].rsplit_once('[').map_or("", |(_, u)| u.trim_end_matches(']'));
-        let time: Vec<f64> = full.iter().map(|r| r[0]).collect();
-        let (yf, yr): (Vec<f64>, Vec<f64>) = full.iter().zip(&red).map(|(a, b)| (a[kf], b[kr])).unzip();
-        let yi: Option<Vec<f64>> = ideal_rows.as_ref().and_then(|(hi, rows)| {
-            let ki = col(hi, name)?;
-            (rows.len() == full.len()).then(|| rows.iter().map(|r| r[ki]).collect())
-        });
-        let channel = crate::plots::Channel { name, unit, time: &time, full: &yf, reduced: &yr, ideal: yi.as_deref() };
-        for path in crate::plots::comparison_figures(&figures_dir, &channel, crank_angle, FIGURE_MAX_FREQUENCY)? {
-            figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
-        }
-    }
-    // Each emulated measurement as logged (the housing accelerometers at the logger's rate, after
-    // the anti-alias filter): with clearance (full, reduced) against without (ideal), over time
-    // and as spectra up to the logger's Nyquist frequency — the layout of the vibration studies.
-    for m in &s.output().measurements {
-        let file = format!("measurement_{}.csv", m.name);
-        let (hm, fm) = read_csv(&full_dir.join(&file))?;
-        let (_, rm) = read_csv(&reduced_dir.join(&file))?;
-        let im = if ideal_ok { Some(read_csv(&ideal_dir.join(&file))?.1) } else { None };
-        if fm.len() < 2 || rm.len() != fm.len() {
-            eprintln!(
-                "  measurement {}: {} logged samples (the horizon ends before its steady-state window): no figures",
-                m.name,
-                fm.len()
-            );
-            continue;
-        }
-        let time: Vec<f64> = fm.iter().map(|r| r[0]).collect();
-        for (k, header) in hm.iter().enumerate().skip(1) {
-            let (name, unit) =
-                header.split_once(" [").map_or((header.as_str(), ""), |(n, u)| (n, u.trim_end_matches(']')));
-            let column = |rows: &[Vec<f64>]| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-            let (yf, yr) = (column(&fm), column(&rm));
-            let yi = im.as_ref().filter(|rows| rows.len() == fm.len()).map(|rows| column(rows));
-            let channel =
-                crate::plots::Channel { name, unit, time: &time, full: &yf, reduced: &yr, ideal: yi.as_deref() };
-            let nyquist = 0.5 * m.acquisition.sample_rate;
-            for path in crate::plots::comparison_figures(&figures_dir, &channel, crank_angle, nyquist)? {
-                figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
-            }
-        }
-    }
+    let series = ((&hf[..], &full[..]), (&hr[..], &red[..]), ideal_rows.as_ref());
+    figures.extend(channel_figures(out, &figures_dir, series, metrics.keys(), crank_angle)?);
+    let dirs = [&full_dir, &reduced_dir, &ideal_dir];
+    figures.extend(measurement_figures(s, out, &figures_dir, dirs, ideal_ok, crank_angle)?);
     let speedup = serde_json::json!({
         "simulation_vs_converged_full": full_steady.ratio_to_first,
         "whole_run_equal_recording": full_timing.total_s / reduced_timing.total_s,
         "simulation_at_equal_step": fixed_steady.map(|f| f.ratio_to_first),
     });
-    // Every clearance joint, full against reduced.
+    // Every clearance joint, full against reduced (the summaries list them in the scenario's order).
+    let clearances: Vec<&str> =
+        sf["clearances"].as_array().into_iter().flatten().filter_map(|c| c["name"].as_str()).collect();
     let joint_statistics: Vec<serde_json::Value> = clearances
         .iter()
         .enumerate()
@@ -423,6 +349,124 @@ pub fn run(
     print_bounds(&bounds);
     eprintln!("→ {}", comparison_path.display());
     Ok(())
+}
+
+/// What the comparison looks at, with the checks each gets: every sensor's accelerations, the
+/// drivers' torques, the clearance joints' force magnitudes and the forces that drive each
+/// emulated measurement; with the scenario's name and its first driver's motion.
+fn compared_roles(s: &AnyScenario) -> (String, Vec<(String, compare::Role)>, Option<lash_mech::Motion>) {
+    let (name, sensors, drivers, clearances, axes, motion) = match s {
+        AnyScenario::Planar(p) => (
+            p.name.clone(),
+            p.sensors.iter().map(|x| x.name.clone()).collect::<Vec<_>>(),
+            p.drivers.iter().map(|d| d.name.clone()).collect::<Vec<_>>(),
+            p.clearances.iter().map(|c| c.joint.clone()).collect::<Vec<_>>(),
+            &["ax", "ay"][..],
+            p.drivers.first().map(|d| d.motion.clone()),
+        ),
+        AnyScenario::Spatial(p) => (
+            p.name.clone(),
+            p.sensors.iter().map(|x| x.name.clone()).collect(),
+            p.drivers.iter().map(|d| d.name.clone()).collect(),
+            p.clearances.iter().map(|c| c.joint.clone()).collect(),
+            &["ax", "ay", "az"][..],
+            p.drivers.first().map(|d| d.motion.clone()),
+        ),
+    };
+    use compare::Role;
+    let mut roles: Vec<(String, Role)> = Vec::new();
+    for sensor in &sensors {
+        roles.extend(axes.iter().map(|a| (format!("{sensor}.{a}"), Role::Sensor)));
+    }
+    roles.extend(drivers.iter().map(|d| (format!("{d}.torque"), Role::Load)));
+    roles.extend(clearances.iter().map(|c| (format!("{c}.force"), Role::Contact)));
+    // The forces that drive each emulated measurement (E's slider bearing force, on the guide).
+    for m in &s.output().measurements {
+        for f in &m.forces {
+            if !roles.iter().any(|(c, _)| c == f) {
+                roles.push((f.clone(), Role::Load));
+            }
+        }
+    }
+    (name, roles, motion)
+}
+
+/// The full and the reduced run's header and rows, and the ideal mechanism's when it ran.
+type Series<'a> = ((&'a [String], &'a [Vec<f64>]), (&'a [String], &'a [Vec<f64>]), Option<&'a CsvRows>);
+
+/// A CSV's header and rows ([`read_csv`]).
+type CsvRows = (Vec<String>, Vec<Vec<f64>>);
+
+/// The compared channels' figures over time and as spectra, full against reduced with the ideal
+/// mechanism as the reference (the reduced-interface-model papers' figures 2–3); their paths
+/// relative to `out`.
+fn channel_figures<'a>(
+    out: &Path,
+    figures_dir: &Path,
+    ((hf, full), (hr, red), ideal_rows): Series<'_>,
+    names: impl Iterator<Item = &'a String>,
+    crank_angle: Option<&dyn Fn(f64) -> f64>,
+) -> Result<Vec<String>, CliError> {
+    let col = |header: &[String], name: &str| header.iter().position(|h| h.starts_with(&format!("{name} [")));
+    let mut figures = Vec::new();
+    for name in names {
+        let (Some(kf), Some(kr)) = (col(hf, name), col(hr, name)) else { continue };
+        let unit = hf[kf].rsplit_once('[').map_or("", |(_, u)| u.trim_end_matches(']'));
+        let time: Vec<f64> = full.iter().map(|r| r[0]).collect();
+        let (yf, yr): (Vec<f64>, Vec<f64>) = full.iter().zip(red.iter()).map(|(a, b)| (a[kf], b[kr])).unzip();
+        let yi: Option<Vec<f64>> = ideal_rows.as_ref().and_then(|(hi, rows)| {
+            let ki = col(hi, name)?;
+            (rows.len() == full.len()).then(|| rows.iter().map(|r| r[ki]).collect())
+        });
+        let channel = crate::plots::Channel { name, unit, time: &time, full: &yf, reduced: &yr, ideal: yi.as_deref() };
+        for path in crate::plots::comparison_figures(figures_dir, &channel, crank_angle, FIGURE_MAX_FREQUENCY)? {
+            figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
+        }
+    }
+    Ok(figures)
+}
+
+/// Each emulated measurement as logged (the housing accelerometers at the logger's rate, after
+/// the anti-alias filter): with clearance (full, reduced) against without (ideal), over time and
+/// as spectra up to the logger's Nyquist frequency — the layout of the vibration studies.
+fn measurement_figures(
+    s: &AnyScenario,
+    out: &Path,
+    figures_dir: &Path,
+    [full_dir, reduced_dir, ideal_dir]: [&std::path::PathBuf; 3],
+    ideal_ok: bool,
+    crank_angle: Option<&dyn Fn(f64) -> f64>,
+) -> Result<Vec<String>, CliError> {
+    let mut figures = Vec::new();
+    for m in &s.output().measurements {
+        let file = format!("measurement_{}.csv", m.name);
+        let (hm, fm) = read_csv(&full_dir.join(&file))?;
+        let (_, rm) = read_csv(&reduced_dir.join(&file))?;
+        let im = if ideal_ok { Some(read_csv(&ideal_dir.join(&file))?.1) } else { None };
+        if fm.len() < 2 || rm.len() != fm.len() {
+            eprintln!(
+                "  measurement {}: {} logged samples (the horizon ends before its steady-state window): no figures",
+                m.name,
+                fm.len()
+            );
+            continue;
+        }
+        let time: Vec<f64> = fm.iter().map(|r| r[0]).collect();
+        for (k, header) in hm.iter().enumerate().skip(1) {
+            let (name, unit) =
+                header.split_once(" [").map_or((header.as_str(), ""), |(n, u)| (n, u.trim_end_matches(']')));
+            let column = |rows: &[Vec<f64>]| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+            let (yf, yr) = (column(&fm), column(&rm));
+            let yi = im.as_ref().filter(|rows| rows.len() == fm.len()).map(|rows| column(rows));
+            let channel =
+                crate::plots::Channel { name, unit, time: &time, full: &yf, reduced: &yr, ideal: yi.as_deref() };
+            let nyquist = 0.5 * m.acquisition.sample_rate;
+            for path in crate::plots::comparison_figures(figures_dir, &channel, crank_angle, nyquist)? {
+                figures.push(path.strip_prefix(out).unwrap_or(&path).display().to_string());
+            }
+        }
+    }
+    Ok(figures)
 }
 
 /// Upper end of a sensor's band \[Hz\] when the scenario logs no measurement that says it (a
