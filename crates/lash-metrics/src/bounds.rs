@@ -167,7 +167,8 @@ fn mean(x: &[f64]) -> f64 {
     x.iter().sum::<f64>() / x.len().max(1) as f64
 }
 
-fn rms(x: &[f64]) -> f64 {
+/// Root mean square (of a whole run in [`crate::compare_series`], of the window here).
+pub(crate) fn rms(x: &[f64]) -> f64 {
     (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
 }
 

@@ -106,7 +106,6 @@ pub fn compare_series(
         let unit = header_full[kf].split('[').nth(1).unwrap_or("").trim_end_matches(']').to_string();
         let f: Vec<f64> = full.iter().map(|r| r[kf]).collect();
         let r: Vec<f64> = reduced.iter().map(|r| r[kr]).collect();
-        let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
         let rel = |a: &[f64], b: &[f64]| {
             let e: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
             let n: f64 = a.iter().map(|x| x * x).sum();
@@ -122,8 +121,8 @@ pub fn compare_series(
                 unit,
                 peak_full: f.iter().fold(0.0, |m, v| m.max(v.abs())),
                 peak_reduced: r.iter().fold(0.0, |m, v| m.max(v.abs())),
-                rms_full: rms(&f),
-                rms_reduced: rms(&r),
+                rms_full: bounds::rms(&f),
+                rms_reduced: bounds::rms(&r),
                 relative_rms_error: rel(&f, &r),
                 relative_rms_error_first_window: rel(&f[..first], &r[..first]),
                 spectral_distance: rel(&af, &ar),
