@@ -861,9 +861,20 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
                 "{}",
                 stderr(&o)
             );
+            // The warning is the summary's counts, read back: more than 1 % of the samples in
+            // contact carried no force.
+            let g: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(given.join("summary.json")).unwrap()).unwrap();
+            let counts = &g["clearances"][0]["contact_samples"];
+            let (n, z) = (counts["in_contact"].as_f64().unwrap(), counts["unloaded"].as_f64().unwrap());
+            assert!(n > 0.0 && z > 0.01 * n, "{counts}");
         }
         let h = s["reduced"]["options"]["micro_step"].as_f64().unwrap();
         for c in s["clearances"].as_array().unwrap() {
+            // At the defaults every contact is held: at most 1 % of its samples in contact unloaded.
+            let counts = &c["contact_samples"];
+            let (n, z) = (counts["in_contact"].as_f64().unwrap(), counts["unloaded"].as_f64().unwrap());
+            assert!(z <= 0.01 * n, "{name} {}: {counts}", c["name"]);
             if let Some(d) = c["median_impact_duration"].as_f64() {
                 assert!(d / h >= 7.0, "{name} {}: {:.1} steps of {h:e} s", c["name"], d / h);
             }

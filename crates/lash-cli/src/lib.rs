@@ -608,15 +608,16 @@ fn run_reduced(
         }
         _ => {}
     }
-    let run_once = |options: lash_run::ReducedOptions| -> Result<(), CliError> {
+    let run_once = |options: lash_run::ReducedOptions| -> Result<lash_run::Summary, CliError> {
         let model = lash_run::Model::Reduced(options);
         let mut r = lash_run::runner(s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-        run::run(s, (s.simulation(), s.output()), &mut *r, out, format, quiet).map(|_| ())
+        run::run(s, (s.simulation(), s.output()), &mut *r, out, format, quiet).map(|(_, summary)| summary)
     };
-    run_once(options)?;
+    let summary = run_once(options)?;
     if !settings.micro_step_given
         && !options.error_controlled_micro
-        && let Some((finer, why)) = finer_step_for_unheld_contacts(s, options, out)?
+        && let Some((finer, why)) =
+            lash_run::micro_step_for_unheld_contacts(&summary, &options, s.simulation().output_interval)
     {
         if !quiet {
             eprintln!("note: {why}");
@@ -626,22 +627,6 @@ fn run_reduced(
         run_once(options)?;
     }
     probe::attach(probe.as_ref().filter(|_| settings.error_estimate), options, notes, out, quiet)
-}
-
-/// When the run just written to `out` warns of a pressed contact its micro step does not hold:
-/// the finer step and why ([`lash_run::micro_step_for_unheld_contacts`]).
-fn finer_step_for_unheld_contacts(
-    s: &lash_scenario::AnyScenario,
-    options: lash_run::ReducedOptions,
-    out: &std::path::Path,
-) -> Result<Option<(f64, String)>, CliError> {
-    let path = out.join("summary.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
-    let summary: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| CliError::Failure(format!("{}: {e}", path.display())))?;
-    let warnings: Vec<String> =
-        summary["warnings"].as_array().into_iter().flatten().filter_map(|w| w.as_str().map(String::from)).collect();
-    Ok(lash_run::micro_step_for_unheld_contacts(&warnings, &options, s.simulation().output_interval))
 }
 
 /// `lash report`: the page, and what it could not show.

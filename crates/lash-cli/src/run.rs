@@ -22,7 +22,7 @@ pub struct Timing {
 }
 
 /// Runs `runner` (built from scenario `s`, whose simulation and output settings are given) into
-/// `out`, after checking that its output fits (limits.rs).
+/// `out`, after checking that its output fits (limits.rs); its timing and summary.
 pub fn run<S: serde::Serialize>(
     s: &S,
     (simulation, output): (&lash_scenario::schema::SimulationSpec, &lash_scenario::schema::OutputSpec),
@@ -30,7 +30,7 @@ pub fn run<S: serde::Serialize>(
     out: &Path,
     format: crate::output::Format,
     quiet: bool,
-) -> Result<Timing, CliError> {
+) -> Result<(Timing, lash_run::Summary), CliError> {
     let measured: usize = output.measurements.iter().map(|m| m.forces.len()).sum();
     let estimate = crate::limits::run_estimate(
         simulation.horizon,
@@ -145,5 +145,5 @@ pub fn run<S: serde::Serialize>(
     for w in &summary.warnings {
         eprintln!("warning: {w}");
     }
-    Ok(timing)
+    Ok((timing, summary))
 }

@@ -52,11 +52,25 @@ pub enum Role {
     Contact,
 }
 
+/// How a [`Check`]'s error reads and what holds it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CheckKind {
+    /// A relative error (of the full model's RMS), held within ± the bound (RMS, mean).
+    Relative,
+    /// The ratio reduced / full, held within a factor (band powers).
+    Ratio,
+    /// Contact onsets: the ratio reduced / full within a factor, or one onset apart.
+    Onsets,
+}
+
 /// One checked quantity.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Check {
     /// Channel and statistic, e.g. `slider.ax rms` or `crank_pivot.force impacts_per_revolution`.
     pub quantity: String,
+    /// How its error reads.
+    pub kind: CheckKind,
     /// The full model's value.
     pub full: f64,
     /// The reduced model's value.
@@ -100,6 +114,7 @@ pub fn check_bounds(
             let error = if scale > 0.0 { (b - a) / scale } else { 0.0 };
             Check {
                 quantity: format!("{name} {quantity}"),
+                kind: CheckKind::Relative,
                 full: a,
                 reduced: b,
                 error,
@@ -127,6 +142,7 @@ pub fn check_bounds(
             let unit = if window.revolution.is_some() { "impacts_per_revolution" } else { "impacts_per_second" };
             checks.push(Check {
                 quantity: format!("{name} {unit}"),
+                kind: CheckKind::Onsets,
                 full: nf / per,
                 reduced: nr / per,
                 error: ratio,
@@ -153,6 +169,7 @@ fn band_checks(name: &str, (f, r): (&[f64], &[f64]), dt: f64, band_hz: f64, boun
         let band = if hi.is_finite() { format!("{lo:.0}-{hi:.0} Hz") } else { format!("above {lo:.0} Hz") };
         checks.push(Check {
             quantity: format!("{name} power {band}"),
+            kind: CheckKind::Ratio,
             full: pf[k],
             reduced: pr[k],
             error: ratio,

@@ -6,7 +6,7 @@
 
 mod bounds;
 
-pub use bounds::{Bounds, Check, Role, STATED, Window, check_bounds};
+pub use bounds::{Bounds, Check, CheckKind, Role, STATED, Window, check_bounds};
 use rustfft::{FftPlanner, num_complex::Complex};
 use serde::Serialize;
 use std::collections::BTreeMap;

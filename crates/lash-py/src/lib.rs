@@ -315,7 +315,7 @@ fn run<'py>(
     let mut refined = None;
     if let (None, Ok((_, _, summary)), lash_run::Model::Reduced(mut options)) = (given, &outcome, model)
         && let Some((finer, why)) =
-            lash_run::micro_step_for_unheld_contacts(&summary.warnings, &options, scenario.simulation().output_interval)
+            lash_run::micro_step_for_unheld_contacts(summary, &options, scenario.simulation().output_interval)
     {
         options.micro_step = finer;
         outcome = execute_in_memory(py, &scenario, lash_run::Model::Reduced(options));

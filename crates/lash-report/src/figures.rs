@@ -321,7 +321,7 @@ fn bounds_note(comparison: &serde_json::Value) -> Option<String> {
         .map(|c| {
             let q = c["quantity"].as_str().unwrap_or("");
             let (full, reduced) = (c["full"].as_f64().unwrap_or(f64::NAN), c["reduced"].as_f64().unwrap_or(f64::NAN));
-            if q.contains("power") || q.contains("impacts") {
+            if c["kind"] != "relative" {
                 format!("{q} (full {full:.3e}, reduced {reduced:.3e})")
             } else {
                 format!("{q} {:+.1} %", 100.0 * c["error"].as_f64().unwrap_or(f64::NAN))
@@ -340,6 +340,35 @@ fn bounds_note(comparison: &serde_json::Value) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bounds' note reads each missed check by its kind: a relative error in per cent, a
+    /// ratio (band power, onsets) by both values.
+    #[test]
+    fn the_bounds_note_reads_each_check_by_its_kind() {
+        let check = |quantity: &str, kind: lash_metrics::CheckKind, error: f64, met: bool| lash_metrics::Check {
+            quantity: quantity.into(),
+            kind,
+            full: 2.0,
+            reduced: 5.0,
+            error,
+            bound: 2.0,
+            met,
+        };
+        use lash_metrics::CheckKind::{Onsets, Ratio, Relative};
+        let checks = [
+            check("slider.ax rms", Relative, 0.123, false),
+            check("slider.ax power 500-1000 Hz", Ratio, 2.5, false),
+            check("pin.force impacts_per_revolution", Onsets, 2.5, false),
+            check("pin.force mean", Relative, 0.01, true),
+        ];
+        let comparison = serde_json::json!({ "bounds": { "window": { "start": 0.012 }, "checks": checks } });
+        let note = bounds_note(&comparison).expect("a note");
+        assert!(note.contains("over t ≥ 0.0120 s (steady running): 1 of 4 met"), "{note}");
+        assert!(note.contains("slider.ax rms +12.3 %"), "{note}");
+        assert!(note.contains("slider.ax power 500-1000 Hz (full 2.000e0, reduced 5.000e0)"), "{note}");
+        assert!(note.contains("pin.force impacts_per_revolution (full 2.000e0, reduced 5.000e0)"), "{note}");
+        assert!(!note.contains("pin.force mean"), "{note}");
+    }
 
     #[test]
     fn min_max_decimation_keeps_every_extreme_in_time_order() {

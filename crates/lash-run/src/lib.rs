@@ -21,7 +21,7 @@ pub use build::{BuildOptions, build_model};
 pub use full_subsystem::FullSubsystem;
 pub use reduced::{ReducedOptions, ReducedRun};
 pub use run::{
-    ChannelStats, ClearanceSummary, FullRun, RunError, Runner, Sink, Summary, UNLOADED_CONTACT_MARK,
+    ChannelStats, ClearanceSummary, ContactSamples, FullRun, RunError, Runner, Sink, Summary,
     micro_step_for_unheld_contacts, micro_step_ladder, resolving_micro_step,
 };
 pub use spatial::{SpatialReducedRun, SpatialRun, build_spatial};

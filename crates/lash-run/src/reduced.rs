@@ -439,7 +439,7 @@ struct Recorder<'c, 's> {
     max_ecc: Vec<f64>,
     sum_force: Vec<f64>,
     /// Per joint: samples in contact, and those of them at which the contact carries no force.
-    contact_samples: Vec<(u64, u64)>,
+    contact_samples: Vec<crate::run::ContactSamples>,
     sink: Sink<'s>,
     progress: Option<&'s mut dyn FnMut(f64)>,
 }
@@ -460,7 +460,7 @@ impl<'c, 's> Recorder<'c, 's> {
             samples: 0,
             max_ecc: vec![0.0; joints],
             sum_force: vec![0.0; joints],
-            contact_samples: vec![(0, 0); joints],
+            contact_samples: vec![Default::default(); joints],
             sink,
             progress,
         }
@@ -488,9 +488,9 @@ impl Observer for Recorder<'_, '_> {
             let force = values[signals.force];
             self.sum_force[j] += force;
             if values[signals.penetration] > 0.0 {
-                let (contact, unloaded) = &mut self.contact_samples[j];
-                *contact += 1;
-                *unloaded += u64::from(force == 0.0);
+                let counts = &mut self.contact_samples[j];
+                counts.in_contact += 1;
+                counts.unloaded += u64::from(force == 0.0);
             }
         }
         self.samples += 1;
@@ -632,15 +632,18 @@ fn summarise(
         let open = micro.open_impacts(j, t_end);
         events += 2 * impacts.len() as u64 + open.len() as u64;
         impacts.extend(open);
-        clearances.push(crate::run::ClearanceSummary::from_impacts(
-            name,
-            micro.radial_clearance(j),
-            impacts,
-            horizon,
-            c.period,
-            max_ecc[j],
-            sum_force[j] / m,
-        ));
+        clearances.push(crate::run::ClearanceSummary {
+            contact_samples: Some(contact_samples[j]),
+            ..crate::run::ClearanceSummary::from_impacts(
+                name,
+                micro.radial_clearance(j),
+                impacts,
+                horizon,
+                c.period,
+                max_ecc[j],
+                sum_force[j] / m,
+            )
+        });
     }
     let channels =
         if recording.statistics { stats.channel_stats(&recording.channels, samples) } else { Default::default() };
@@ -667,7 +670,7 @@ fn summarise(
         channels,
         warnings: [
             crate::run::resolution_warnings(&integrator, &clearances),
-            crate::run::unloaded_contact_warnings(&integrator, &clearances, &contact_samples),
+            crate::run::unloaded_contact_warnings(&integrator, &clearances),
         ]
         .concat(),
         clearances,

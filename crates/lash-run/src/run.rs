@@ -76,6 +76,28 @@ pub struct ClearanceSummary {
     pub median_impact_duration: Option<f64>,
     /// The first impacts (up to 20), with onset time, onset velocity, duration, peak force.
     pub first_impacts: Vec<Impact>,
+    /// The output samples at which the joint was in contact, and those of them at which its
+    /// contact carried no force (a fixed-step reduced run records them; see
+    /// [`unloaded_contact_warnings`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_samples: Option<ContactSamples>,
+}
+
+/// A joint's output samples in contact, and those at which the contact carried no force.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct ContactSamples {
+    /// Samples with positive penetration.
+    pub in_contact: u64,
+    /// Of those, the samples at which the contact force was zero.
+    pub unloaded: u64,
+}
+
+impl ContactSamples {
+    /// Whether the contact went unloaded at more than [`UNLOADED_CONTACT_SHARE`] of the samples
+    /// in contact: a pressed contact the step does not hold.
+    pub fn unheld(&self) -> bool {
+        self.unloaded as f64 > UNLOADED_CONTACT_SHARE * self.in_contact as f64
+    }
 }
 
 impl ClearanceSummary {
@@ -106,7 +128,14 @@ impl ClearanceSummary {
             mean_contact_force,
             median_impact_duration,
             first_impacts: impacts.into_iter().take(20).collect(),
+            contact_samples: None,
         }
+    }
+
+    /// Whether a run with `integrator` held this joint's pressed contact: false for a fixed step
+    /// whose recorded contact went unloaded too often ([`ContactSamples::unheld`]).
+    pub fn holds_its_contact(&self, integrator: &lash_ode::Method) -> bool {
+        !matches!(integrator, lash_ode::Method::Rk4 { .. }) || !self.contact_samples.is_some_and(|c| c.unheld())
     }
 }
 
@@ -244,51 +273,44 @@ pub fn resolution_warnings(integrator: &lash_ode::Method, clearances: &[Clearanc
 /// B-0.1mm) 2.8–57 % (docs/validation.md §6).
 pub const UNLOADED_CONTACT_SHARE: f64 = 0.01;
 
-/// The words by which an [`unloaded_contact_warnings`] warning is known (`lash run` takes a finer
-/// micro step on it when the user gave none).
-pub const UNLOADED_CONTACT_MARK: &str = "carries no force";
-
 /// Warnings of a fixed-step run in which a clearance joint, while in contact, often carries no
-/// force: the contact law's damping (at a slow onset the hysteresis term of a law like
-/// Lankarani–Nikravesh outweighs the elastic one and the law clamps the pull to zero) is too stiff
-/// for the step, so the journal chatters inside the bearing instead of pressing on it and the
-/// joint's loads are wrong. `contact_samples` per joint: (samples in contact, those with no force).
-pub fn unloaded_contact_warnings(
-    integrator: &lash_ode::Method,
-    clearances: &[ClearanceSummary],
-    contact_samples: &[(u64, u64)],
-) -> Vec<String> {
+/// force ([`ClearanceSummary::holds_its_contact`]): the contact law's damping (at a slow onset the
+/// hysteresis term of a law like Lankarani–Nikravesh outweighs the elastic one and the law clamps
+/// the pull to zero) is too stiff for the step, so the journal chatters inside the bearing instead
+/// of pressing on it and the joint's loads are wrong.
+pub fn unloaded_contact_warnings(integrator: &lash_ode::Method, clearances: &[ClearanceSummary]) -> Vec<String> {
     let lash_ode::Method::Rk4 { step } = *integrator else { return Vec::new() };
     clearances
         .iter()
-        .zip(contact_samples)
-        .filter(|&(_, &(contact, unloaded))| unloaded as f64 > UNLOADED_CONTACT_SHARE * contact as f64)
-        .map(|(c, &(contact, unloaded))| {
-            format!(
-                "clearance joint {}: in contact at {contact} samples, it {UNLOADED_CONTACT_MARK} at {unloaded} of them \
+        .filter(|c| !c.holds_its_contact(integrator))
+        .filter_map(|c| {
+            let ContactSamples { in_contact, unloaded } = c.contact_samples?;
+            Some(format!(
+                "clearance joint {}: in contact at {in_contact} samples, it carries no force at {unloaded} of them \
                  ({:.1} %): a step of {step:e} s does not hold this pressed contact stable (the contact law's \
                  damping after a slow onset is too stiff for it), so the joint chatters and its loads are wrong; \
                  take a smaller --micro-step (a tenth), --micro dopri5, or --coupling two-way",
                 c.name,
-                100.0 * unloaded as f64 / contact as f64
-            )
+                100.0 * unloaded as f64 / in_contact as f64
+            ))
         })
         .collect()
 }
 
-/// When `warnings` (a reduced run's) say that a joint's pressed contact is not held at
-/// `options.micro_step` ([`unloaded_contact_warnings`]): the step on the ladder at a tenth of it
-/// or below (dividing the macro step and `output_interval`; [`micro_step_ladder`]), and why; none
-/// when there is no such warning or no finer step.
+/// When a reduced run (its `summary`) did not hold a joint's pressed contact at
+/// `options.micro_step` ([`ClearanceSummary::holds_its_contact`]): the step on the ladder at a
+/// tenth of it or below (dividing the macro step and `output_interval`; [`micro_step_ladder`]),
+/// and why; none when every contact was held or there is no finer step.
 pub fn micro_step_for_unheld_contacts(
-    warnings: &[String],
+    summary: &Summary,
     options: &crate::ReducedOptions,
     output_interval: f64,
 ) -> Option<(f64, String)> {
-    let unheld: Vec<&str> = warnings
+    let unheld: Vec<&str> = summary
+        .clearances
         .iter()
-        .filter(|w| w.contains(UNLOADED_CONTACT_MARK))
-        .filter_map(|w| w.strip_prefix("clearance joint ")?.split(':').next())
+        .filter(|c| !c.holds_its_contact(&summary.integrator))
+        .map(|c| c.name.as_str())
         .collect();
     if unheld.is_empty() {
         return None;
@@ -612,24 +634,55 @@ impl Runner for crate::reduced::ReducedRun {
 mod tests {
 
     /// The unloaded-contact warning: said past 1 % of a joint's samples in contact, naming the
-    /// joint, the share and the step; never for an adaptive integrator.
+    /// joint, the share and the step; never for an adaptive integrator. The finer step it leads
+    /// to reads the same counts.
     #[test]
     fn a_contact_that_often_carries_no_force_is_said() {
-        let joint = |name: &str| ClearanceSummary::from_impacts(name.into(), 1e-4, Vec::new(), 1.0, None, 0.0, 0.0);
-        let clearances = [joint("held"), joint("chattering")];
+        let joint = |name: &str, unloaded: u64| ClearanceSummary {
+            contact_samples: Some(ContactSamples { in_contact: 1000, unloaded }),
+            ..ClearanceSummary::from_impacts(name.into(), 1e-4, Vec::new(), 1.0, None, 0.0, 0.0)
+        };
+        let clearances = vec![joint("held", 10), joint("chattering", 11)];
         let rk4 = lash_ode::Method::Rk4 { step: 1e-5 };
-        let said = unloaded_contact_warnings(&rk4, &clearances, &[(1000, 10), (1000, 11)]);
+        let said = unloaded_contact_warnings(&rk4, &clearances);
         assert_eq!(said.len(), 1, "{said:?}");
         assert!(said[0].starts_with("clearance joint chattering: in contact at 1000 samples"), "{}", said[0]);
         assert!(said[0].contains("(1.1 %)") && said[0].contains("1e-5 s"), "{}", said[0]);
         let adaptive = lash_ode::Method::Dopri5(Default::default());
-        assert!(unloaded_contact_warnings(&adaptive, &clearances, &[(1000, 500), (1000, 500)]).is_empty());
-        // The finer step it leads to: a tenth on the ladder, naming the joint; none without the warning.
+        let loose = vec![joint("a", 500), joint("b", 500)];
+        assert!(unloaded_contact_warnings(&adaptive, &loose).is_empty());
+        assert!(loose.iter().all(|c| c.holds_its_contact(&adaptive)));
+        // The finer step it leads to: a tenth on the ladder, naming the joint; none when every
+        // contact is held (or not counted).
+        let summary = |clearances: Vec<ClearanceSummary>| Summary {
+            scenario: "A".into(),
+            model: "reduced",
+            integrator: rk4,
+            start_time: 0.0,
+            horizon: 1.0,
+            output_interval: 1e-5,
+            samples: 0,
+            cpu_time_s: 0.0,
+            wall_time_s: 0.0,
+            steps: 0,
+            rejected_steps: 0,
+            rhs_evaluations: 0,
+            events: 0,
+            max_constraint_error: 0.0,
+            channels: Default::default(),
+            clearances,
+            warnings: Vec::new(),
+            reduced: None,
+            measurements: Vec::new(),
+            measured: Vec::new(),
+        };
         let options = crate::ReducedOptions::default();
-        let (h, why) = micro_step_for_unheld_contacts(&said, &options, 1e-5).expect("a finer step");
+        let (h, why) = micro_step_for_unheld_contacts(&summary(clearances), &options, 1e-5).expect("a finer step");
         assert_eq!(h, 1e-6);
         assert!(why.contains("the contact of chattering carried no force"), "{why}");
-        assert!(micro_step_for_unheld_contacts(&["another warning".into()], &options, 1e-5).is_none());
+        assert!(micro_step_for_unheld_contacts(&summary(vec![joint("held", 10)]), &options, 1e-5).is_none());
+        let uncounted = ClearanceSummary::from_impacts("x".into(), 1e-4, Vec::new(), 1.0, None, 0.0, 0.0);
+        assert!(micro_step_for_unheld_contacts(&summary(vec![uncounted]), &options, 1e-5).is_none());
     }
     use super::*;
 
