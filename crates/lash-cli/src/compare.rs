@@ -70,23 +70,97 @@ fn error_check(
 }
 
 /// The micro step when the user gave none, from the converged full run's impacts (its
-/// summary.json in `full_dir`; [`crate::probe::choose_micro_step`]), and why when it is not
-/// `options.micro_step`.
-fn micro_step_for(
-    full_dir: &Path,
-    s: &AnyScenario,
+/// `summary`; [`crate::probe::choose_micro_step`]), and why when it is not `options.micro_step`.
+fn micro_step_for(summary: &lash_run::Summary, s: &AnyScenario, options: ReducedOptions) -> (f64, Option<String>) {
+    let joints: Vec<(String, Option<f64>)> =
+        summary.clearances.iter().map(|c| (c.name.clone(), c.median_impact_duration)).collect();
+    crate::probe::choose_micro_step(options, s.simulation().output_interval, &joints, "over the whole run")
+}
+
+/// The written runs of a comparison: their timings, the reduced model's options as it ran and
+/// how its micro step was chosen.
+struct Written {
+    /// The reduced model's options, its micro step as chosen.
     options: ReducedOptions,
-) -> Result<(f64, Option<String>), CliError> {
-    let summary = read_json(&full_dir.join("summary.json"))?;
-    let joints: Vec<(String, Option<f64>)> = summary["clearances"]
-        .as_array()
-        .map(|cs| {
-            cs.iter()
-                .map(|c| (c["name"].as_str().unwrap_or("").to_string(), c["median_impact_duration"].as_f64()))
-                .collect()
-        })
-        .unwrap_or_default();
-    Ok(crate::probe::choose_micro_step(options, s.simulation().output_interval, &joints, "over the whole run"))
+    /// Why the micro step is not the one asked for (chosen, then refined), if it is not.
+    micro_step_choice: Option<String>,
+    full: crate::run::Timing,
+    reduced: crate::run::Timing,
+    /// The full model by RK4 at the micro step: its timing, or why it did not run.
+    fixed: Result<crate::run::Timing, String>,
+    /// That scenario.
+    fixed_scenario: AnyScenario,
+    /// Whether the ideal mechanism's run (the figures' reference) succeeded.
+    ideal_ok: bool,
+}
+
+/// Runs and writes the models of a comparison into `out`'s `full`, `reduced`, `full-fixed-step`
+/// and `ideal`: the converged full model; the reduced model with the micro step chosen from the
+/// full model's impacts unless `micro_step_given`, made again at a tenth of the step when it
+/// does not hold a pressed contact; the full model by RK4 at that step; the ideal mechanism.
+fn written_runs(
+    s: &AnyScenario,
+    out: &Path,
+    mut options: ReducedOptions,
+    micro_step_given: bool,
+    quiet: bool,
+) -> Result<Written, CliError> {
+    let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
+    let csv = crate::output::Format::Csv;
+    let settings = (s.simulation(), s.output());
+    let (full, full_summary) =
+        crate::run::run(s, settings, full_runner(s, false).as_mut(), &out.join("full"), csv, quiet)?;
+    let chooses = !micro_step_given && !options.error_controlled_micro;
+    let mut micro_step_choice = None;
+    if chooses {
+        let (h, why) = micro_step_for(&full_summary, s, options);
+        options.micro_step = h;
+        if let (Some(why), false) = (&why, quiet) {
+            eprintln!("note: {why}");
+        }
+        micro_step_choice = why;
+    }
+    let run_reduced = |options: ReducedOptions| {
+        let mut runner = lash_run::runner(s, lash_run::Model::Reduced(options)).map_err(refuse)?;
+        crate::run::run(s, settings, runner.as_mut(), &out.join("reduced"), csv, quiet)
+    };
+    let (mut reduced, reduced_summary) = run_reduced(options)?;
+    // A pressed contact the chosen step does not hold: again at a tenth of the step (as `lash run`).
+    if chooses
+        && let Some((finer, why)) =
+            lash_run::micro_step_for_unheld_contacts(&reduced_summary, &options, s.simulation().output_interval)
+    {
+        if !quiet {
+            eprintln!("note: {why}");
+        }
+        options.micro_step = finer;
+        reduced = run_reduced(options)?.0;
+        micro_step_choice = Some(micro_step_choice.map_or(why.clone(), |first| format!("{first}; then {why}")));
+    }
+    // The full model at the reduced model's micro step with RK4 (the reduced-interface-model
+    // papers' setting): the speed-up at equal step. It is not converged (impacts last about five
+    // such steps), so its results are not compared, only its time; a blow-up is reported, not fatal.
+    let mut fixed_scenario = s.clone();
+    fixed_scenario.simulation_mut().integrator = lash_ode::Method::Rk4 { step: options.micro_step };
+    let problems = fixed_scenario.validate();
+    let fixed = if problems.is_empty() {
+        let f = &fixed_scenario;
+        crate::run::run(
+            f,
+            (f.simulation(), f.output()),
+            full_runner(f, false).as_mut(),
+            &out.join("full-fixed-step"),
+            csv,
+            true,
+        )
+        .map(|(timing, _)| timing)
+        .map_err(|e| e.to_string())
+    } else {
+        Err(format!("{problems}"))
+    };
+    // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
+    let ideal_ok = crate::run::run(s, settings, full_runner(s, true).as_mut(), &out.join("ideal"), csv, true).is_ok();
+    Ok(Written { options, micro_step_choice, full, reduced, fixed, fixed_scenario, ideal_ok })
 }
 
 /// The models' simulation alone in rounds ([`crate::steady`]): the reduced model (`reduced`),
@@ -135,108 +209,88 @@ fn print_speedups(
     }
 }
 
+/// Every clearance joint, full against reduced, from the two summaries (which list them in the
+/// scenario's order).
+fn joint_statistics(sf: &serde_json::Value, sr: &serde_json::Value) -> Vec<serde_json::Value> {
+    let clearances: Vec<&str> =
+        sf["clearances"].as_array().into_iter().flatten().filter_map(|c| c["name"].as_str()).collect();
+    clearances
+        .iter()
+        .enumerate()
+        .map(|(j, joint)| {
+            let pick =
+                |key: &str| serde_json::json!({"full": sf["clearances"][j][key], "reduced": sr["clearances"][j][key]});
+            serde_json::json!({
+                "joint": joint,
+                "impacts": pick("impacts"),
+                "impacts_per_cycle": pick("impacts_per_cycle"),
+                "contact_fraction": pick("contact_fraction"),
+                "mean_contact_force": pick("mean_contact_force"),
+                "max_eccentricity": pick("max_eccentricity"),
+                "peak_normal_force": pick("peak_normal_force"),
+            })
+        })
+        .collect()
+}
+
+/// One line per compared channel and one per clearance joint.
+fn print_channels(
+    metrics: &std::collections::BTreeMap<String, compare::ChannelComparison>,
+    joint_statistics: &[serde_json::Value],
+) {
+    for (name, m) in metrics {
+        eprintln!(
+            "  {name:24} peak full {:.4e} / reduced {:.4e}, relative RMS error of reduced {:.3}, spectral distance {:.3}",
+            m.peak_full, m.peak_reduced, m.relative_rms_error, m.spectral_distance
+        );
+    }
+    for c in joint_statistics {
+        let both = |key: &str| (c[key]["full"].clone(), c[key]["reduced"].clone());
+        let ((fi, ri), (ff, rf)) = (both("impacts"), both("contact_fraction"));
+        let fraction = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
+        eprintln!(
+            "  {:24} impacts full {fi} / reduced {ri}, contact fraction full {} / reduced {}",
+            c["joint"].as_str().unwrap_or(""),
+            fraction(&ff),
+            fraction(&rf)
+        );
+    }
+}
+
 /// `lash compare`: both models of `s`, written to `out`, compared; the reduced model's micro step
 /// chosen from the full run's impacts unless `micro_step_given`.
 pub fn run(
     s: &AnyScenario,
     out: &Path,
-    mut options: ReducedOptions,
+    options: ReducedOptions,
     micro_step_given: bool,
     quiet: bool,
 ) -> Result<(), CliError> {
-    let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
-    let reduced_runner =
-        |options: ReducedOptions| lash_run::runner(s, lash_run::Model::Reduced(options)).map_err(refuse);
     // Refused settings are said before the full model runs.
-    reduced_runner(options)?;
+    lash_run::runner(s, lash_run::Model::Reduced(options))
+        .map_err(|e| CliError::Input(format!("the reduced model cannot run this scenario: {e}")))?;
     let (name, mut roles, motion) = compared_roles(s);
-    let (full_dir, reduced_dir) = (out.join("full"), out.join("reduced"));
+    let (full_dir, reduced_dir, ideal_dir) = (out.join("full"), out.join("reduced"), out.join("ideal"));
     let comparison_path = out.join("comparison.json");
     if comparison_path.exists() {
         std::fs::remove_file(&comparison_path)
             .map_err(|e| CliError::Failure(format!("{}: {e}", comparison_path.display())))?;
     }
-    let (full_timing, _) = crate::run::run(
-        s,
-        (s.simulation(), s.output()),
-        full_runner(s, false).as_mut(),
-        &full_dir,
-        crate::output::Format::Csv,
-        quiet,
-    )?;
-    let micro_step_choice = if micro_step_given || options.error_controlled_micro {
-        None
-    } else {
-        let (h, why) = micro_step_for(&full_dir, s, options)?;
-        options.micro_step = h;
-        why.inspect(|why| {
-            if !quiet {
-                eprintln!("note: {why}");
-            }
-        })
-    };
-    let run_reduced = |options: ReducedOptions| {
-        crate::run::run(
-            s,
-            (s.simulation(), s.output()),
-            reduced_runner(options)?.as_mut(),
-            &reduced_dir,
-            crate::output::Format::Csv,
-            quiet,
-        )
-    };
-    let (mut reduced_timing, reduced_summary) = run_reduced(options)?;
-    // A pressed contact the chosen step does not hold: again at a tenth of the step (as `lash run`).
-    let mut micro_step_choice = micro_step_choice;
-    if !micro_step_given
-        && !options.error_controlled_micro
-        && let Some((finer, why)) =
-            lash_run::micro_step_for_unheld_contacts(&reduced_summary, &options, s.simulation().output_interval)
-    {
-        if !quiet {
-            eprintln!("note: {why}");
-        }
-        options.micro_step = finer;
-        reduced_timing = run_reduced(options)?.0;
-        micro_step_choice = Some(micro_step_choice.map_or(why.clone(), |first| format!("{first}; then {why}")));
-    }
-    // The full model at the reduced model's micro step with RK4 (the reduced-interface-model papers' setting): the speed-up
-    // at equal step. It is not converged (impacts last about five such steps), so its results
-    // are not compared, only its time; a blow-up is reported, not fatal.
-    let fixed_dir = out.join("full-fixed-step");
-    let mut fixed = s.clone();
-    fixed.simulation_mut().integrator = lash_ode::Method::Rk4 { step: options.micro_step };
-    let fixed_timing = if fixed.validate().is_empty() {
-        crate::run::run(
-            &fixed,
-            (fixed.simulation(), fixed.output()),
-            full_runner(&fixed, false).as_mut(),
-            &fixed_dir,
-            crate::output::Format::Csv,
-            true,
-        )
-        .map(|(timing, _)| timing)
-        .map_err(|e| e.to_string())
-    } else {
-        Err(format!("{}", fixed.validate()))
-    };
+    let Written {
+        options,
+        micro_step_choice,
+        full: full_timing,
+        reduced: reduced_timing,
+        fixed: fixed_timing,
+        fixed_scenario,
+        ideal_ok,
+    } = written_runs(s, out, options, micro_step_given, quiet)?;
 
     // The headline speed-ups: each model's simulation alone, in rounds (crate::steady).
     let mut reduced_make = || lash_run::runner(s, lash_run::Model::Reduced(options));
-    let (steady, rounds) = steady_speedups(s, &fixed, fixed_timing.is_ok(), &mut reduced_make)?;
+    let (steady, rounds) = steady_speedups(s, &fixed_scenario, fixed_timing.is_ok(), &mut reduced_make)?;
     let (reduced_steady, full_steady, fixed_steady) = (steady[0], steady[1], steady.get(2).copied());
 
-    // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
-    let ideal_dir = out.join("ideal");
-    let ideal_ok = crate::run::run(
-        s,
-        (s.simulation(), s.output()),
-        full_runner(s, true).as_mut(),
-        &ideal_dir,
-        crate::output::Format::Csv,
-        true,
-    )
-    .is_ok();
     let ideal_rows = if ideal_ok { Some(read_csv(&ideal_dir.join("timeseries.csv"))?) } else { None };
     let (hf, full) = read_csv(&full_dir.join("timeseries.csv"))?;
     let (hr, red) = read_csv(&reduced_dir.join("timeseries.csv"))?;
@@ -268,26 +322,7 @@ pub fn run(
         "whole_run_equal_recording": full_timing.total_s / reduced_timing.total_s,
         "simulation_at_equal_step": fixed_steady.map(|f| f.ratio_to_first),
     });
-    // Every clearance joint, full against reduced (the summaries list them in the scenario's order).
-    let clearances: Vec<&str> =
-        sf["clearances"].as_array().into_iter().flatten().filter_map(|c| c["name"].as_str()).collect();
-    let joint_statistics: Vec<serde_json::Value> = clearances
-        .iter()
-        .enumerate()
-        .map(|(j, joint)| {
-            let pick =
-                |key: &str| serde_json::json!({"full": sf["clearances"][j][key], "reduced": sr["clearances"][j][key]});
-            serde_json::json!({
-                "joint": joint,
-                "impacts": pick("impacts"),
-                "impacts_per_cycle": pick("impacts_per_cycle"),
-                "contact_fraction": pick("contact_fraction"),
-                "mean_contact_force": pick("mean_contact_force"),
-                "max_eccentricity": pick("max_eccentricity"),
-                "peak_normal_force": pick("peak_normal_force"),
-            })
-        })
-        .collect();
+    let joint_statistics = joint_statistics(&sf, &sr);
     let report = serde_json::json!({
         "scenario": name,
         "timing": {
@@ -331,23 +366,7 @@ pub fn run(
         &fixed_timing,
         options.micro_step,
     );
-    for (name, m) in &metrics {
-        eprintln!(
-            "  {name:24} peak full {:.4e} / reduced {:.4e}, relative RMS error of reduced {:.3}, spectral distance {:.3}",
-            m.peak_full, m.peak_reduced, m.relative_rms_error, m.spectral_distance
-        );
-    }
-    for c in &joint_statistics {
-        let both = |key: &str| (c[key]["full"].clone(), c[key]["reduced"].clone());
-        let ((fi, ri), (ff, rf)) = (both("impacts"), both("contact_fraction"));
-        let fraction = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
-        eprintln!(
-            "  {:24} impacts full {fi} / reduced {ri}, contact fraction full {} / reduced {}",
-            c["joint"].as_str().unwrap_or(""),
-            fraction(&ff),
-            fraction(&rf)
-        );
-    }
+    print_channels(&metrics, &joint_statistics);
     print_bounds(&bounds);
     eprintln!("→ {}", comparison_path.display());
     Ok(())
