@@ -764,6 +764,49 @@ fn a_reduced_run_estimates_its_error_as_compare_measures_it() {
     assert!(!summary.contains("error_estimate"));
 }
 
+/// The estimate's coupling term is the distance of the one-way run's RMS levels from the two-way
+/// run's over the whole run, recomputed here from both runs' written CSVs; on B (whose rod–slider
+/// pin stops rattling in the one-way run after the probe window while the full model's goes on)
+/// the window term alone stays below the whole run's measured error on the slider and the pin,
+/// and the sum brackets it (docs/validation.md §6).
+#[test]
+fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
+    let dir = scratch("coupling-term");
+    let cmp = dir.join("cmp");
+    let o = lash(&["compare", "B", "--horizon", "0.2", "--out", cmp.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cmp.join("comparison.json")).unwrap()).unwrap();
+    let h = c["reduced_options"]["micro_step"].as_f64().unwrap().to_string();
+    let two_way = dir.join("two-way");
+    let args = ["run", "B", "--model", "reduced", "--coupling", "two-way", "--horizon", "0.2", "--no-error-estimate"];
+    let o = lash(&[&args[..], &["--micro-step", &h, "--out", two_way.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rms_of = |file: &Path, name: &str| {
+        let text = std::fs::read_to_string(file).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let k = header.iter().position(|c| c.starts_with(&format!("{name} ["))).unwrap();
+        let values: Vec<f64> = lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect();
+        (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+    };
+    let e = &c["error_estimate"];
+    for channel in e["estimate"]["channels"].as_array().unwrap() {
+        let name = channel["name"].as_str().unwrap();
+        let one = rms_of(&cmp.join("reduced/timeseries.csv"), name);
+        let two = rms_of(&two_way.join("timeseries.csv"), name);
+        let coupling = channel["coupling_error"].as_f64().unwrap();
+        let expected = (one - two).abs() / two;
+        assert!((coupling - expected).abs() <= 1e-9 * expected.max(1e-12), "{name}: {coupling} vs {expected}");
+        let window = channel["rms_level_error"].as_f64().unwrap();
+        assert!((channel["estimated_error"].as_f64().unwrap() - (window + coupling)).abs() < 1e-15, "{channel}");
+        if name == "slider.ax" || name == "rod_slider.force" {
+            let measured = e["whole_run_rms_level_error"][name].as_f64().unwrap();
+            assert!(window < measured && window + coupling >= measured, "{name}: {window} + {coupling} vs {measured}");
+        }
+    }
+}
+
 /// Without `--micro-step`, a reduced run takes the largest step up to 1e-5 s that gives each
 /// clearance joint's impacts (their median duration in the converged full model over the probe
 /// window) seven steps: B's rod–slider impacts (~50 µs) get 5e-6 s, and the reduced run's own

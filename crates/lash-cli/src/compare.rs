@@ -58,11 +58,19 @@ fn error_check(
         .iter()
         .filter_map(|c| {
             let whole = measured.get(&c.name)?.as_f64()?;
-            Some(format!("{} {:.1} % / {:.1} %", c.name, 100.0 * c.rms_level_error, 100.0 * whole))
+            let terms = c
+                .coupling_error
+                .map_or(String::new(), |k| format!(" ({:.1} + {:.1})", 100.0 * c.rms_level_error, 100.0 * k));
+            Some(format!("{} {:.1} %{terms} / {:.1} %", c.name, 100.0 * c.estimated_error, 100.0 * whole))
         })
         .collect();
+    let coupling = if estimate.channels.iter().any(|c| c.coupling_error.is_some()) {
+        " + one-way against two-way over the run"
+    } else {
+        ""
+    };
     eprintln!(
-        "  RMS level error of the reduced model, estimated over the first {:.4} s / measured over the run: {}",
+        "  RMS level error of the reduced model, estimated (the first {:.4} s{coupling}) / measured over the run: {}",
         estimate.window_s,
         parts.join(", ")
     );

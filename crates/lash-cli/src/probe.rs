@@ -1,11 +1,16 @@
-//! An error estimate for a reduced run: the converged full model and the reduced model run from
-//! the same start over a probe window (the first quarter of the run, at least 20 macro steps),
-//! compared on the run's main channels — the sensors' accelerations, each clearance joint's
-//! contact force and the driver torques. What it measures is the reduced model's distance from the
-//! converged full model over that window (method and step error together); a run that changes
-//! character after the window (a transient that dies, a joint that starts to rattle later) can
-//! be farther off than its probe says (docs/validation.md §6 shows how it compares with the
-//! whole-run error on the built-ins).
+//! An error estimate for a reduced run, in two terms on the run's main channels (the sensors'
+//! accelerations, each clearance joint's contact force and the driver torques):
+//! - the window term: the converged full model and the reduced model run from the same start over
+//!   a probe window (the first quarter of the run, at least 20 macro steps), compared by their
+//!   RMS levels — method and step error together, as far as the window shows them;
+//! - the coupling term (one-way runs): the one-way and the two-way reduced model over the whole
+//!   run, compared likewise — what taking the ideal mechanism's motion for the real one costs,
+//!   over the part of the run the window does not see (a joint that settles into a different
+//!   regime later, as B's rod–slider pin does).
+//!
+//! The estimate is their sum (the triangle inequality, with the window term standing for the
+//! two-way model's own distance from the full model); docs/validation.md §6 shows how it compares
+//! with the whole-run error on the built-ins.
 
 use lash_scenario::AnyScenario;
 use serde::Serialize;
@@ -19,6 +24,11 @@ pub struct ChannelError {
     pub rms_level_error: f64,
     /// Relative distance of the two amplitude spectra (lash-metrics' spectral distance).
     pub spectral_distance: f64,
+    /// |RMS(one-way) − RMS(two-way)| / RMS(two-way) over the whole run (none for a two-way run,
+    /// or when the two-way run failed).
+    pub coupling_error: Option<f64>,
+    /// The estimate: `rms_level_error` + `coupling_error`.
+    pub estimated_error: f64,
 }
 
 /// The error estimate of a reduced run.
@@ -28,7 +38,10 @@ pub struct ErrorEstimate {
     pub window_s: f64,
     /// Per main channel (channels at round-off in the full model are left out).
     pub channels: Vec<ChannelError>,
-    /// Wall time of the probe (both models) \[s\].
+    /// Why there is no coupling term, when a one-way run has none (the two-way run failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coupling_error_missing: Option<String>,
+    /// Wall time of the estimate (every model it ran) \[s\].
     pub wall_s: f64,
 }
 
@@ -45,13 +58,31 @@ impl ErrorEstimate {
 
     /// One line for the terminal.
     pub fn line(&self) -> String {
-        let parts: Vec<String> =
-            self.channels.iter().map(|c| format!("{} {:.1} %", c.name, 100.0 * c.rms_level_error)).collect();
-        format!(
-            "error estimate (reduced against the converged full model over the first {:.4} s, RMS level): {}",
-            self.window_s,
-            parts.join(", ")
-        )
+        let parts: Vec<String> = self
+            .channels
+            .iter()
+            .map(|c| match c.coupling_error {
+                Some(k) => format!(
+                    "{} {:.1} % ({:.1} % + {:.1} %)",
+                    c.name,
+                    100.0 * c.estimated_error,
+                    100.0 * c.rms_level_error,
+                    100.0 * k
+                ),
+                None => format!("{} {:.1} %", c.name, 100.0 * c.estimated_error),
+            })
+            .collect();
+        let terms = if self.channels.iter().any(|c| c.coupling_error.is_some()) {
+            format!(
+                "against the converged full model over the first {:.4} s + one-way against two-way coupling over the run",
+                self.window_s
+            )
+        } else {
+            format!("against the converged full model over the first {:.4} s", self.window_s)
+        };
+        let missing =
+            self.coupling_error_missing.as_ref().map_or(String::new(), |m| format!(" (no coupling term: {m})"));
+        format!("error estimate of the RMS levels ({terms}): {}{missing}", parts.join(", "))
     }
 }
 
@@ -124,6 +155,8 @@ pub struct FullProbe {
     /// The probe's scenario: the run's, over the window, recording the main channels.
     scenario: AnyScenario,
     window_s: f64,
+    /// The run's horizon \[s\] (the probe's scenario is cut to the window).
+    horizon: f64,
     full: Rows,
     wall_s: f64,
 }
@@ -141,7 +174,7 @@ impl FullProbe {
         s.output_mut().channels = main_channels(&s);
         s.output_mut().measurements.clear();
         let full = rows(&s, lash_run::Model::Full { ideal: false })?;
-        Ok(Self { scenario: s, window_s, full, wall_s: clock.elapsed().as_secs_f64() })
+        Ok(Self { scenario: s, window_s, horizon, full, wall_s: clock.elapsed().as_secs_f64() })
     }
 
     /// The micro step for `options` when the user gave none ([`choose_micro_step`] for the
@@ -175,16 +208,73 @@ impl FullProbe {
             .iter()
             .filter_map(|name| {
                 let c = compared.get(name)?;
+                let rms_level_error = (c.rms_reduced - c.rms_full).abs() / c.rms_full;
                 (c.rms_full > 1e-9 * largest(&c.unit)).then(|| ChannelError {
                     name: name.clone(),
-                    rms_level_error: (c.rms_reduced - c.rms_full).abs() / c.rms_full,
+                    rms_level_error,
                     spectral_distance: c.spectral_distance,
+                    coupling_error: None,
+                    estimated_error: rms_level_error,
                 })
             })
             .collect();
         let wall_s = self.wall_s + clock.elapsed().as_secs_f64();
-        Ok(ErrorEstimate { window_s: self.window_s, channels, wall_s })
+        Ok(ErrorEstimate { window_s: self.window_s, channels, coupling_error_missing: None, wall_s })
     }
+
+    /// The error estimate of a whole reduced run with `options`: [`FullProbe::estimate`]'s window
+    /// term, plus for a one-way run the coupling term over the whole run.
+    pub fn estimate_run(&self, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, ProbeError> {
+        let clock = std::time::Instant::now();
+        let mut e = self.estimate(options)?;
+        if options.coupling != lash_core::Coupling::OneWay {
+            return Ok(e);
+        }
+        let mut whole = self.scenario.clone();
+        whole.simulation_mut().horizon = self.horizon;
+        let names: Vec<String> = e.channels.iter().map(|c| c.name.clone()).collect();
+        let run = |coupling| {
+            let o = lash_run::ReducedOptions { channels_only: true, coupling, ..options };
+            whole_run_rms(&whole, lash_run::Model::Reduced(o), &names)
+        };
+        let one_way = run(lash_core::Coupling::OneWay)?;
+        match run(lash_core::Coupling::TwoWay) {
+            Ok(two_way) => {
+                for ((c, a), b) in e.channels.iter_mut().zip(one_way).zip(two_way) {
+                    let k = if b > 0.0 { (a - b).abs() / b } else { 0.0 };
+                    c.coupling_error = Some(k);
+                    c.estimated_error = c.rms_level_error + k;
+                }
+            }
+            Err(why) => e.coupling_error_missing = Some(format!("the two-way run failed: {why}")),
+        }
+        e.wall_s += clock.elapsed().as_secs_f64();
+        Ok(e)
+    }
+}
+
+/// The RMS of each of `channels` over a whole run of `model` of `scenario`, its rows streamed
+/// into the sums (not kept: a long run's rows need not fit in memory).
+fn whole_run_rms(scenario: &AnyScenario, model: lash_run::Model, channels: &[String]) -> Result<Vec<f64>, ProbeError> {
+    let mut runner = lash_run::runner(scenario, model)?;
+    let header = runner.header();
+    let columns: Vec<usize> = channels
+        .iter()
+        .map(|c| header.iter().position(|h| h.starts_with(&format!("{c} ["))))
+        .collect::<Option<_>>()
+        .ok_or_else(|| lash_metrics::CompareError::MissingChannel(channels.join(", ")))?;
+    let (mut squares, mut rows) = (vec![0.0; channels.len()], 0usize);
+    runner.execute(
+        &mut |row: &[f64]| {
+            rows += 1;
+            for (sum, &k) in squares.iter_mut().zip(&columns) {
+                *sum += row[k] * row[k];
+            }
+            Ok(())
+        },
+        &mut |_| {},
+    )?;
+    Ok(squares.iter().map(|sum| (sum / rows.max(1) as f64).sqrt()).collect())
 }
 
 /// One setting `--tolerance` tried over the probe window.
@@ -325,9 +415,10 @@ pub fn choose_micro_step(
     (h, why)
 }
 
-/// The error estimate of the reduced model of `scenario` with `options` (its horizon the run's).
+/// The error estimate of a reduced run of `scenario` with `options` (its horizon the run's):
+/// both terms ([`FullProbe::estimate_run`]).
 pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, ProbeError> {
-    FullProbe::run(scenario, options.macro_step, true)?.estimate(options)
+    FullProbe::run(scenario, options.macro_step, true)?.estimate_run(options)
 }
 
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
@@ -342,7 +433,7 @@ pub fn attach(
 ) -> Result<(), crate::CliError> {
     let fail = |e: String| crate::CliError::Failure(e);
     let estimated = |p: &Result<FullProbe, ProbeError>| match p {
-        Ok(p) => p.estimate(options).map_err(|e| e.to_string()),
+        Ok(p) => p.estimate_run(options).map_err(|e| e.to_string()),
         Err(e) => Err(e.to_string()),
     };
     let value = match probe.map(estimated) {
