@@ -805,6 +805,20 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
             assert!(window < measured && window + coupling >= measured, "{name}: {window} + {coupling} vs {measured}");
         }
     }
+    // Above the stated 10 %, a run says so and names the way out; A's coupling term is small.
+    let said = "one-way coupling moves";
+    for (name, warned) in [("B", true), ("A", false)] {
+        let run = dir.join(name);
+        let o = lash(&["run", name, "--model", "reduced", "--horizon", "0.2", "--out", run.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+        let in_summary = s["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().starts_with(said));
+        assert_eq!((stderr(&o).contains(said), in_summary), (warned, warned), "{name}: {}", stderr(&o));
+        if warned {
+            assert!(stderr(&o).contains("--coupling two-way"), "{}", stderr(&o));
+        }
+    }
 }
 
 /// Without `--micro-step`, a reduced run takes the largest step up to 1e-5 s that gives each

@@ -74,6 +74,9 @@ fn error_check(
         estimate.window_s,
         parts.join(", ")
     );
+    if let Some(w) = estimate.coupling_warning() {
+        eprintln!("  warning: {w}");
+    }
     serde_json::json!({ "estimate": estimate, "whole_run_rms_level_error": measured })
 }
 

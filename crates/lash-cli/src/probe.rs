@@ -51,6 +51,28 @@ impl ErrorEstimate {
         self.channels.iter().map(|c| c.rms_level_error).fold(0.0, f64::max)
     }
 
+    /// A warning when one-way coupling alone moves a main channel's RMS level over the run by
+    /// more than the stated RMS bound ([`lash_metrics::STATED`]): the run's motion departs from
+    /// the ideal mechanism's, which no finer step mends.
+    pub fn coupling_warning(&self) -> Option<String> {
+        let bound = lash_metrics::STATED.rms;
+        let (name, k) = self
+            .channels
+            .iter()
+            .filter_map(|c| Some((c.name.as_str(), c.coupling_error?)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))?;
+        (k > bound).then(|| {
+            format!(
+                "one-way coupling moves {name}'s RMS level by {:.1} % over the run against two-way coupling (the stated \
+                 bound is {:.0} %): the mechanism's motion departs from the ideal one that one-way coupling takes, \
+                 and finer steps do not mend it; --coupling two-way feeds the contact forces back to the mechanism \
+                 (its own error estimate then says how far it is from the full model)",
+                100.0 * k,
+                100.0 * bound
+            )
+        })
+    }
+
     /// The channel with the largest RMS level error.
     pub fn worst_channel(&self) -> Option<String> {
         self.channels.iter().max_by(|a, b| a.rms_level_error.total_cmp(&b.rms_level_error)).map(|c| c.name.clone())
@@ -422,8 +444,9 @@ pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Re
 }
 
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
-/// (none without a probe) and `notes` (how its steps were chosen); prints the estimate. A probe
-/// that failed is recorded as such: the run stands.
+/// (none without a probe), the estimate's coupling warning ([`ErrorEstimate::coupling_warning`])
+/// to its warnings, and `notes` (how its steps were chosen); prints the estimate. A probe that
+/// failed is recorded as such: the run stands.
 pub fn attach(
     probe: Option<&Result<FullProbe, ProbeError>>,
     options: lash_run::ReducedOptions,
@@ -436,11 +459,16 @@ pub fn attach(
         Ok(p) => p.estimate_run(options).map_err(|e| e.to_string()),
         Err(e) => Err(e.to_string()),
     };
+    let mut warning = None;
     let value = match probe.map(estimated) {
         None => None,
         Some(Ok(e)) => {
             if !quiet {
                 eprintln!("{}", e.line());
+            }
+            warning = e.coupling_warning();
+            if let Some(w) = &warning {
+                eprintln!("warning: {w}");
             }
             Some(serde_json::to_value(&e).map_err(|e| fail(e.to_string()))?)
         }
@@ -455,6 +483,9 @@ pub fn attach(
     if let Some(map) = summary.as_object_mut() {
         if let Some(value) = value {
             map.insert("error_estimate".into(), value);
+        }
+        if let (Some(w), Some(serde_json::Value::Array(warnings))) = (warning, map.get_mut("warnings")) {
+            warnings.push(w.into());
         }
         map.extend(notes);
     }
