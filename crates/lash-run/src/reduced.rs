@@ -680,33 +680,37 @@ fn summarise(
     })
 }
 
+/// The master signal of quantity `q` of sensor `p`, whose position, velocity and acceleration
+/// have `dimension` components each (2 planar, 3 spatial), in that order: position and velocity
+/// from the macro outputs with their derivatives (Hermite between the nodes), the acceleration
+/// propagated (`loads` gains per component). One home for the planar and the spatial run.
+pub(crate) fn sensor_signal(name: String, p: &str, q: usize, dimension: usize, loads: usize) -> Signal {
+    match q / dimension {
+        0 => Signal::Macro {
+            name,
+            variable: format!("{p}.position"),
+            element: q,
+            derivative: Some((format!("{p}.velocity"), q)),
+        },
+        1 => Signal::Macro {
+            name,
+            variable: format!("{p}.velocity"),
+            element: q - dimension,
+            derivative: Some((format!("{p}.acceleration"), q - dimension)),
+        },
+        _ => Signal::Propagated {
+            name,
+            free: (format!("{p}.acceleration_free"), q - 2 * dimension),
+            gain: (format!("{p}.acceleration_gain"), (q - 2 * dimension) * loads),
+        },
+    }
+}
+
 /// The master signal that computes channel `c`; `loads` = n + k gains per propagated value.
 fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: Source) -> Signal {
     let name = c.name.clone();
     match src {
-        Source::Sensor(k, q) => {
-            let p = &s.sensors[k].name;
-            let q = q as usize;
-            match q {
-                0 | 1 => Signal::Macro {
-                    name,
-                    variable: format!("{p}.position"),
-                    element: q,
-                    derivative: Some((format!("{p}.velocity"), q)),
-                },
-                2 | 3 => Signal::Macro {
-                    name,
-                    variable: format!("{p}.velocity"),
-                    element: q - 2,
-                    derivative: Some((format!("{p}.acceleration"), q - 2)),
-                },
-                _ => Signal::Propagated {
-                    name,
-                    free: (format!("{p}.acceleration_free"), q - 4),
-                    gain: (format!("{p}.acceleration_gain"), (q - 4) * loads),
-                },
-            }
-        }
+        Source::Sensor(k, q) => sensor_signal(name, &s.sensors[k].name, q as usize, 2, loads),
         Source::Clearance(j, q) => {
             // Interface vectors: elements 2j, 2j + 1; per-joint quantities: element j.
             let (variable, element) = match CLEARANCE_QUANTITIES[q as usize].0 {

@@ -442,26 +442,7 @@ impl SpatialReducedRun {
                         return unsupported("a sensor on the ground in the reduced model (its channels are constant)");
                     };
                     let p = &sen.name;
-                    let q = q as usize;
-                    let signal = match q / 3 {
-                        0 => Signal::Macro {
-                            name,
-                            variable: format!("{p}.position"),
-                            element: q,
-                            derivative: Some((format!("{p}.velocity"), q)),
-                        },
-                        1 => Signal::Macro {
-                            name,
-                            variable: format!("{p}.velocity"),
-                            element: q - 3,
-                            derivative: Some((format!("{p}.acceleration"), q - 3)),
-                        },
-                        _ => Signal::Propagated {
-                            name,
-                            free: (format!("{p}.acceleration_free"), q - 6),
-                            gain: (format!("{p}.acceleration_gain"), (q - 6) * loads),
-                        },
-                    };
+                    let signal = crate::reduced::sensor_signal(name, p, q as usize, 3, loads);
                     (
                         Some(lash_spatial::SpatialProbe::Point { name: p.clone(), body, point: Vec3::from(sen.point) }),
                         signal,
