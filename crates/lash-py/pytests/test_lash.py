@@ -6,6 +6,7 @@ repository.
 """
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -121,6 +122,25 @@ def test_a_pressed_contact_the_step_does_not_hold_is_run_again_finer_as_the_comm
     given = lash.run("F-0.25mm", "reduced", micro_step=1e-5)
     assert "micro_step_refined" not in given.summary
     assert any("carries no force" in w for w in given.summary["warnings"])
+
+
+def test_a_reduced_run_estimates_its_error_as_the_command_line(tmp_path):
+    # B over 0.2 s: the error estimate (window term + coupling term) and the coupling warning are
+    # those `lash run` writes, to the bit; without error_estimate there is none.
+    r = lash.run("B", "reduced", horizon=0.2, error_estimate=True)
+    done = cli("run", "B", "--model", "reduced", "--horizon", "0.2", "--out", str(tmp_path / "b"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    with open(tmp_path / "b" / "summary.json") as f:
+        written = json.load(f)
+    assert np.array_equal(r.samples, read_csv(tmp_path / "b" / "timeseries.csv")[1])
+    ours, theirs = r.summary["error_estimate"], written["error_estimate"]
+    assert ours["channels"] == theirs["channels"] and ours["window_s"] == theirs["window_s"]
+    for c in ours["channels"]:
+        assert c["estimated_error"] == c["rms_level_error"] + c["coupling_error"]
+    assert [w for w in r.summary["warnings"] if w.startswith("one-way coupling")] == [
+        w for w in written["warnings"] if w.startswith("one-way coupling")
+    ] != []
+    assert "error_estimate" not in lash.run("B", "reduced", horizon=0.012).summary
 
 
 def test_a_run_records_the_channels_asked_for():

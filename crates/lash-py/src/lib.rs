@@ -257,19 +257,33 @@ impl ReducedSettings<'_> {
 }
 
 /// A reduced run's micro step when none is given, chosen as `lash run` chooses it (from the
-/// converged full model's impacts over its first 50 ms); why, when it is not the default or the
+/// converged full model's impacts over `probe`'s window); why, when it is not the default or the
 /// probe failed. DOPRI5's communication step is kept.
-fn choose_micro_step(py: Python<'_>, scenario: &AnyScenario, options: &mut lash_run::ReducedOptions) -> Option<String> {
+fn choose_micro_step(
+    probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::ProbeError>,
+    options: &mut lash_run::ReducedOptions,
+) -> Option<String> {
     if options.error_controlled_micro {
         return None;
     }
-    let o = *options;
-    match py.detach(|| lash_cli::probe::FullProbe::run(scenario, o.macro_step, false).map(|p| p.micro_step(o))) {
+    match probe.as_ref().map(|p| p.micro_step(*options)) {
         Ok((h, why)) => {
             options.micro_step = h;
             why
         }
-        Err(e) => Some(format!("micro step kept at {:e} s: the full model's probe failed: {e}", o.micro_step)),
+        Err(e) => Some(format!("micro step kept at {:e} s: the full model's probe failed: {e}", options.micro_step)),
+    }
+}
+
+/// The error estimate of a reduced run with `options` against `probe` as summary.json holds it
+/// (lash_cli::probe), and its coupling warning.
+fn error_estimate_of(
+    probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::ProbeError>,
+    options: lash_run::ReducedOptions,
+) -> (serde_json::Value, Option<String>) {
+    match probe.as_ref().map_err(|e| e.to_string()).and_then(|p| p.estimate_run(options).map_err(|e| e.to_string())) {
+        Ok(e) => (serde_json::to_value(&e).unwrap_or_default(), e.coupling_warning()),
+        Err(e) => (serde_json::json!({ "error": e }), None),
     }
 }
 
@@ -277,7 +291,7 @@ fn choose_micro_step(py: Python<'_>, scenario: &AnyScenario, options: &mut lash_
 #[pyfunction]
 #[pyo3(signature = (
     scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = None,
-    interpolation = "linear", coupling = "one_way", micro = "rk4", threaded = false
+    interpolation = "linear", coupling = "one_way", micro = "rk4", threaded = false, error_estimate = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn run<'py>(
@@ -291,15 +305,22 @@ fn run<'py>(
     coupling: &str,
     micro: &str,
     threaded: bool,
+    error_estimate: bool,
 ) -> PyResult<RunResult<'py>> {
     let given = micro_step;
     let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded };
     let mut options = settings.options(py)?;
-    let choice = if model == "reduced" && !ideal && given.is_none() {
-        choose_micro_step(py, &scenario.inner, &mut options)
-    } else {
-        None
+    // The converged full model over the first part of the run, as `lash run` runs it: over the
+    // error estimate's window when one is asked for, else over the micro step's choice window.
+    let reduced = model == "reduced" && !ideal;
+    let probe = (reduced && (given.is_none() || error_estimate)).then(|| {
+        let (s, h) = (&scenario.inner, options.macro_step);
+        py.detach(|| lash_cli::probe::FullProbe::run(s, h, error_estimate))
+    });
+    let choice = match &probe {
+        Some(p) if given.is_none() => choose_micro_step(p, &mut options),
+        _ => None,
     };
     let model = match (model, ideal) {
         ("full", _) => lash_run::Model::Full { ideal },
@@ -313,7 +334,7 @@ fn run<'py>(
     let mut outcome = execute_in_memory(py, &scenario, model);
     // A pressed contact the chosen step does not hold: again at a tenth of the step (as `lash run`).
     let mut refined = None;
-    if let (None, Ok((_, _, summary)), lash_run::Model::Reduced(mut options)) = (given, &outcome, model)
+    if let (None, Ok((_, _, summary)), true) = (given, &outcome, reduced)
         && let Some((finer, why)) =
             lash_run::micro_step_for_unheld_contacts(summary, &options, scenario.simulation().output_interval)
     {
@@ -322,6 +343,10 @@ fn run<'py>(
         refined = Some(why);
     }
     let (header, values, summary) = outcome?;
+    let estimate = match &probe {
+        Some(p) if error_estimate => Some(py.detach(|| error_estimate_of(p, options))),
+        _ => None,
+    };
     let mut summary = serde_json::to_value(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
     if let Some(map) = summary.as_object_mut() {
         if let Some(why) = choice {
@@ -329,6 +354,12 @@ fn run<'py>(
         }
         if let Some(why) = refined {
             map.insert("micro_step_refined".into(), why.into());
+        }
+        if let Some((value, warning)) = estimate {
+            map.insert("error_estimate".into(), value);
+            if let (Some(w), Some(serde_json::Value::Array(warnings))) = (warning, map.get_mut("warnings")) {
+                warnings.push(w.into());
+            }
         }
     }
     let summary = summary.to_string();

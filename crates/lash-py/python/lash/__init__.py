@@ -213,6 +213,7 @@ def run(
     horizon: Optional[float] = None,
     step: Optional[float] = None,
     channels: Optional[Sequence[str]] = None,
+    error_estimate: bool = False,
 ) -> Run:
     """Runs a scenario (a :class:`Scenario`, a built-in name or a file) or a system file.
 
@@ -228,7 +229,11 @@ def run(
     ``micro_step_choice`` says why when it is not 1e-5 s. Give ``micro_step`` to skip it (many
     runs: a sweep). ``horizon`` [s] overrides the scenario's;
     ``channels`` selects the channels recorded (the scenario's ``output.channels``: fewer
-    channels, less memory and time).
+    channels, less memory and time). ``error_estimate=True`` adds to a reduced run's summary its
+    ``error_estimate``, as ``lash run`` writes it (on by default there): how far its RMS levels
+    are likely from the converged full model's on the main channels — the full model over the
+    first quarter of the run plus, for one-way coupling, one-way against two-way over the whole
+    run — and a warning when one-way coupling itself is off; it costs those runs.
 
     A **system file** (TOML with ``[[elements]]``, SSP ``.ssd`` or ``.ssp``: FMUs, plugins and
     built-ins coupled, as ``lash run system.toml``) runs as written; ``horizon`` and ``step``
@@ -252,7 +257,9 @@ def run(
         fields = s.to_dict()
         fields.setdefault("output", {})["channels"] = list(channels)
         s = Scenario.from_dict(fields)
-    return Run(*_lash.run(s, model, ideal, macro_step, micro_step, interpolation, coupling, micro, threaded))
+    return Run(
+        *_lash.run(s, model, ideal, macro_step, micro_step, interpolation, coupling, micro, threaded, error_estimate)
+    )
 
 
 def _sweep_file(spec: Mapping[str, Any], folder: str) -> str:

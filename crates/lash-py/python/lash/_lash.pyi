@@ -51,6 +51,7 @@ def run(
     coupling: str = "one_way",
     micro: str = "rk4",
     threaded: bool = False,
+    error_estimate: bool = False,
 ) -> Tuple[List[str], List[str], np.ndarray, str]: ...
 def run_system(
     path: Union[str, PathLike[str]], step: Optional[float] = None, stop: Optional[float] = None
