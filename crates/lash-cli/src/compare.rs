@@ -40,8 +40,9 @@ fn error_check(
     s: &AnyScenario,
     options: ReducedOptions,
     metrics: &std::collections::BTreeMap<String, compare::ChannelComparison>,
+    quiet: bool,
 ) -> serde_json::Value {
-    let estimate = match crate::probe::estimate(s, options) {
+    let estimate = match crate::probe::estimate(s, options, quiet) {
         Ok(e) => e,
         Err(e) => return serde_json::json!({ "error": e.to_string() }),
     };
@@ -357,7 +358,7 @@ pub fn run(
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,
-        "error_estimate": error_check(s, options, &metrics),
+        "error_estimate": error_check(s, options, &metrics, quiet),
         "measurements": {
             "full": sf["measurements"],
             "reduced": sr["measurements"],

@@ -245,8 +245,13 @@ impl FullProbe {
     }
 
     /// The error estimate of a whole reduced run with `options`: [`FullProbe::estimate`]'s window
-    /// term, plus for a one-way run the coupling term over the whole run.
-    pub fn estimate_run(&self, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, ProbeError> {
+    /// term, plus for a one-way run the coupling term over the whole run (the two-way run's
+    /// simulated fraction to `progress`: it is the long part).
+    pub fn estimate_run(
+        &self,
+        options: lash_run::ReducedOptions,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<ErrorEstimate, ProbeError> {
         let clock = std::time::Instant::now();
         let mut e = self.estimate(options)?;
         if options.coupling != lash_core::Coupling::OneWay {
@@ -255,12 +260,12 @@ impl FullProbe {
         let mut whole = self.scenario.clone();
         whole.simulation_mut().horizon = self.horizon;
         let names: Vec<String> = e.channels.iter().map(|c| c.name.clone()).collect();
-        let run = |coupling| {
+        let run = |coupling, progress: &mut dyn FnMut(f64)| {
             let o = lash_run::ReducedOptions { channels_only: true, coupling, ..options };
-            whole_run_rms(&whole, lash_run::Model::Reduced(o), &names)
+            whole_run_rms(&whole, lash_run::Model::Reduced(o), &names, progress)
         };
-        let one_way = run(lash_core::Coupling::OneWay)?;
-        match run(lash_core::Coupling::TwoWay) {
+        let one_way = run(lash_core::Coupling::OneWay, &mut |_| {})?;
+        match run(lash_core::Coupling::TwoWay, progress) {
             Ok(two_way) => {
                 for ((c, a), b) in e.channels.iter_mut().zip(one_way).zip(two_way) {
                     let k = if b > 0.0 { (a - b).abs() / b } else { 0.0 };
@@ -276,8 +281,13 @@ impl FullProbe {
 }
 
 /// The RMS of each of `channels` over a whole run of `model` of `scenario`, its rows streamed
-/// into the sums (not kept: a long run's rows need not fit in memory).
-fn whole_run_rms(scenario: &AnyScenario, model: lash_run::Model, channels: &[String]) -> Result<Vec<f64>, ProbeError> {
+/// into the sums (not kept: a long run's rows need not fit in memory); its progress to `progress`.
+fn whole_run_rms(
+    scenario: &AnyScenario,
+    model: lash_run::Model,
+    channels: &[String],
+    progress: &mut dyn FnMut(f64),
+) -> Result<Vec<f64>, ProbeError> {
     let mut runner = lash_run::runner(scenario, model)?;
     let header = runner.header();
     let columns: Vec<usize> = channels
@@ -294,7 +304,7 @@ fn whole_run_rms(scenario: &AnyScenario, model: lash_run::Model, channels: &[Str
             }
             Ok(())
         },
-        &mut |_| {},
+        progress,
     )?;
     Ok(squares.iter().map(|sum| (sum / rows.max(1) as f64).sqrt()).collect())
 }
@@ -438,9 +448,27 @@ pub fn choose_micro_step(
 }
 
 /// The error estimate of a reduced run of `scenario` with `options` (its horizon the run's):
-/// both terms ([`FullProbe::estimate_run`]).
-pub fn estimate(scenario: &AnyScenario, options: lash_run::ReducedOptions) -> Result<ErrorEstimate, ProbeError> {
-    FullProbe::run(scenario, options.macro_step, true)?.estimate_run(options)
+/// both terms ([`FullProbe::estimate_run`]), a delayed progress bar unless `quiet`.
+pub fn estimate(
+    scenario: &AnyScenario,
+    options: lash_run::ReducedOptions,
+    quiet: bool,
+) -> Result<ErrorEstimate, ProbeError> {
+    let probe = FullProbe::run(scenario, options.macro_step, true)?;
+    estimate_with_bar(&probe, options, quiet)
+}
+
+/// [`FullProbe::estimate_run`] with a bar of its two-way run that shows after a second, unless
+/// `quiet`.
+fn estimate_with_bar(
+    probe: &FullProbe,
+    options: lash_run::ReducedOptions,
+    quiet: bool,
+) -> Result<ErrorEstimate, ProbeError> {
+    let mut bar = crate::run::DelayedBar::new("simulated (the error estimate's two-way run)", quiet);
+    let estimate = probe.estimate_run(options, &mut |f| bar.update(f));
+    bar.finish();
+    estimate
 }
 
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
@@ -456,7 +484,7 @@ pub fn attach(
 ) -> Result<(), crate::CliError> {
     let fail = |e: String| crate::CliError::Failure(e);
     let estimated = |p: &Result<FullProbe, ProbeError>| match p {
-        Ok(p) => p.estimate_run(options).map_err(|e| e.to_string()),
+        Ok(p) => estimate_with_bar(p, options, quiet).map_err(|e| e.to_string()),
         Err(e) => Err(e.to_string()),
     };
     let mut warning = None;

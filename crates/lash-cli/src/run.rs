@@ -9,6 +9,46 @@ use lash_run::Runner;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+/// A bar of the simulated fraction of a run that shows itself only once the run has taken a
+/// second (a short run draws nothing), and never when `quiet`.
+pub(crate) struct DelayedBar {
+    bar: ProgressBar,
+    started: Instant,
+    shown: bool,
+    quiet: bool,
+    /// Per mille: the clock is read only when the bar would move.
+    position: u64,
+}
+
+impl DelayedBar {
+    /// A hidden bar labelled `what` ("simulated", …).
+    pub(crate) fn new(what: &str, quiet: bool) -> Self {
+        let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
+        let template = format!("{{spinner}} [{{elapsed_precise}}] {{wide_bar}} {{percent:>3}}% {what}, ETA {{eta}}");
+        bar.set_style(ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar()));
+        Self { bar, started: Instant::now(), shown: false, quiet, position: 0 }
+    }
+
+    /// The run is at fraction `f` of its time span.
+    pub(crate) fn update(&mut self, f: f64) {
+        let now = (f * 1000.0) as u64;
+        if now == self.position {
+            return;
+        }
+        self.position = now;
+        if !self.quiet && !self.shown && self.started.elapsed() > Duration::from_secs(1) {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+            self.shown = true;
+        }
+        self.bar.set_position(now);
+    }
+
+    /// Clears the bar.
+    pub(crate) fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
 /// Wall times of one run on one monotonic clock [s]: the simulation (everything but the output),
 /// the output (formatting and writing the rows, and the final flush), and the whole run.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -64,32 +104,13 @@ pub fn run<S: serde::Serialize>(
         }
     }
 
-    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% simulated, ETA {eta}")
-            .expect("static template"),
-    );
-    let started = Instant::now();
-    let mut shown = false;
-    let mut position = 0;
-    let mut progress = |f: f64| {
-        // Per mille: the clock is read only when the bar would move.
-        let now = (f * 1000.0) as u64;
-        if now == position {
-            return;
-        }
-        position = now;
-        if !quiet && !shown && started.elapsed() > Duration::from_secs(1) {
-            bar.set_draw_target(ProgressDrawTarget::stderr());
-            shown = true;
-        }
-        bar.set_position(now);
-    };
+    let mut bar = DelayedBar::new("simulated", quiet);
+    let mut progress = |f: f64| bar.update(f);
     let mut sink = |row: &[f64]| csv.row(row).map_err(lash_core::BoxError::from);
     let run_started = Instant::now();
     let result = runner.execute(&mut sink, &mut progress);
     let mut total = run_started.elapsed();
-    bar.finish_and_clear();
+    bar.finish();
     let summary = match result {
         Ok(s) => s,
         Err(e) => {

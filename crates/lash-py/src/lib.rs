@@ -281,7 +281,11 @@ fn error_estimate_of(
     probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::ProbeError>,
     options: lash_run::ReducedOptions,
 ) -> (serde_json::Value, Option<String>) {
-    match probe.as_ref().map_err(|e| e.to_string()).and_then(|p| p.estimate_run(options).map_err(|e| e.to_string())) {
+    match probe
+        .as_ref()
+        .map_err(|e| e.to_string())
+        .and_then(|p| p.estimate_run(options, &mut |_| {}).map_err(|e| e.to_string()))
+    {
         Ok(e) => (serde_json::to_value(&e).unwrap_or_default(), e.coupling_warning()),
         Err(e) => (serde_json::json!({ "error": e }), None),
     }
