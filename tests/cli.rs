@@ -18,6 +18,11 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// A JSON file the command wrote (summary.json, comparison.json).
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
 fn files_in(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
         .map(|d| d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect())
@@ -38,8 +43,7 @@ fn full_run_writes_csv_and_summary() {
         assert!(header.contains(col), "header lacks {col}: {header}");
     }
     assert_eq!(csv.lines().count(), 1 + 401, "401 samples at 1e-5 s over 4 ms");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value = read_json(&out.join("summary.json"));
     for key in ["cpu_time_s", "steps", "rejected_steps", "channels", "clearances"] {
         assert!(summary.get(key).is_some(), "summary lacks {key}");
     }
@@ -136,8 +140,7 @@ fn reduced_model_runs_from_the_command_line() {
     let out = dir.join("A");
     let o = lash(&["run", "A", "--model", "reduced", "--out", out.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value = read_json(&out.join("summary.json"));
     assert_eq!(summary["model"], "reduced");
     assert_eq!(summary["samples"], 3601);
 }
@@ -150,8 +153,7 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
     let o = lash(&["compare", "A", "--horizon", "0.006", "--out", out.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("full/timeseries.csv").exists() && out.join("reduced/timeseries.csv").exists());
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
+    let c: serde_json::Value = read_json(&out.join("comparison.json"));
     // Timings on one clock, simulation and output apart, and the three ratios.
     for model in ["full", "reduced", "full_rk4_at_micro_step"] {
         let t = &c["timing"][model];
@@ -175,8 +177,7 @@ fn main_job_compare_writes_both_runs_metrics_and_figures() {
         assert!((0.5..2.0).contains(&(ratio / of_medians)), "{key}: {ratio} vs {of_medians}");
     }
     assert!(s["whole_run_equal_recording"].as_f64().unwrap() > 0.0);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("reduced/summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value = read_json(&out.join("reduced/summary.json"));
     assert_eq!(summary["timing"], c["timing"]["reduced"], "summary.json carries the same split");
     let ax = &c["channels"]["slider.ax"];
     for key in ["peak_full", "peak_reduced", "relative_rms_error", "spectral_distance", "band_powers_full"] {
@@ -213,8 +214,7 @@ fn compare_of_the_spatial_scenario_draws_the_bearing_force_and_the_housing_vibra
     // 0.3 s: the housing's steady-state window opens at 0.24 s, 500 Hz logging.
     let o = lash(&["compare", "E", "--horizon", "0.3", "--out", out.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
+    let c: serde_json::Value = read_json(&out.join("comparison.json"));
     let figures: Vec<&str> = c["figures"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
     for f in ["slider_guide.fy", "slider_guide.fz", "housing.ay", "housing.az"] {
         for file in [format!("figures/{f}.svg"), format!("figures/{f}_spectrum.svg")] {
@@ -339,8 +339,7 @@ fn reduced_options_reach_the_summary() {
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = read_json(&out.join("summary.json"));
     assert_eq!(s["reduced"]["options"]["coupling"], "two_way");
     assert_eq!(s["reduced"]["options"]["interpolation"], "cubic_hermite");
     assert_eq!(s["reduced"]["kinematic_macro"], false);
@@ -530,8 +529,7 @@ fn a_spatial_scenario_runs_and_writes_its_emulated_measurement() {
     let logged = std::fs::read_to_string(out.join("measurement_housing.csv")).unwrap();
     assert_eq!(logged.lines().next().unwrap(), "time [s],housing.ax [m/s^2],housing.ay [m/s^2],housing.az [m/s^2]");
     assert_eq!(logged.lines().count(), 1 + 31, "0.24 … 0.30 s at 2 ms");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value = read_json(&out.join("summary.json"));
     assert_eq!(summary["measurements"][0]["axes"][2]["channel"], "housing.az");
     // The spatial scenario is written back as run, and reads again.
     let o = lash(&["validate", out.join("scenario.toml").to_str().unwrap()]);
@@ -712,8 +710,7 @@ fn compare_reports_every_clearance_joint() {
     let out = dir.join("cmp");
     let o = lash(&["compare", "C", "--horizon", "0.01", "--micro-step", "5e-6", "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("comparison.json")).unwrap()).unwrap();
+    let c: serde_json::Value = read_json(&out.join("comparison.json"));
     let joints: Vec<&str> = c["clearances"].as_array().unwrap().iter().map(|j| j["joint"].as_str().unwrap()).collect();
     assert_eq!(joints, ["crank_pivot", "rod_slider"]);
     for j in c["clearances"].as_array().unwrap() {
@@ -736,15 +733,13 @@ fn a_reduced_run_estimates_its_error_as_compare_measures_it() {
     let o = lash(&["run", "A", "--model", "reduced", "--horizon", "0.036", "--out", run.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("error estimate"), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value = read_json(&run.join("summary.json"));
     let estimate = &summary["error_estimate"];
     assert!((estimate["window_s"].as_f64().unwrap() - 0.02).abs() < 1e-12, "{estimate}");
     let cmp = dir.join("cmp");
     let o = lash(&["compare", "A", "--horizon", "0.02", "--out", cmp.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(cmp.join("comparison.json")).unwrap()).unwrap();
+    let c: serde_json::Value = read_json(&cmp.join("comparison.json"));
     let names: Vec<&str> =
         estimate["channels"].as_array().unwrap().iter().map(|c| c["name"].as_str().unwrap()).collect();
     assert!(names.contains(&"slider.ax") && names.contains(&"crank_pivot.force"), "{names:?}");
@@ -775,8 +770,7 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
     let cmp = dir.join("cmp");
     let o = lash(&["compare", "B", "--horizon", "0.2", "--out", cmp.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(cmp.join("comparison.json")).unwrap()).unwrap();
+    let c: serde_json::Value = read_json(&cmp.join("comparison.json"));
     let h = c["reduced_options"]["micro_step"].as_f64().unwrap().to_string();
     let two_way = dir.join("two-way");
     let args = ["run", "B", "--model", "reduced", "--coupling", "two-way", "--horizon", "0.2", "--no-error-estimate"];
@@ -811,8 +805,7 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
         let run = dir.join(name);
         let o = lash(&["run", name, "--model", "reduced", "--horizon", "0.2", "--out", run.to_str().unwrap()]);
         assert!(o.status.success(), "{}", stderr(&o));
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+        let s: serde_json::Value = read_json(&run.join("summary.json"));
         let in_summary = s["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().starts_with(said));
         assert_eq!((stderr(&o).contains(said), in_summary), (warned, warned), "{name}: {}", stderr(&o));
         if warned {
@@ -829,9 +822,7 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
 #[test]
 fn the_default_micro_step_resolves_the_impacts_it_meets() {
     let dir = scratch("micro-step");
-    let summary = |d: &std::path::Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap()
-    };
+    let summary = |d: &std::path::Path| -> serde_json::Value { read_json(&d.join("summary.json")) };
     let b = dir.join("b");
     let o = lash(&["run", "B", "--model", "reduced", "--out", b.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -904,8 +895,7 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
         // and the run made again at a tenth of the step, which holds it. A step given is kept.
         let (unloaded, again) = ("carries no force", "the run was made again at a tenth of the step");
         assert_eq!(stderr(&o).contains(unloaded), name == "F-0.25mm", "{name}: {}", stderr(&o));
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let s: serde_json::Value = read_json(&out.join("summary.json"));
         assert_eq!(s["micro_step_refined"].is_string(), name == "F-0.25mm", "{name}: {s}");
         if name == "F-0.25mm" {
             assert_eq!(s["reduced"]["options"]["micro_step"].as_f64(), Some(1e-6), "{s}");
@@ -920,8 +910,7 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
             );
             // The warning is the summary's counts, read back: more than 1 % of the samples in
             // contact carried no force.
-            let g: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(given.join("summary.json")).unwrap()).unwrap();
+            let g: serde_json::Value = read_json(&given.join("summary.json"));
             let counts = &g["clearances"][0]["contact_samples"];
             let (n, z) = (counts["in_contact"].as_f64().unwrap(), counts["unloaded"].as_f64().unwrap());
             assert!(n > 0.0 && z > 0.01 * n, "{counts}");
@@ -950,9 +939,7 @@ fn every_builtin_resolves_its_impacts_at_the_defaults() {
 #[test]
 fn a_tolerance_gets_the_settings_that_meet_it_or_says_it_cannot() {
     let dir = scratch("tolerance");
-    let summary = |d: &std::path::Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap()
-    };
+    let summary = |d: &std::path::Path| -> serde_json::Value { read_json(&d.join("summary.json")) };
     let a = dir.join("a");
     let o = lash(&["run", "A", "--model", "reduced", "--tolerance", "0.05", "--out", a.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -978,8 +965,7 @@ fn a_tolerance_gets_the_settings_that_meet_it_or_says_it_cannot() {
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(cmp.join("comparison.json")).unwrap()).unwrap();
+    let c: serde_json::Value = read_json(&cmp.join("comparison.json"));
     for channel in s["error_estimate"]["channels"].as_array().unwrap() {
         let m = &c["channels"][channel["name"].as_str().unwrap()];
         let (full, reduced) = (m["rms_full"].as_f64().unwrap(), m["rms_reduced"].as_f64().unwrap());

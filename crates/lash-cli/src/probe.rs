@@ -471,6 +471,21 @@ fn estimate_with_bar(
     estimate
 }
 
+/// Writes an error estimate, or why there is none, into a run's summary (as JSON) as
+/// `error_estimate`, and the estimate's coupling warning into its `warnings`: what `lash run`
+/// and Python's `lash.run` both record.
+pub fn record(summary: &mut serde_json::Map<String, serde_json::Value>, estimated: &Result<ErrorEstimate, String>) {
+    let value = match estimated {
+        Ok(e) => serde_json::to_value(e).unwrap_or_else(|e| serde_json::json!({ "error": e.to_string() })),
+        Err(e) => serde_json::json!({ "error": e }),
+    };
+    summary.insert("error_estimate".into(), value);
+    let warning = estimated.as_ref().ok().and_then(ErrorEstimate::coupling_warning);
+    if let (Some(w), Some(serde_json::Value::Array(warnings))) = (warning, summary.get_mut("warnings")) {
+        warnings.push(w.into());
+    }
+}
+
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
 /// (none without a probe), the estimate's coupling warning ([`ErrorEstimate::coupling_warning`])
 /// to its warnings, and `notes` (how its steps were chosen); prints the estimate. A probe that
@@ -483,37 +498,28 @@ pub fn attach(
     quiet: bool,
 ) -> Result<(), crate::CliError> {
     let fail = |e: String| crate::CliError::Failure(e);
-    let estimated = |p: &Result<FullProbe, ProbeError>| match p {
+    let estimated = probe.map(|p| match p {
         Ok(p) => estimate_with_bar(p, options, quiet).map_err(|e| e.to_string()),
         Err(e) => Err(e.to_string()),
-    };
-    let mut warning = None;
-    let value = match probe.map(estimated) {
-        None => None,
+    });
+    match &estimated {
         Some(Ok(e)) => {
             if !quiet {
                 eprintln!("{}", e.line());
             }
-            warning = e.coupling_warning();
-            if let Some(w) = &warning {
+            if let Some(w) = e.coupling_warning() {
                 eprintln!("warning: {w}");
             }
-            Some(serde_json::to_value(&e).map_err(|e| fail(e.to_string()))?)
         }
-        Some(Err(e)) => {
-            eprintln!("warning: no error estimate for this run: {e}");
-            Some(serde_json::json!({ "error": e }))
-        }
-    };
+        Some(Err(e)) => eprintln!("warning: no error estimate for this run: {e}"),
+        None => {}
+    }
     let path = out.join("summary.json");
     let text = std::fs::read_to_string(&path).map_err(|e| fail(format!("{}: {e}", path.display())))?;
     let mut summary: serde_json::Value = serde_json::from_str(&text).map_err(|e| fail(e.to_string()))?;
     if let Some(map) = summary.as_object_mut() {
-        if let Some(value) = value {
-            map.insert("error_estimate".into(), value);
-        }
-        if let (Some(w), Some(serde_json::Value::Array(warnings))) = (warning, map.get_mut("warnings")) {
-            warnings.push(w.into());
+        if let Some(estimated) = &estimated {
+            record(map, estimated);
         }
         map.extend(notes);
     }

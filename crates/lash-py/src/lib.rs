@@ -275,20 +275,14 @@ fn choose_micro_step(
     }
 }
 
-/// The error estimate of a reduced run with `options` against `probe` as summary.json holds it
-/// (lash_cli::probe), and its coupling warning.
+/// The error estimate of a reduced run with `options` against `probe` (lash_cli::probe), or why
+/// there is none.
 fn error_estimate_of(
     probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::ProbeError>,
     options: lash_run::ReducedOptions,
-) -> (serde_json::Value, Option<String>) {
-    match probe
-        .as_ref()
-        .map_err(|e| e.to_string())
-        .and_then(|p| p.estimate_run(options, &mut |_| {}).map_err(|e| e.to_string()))
-    {
-        Ok(e) => (serde_json::to_value(&e).unwrap_or_default(), e.coupling_warning()),
-        Err(e) => (serde_json::json!({ "error": e }), None),
-    }
+) -> Result<lash_cli::probe::ErrorEstimate, String> {
+    let probe = probe.as_ref().map_err(|e| e.to_string())?;
+    probe.estimate_run(options, &mut |_| {}).map_err(|e| e.to_string())
 }
 
 /// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
@@ -359,11 +353,8 @@ fn run<'py>(
         if let Some(why) = refined {
             map.insert("micro_step_refined".into(), why.into());
         }
-        if let Some((value, warning)) = estimate {
-            map.insert("error_estimate".into(), value);
-            if let (Some(w), Some(serde_json::Value::Array(warnings))) = (warning, map.get_mut("warnings")) {
-                warnings.push(w.into());
-            }
+        if let Some(estimated) = &estimate {
+            lash_cli::probe::record(map, estimated);
         }
     }
     let summary = summary.to_string();
