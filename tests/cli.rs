@@ -768,7 +768,8 @@ fn a_reduced_run_estimates_its_error_as_compare_measures_it() {
 fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
     let dir = scratch("coupling-term");
     let cmp = dir.join("cmp");
-    let o = lash(&["compare", "B", "--horizon", "0.2", "--out", cmp.to_str().unwrap(), "--quiet"]);
+    let o =
+        lash(&["compare", "B", "--horizon", "0.2", "--coupling", "one-way", "--out", cmp.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let c: serde_json::Value = read_json(&cmp.join("comparison.json"));
     let h = c["reduced_options"]["micro_step"].as_f64().unwrap().to_string();
@@ -799,19 +800,77 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
             assert!(window < measured && window + coupling >= measured, "{name}: {window} + {coupling} vs {measured}");
         }
     }
-    // Above the stated 10 %, a run says so and names the way out; A's coupling term is small.
+    // Above the stated 10 %, a one-way run says so and names the way out; A's coupling term is small.
     let said = "one-way coupling moves";
     for (name, warned) in [("B", true), ("A", false)] {
         let run = dir.join(name);
-        let o = lash(&["run", name, "--model", "reduced", "--horizon", "0.2", "--out", run.to_str().unwrap()]);
+        let args = ["run", name, "--model", "reduced", "--horizon", "0.2", "--coupling", "one-way", "--out"];
+        let o = lash(&[&args[..], &[run.to_str().unwrap()]].concat());
         assert!(o.status.success(), "{}", stderr(&o));
         let s: serde_json::Value = read_json(&run.join("summary.json"));
         let in_summary = s["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().starts_with(said));
         assert_eq!((stderr(&o).contains(said), in_summary), (warned, warned), "{name}: {}", stderr(&o));
         if warned {
-            assert!(stderr(&o).contains("--coupling two-way"), "{}", stderr(&o));
+            assert!(stderr(&o).contains("--coupling auto takes the coupling closer"), "{}", stderr(&o));
         }
     }
+}
+
+/// By default (`--coupling auto`), where the estimate's coupling term is past the stated 10 % the
+/// run takes the coupling closer to the converged full model over the probe window: over 0.2 s F
+/// turns two-way — its written run is the two-way run's to the bit, with the choice and the
+/// two-way run's estimate in summary.json — and B stays one-way (its two-way run is further off
+/// over the window), each as the window terms of runs made in the other coupling say; A's
+/// coupling term is small and it stays one-way without a choice; without the estimate the run
+/// stays one-way and says why. `lash compare F` makes the same choice.
+#[test]
+fn the_default_coupling_is_the_one_closer_to_the_full_model() {
+    let dir = scratch("coupling-auto");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.join(format!("{name}{}", extra.join("")));
+        let args = ["run", name, "--model", "reduced", "--horizon", "0.2", "--out", out.to_str().unwrap()];
+        let o = lash(&[&args[..], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        (o, read_json(&out.join("summary.json")), std::fs::read(out.join("timeseries.csv")).unwrap())
+    };
+    let worst = |s: &serde_json::Value| {
+        let channels = s["error_estimate"]["channels"].as_array().unwrap().clone();
+        channels.iter().map(|c| c["rms_level_error"].as_f64().unwrap()).fold(0.0, f64::max)
+    };
+    let micro_step = |s: &serde_json::Value| s["reduced"]["options"]["micro_step"].as_f64().unwrap().to_string();
+    for (name, turns) in [("F", true), ("B", false)] {
+        let (o, s, auto_rows) = run(name, &[]);
+        let why = s["coupling_choice"].as_str().unwrap();
+        let h = micro_step(&s);
+        let (other, chosen) = if turns { ("one-way", "two_way") } else { ("two-way", "one_way") };
+        assert_eq!(s["reduced"]["options"]["coupling"], chosen, "{name}: {s}");
+        let (_, s_other, _) = run(name, &["--coupling", other, "--micro-step", &h]);
+        // The window terms the choice compared, each from a run made in that coupling.
+        let (one_way, two_way) = if turns { (worst(&s_other), worst(&s)) } else { (worst(&s), worst(&s_other)) };
+        let figures = format!("{:.1} % one-way, {:.1} % two-way", 100.0 * one_way, 100.0 * two_way);
+        assert!(why.contains(&figures) && (two_way < one_way) == turns, "{name}: {why} / {figures}");
+        if turns {
+            assert!(why.starts_with("two-way coupling, chosen") && stderr(&o).contains(why), "{}", stderr(&o));
+            assert!(s["error_estimate"]["channels"].as_array().unwrap().iter().all(|c| c["coupling_error"].is_null()));
+            let (_, _, two_way_rows) = run(name, &["--coupling", "two-way", "--no-error-estimate", "--micro-step", &h]);
+            assert!(auto_rows == two_way_rows, "the written run is the two-way run");
+            let cmp = dir.join("cmp");
+            let o = lash(&["compare", name, "--horizon", "0.2", "--out", cmp.to_str().unwrap(), "--quiet"]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let c: serde_json::Value = read_json(&cmp.join("comparison.json"));
+            assert_eq!(c["reduced_options"]["coupling"], "two_way", "{c}");
+            assert_eq!(c["coupling_choice"].as_str(), Some(why));
+            assert!(std::fs::read(cmp.join("reduced/timeseries.csv")).unwrap() == auto_rows, "compare writes that run");
+        } else {
+            assert!(why.starts_with("one-way coupling, kept"), "{why}");
+            assert!(stderr(&o).contains("one-way coupling moves"), "the coupling warning stays: {}", stderr(&o));
+        }
+    }
+    let (_, s, _) = run("A", &[]);
+    assert_eq!((s["reduced"]["options"]["coupling"].as_str(), s.get("coupling_choice")), (Some("one_way"), None));
+    let (_, s, _) = run("F", &["--no-error-estimate"]);
+    assert_eq!(s["reduced"]["options"]["coupling"], "one_way", "{s}");
+    assert!(s["coupling_choice"].as_str().unwrap().contains("--no-error-estimate"), "{s}");
 }
 
 /// Without `--micro-step`, a reduced run takes the largest step up to 1e-5 s that gives each

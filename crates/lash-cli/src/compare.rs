@@ -37,14 +37,12 @@ fn full_runner(s: &AnyScenario, ideal: bool) -> Box<dyn Runner> {
 /// The reduced run's error estimate (crate::probe) beside the error the comparison measures
 /// over the whole run, channel by channel: how well the estimate brackets the truth.
 fn error_check(
-    s: &AnyScenario,
-    options: ReducedOptions,
+    estimate: &Result<crate::probe::ErrorEstimate, String>,
     metrics: &std::collections::BTreeMap<String, compare::ChannelComparison>,
-    quiet: bool,
 ) -> serde_json::Value {
-    let estimate = match crate::probe::estimate(s, options, quiet) {
+    let estimate = match estimate {
         Ok(e) => e,
-        Err(e) => return serde_json::json!({ "error": e.to_string() }),
+        Err(e) => return serde_json::json!({ "error": e }),
     };
     let measured: serde_json::Map<String, serde_json::Value> = estimate
         .channels
@@ -89,13 +87,17 @@ fn micro_step_for(summary: &lash_run::Summary, s: &AnyScenario, options: Reduced
     crate::probe::choose_micro_step(options, s.simulation().output_interval, &joints, "over the whole run")
 }
 
-/// The written runs of a comparison: their timings, the reduced model's options as it ran and
-/// how its micro step was chosen.
+/// The written runs of a comparison: their timings, the reduced model's options as it ran, how
+/// its micro step and coupling were chosen, and its error estimate.
 struct Written {
-    /// The reduced model's options, its micro step as chosen.
+    /// The reduced model's options, its micro step and coupling as chosen.
     options: ReducedOptions,
     /// Why the micro step is not the one asked for (chosen, then refined), if it is not.
     micro_step_choice: Option<String>,
+    /// Why the coupling is two-way under `--coupling auto`, if it is.
+    coupling_choice: Option<String>,
+    /// The reduced run's error estimate (crate::probe), or why there is none.
+    estimate: Result<crate::probe::ErrorEstimate, String>,
     full: crate::run::Timing,
     reduced: crate::run::Timing,
     /// The full model by RK4 at the micro step: its timing, or why it did not run.
@@ -109,14 +111,11 @@ struct Written {
 /// Runs and writes the models of a comparison into `out`'s `full`, `reduced`, `full-fixed-step`
 /// and `ideal`: the converged full model; the reduced model with the micro step chosen from the
 /// full model's impacts unless `micro_step_given`, made again at a tenth of the step when it
-/// does not hold a pressed contact; the full model by RK4 at that step; the ideal mechanism.
-fn written_runs(
-    s: &AnyScenario,
-    out: &Path,
-    mut options: ReducedOptions,
-    micro_step_given: bool,
-    quiet: bool,
-) -> Result<Written, CliError> {
+/// does not hold a pressed contact, and in two-way coupling when `--coupling auto` finds one-way
+/// coupling's error past its bound (with the error estimate that decides it); the full model by
+/// RK4 at that step; the ideal mechanism.
+fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: bool) -> Result<Written, CliError> {
+    let crate::ReducedRequest { mut options, micro_step_given, coupling_auto } = request;
     let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
     let csv = crate::output::Format::Csv;
     let settings = (s.simulation(), s.output());
@@ -149,6 +148,10 @@ fn written_runs(
         reduced = run_reduced(options)?.0;
         micro_step_choice = Some(micro_step_choice.map_or(why.clone(), |first| format!("{first}; then {why}")));
     }
+    let probe = crate::probe::FullProbe::run(s, options.macro_step, true);
+    let rerun = |o| run_reduced(o).map(|(timing, _)| reduced = timing);
+    let crate::probe::Estimated { options, estimate, coupling_choice } =
+        crate::probe::estimate_and_choose_coupling(&probe, options, coupling_auto, quiet, rerun)?;
     // The full model at the reduced model's micro step with RK4 (the reduced-interface-model
     // papers' setting): the speed-up at equal step. It is not converged (impacts last about five
     // such steps), so its results are not compared, only its time; a blow-up is reported, not fatal.
@@ -172,7 +175,17 @@ fn written_runs(
     };
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
     let ideal_ok = crate::run::run(s, settings, full_runner(s, true).as_mut(), &out.join("ideal"), csv, true).is_ok();
-    Ok(Written { options, micro_step_choice, full, reduced, fixed, fixed_scenario, ideal_ok })
+    Ok(Written {
+        options,
+        micro_step_choice,
+        coupling_choice,
+        estimate,
+        full,
+        reduced,
+        fixed,
+        fixed_scenario,
+        ideal_ok,
+    })
 }
 
 /// The models' simulation alone in rounds ([`crate::steady`]): the reduced model (`reduced`),
@@ -271,15 +284,9 @@ fn print_channels(
 
 /// `lash compare`: both models of `s`, written to `out`, compared; the reduced model's micro step
 /// chosen from the full run's impacts unless `micro_step_given`.
-pub fn run(
-    s: &AnyScenario,
-    out: &Path,
-    options: ReducedOptions,
-    micro_step_given: bool,
-    quiet: bool,
-) -> Result<(), CliError> {
+pub fn run(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: bool) -> Result<(), CliError> {
     // Refused settings are said before the full model runs.
-    lash_run::runner(s, lash_run::Model::Reduced(options))
+    lash_run::runner(s, lash_run::Model::Reduced(request.options))
         .map_err(|e| CliError::Input(format!("the reduced model cannot run this scenario: {e}")))?;
     let (name, mut roles, motion) = compared_roles(s);
     let (full_dir, reduced_dir, ideal_dir) = (out.join("full"), out.join("reduced"), out.join("ideal"));
@@ -291,12 +298,14 @@ pub fn run(
     let Written {
         options,
         micro_step_choice,
+        coupling_choice,
+        estimate,
         full: full_timing,
         reduced: reduced_timing,
         fixed: fixed_timing,
         fixed_scenario,
         ideal_ok,
-    } = written_runs(s, out, options, micro_step_given, quiet)?;
+    } = written_runs(s, out, request, quiet)?;
 
     // The headline speed-ups: each model's simulation alone, in rounds (crate::steady).
     let mut reduced_make = || lash_run::runner(s, lash_run::Model::Reduced(options));
@@ -355,10 +364,11 @@ pub fn run(
         },
         "reduced_options": options,
         "micro_step_choice": micro_step_choice,
+        "coupling_choice": coupling_choice,
         "first_window_s": FIRST_WINDOW,
         "band_edges_hz": compare::BANDS.iter().map(|b| [b.0, if b.1.is_finite() { b.1 } else { -1.0 }]).collect::<Vec<_>>(),
         "channels": metrics,
-        "error_estimate": error_check(s, options, &metrics, quiet),
+        "error_estimate": error_check(&estimate, &metrics),
         "measurements": {
             "full": sf["measurements"],
             "reduced": sr["measurements"],

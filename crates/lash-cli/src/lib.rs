@@ -69,6 +69,9 @@ pub enum InterpolationArg {
 /// Coupling of the reduced model.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CouplingArg {
+    /// One-way, unless the error estimate finds that one-way coupling alone moves a main
+    /// channel's RMS level past the stated 10 %: then the run is made again in two-way (default).
+    Auto,
     /// The ideal mechanism's motion is the real one (the reduced-interface-model papers' method).
     OneWay,
     /// The averaged contact force acts back on the mechanism.
@@ -99,8 +102,9 @@ pub struct ReducedArgs {
     /// Reduced model: interpolation of the macro terms across a macro step.
     #[arg(long, value_enum, default_value_t = InterpolationArg::Linear)]
     interpolation: InterpolationArg,
-    /// Reduced model: one-way (as in the reduced-interface-model papers) or two-way coupling.
-    #[arg(long, value_enum, default_value_t = CouplingArg::OneWay)]
+    /// Reduced model: one-way (as in the reduced-interface-model papers) or two-way coupling, or
+    /// lash's choice from the error estimate.
+    #[arg(long, value_enum, default_value_t = CouplingArg::Auto)]
     coupling: CouplingArg,
     /// Reduced model: run the macro subsystem on its own thread (one-way only; same results).
     #[arg(long)]
@@ -111,6 +115,15 @@ pub struct ReducedArgs {
 }
 
 impl ReducedArgs {
+    /// The run as asked for.
+    fn request(&self) -> ReducedRequest {
+        ReducedRequest {
+            options: self.options(),
+            micro_step_given: self.micro_step.is_some(),
+            coupling_auto: self.coupling == CouplingArg::Auto,
+        }
+    }
+
     fn options(&self) -> lash_run::ReducedOptions {
         lash_run::ReducedOptions {
             macro_step: self.macro_step,
@@ -121,7 +134,7 @@ impl ReducedArgs {
                 InterpolationArg::Zoh => lash_orchestrate::Interpolation::ZeroOrderHold,
             },
             coupling: match self.coupling {
-                CouplingArg::OneWay => lash_core::Coupling::OneWay,
+                CouplingArg::OneWay | CouplingArg::Auto => lash_core::Coupling::OneWay,
                 CouplingArg::TwoWay => lash_core::Coupling::TwoWay,
             },
             execution: if self.threaded {
@@ -525,24 +538,35 @@ fn quiet_on_broken_pipe() {
     }));
 }
 
+/// A reduced run as asked for: its options (one-way coupling under `--coupling auto`), whether
+/// the micro step was given (else lash chooses it), and whether lash chooses the coupling.
+#[derive(Debug, Clone, Copy)]
+pub struct ReducedRequest {
+    /// The options, the micro step the default when none was given.
+    pub options: lash_run::ReducedOptions,
+    /// Whether the user gave the micro step.
+    pub micro_step_given: bool,
+    /// `--coupling auto`: two-way when the error estimate finds one-way coupling's own error past
+    /// the stated bound ([`probe::ErrorEstimate::two_way_choice`]).
+    pub coupling_auto: bool,
+}
+
 /// `lash compare` (also the Python package's `lash.compare`): the runs, figures and
 /// comparison.json in `out`, and with `report` the page `out/report.html`.
 pub fn compare_into(
     s: &lash_scenario::AnyScenario,
     out: &std::path::Path,
-    options: lash_run::ReducedOptions,
-    micro_step_given: bool,
+    request: ReducedRequest,
     quiet: bool,
     report: bool,
 ) -> Result<(), CliError> {
-    compare::run(s, out, options, micro_step_given, quiet)?;
+    compare::run(s, out, request, quiet)?;
     if report { write_report(out, None) } else { Ok(()) }
 }
 
 /// What `lash run --model reduced` was asked for.
 struct ReducedSettings {
-    options: lash_run::ReducedOptions,
-    micro_step_given: bool,
+    request: ReducedRequest,
     tolerance: Option<f64>,
     error_estimate: bool,
 }
@@ -572,14 +596,14 @@ fn run_reduced(
     format: output::Format,
     quiet: bool,
 ) -> Result<(), CliError> {
-    let mut options = settings.options;
-    let probe = (settings.error_estimate || !settings.micro_step_given)
+    let ReducedRequest { mut options, micro_step_given, coupling_auto } = settings.request;
+    let probe = (settings.error_estimate || !micro_step_given)
         .then(|| probe::FullProbe::run(s, options.macro_step, settings.error_estimate));
     let mut notes = serde_json::Map::new();
     match &probe {
         Some(Ok(p)) => {
             // (DOPRI5 locates every contact itself: its communication step is kept.)
-            if !settings.micro_step_given && !options.error_controlled_micro {
+            if !micro_step_given && !options.error_controlled_micro {
                 let (h, why) = p.micro_step(options);
                 options.micro_step = h;
                 if let Some(why) = why {
@@ -603,7 +627,7 @@ fn run_reduced(
         Some(Err(e)) if settings.tolerance.is_some() => {
             return Err(CliError::Failure(format!("--tolerance: the full model's probe failed: {e}")));
         }
-        Some(Err(e)) if !settings.micro_step_given => {
+        Some(Err(e)) if !micro_step_given => {
             eprintln!("warning: the micro step stays {:e} s: the full model's probe failed: {e}", options.micro_step);
         }
         _ => {}
@@ -614,7 +638,7 @@ fn run_reduced(
         run::run(s, (s.simulation(), s.output()), &mut *r, out, format, quiet).map(|(_, summary)| summary)
     };
     let summary = run_once(options)?;
-    if !settings.micro_step_given
+    if !micro_step_given
         && !options.error_controlled_micro
         && let Some((finer, why)) =
             lash_run::micro_step_for_unheld_contacts(&summary, &options, s.simulation().output_interval)
@@ -626,7 +650,23 @@ fn run_reduced(
         options.micro_step = finer;
         run_once(options)?;
     }
-    probe::attach(probe.as_ref().filter(|_| settings.error_estimate), options, notes, out, quiet)
+    let estimated = match probe.as_ref().filter(|_| settings.error_estimate) {
+        Some(p) => {
+            let rerun = |o| run_once(o).map(|_| ());
+            let estimated = probe::estimate_and_choose_coupling(p, options, coupling_auto, quiet, rerun)?;
+            if let Some(why) = estimated.coupling_choice {
+                notes.insert("coupling_choice".into(), why.into());
+            }
+            Some(estimated.estimate)
+        }
+        None if coupling_auto => {
+            let why = "one-way: --coupling auto chooses from the error estimate, which --no-error-estimate skips";
+            notes.insert("coupling_choice".into(), why.into());
+            None
+        }
+        None => None,
+    };
+    probe::attach(estimated, notes, out, quiet)
 }
 
 /// `lash report`: the page, and what it could not show.
@@ -684,8 +724,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 return run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ());
             };
             let settings = ReducedSettings {
-                options,
-                micro_step_given: reduced.micro_step.is_some(),
+                request: ReducedRequest { options, ..reduced.request() },
                 tolerance: probe.tolerance,
                 error_estimate: !probe.no_error_estimate,
             };
@@ -693,7 +732,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
         }
         Command::Compare { scenario, out, horizon, reduced, quiet, report } => {
             let s = load_with_horizon(&scenario, horizon)?;
-            compare_into(&s, &out, reduced.options(), reduced.micro_step.is_some(), quiet, report)
+            compare_into(&s, &out, reduced.request(), quiet, report)
         }
         Command::Report { dir, out } => write_report(&dir, out.as_deref()),
         Command::Validate { scenario } if system::is_system(&scenario) => {

@@ -51,24 +51,29 @@ impl ErrorEstimate {
         self.channels.iter().map(|c| c.rms_level_error).fold(0.0, f64::max)
     }
 
-    /// A warning when one-way coupling alone moves a main channel's RMS level over the run by
-    /// more than the stated RMS bound ([`lash_metrics::STATED`]): the run's motion departs from
-    /// the ideal mechanism's, which no finer step mends.
-    pub fn coupling_warning(&self) -> Option<String> {
-        let bound = lash_metrics::STATED.rms;
+    /// The main channel whose RMS level one-way coupling moves most over the run against two-way
+    /// coupling, and by how much, when that is past the stated RMS bound ([`lash_metrics::STATED`]).
+    fn coupling_past_bound(&self) -> Option<(&str, f64)> {
         let (name, k) = self
             .channels
             .iter()
             .filter_map(|c| Some((c.name.as_str(), c.coupling_error?)))
             .max_by(|a, b| a.1.total_cmp(&b.1))?;
-        (k > bound).then(|| {
+        (k > lash_metrics::STATED.rms).then_some((name, k))
+    }
+
+    /// A warning when one-way coupling alone moves a main channel's RMS level over the run by
+    /// more than the stated RMS bound ([`lash_metrics::STATED`]): the two couplings part, which
+    /// no finer step mends.
+    pub fn coupling_warning(&self) -> Option<String> {
+        self.coupling_past_bound().map(|(name, k)| {
             format!(
                 "one-way coupling moves {name}'s RMS level by {:.1} % over the run against two-way coupling (the stated \
-                 bound is {:.0} %): the mechanism's motion departs from the ideal one that one-way coupling takes, \
-                 and finer steps do not mend it; --coupling two-way feeds the contact forces back to the mechanism \
-                 (its own error estimate then says how far it is from the full model)",
+                 bound is {:.0} %): the mechanism's motion departs from the ideal one that one-way coupling takes, and \
+                 finer steps do not mend it; the estimate carries the difference, and --coupling auto takes the \
+                 coupling closer to the converged full model over the probe window",
                 100.0 * k,
-                100.0 * bound
+                100.0 * lash_metrics::STATED.rms
             )
         })
     }
@@ -447,17 +452,6 @@ pub fn choose_micro_step(
     (h, why)
 }
 
-/// The error estimate of a reduced run of `scenario` with `options` (its horizon the run's):
-/// both terms ([`FullProbe::estimate_run`]), a delayed progress bar unless `quiet`.
-pub fn estimate(
-    scenario: &AnyScenario,
-    options: lash_run::ReducedOptions,
-    quiet: bool,
-) -> Result<ErrorEstimate, ProbeError> {
-    let probe = FullProbe::run(scenario, options.macro_step, true)?;
-    estimate_with_bar(&probe, options, quiet)
-}
-
 /// [`FullProbe::estimate_run`] with a bar of its two-way run that shows after a second, unless
 /// `quiet`.
 fn estimate_with_bar(
@@ -486,22 +480,105 @@ pub fn record(summary: &mut serde_json::Map<String, serde_json::Value>, estimate
     }
 }
 
-/// Adds to a reduced run's summary.json (written into `out`) its error estimate against `probe`
-/// (none without a probe), the estimate's coupling warning ([`ErrorEstimate::coupling_warning`])
-/// to its warnings, and `notes` (how its steps were chosen); prints the estimate. A probe that
-/// failed is recorded as such: the run stands.
-pub fn attach(
-    probe: Option<&Result<FullProbe, ProbeError>>,
+/// The error estimate of a reduced run with `options` against `probe` ([`FullProbe::estimate_run`],
+/// a delayed bar unless `quiet`), or why there is none.
+pub fn estimate_against(
+    probe: &Result<FullProbe, ProbeError>,
     options: lash_run::ReducedOptions,
+    quiet: bool,
+) -> Result<ErrorEstimate, String> {
+    let probe = probe.as_ref().map_err(|e| e.to_string())?;
+    estimate_with_bar(probe, options, quiet).map_err(|e| e.to_string())
+}
+
+/// A written reduced run's options, error estimate and coupling choice
+/// ([`estimate_and_choose_coupling`]).
+#[derive(Debug, Clone)]
+pub struct Estimated {
+    /// The options the written run has.
+    pub options: lash_run::ReducedOptions,
+    /// Its error estimate, or why there is none.
+    pub estimate: Result<ErrorEstimate, String>,
+    /// Why its coupling is not the one asked for, when it is not.
+    pub coupling_choice: Option<String>,
+}
+
+/// A written reduced run's error estimate and, under `--coupling auto` (`auto`), its coupling.
+/// The estimate of the run made with `options` (one-way) against `probe`; when its coupling term
+/// is past the stated bound the two couplings part, and the choice goes to the one closer to the
+/// converged full model over the probe window (the worst RMS level error over the main
+/// channels): when that is two-way, `rerun` makes the run again with the two-way options and the
+/// estimate is that run's. Which coupling is right is not known beforehand — B's two-way run
+/// keeps rattling where the full model settles, F's one-way run stops where it rattles on
+/// (docs/validation.md §6) — so the full model decides. Returns the options the written run
+/// has, its estimate, and the choice with its figures ([`Estimated`]).
+pub fn estimate_and_choose_coupling<E>(
+    probe: &Result<FullProbe, ProbeError>,
+    options: lash_run::ReducedOptions,
+    auto: bool,
+    quiet: bool,
+    rerun: impl FnOnce(lash_run::ReducedOptions) -> Result<(), E>,
+) -> Result<Estimated, E> {
+    let estimate = estimate_against(probe, options, quiet);
+    let past = match &estimate {
+        Ok(e) if auto => e.coupling_past_bound().map(|(name, k)| (name.to_string(), k, e.worst_rms_level_error())),
+        _ => None,
+    };
+    let Some((name, k, one_way_worst)) = past else {
+        return Ok(Estimated { options, estimate, coupling_choice: None });
+    };
+    let two_way = lash_run::ReducedOptions {
+        coupling: lash_core::Coupling::TwoWay,
+        execution: lash_orchestrate::Execution::Sequential,
+        ..options
+    };
+    let two_way_estimate = estimate_against(probe, two_way, true);
+    let bound = 100.0 * lash_metrics::STATED.rms;
+    let moved = format!(
+        "in one-way coupling {name}'s RMS level over the run moved by {:.1} % against two-way coupling, past the stated \
+         bound of {bound:.0} %",
+        100.0 * k
+    );
+    let (closer, against) = match &two_way_estimate {
+        Ok(t) => (
+            t.worst_rms_level_error() < one_way_worst,
+            format!(
+                "over the first {} s the worst RMS level error against the converged full model is {:.1} % one-way, \
+                 {:.1} % two-way",
+                t.window_s,
+                100.0 * one_way_worst,
+                100.0 * t.worst_rms_level_error()
+            ),
+        ),
+        Err(why) => (false, format!("the two-way run over the probe window failed ({why})")),
+    };
+    if !closer {
+        let why = format!(
+            "one-way coupling, kept (--coupling auto): {moved}, but {against}; --coupling two-way runs it two-way"
+        );
+        return Ok(Estimated { options, estimate, coupling_choice: Some(why) });
+    }
+    let why = format!(
+        "two-way coupling, chosen (--coupling auto): {moved}, and {against}; --coupling one-way keeps the one-way run"
+    );
+    if !quiet {
+        eprintln!("note: {why}");
+    }
+    rerun(two_way)?;
+    Ok(Estimated { options: two_way, estimate: two_way_estimate, coupling_choice: Some(why) })
+}
+
+/// Adds to a reduced run's summary.json (written into `out`) its error estimate (`estimated`;
+/// none when not asked for), the estimate's coupling warning
+/// ([`ErrorEstimate::coupling_warning`]) to its warnings, and `notes` (how its steps and coupling
+/// were chosen); prints the estimate. An estimate that failed is recorded as such: the run stands.
+pub fn attach(
+    estimated: Option<Result<ErrorEstimate, String>>,
     notes: serde_json::Map<String, serde_json::Value>,
     out: &std::path::Path,
     quiet: bool,
 ) -> Result<(), crate::CliError> {
     let fail = |e: String| crate::CliError::Failure(e);
-    let estimated = probe.map(|p| match p {
-        Ok(p) => estimate_with_bar(p, options, quiet).map_err(|e| e.to_string()),
-        Err(e) => Err(e.to_string()),
-    });
     match &estimated {
         Some(Ok(e)) => {
             if !quiet {

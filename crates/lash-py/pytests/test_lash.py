@@ -125,10 +125,11 @@ def test_a_pressed_contact_the_step_does_not_hold_is_run_again_finer_as_the_comm
 
 
 def test_a_reduced_run_estimates_its_error_as_the_command_line(tmp_path):
-    # B over 0.2 s: the error estimate (window term + coupling term) and the coupling warning are
-    # those `lash run` writes, to the bit; without error_estimate there is none.
-    r = lash.run("B", "reduced", horizon=0.2, error_estimate=True)
-    done = cli("run", "B", "--model", "reduced", "--horizon", "0.2", "--out", str(tmp_path / "b"), "--quiet")
+    # B over 0.2 s in one-way coupling: the error estimate (window term + coupling term) and the
+    # coupling warning are those `lash run` writes, to the bit; without error_estimate there is none.
+    r = lash.run("B", "reduced", horizon=0.2, error_estimate=True, coupling="one_way")
+    args = ("run", "B", "--model", "reduced", "--horizon", "0.2", "--quiet")
+    done = cli(*args, "--coupling", "one-way", "--out", str(tmp_path / "b"))
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "b" / "summary.json") as f:
         written = json.load(f)
@@ -141,6 +142,18 @@ def test_a_reduced_run_estimates_its_error_as_the_command_line(tmp_path):
         w for w in written["warnings"] if w.startswith("one-way coupling")
     ] != []
     assert "error_estimate" not in lash.run("B", "reduced", horizon=0.012).summary
+    # The default coupling ("auto") takes two-way for F over 0.2 s, as `lash run` does by default:
+    # the same samples, choice and estimate (now the two-way run's window term alone).
+    auto = lash.run("F", "reduced", horizon=0.2, error_estimate=True)
+    done = cli("run", "F", "--model", "reduced", "--horizon", "0.2", "--quiet", "--out", str(tmp_path / "auto"))
+    assert done.returncode == 0, done.stderr
+    with open(tmp_path / "auto" / "summary.json") as f:
+        written = json.load(f)
+    assert auto.summary["reduced"]["options"]["coupling"] == "two_way" == written["reduced"]["options"]["coupling"]
+    assert auto.summary["coupling_choice"] == written["coupling_choice"]
+    assert np.array_equal(auto.samples, read_csv(tmp_path / "auto" / "timeseries.csv")[1])
+    assert auto.summary["error_estimate"]["channels"] == written["error_estimate"]["channels"]
+    assert all(c["coupling_error"] is None for c in written["error_estimate"]["channels"])
 
 
 def test_a_run_records_the_channels_asked_for():

@@ -213,7 +213,8 @@ fn builtin_names() -> Vec<&'static str> {
 type RunResult<'py> = (Vec<String>, Vec<String>, Bound<'py, PyAny>, String);
 
 /// The reduced model's settings as Python names them: steps \[s\], `interpolation` ("linear",
-/// "hermite", "zoh"), `coupling` ("one_way", "two_way"), `micro` ("rk4", "dopri5"), `threaded`.
+/// "hermite", "zoh"), `coupling` ("auto", "one_way", "two_way"), `micro` ("rk4", "dopri5"),
+/// `threaded`.
 #[derive(Debug, Clone, Copy)]
 struct ReducedSettings<'a> {
     macro_step: f64,
@@ -241,8 +242,8 @@ impl ReducedSettings<'_> {
         use lash_orchestrate::{Execution, Interpolation};
         let interpolation = [Interpolation::Linear, Interpolation::CubicHermite, Interpolation::ZeroOrderHold]
             [choice("interpolation", self.interpolation, &["linear", "hermite", "zoh"])?];
-        let coupling = [lash_core::Coupling::OneWay, lash_core::Coupling::TwoWay]
-            [choice("coupling", self.coupling, &["one_way", "two_way"])?];
+        let coupling = [lash_core::Coupling::OneWay, lash_core::Coupling::OneWay, lash_core::Coupling::TwoWay]
+            [choice("coupling", self.coupling, &["auto", "one_way", "two_way"])?];
         let error_controlled_micro = choice("micro", self.micro, &["rk4", "dopri5"])? == 1;
         Ok(lash_run::ReducedOptions {
             macro_step: self.macro_step,
@@ -252,6 +253,15 @@ impl ReducedSettings<'_> {
             execution: if self.threaded { Execution::Threaded } else { Execution::Sequential },
             error_controlled_micro,
             channels_only: false,
+        })
+    }
+
+    /// The run as asked for (`lash_cli::ReducedRequest`), with whether the micro step was given.
+    fn request(&self, py: Python<'_>, micro_step_given: bool) -> PyResult<lash_cli::ReducedRequest> {
+        Ok(lash_cli::ReducedRequest {
+            options: self.options(py)?,
+            micro_step_given,
+            coupling_auto: self.coupling == "auto",
         })
     }
 }
@@ -275,21 +285,11 @@ fn choose_micro_step(
     }
 }
 
-/// The error estimate of a reduced run with `options` against `probe` (lash_cli::probe), or why
-/// there is none.
-fn error_estimate_of(
-    probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::ProbeError>,
-    options: lash_run::ReducedOptions,
-) -> Result<lash_cli::probe::ErrorEstimate, String> {
-    let probe = probe.as_ref().map_err(|e| e.to_string())?;
-    probe.estimate_run(options, &mut |_| {}).map_err(|e| e.to_string())
-}
-
 /// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
 #[pyfunction]
 #[pyo3(signature = (
     scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = None,
-    interpolation = "linear", coupling = "one_way", micro = "rk4", threaded = false, error_estimate = false
+    interpolation = "linear", coupling = "auto", micro = "rk4", threaded = false, error_estimate = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn run<'py>(
@@ -308,7 +308,7 @@ fn run<'py>(
     let given = micro_step;
     let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded };
-    let mut options = settings.options(py)?;
+    let lash_cli::ReducedRequest { mut options, coupling_auto, .. } = settings.request(py, given.is_some())?;
     // The converged full model over the first part of the run, as `lash run` runs it: over the
     // error estimate's window when one is asked for, else over the micro step's choice window.
     let reduced = model == "reduced" && !ideal;
@@ -340,11 +340,22 @@ fn run<'py>(
         outcome = execute_in_memory(py, &scenario, lash_run::Model::Reduced(options));
         refined = Some(why);
     }
-    let (header, values, summary) = outcome?;
+    // The estimate, and under coupling "auto" the run again in two-way coupling when one-way
+    // coupling's own error is past its bound (as `lash run`); the GIL is taken back for the run.
+    let mut coupling_choice = None;
     let estimate = match &probe {
-        Some(p) if error_estimate => Some(py.detach(|| error_estimate_of(p, options))),
+        Some(p) if error_estimate && outcome.is_ok() => Some(py.detach(|| {
+            let rerun = |o| {
+                outcome = Python::attach(|py| execute_in_memory(py, &scenario, lash_run::Model::Reduced(o)));
+                Ok::<(), std::convert::Infallible>(())
+            };
+            let Ok(estimated) = lash_cli::probe::estimate_and_choose_coupling(p, options, coupling_auto, true, rerun);
+            coupling_choice = estimated.coupling_choice;
+            estimated.estimate
+        })),
         _ => None,
     };
+    let (header, values, summary) = outcome?;
     let mut summary = serde_json::to_value(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
     if let Some(map) = summary.as_object_mut() {
         if let Some(why) = choice {
@@ -352,6 +363,9 @@ fn run<'py>(
         }
         if let Some(why) = refined {
             map.insert("micro_step_refined".into(), why.into());
+        }
+        if let Some(why) = coupling_choice {
+            map.insert("coupling_choice".into(), why.into());
         }
         if let Some(estimated) = &estimate {
             lash_cli::probe::record(map, estimated);
@@ -490,10 +504,9 @@ fn compare(
     let given = micro_step.is_some();
     let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded: false };
-    let options = settings.options(py)?;
+    let request = settings.request(py, given)?;
     let scenario = scenario.inner.clone();
-    py.detach(|| lash_cli::compare_into(&scenario, &out, options, given, true, report))
-        .map_err(|e| cli_error(py, e))?;
+    py.detach(|| lash_cli::compare_into(&scenario, &out, request, true, report)).map_err(|e| cli_error(py, e))?;
     std::fs::read_to_string(out.join("comparison.json")).map_err(|e| SimulationError::new_err(e.to_string()))
 }
 

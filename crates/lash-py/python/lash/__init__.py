@@ -207,7 +207,7 @@ def run(
     macro_step: float = 1e-3,
     micro_step: Optional[float] = None,
     interpolation: str = "linear",
-    coupling: str = "one_way",
+    coupling: str = "auto",
     micro: str = "rk4",
     threaded: bool = False,
     horizon: Optional[float] = None,
@@ -220,7 +220,10 @@ def run(
     ``model`` is ``"full"`` (the monolithic model integrated to convergence; ``ideal=True``
     makes its clearance joints ideal) or ``"reduced"`` (the reduced interface model with macro
     step ``macro_step`` and micro step ``micro_step`` [s]; ``interpolation`` of the macro terms
-    ``"linear"``, ``"hermite"`` or ``"zoh"``; ``coupling`` ``"one_way"`` or ``"two_way"``;
+    ``"linear"``, ``"hermite"`` or ``"zoh"``; ``coupling`` ``"one_way"``, ``"two_way"`` or
+    ``"auto"`` — one-way, made again in two-way when the error estimate finds one-way coupling's
+    own error past the stated 10 % (so one-way unless ``error_estimate=True``; the summary's
+    ``coupling_choice`` says when it changed);
     ``micro`` integrator ``"rk4"`` or the error-controlled ``"dopri5"``; ``threaded`` runs the
     macro subsystem on its own thread, same results). Without ``micro_step`` a reduced run's is
     chosen as ``lash run`` chooses it: 1e-5 s, or the largest step below that gives each
@@ -379,7 +382,7 @@ def compare(
     macro_step: float = 1e-3,
     micro_step: Optional[float] = None,
     interpolation: str = "linear",
-    coupling: str = "one_way",
+    coupling: str = "auto",
     micro: str = "rk4",
 ) -> Dict[str, Any]:
     """The converged full model, the reduced model and the ideal mechanism of a scenario side by
@@ -387,7 +390,9 @@ def compare(
     ``report`` the page ``out/report.html`` (see :func:`report`). The reduced model's options are
     :func:`run`'s; without ``micro_step`` it is chosen as the command line chooses it: 1e-5 s, or
     the largest step below that gives each clearance joint's impacts (their median duration in
-    the full run) at least 7 steps (``comparison.json``'s ``micro_step_choice`` says why). Returns ``comparison.json`` as a dict (speed-ups, per-channel metrics, every
+    the full run) at least 7 steps (``comparison.json``'s ``micro_step_choice`` says why);
+    ``coupling="auto"`` takes two-way coupling when the error estimate finds one-way coupling's
+    own error past its bound (``coupling_choice`` says so). Returns ``comparison.json`` as a dict (speed-ups, per-channel metrics, every
     clearance joint's impacts)."""
     s = scenario if isinstance(scenario, Scenario) else load(scenario)
     if horizon is not None:
