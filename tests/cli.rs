@@ -1057,3 +1057,74 @@ fn a_tolerance_gets_the_settings_that_meet_it_or_says_it_cannot() {
         assert!(stderr(&o).contains("--tolerance") && stderr(&o).contains(said), "{}", stderr(&o));
     }
 }
+
+/// `lash compare --realisations N` holds the bounds against N converged realisations of the full
+/// model: realisation 0 is the written run (its figures are the bounds'), realisation 1 the
+/// scenario at atol one rounding step up — recomputed here from `lash run` of that scenario file:
+/// its slider RMS over the window of steady running is the one compare reports, and on B over
+/// 0.2 s (a rattling pin) it is not realisation 0's. Each check's count is its verdicts' count.
+/// A fixed-step full model has no realisations to give: a clear error.
+#[test]
+fn compare_holds_the_bounds_against_realisations_of_the_full_model() {
+    let dir = scratch("realisations");
+    let cmp = dir.join("cmp");
+    let o =
+        lash(&["compare", "B", "--horizon", "0.2", "--realisations", "3", "--out", cmp.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("against 3 converged realisations of the full model"), "{}", stderr(&o));
+    let c = read_json(&cmp.join("comparison.json"));
+    let (bounds, r) = (&c["bounds"]["checks"], &c["realisations"]);
+    assert_eq!(r["count"], 3);
+    let checks = r["checks"].as_array().unwrap();
+    assert_eq!(checks.len(), bounds.as_array().unwrap().len());
+    for (c, b) in checks.iter().zip(bounds.as_array().unwrap()) {
+        assert_eq!((&c["quantity"], &c["full"][0], &c["met"][0]), (&b["quantity"], &b["full"], &b["met"]));
+        let met = c["met"].as_array().unwrap();
+        assert_eq!(met.len(), 3);
+        assert_eq!(c["met_count"].as_u64().unwrap() as usize, met.iter().filter(|m| **m == true).count());
+    }
+    let tallies = ["met_against_all", "met_against_some", "met_against_none"].map(|k| r[k].as_u64().unwrap());
+    assert_eq!(tallies.iter().sum::<u64>() as usize, checks.len());
+    // Realisation 1, made by hand: the scenario's atol one rounding step up, run and read back.
+    let shown = String::from_utf8(lash(&["show", "B"]).stdout).unwrap();
+    let atol: f64 = 1e-12;
+    assert!(shown.contains("\natol = 0.000000000001\n"), "the built-in's atol: {shown}");
+    let file = dir.join("B-atol.toml");
+    std::fs::write(&file, shown.replace("\natol = 0.000000000001\n", &format!("\natol = {:?}\n", atol.next_up())))
+        .unwrap();
+    let run = dir.join("full-1");
+    let o = lash(&["run", file.to_str().unwrap(), "--horizon", "0.2", "--out", run.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let start = c["bounds"]["window"]["start"].as_f64().unwrap();
+    let text = std::fs::read_to_string(run.join("timeseries.csv")).unwrap();
+    let mut lines = text.lines();
+    let k = lines.next().unwrap().split(',').position(|h| h.starts_with("slider.ax [")).unwrap();
+    let values: Vec<f64> = lines
+        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
+        .filter(|row| row[0] >= start)
+        .map(|row| row[k])
+        .collect();
+    let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    let slider = checks.iter().find(|c| c["quantity"] == "slider.ax rms").unwrap();
+    let (first, second) = (slider["full"][0].as_f64().unwrap(), slider["full"][1].as_f64().unwrap());
+    assert!((second - rms).abs() <= 1e-9 * rms, "realisation 1: {second} against {rms} recomputed");
+    assert!((first - second).abs() > 1e-3 * first, "B's rattling pin: realisations {first} and {second}");
+    // A fixed-step full model: refused, naming the option and the field.
+    let rk4 = dir.join("B-rk4.toml");
+    let (mut fixed, mut inside) = (String::new(), false);
+    for line in shown.lines() {
+        if line.starts_with('[') {
+            inside = line == "[simulation.integrator]";
+            fixed += line;
+            fixed += if inside { "\nmethod = \"rk4\"\nstep = 0.000001\n" } else { "\n" };
+        } else if !inside {
+            fixed += line;
+            fixed += "\n";
+        }
+    }
+    std::fs::write(&rk4, fixed).unwrap();
+    let o =
+        lash(&["compare", rk4.to_str().unwrap(), "--realisations", "2", "--out", dir.join("rk4").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--realisations") && stderr(&o).contains("simulation.integrator"), "{}", stderr(&o));
+}

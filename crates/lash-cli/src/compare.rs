@@ -284,7 +284,13 @@ fn print_channels(
 
 /// `lash compare`: both models of `s`, written to `out`, compared; the reduced model's micro step
 /// chosen from the full run's impacts unless `micro_step_given`.
-pub fn run(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: bool) -> Result<(), CliError> {
+pub fn run(
+    s: &AnyScenario,
+    out: &Path,
+    request: crate::ReducedRequest,
+    realisations: usize,
+    quiet: bool,
+) -> Result<(), CliError> {
     // Refused settings are said before the full model runs.
     lash_run::runner(s, lash_run::Model::Reduced(request.options))
         .map_err(|e| CliError::Input(format!("the reduced model cannot run this scenario: {e}")))?;
@@ -323,6 +329,13 @@ pub fn run(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: b
     metrics.retain(|_, m| m.peak_full > 1e-6);
     roles.retain(|(c, _)| metrics.contains_key(c));
     let bounds = bounds_check(s, motion.as_ref(), (&hf, &full), (&hr, &red), &roles);
+    let realisations = match realisations {
+        0 | 1 => None,
+        n => {
+            let window = steady_window(s, motion.as_ref());
+            Some(crate::realisations::check(s, n, &bounds, (&hr, &red), &roles, &window)?)
+        }
+    };
     // Figures (the reduced-interface-model papers' figures 2–3): every compared channel over time and its spectrum.
     let figures_dir = out.join("figures");
     std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
@@ -377,6 +390,7 @@ pub fn run(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: b
         "figures": figures,
         "clearances": joint_statistics,
         "bounds": bounds,
+        "realisations": realisations,
     });
     let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(&comparison_path, text + "\n")
@@ -390,6 +404,9 @@ pub fn run(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: b
     );
     print_channels(&metrics, &joint_statistics);
     print_bounds(&bounds);
+    if let Some(r) = &realisations {
+        crate::realisations::print(r);
+    }
     eprintln!("→ {}", comparison_path.display());
     Ok(())
 }

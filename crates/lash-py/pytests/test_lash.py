@@ -477,3 +477,17 @@ def test_compare_and_report_equal_the_command_line(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(lash.ScenarioError, match="summary.json"):
         lash.report(tmp_path / "empty")
+
+
+def test_compare_holds_the_bounds_against_realisations_as_the_command_line(tmp_path):
+    # realisations=2: the bounds against two converged realisations of the full model, the same
+    # figures as `lash compare --realisations 2`; 0 realisations is refused, naming the field.
+    result = lash.compare("B", tmp_path / "py", horizon=0.05, report=False, realisations=2)
+    done = cli("compare", "B", "--horizon", "0.05", "--realisations", "2", "--out", str(tmp_path / "cli"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    with open(tmp_path / "cli" / "comparison.json") as f:
+        written = json.load(f)
+    assert result["realisations"]["count"] == 2
+    assert result["realisations"]["checks"] == written["realisations"]["checks"]
+    with pytest.raises(lash.ScenarioError, match="realisations"):
+        lash.compare("A", tmp_path / "none", horizon=0.012, report=False, realisations=0)

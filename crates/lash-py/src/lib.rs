@@ -485,8 +485,8 @@ fn sweep_toml(py: Python<'_>, json: &str) -> PyResult<String> {
 }
 
 /// `lash compare`: the converged full, the reduced and the ideal model of `scenario` into `out`
-/// (as the command line writes them), with `report` the page `out/report.html`; returns
-/// comparison.json's text.
+/// (as the command line writes them; the bounds against `realisations` converged realisations of
+/// the full model), with `report` the page `out/report.html`; returns comparison.json's text.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 fn compare(
@@ -499,14 +499,19 @@ fn compare(
     coupling: &str,
     micro: &str,
     report: bool,
+    realisations: usize,
 ) -> PyResult<String> {
+    if !(1..=64).contains(&realisations) {
+        return Err(field_error(py, "realisations", format!("{realisations}: must be 1 to 64")));
+    }
     // Without a micro step, the command line's choice from the full run's impacts.
     let given = micro_step.is_some();
     let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
     let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded: false };
     let request = settings.request(py, given)?;
     let scenario = scenario.inner.clone();
-    py.detach(|| lash_cli::compare_into(&scenario, &out, request, true, report)).map_err(|e| cli_error(py, e))?;
+    py.detach(|| lash_cli::compare_into(&scenario, &out, request, realisations, true, report))
+        .map_err(|e| cli_error(py, e))?;
     std::fs::read_to_string(out.join("comparison.json")).map_err(|e| SimulationError::new_err(e.to_string()))
 }
 
