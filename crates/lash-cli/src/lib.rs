@@ -552,8 +552,9 @@ pub struct ReducedRequest {
     pub options: lash_run::ReducedOptions,
     /// Whether the user gave the micro step.
     pub micro_step_given: bool,
-    /// `--coupling auto`: two-way when the error estimate finds one-way coupling's own error past
-    /// the stated bound ([`probe::ErrorEstimate::two_way_choice`]).
+    /// `--coupling auto`: where the error estimate finds one-way coupling's own error past the
+    /// stated bound, the coupling closer to the converged full model over the probe window
+    /// ([`probe::estimate_and_choose_coupling`]).
     pub coupling_auto: bool,
 }
 
