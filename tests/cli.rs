@@ -7,11 +7,36 @@ fn lash(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lash")).args(args).output().expect("lash runs")
 }
 
-fn scratch(name: &str) -> PathBuf {
+/// A test's scratch folder: removed when the test passes (some write hundreds of MB), kept for a
+/// look when it fails.
+struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+fn scratch(name: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("lash-cli-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    Scratch(dir)
 }
 
 fn stderr(o: &Output) -> String {
@@ -125,13 +150,27 @@ integrator = { method = "dopri5", rtol = 1e-9, atol = 1e-12 }
 "#;
 
 /// Runs `lash run` on a scenario text; returns the output and the (would-be) output folder.
-fn run_text(name: &str, text: &str) -> (Output, PathBuf) {
+/// The output folder of [`run_text`], inside its scratch folder (removed with it).
+struct RunOut {
+    _scratch: Scratch,
+    out: PathBuf,
+}
+
+impl std::ops::Deref for RunOut {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.out
+    }
+}
+
+/// Runs the scenario `text` into a scratch folder: the output and its folder.
+fn run_text(name: &str, text: &str) -> (Output, RunOut) {
     let dir = scratch(name);
     let file = dir.join("scenario.toml");
     std::fs::write(&file, text).unwrap();
     let out = dir.join("out");
     let o = lash(&["run", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
-    (o, out)
+    (o, RunOut { _scratch: dir, out })
 }
 
 #[test]
