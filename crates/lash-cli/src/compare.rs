@@ -336,21 +336,8 @@ pub fn run(
             Some(crate::realisations::check(s, n, &bounds, (&hr, &red), &roles, &window)?)
         }
     };
-    // Figures (the reduced-interface-model papers' figures 2–3): every compared channel over time and its spectrum.
-    let figures_dir = out.join("figures");
-    std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
-    let mut figures = Vec::new();
-    // Crank angle [°] against time, when the first driver turns its body at constant speed.
-    let constant_speed = motion.and_then(|m| match m {
-        lash_mech::Motion::ConstantSpeed { angle0, omega } => Some((angle0, omega)),
-        _ => None,
-    });
-    let angle_of = constant_speed.map(|(angle0, omega)| move |t: f64| (angle0 + omega * t).to_degrees());
-    let crank_angle = angle_of.as_ref().map(|f| f as &dyn Fn(f64) -> f64);
     let series = ((&hf[..], &full[..]), (&hr[..], &red[..]), ideal_rows.as_ref());
-    figures.extend(channel_figures(out, &figures_dir, series, metrics.keys(), crank_angle)?);
-    let dirs = [&full_dir, &reduced_dir, &ideal_dir];
-    figures.extend(measurement_figures(s, out, &figures_dir, dirs, ideal_ok, crank_angle)?);
+    let figures = all_figures(s, out, motion.as_ref(), series, metrics.keys(), ideal_ok)?;
     let speedup = serde_json::json!({
         "simulation_vs_converged_full": full_steady.ratio_to_first,
         "whole_run_equal_recording": full_timing.total_s / reduced_timing.total_s,
@@ -409,6 +396,31 @@ pub fn run(
     }
     eprintln!("→ {}", comparison_path.display());
     Ok(())
+}
+
+/// The figures (the reduced-interface-model papers' figures 2–3) in `out/figures`: every
+/// compared channel (`names`) over time — against crank angle when the first driver turns its
+/// body at constant speed — and its spectrum, then each emulated measurement's; their paths.
+fn all_figures<'a>(
+    s: &AnyScenario,
+    out: &Path,
+    motion: Option<&lash_mech::Motion>,
+    series: Series<'_>,
+    names: impl Iterator<Item = &'a String>,
+    ideal_ok: bool,
+) -> Result<Vec<String>, CliError> {
+    let figures_dir = out.join("figures");
+    std::fs::create_dir_all(&figures_dir).map_err(|e| CliError::Failure(format!("{}: {e}", figures_dir.display())))?;
+    let constant_speed = motion.and_then(|m| match m {
+        lash_mech::Motion::ConstantSpeed { angle0, omega } => Some((*angle0, *omega)),
+        _ => None,
+    });
+    let angle_of = constant_speed.map(|(angle0, omega)| move |t: f64| (angle0 + omega * t).to_degrees());
+    let crank_angle = angle_of.as_ref().map(|f| f as &dyn Fn(f64) -> f64);
+    let mut figures = channel_figures(out, &figures_dir, series, names, crank_angle)?;
+    let dirs = [&out.join("full"), &out.join("reduced"), &out.join("ideal")];
+    figures.extend(measurement_figures(s, out, &figures_dir, dirs, ideal_ok, crank_angle)?);
+    Ok(figures)
 }
 
 /// What the comparison looks at, with the checks each gets: every sensor's accelerations, the
