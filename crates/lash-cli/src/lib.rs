@@ -71,7 +71,8 @@ pub enum InterpolationArg {
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CouplingArg {
     /// One-way, unless the error estimate finds that one-way coupling alone moves a main
-    /// channel's RMS level past the stated 10 %: then the run is made again in two-way (default).
+    /// channel's RMS level past the stated 10 % and two-way coupling is the closer to the
+    /// converged full model over the probe window: then the run is made again in two-way (default).
     Auto,
     /// The ideal mechanism's motion is the real one (the reduced-interface-model papers' method).
     OneWay,
