@@ -222,8 +222,9 @@ def run(
     step ``macro_step`` and micro step ``micro_step`` [s]; ``interpolation`` of the macro terms
     ``"linear"``, ``"hermite"`` or ``"zoh"``; ``coupling`` ``"one_way"``, ``"two_way"`` or
     ``"auto"`` — one-way, made again in two-way when the error estimate finds one-way coupling's
-    own error past the stated 10 % (so one-way unless ``error_estimate=True``; the summary's
-    ``coupling_choice`` says when it changed);
+    own error past the stated 10 % and two-way the closer to the converged full model over the
+    probe window (so one-way unless ``error_estimate=True``; the summary's ``coupling_choice``
+    gives both figures);
     ``micro`` integrator ``"rk4"`` or the error-controlled ``"dopri5"``; ``threaded`` runs the
     macro subsystem on its own thread, same results). Without ``micro_step`` a reduced run's is
     chosen as ``lash run`` chooses it: 1e-5 s, or the largest step below that gives each
@@ -393,7 +394,8 @@ def compare(
     the largest step below that gives each clearance joint's impacts (their median duration in
     the full run) at least 7 steps (``comparison.json``'s ``micro_step_choice`` says why);
     ``coupling="auto"`` takes two-way coupling when the error estimate finds one-way coupling's
-    own error past its bound (``coupling_choice`` says so). ``realisations`` > 1 holds the stated
+    own error past its bound and two-way the closer to the full model over the probe window
+    (``coupling_choice`` says so). ``realisations`` > 1 holds the stated
     bounds against that many converged realisations of the full model (its atol moved up by
     rounding steps: where a pin rattles, each is another draw of the run's statistics);
     ``comparison.json``'s ``realisations`` says per check against how many it is met. Returns ``comparison.json`` as a dict (speed-ups, per-channel metrics, every
