@@ -356,23 +356,30 @@ fn run<'py>(
         _ => None,
     };
     let (header, values, summary) = outcome?;
-    let mut summary = serde_json::to_value(&summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
+    let notes = [("micro_step_choice", choice), ("micro_step_refined", refined), ("coupling_choice", coupling_choice)];
+    let summary = summary_json(&summary, notes, estimate.as_ref())?;
+    run_result(py, &header, values, summary)
+}
+
+/// A reduced run's summary as JSON, as `lash run` writes it: with how its steps and coupling were
+/// chosen (`notes`: key and why, where there is one) and its error estimate, if asked for.
+fn summary_json(
+    summary: &lash_run::Summary,
+    notes: [(&str, Option<String>); 3],
+    estimate: Option<&Result<lash_cli::probe::ErrorEstimate, String>>,
+) -> PyResult<String> {
+    let mut summary = serde_json::to_value(summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
     if let Some(map) = summary.as_object_mut() {
-        if let Some(why) = choice {
-            map.insert("micro_step_choice".into(), why.into());
+        for (key, why) in notes {
+            if let Some(why) = why {
+                map.insert(key.into(), why.into());
+            }
         }
-        if let Some(why) = refined {
-            map.insert("micro_step_refined".into(), why.into());
-        }
-        if let Some(why) = coupling_choice {
-            map.insert("coupling_choice".into(), why.into());
-        }
-        if let Some(estimated) = &estimate {
+        if let Some(estimated) = estimate {
             lash_cli::probe::record(map, estimated);
         }
     }
-    let summary = summary.to_string();
-    run_result(py, &header, values, summary)
+    Ok(summary.to_string())
 }
 
 /// Runs a model of a scenario with its rows held in memory: (header, values row after row,
