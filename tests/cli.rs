@@ -48,6 +48,19 @@ fn read_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// The RMS of column `name` of a written time series (CSV) over the rows at t ≥ `from` \[s\].
+fn column_rms(file: &Path, name: &str, from: f64) -> f64 {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut lines = text.lines();
+    let k = lines.next().unwrap().split(',').position(|h| h.starts_with(&format!("{name} ["))).unwrap();
+    let values: Vec<f64> = lines
+        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
+        .filter(|row| row[0] >= from)
+        .map(|row| row[k])
+        .collect();
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
 fn files_in(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
         .map(|d| d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect())
@@ -816,14 +829,7 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
     let args = ["run", "B", "--model", "reduced", "--coupling", "two-way", "--horizon", "0.2", "--no-error-estimate"];
     let o = lash(&[&args[..], &["--micro-step", &h, "--out", two_way.to_str().unwrap()]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
-    let rms_of = |file: &Path, name: &str| {
-        let text = std::fs::read_to_string(file).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let k = header.iter().position(|c| c.starts_with(&format!("{name} ["))).unwrap();
-        let values: Vec<f64> = lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect();
-        (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
-    };
+    let rms_of = |file: &Path, name: &str| column_rms(file, name, f64::NEG_INFINITY);
     let e = &c["error_estimate"];
     for channel in e["estimate"]["channels"].as_array().unwrap() {
         let name = channel["name"].as_str().unwrap();
@@ -1135,15 +1141,7 @@ fn compare_holds_the_bounds_against_realisations_of_the_full_model() {
     let o = lash(&["run", file.to_str().unwrap(), "--horizon", "0.2", "--out", run.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let start = c["bounds"]["window"]["start"].as_f64().unwrap();
-    let text = std::fs::read_to_string(run.join("timeseries.csv")).unwrap();
-    let mut lines = text.lines();
-    let k = lines.next().unwrap().split(',').position(|h| h.starts_with("slider.ax [")).unwrap();
-    let values: Vec<f64> = lines
-        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect::<Vec<_>>())
-        .filter(|row| row[0] >= start)
-        .map(|row| row[k])
-        .collect();
-    let rms = (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt();
+    let rms = column_rms(&run.join("timeseries.csv"), "slider.ax", start);
     let slider = checks.iter().find(|c| c["quantity"] == "slider.ax rms").unwrap();
     let (first, second) = (slider["full"][0].as_f64().unwrap(), slider["full"][1].as_f64().unwrap());
     assert!((second - rms).abs() <= 1e-9 * rms, "realisation 1: {second} against {rms} recomputed");

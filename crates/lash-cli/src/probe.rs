@@ -452,19 +452,6 @@ pub fn choose_micro_step(
     (h, why)
 }
 
-/// [`FullProbe::estimate_run`] with a bar of its two-way run that shows after a second, unless
-/// `quiet`.
-fn estimate_with_bar(
-    probe: &FullProbe,
-    options: lash_run::ReducedOptions,
-    quiet: bool,
-) -> Result<ErrorEstimate, ProbeError> {
-    let mut bar = crate::run::DelayedBar::new("simulated (the error estimate's two-way run)", quiet);
-    let estimate = probe.estimate_run(options, &mut |f| bar.update(f));
-    bar.finish();
-    estimate
-}
-
 /// Writes an error estimate, or why there is none, into a run's summary (as JSON) as
 /// `error_estimate`, and the estimate's coupling warning into its `warnings`: what `lash run`
 /// and Python's `lash.run` both record.
@@ -481,14 +468,17 @@ pub fn record(summary: &mut serde_json::Map<String, serde_json::Value>, estimate
 }
 
 /// The error estimate of a reduced run with `options` against `probe` ([`FullProbe::estimate_run`],
-/// a delayed bar unless `quiet`), or why there is none.
+/// with a bar of its two-way run that shows after a second unless `quiet`), or why there is none.
 pub fn estimate_against(
     probe: &Result<FullProbe, ProbeError>,
     options: lash_run::ReducedOptions,
     quiet: bool,
 ) -> Result<ErrorEstimate, String> {
     let probe = probe.as_ref().map_err(|e| e.to_string())?;
-    estimate_with_bar(probe, options, quiet).map_err(|e| e.to_string())
+    let mut bar = crate::run::DelayedBar::new("simulated (the error estimate's two-way run)", quiet);
+    let estimate = probe.estimate_run(options, &mut |f| bar.update(f));
+    bar.finish();
+    estimate.map_err(|e| e.to_string())
 }
 
 /// A written reduced run's options, error estimate and coupling choice
