@@ -2,8 +2,48 @@
 
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;
+use lash_core::lane::Real;
 use lash_mech::{BodyId, Pose, Vec2, perp};
 use serde::Serialize;
+
+/// |e| and the penetration δ = |e| − c of a planar revolute clearance joint at eccentricity `e`
+/// (for one run, or several side by side: [`Real`]).
+#[inline(always)]
+pub fn penetration<R: Real>([ex, ey]: [R; 2], clearance: R) -> (R, R) {
+    let norm = (ex * ex + ey * ey).sqrt();
+    (norm, norm - clearance)
+}
+
+/// The normal n = e/|e| ((1, 0) at the centre), the penetration rate δ̇ = ė·n and the slip
+/// v_t = ė·t + ω_J R_J − ω_B R_B (t = (−n_y, n_x)) of a planar revolute clearance joint whose
+/// eccentricity `e` has the norm `norm`, from its rate `e_dot`, the angular velocities `omega`
+/// and the radii `radii` (journal's, bearing's).
+#[inline(always)]
+pub fn normal_motion<R: Real>(
+    [ex, ey]: [R; 2],
+    norm: R,
+    [u, v]: [R; 2],
+    [omega_journal, omega_bearing]: [R; 2],
+    [journal_radius, bearing_radius]: [R; 2],
+) -> ([R; 2], R, R) {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    // (One division for both components, as the spherical joint does: the micro step's lanes
+    // are bound by the divider.)
+    let positive = norm.simd_gt(zero);
+    let inverse = one / norm;
+    let nx = R::select(positive, ex * inverse, one);
+    let ny = R::select(positive, ey * inverse, zero);
+    let delta_dot = u * nx + v * ny;
+    let slip = (u * -ny + v * nx) + omega_journal * journal_radius - omega_bearing * bearing_radius;
+    ([nx, ny], delta_dot, slip)
+}
+
+/// The force on the journal, −F_N n − F_T t, of a normal force `normal` and a friction force
+/// `friction` along the normal `n`.
+#[inline(always)]
+pub fn journal_load<R: Real>([nx, ny]: [R; 2], normal: R, friction: R) -> [R; 2] {
+    [-(nx * normal) - -ny * friction, -(ny * normal) - nx * friction]
+}
 
 /// Penetrations beyond this fraction of the journal radius are a blow-up, not contact (full
 /// models, micro model and its lanes alike).
@@ -155,7 +195,7 @@ impl ClearanceJoint {
         onset: f64,
         deflection: f64,
     ) -> (ContactState, f64) {
-        let (n, t, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
+        let (n, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
         let (fn_, rate) = self.law.force_in_series_damped(
             delta,
             delta_dot,
@@ -164,7 +204,7 @@ impl ClearanceJoint {
             self.bush_stiffness,
             self.bush_damping,
         );
-        (self.state(e, n, t, norm, delta, delta_dot, slip, fn_), rate)
+        (self.state(e, n, norm, delta, delta_dot, slip, fn_), rate)
     }
 
     /// [`ClearanceJoint::evaluate`], or [`ClearanceJoint::evaluate_damped`] when the bush's
@@ -196,7 +236,7 @@ impl ClearanceJoint {
         self.bush_damping > 0.0 && self.bush_stiffness.is_finite()
     }
 
-    /// n, t, |e|, δ, δ̇ and the slip from the relative kinematics.
+    /// n, |e|, δ, δ̇ and the slip from the relative kinematics.
     #[inline(always)]
     fn relative_kinematics(
         &self,
@@ -204,32 +244,22 @@ impl ClearanceJoint {
         e_dot: Vec2,
         omega_journal: f64,
         omega_bearing: f64,
-    ) -> (Vec2, Vec2, f64, f64, f64, f64) {
-        let norm = e.norm();
-        // (One division for both components, as the spherical joint does: the micro step's
-        // lanes are bound by the divider.)
-        let n = if norm > 0.0 { e * (1.0 / norm) } else { Vec2::new(1.0, 0.0) };
-        let t = perp(n);
-        let delta = norm - self.radial_clearance();
-        let delta_dot = e_dot.dot(&n);
-        let slip = e_dot.dot(&t) + omega_journal * self.journal_radius - omega_bearing * self.bearing_radius;
-        (n, t, norm, delta, delta_dot, slip)
+    ) -> (Vec2, f64, f64, f64, f64) {
+        let (norm, delta) = penetration([e.x, e.y], self.radial_clearance());
+        let ([nx, ny], delta_dot, slip) = normal_motion(
+            [e.x, e.y],
+            norm,
+            [e_dot.x, e_dot.y],
+            [omega_journal, omega_bearing],
+            [self.journal_radius, self.bearing_radius],
+        );
+        (Vec2::new(nx, ny), norm, delta, delta_dot, slip)
     }
 
     /// The state with the normal force `fn_` and the friction it carries.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn state(
-        &self,
-        e: Vec2,
-        n: Vec2,
-        t: Vec2,
-        norm: f64,
-        delta: f64,
-        delta_dot: f64,
-        slip: f64,
-        fn_: f64,
-    ) -> ContactState {
+    fn state(&self, e: Vec2, n: Vec2, norm: f64, delta: f64, delta_dot: f64, slip: f64, fn_: f64) -> ContactState {
         // No normal force, no friction (skips the friction law in free flight).
         let ft = if fn_ > 0.0 { self.friction.coefficient(slip) * fn_ } else { 0.0 };
         ContactState {
@@ -242,7 +272,7 @@ impl ClearanceJoint {
             slip_velocity: slip,
             normal_force: fn_,
             friction_force: ft,
-            force_on_journal: -(n * fn_) - t * ft,
+            force_on_journal: journal_load([n.x, n.y], fn_, ft).into(),
         }
     }
 
@@ -275,13 +305,13 @@ impl ClearanceJoint {
         onset: f64,
     ) -> ContactState {
         debug_assert!(SERIES || self.bush_stiffness == f64::INFINITY, "a bushed joint on the rigid path");
-        let (n, t, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
+        let (n, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
         let fn_ = if SERIES && self.bush_stiffness.is_finite() {
             self.law.force_in_series(delta, delta_dot, onset, self.bush_stiffness)
         } else {
             self.law.force(delta, delta_dot, onset)
         };
-        self.state(e, n, t, norm, delta, delta_dot, slip, fn_)
+        self.state(e, n, norm, delta, delta_dot, slip, fn_)
     }
 
     /// World-frame arms from the journal body's and the bearing body's centroids to the contact

@@ -3,6 +3,7 @@
 
 use crate::law::step;
 use lash_core::Problems;
+use lash_core::lane::Real;
 use serde::{Deserialize, Serialize};
 
 /// A friction law as written in a scenario file (`law = "ambrosio"`, …).
@@ -47,30 +48,57 @@ pub enum FrictionLaw {
     },
 }
 
+/// The friction laws written for any lane width ([`Real`]): the kind shared by the lanes of a
+/// group, their numbers per lane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LaneFriction {
+    /// No friction.
+    None,
+    /// μ sign(v_t).
+    Coulomb,
+    /// Ambrósio's modified Coulomb.
+    Ambrosio,
+}
+
+/// sign(v) as the friction laws take it: 1, −1, or 0 at rest.
+#[inline(always)]
+pub fn slip_sign<R: Real>(v: R) -> R {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    R::select(v.simd_gt(zero), one, R::select(v.simd_lt(zero), -one, zero))
+}
+
+/// Ambrósio's dynamic correction c_d(|v|): 0 up to `v0`, 1 from `v1`, linear between (its
+/// division formed only where some lane is between: rare at speed).
+#[inline(always)]
+pub fn ambrosio_factor<R: Real>(speed: R, v0: R, v1: R) -> R {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    let (stuck, sliding) = (speed.simd_le(v0), speed.simd_ge(v1));
+    let between = if R::all(stuck | sliding) { one } else { (speed - v0) / (v1 - v0) };
+    R::select(stuck, zero, R::select(sliding, one, between))
+}
+
+/// The signed coefficient μ(v) of a law of kind `kind` with coefficient `mu` (and Ambrósio's
+/// `v0`, `v1`), for one run or several side by side.
+#[inline(always)]
+pub fn lane_coefficient<R: Real>(kind: LaneFriction, mu: R, v0: R, v1: R, v: R) -> R {
+    match kind {
+        LaneFriction::None => R::splat(0.0),
+        LaneFriction::Coulomb => mu * slip_sign(v),
+        LaneFriction::Ambrosio => mu * ambrosio_factor(v.abs(), v0, v1) * slip_sign(v),
+    }
+}
+
 impl FrictionLaw {
     /// The signed coefficient μ(v_t).
     #[inline(always)]
     pub fn coefficient(&self, v: f64) -> f64 {
-        let s = if v > 0.0 {
-            1.0
-        } else if v < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
+        let s = slip_sign(v);
         let a = v.abs();
         match *self {
             FrictionLaw::None => 0.0,
-            FrictionLaw::Coulomb { coefficient } => coefficient * s,
+            FrictionLaw::Coulomb { coefficient } => lane_coefficient(LaneFriction::Coulomb, coefficient, 0.0, 0.0, v),
             FrictionLaw::Ambrosio { coefficient, v0, v1 } => {
-                let cd = if a <= v0 {
-                    0.0
-                } else if a >= v1 {
-                    1.0
-                } else {
-                    (a - v0) / (v1 - v0)
-                };
-                coefficient * cd * s
+                lane_coefficient(LaneFriction::Ambrosio, coefficient, v0, v1, v)
             }
             FrictionLaw::AdamsStickSlip {
                 static_coefficient: ms,

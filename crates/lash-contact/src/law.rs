@@ -1,6 +1,7 @@
 //! Normal contact force laws (F_N ≥ 0 always).
 
 use lash_core::Problems;
+use lash_core::lane::Real;
 use serde::{Deserialize, Serialize};
 
 /// ADAMS STEP: a cubic from (x0, h0) to (x1, h1) with zero slope at both ends, constant outside.
@@ -185,8 +186,21 @@ pub enum NormalForce {
 
 /// 1 / max(δ̇⁻, floor): the reciprocal of the onset velocity the hysteresis laws divide by.
 #[inline(always)]
-pub fn onset_reciprocal(onset: f64, floor: f64) -> f64 {
-    1.0 / onset.max(floor)
+pub fn onset_reciprocal<R: Real>(onset: R, floor: R) -> R {
+    R::splat(1.0) / onset.max(floor)
+}
+
+/// The hysteresis laws' force K δⁿ (1 + χ δ̇ / δ̇⁻) from `power` = δⁿ and the reciprocal of the
+/// onset velocity, unclipped, for one run or several side by side.
+#[inline(always)]
+pub fn hysteresis_force<R: Real>(stiffness: R, power: R, chi: R, delta_dot: R, reciprocal: R) -> R {
+    stiffness * power * (R::splat(1.0) + chi * delta_dot * reciprocal)
+}
+
+/// δ^1.5 as every law here takes it (δ √δ: one square root, no `powf`).
+#[inline(always)]
+pub fn three_halves<R: Real>(delta: R) -> R {
+    delta * delta.sqrt()
 }
 
 impl NormalForce {
@@ -203,7 +217,7 @@ impl NormalForce {
             NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
                 // (χ δ̇ times the reciprocal of the onset velocity: a contact's reciprocal is one
                 // number for all its steps, which the micro step's lanes form once.)
-                stiffness * pow(delta, exponent) * (1.0 + chi * delta_dot * onset_reciprocal(onset, floor))
+                hysteresis_force(stiffness, pow(delta, exponent), chi, delta_dot, onset_reciprocal(onset, floor))
             }
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
                 stiffness * pow(delta, exponent) + step(delta, 0.0, 0.0, damping_depth, max_damping) * delta_dot
@@ -441,7 +455,7 @@ fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> (f64, f64)) -> (f64, f64)
 
 fn pow(delta: f64, n: f64) -> f64 {
     if n == 1.5 {
-        delta * delta.sqrt()
+        three_halves(delta)
     } else if n == 1.0 {
         delta
     } else {

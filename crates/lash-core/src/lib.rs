@@ -1,9 +1,11 @@
 //! Core vocabulary shared by every lash crate: exact integer time ([`Ticks`]), validation
-//! problems that name the field they concern ([`Problem`], [`Problems`]), and the FMI-shaped
-//! [`Subsystem`] trait with its variable descriptions.
+//! problems that name the field they concern ([`Problem`], [`Problems`]), the FMI-shaped
+//! [`Subsystem`] trait with its variable descriptions, and the number type of physics written
+//! once for one run or eight side by side ([`lane::Real`]).
 //!
 //! No physics and no FFI live here.
 
+pub mod lane;
 mod names;
 mod problems;
 pub mod subsystem;

@@ -18,105 +18,17 @@ use crate::interface::{ClearanceInterface, CoupledTerms};
 use crate::model::{BodyId, JointKind, Mechanism};
 use crate::solver::Solver;
 use crate::{Pose, Vec2};
+use lash_core::lane::{F64x8, Real};
 
 /// Mechanisms analysed at once.
-pub const LANES: usize = 8;
+pub const LANES: usize = lash_core::lane::LANES;
 
-/// One number per lane; every operation acts lane by lane (the IEEE operation of each lane's
-/// scalar code), in one vector register where the processor has one that wide.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))]
-struct X([f64; LANES]);
+/// One number per lane ([`lash_core::lane`]); every operation acts lane by lane (the IEEE
+/// operation of each lane's scalar code), in one vector register where the processor has one that
+/// wide.
+type X = F64x8;
 
-const ZERO: X = X([0.0; LANES]);
-
-impl Default for X {
-    fn default() -> X {
-        ZERO
-    }
-}
-
-impl X {
-    #[inline(always)]
-    fn splat(v: f64) -> X {
-        X([v; LANES])
-    }
-
-    #[inline(always)]
-    fn map(self, f: impl Fn(f64) -> f64) -> X {
-        let mut r = self;
-        for v in &mut r.0 {
-            *v = f(*v);
-        }
-        r
-    }
-
-    #[inline(always)]
-    fn zip(self, o: X, f: impl Fn(f64, f64) -> f64) -> X {
-        let mut r = self;
-        for (v, w) in r.0.iter_mut().zip(o.0) {
-            *v = f(*v, w);
-        }
-        r
-    }
-
-    /// `f64::max` lane by lane.
-    #[inline(always)]
-    fn max(self, o: X) -> X {
-        self.zip(o, f64::max)
-    }
-
-    /// Where `mask`, `a`; elsewhere `self`.
-    #[inline(always)]
-    fn select(self, mask: [bool; LANES], a: X) -> X {
-        let mut r = self;
-        for l in 0..LANES {
-            if mask[l] {
-                r.0[l] = a.0[l];
-            }
-        }
-        r
-    }
-}
-
-impl std::ops::Index<usize> for X {
-    type Output = f64;
-    #[inline(always)]
-    fn index(&self, l: usize) -> &f64 {
-        &self.0[l]
-    }
-}
-
-impl std::ops::IndexMut<usize> for X {
-    #[inline(always)]
-    fn index_mut(&mut self, l: usize) -> &mut f64 {
-        &mut self.0[l]
-    }
-}
-
-macro_rules! lane_op {
-    ($trait:ident, $method:ident, $op:tt) => {
-        impl std::ops::$trait for X {
-            type Output = X;
-            #[inline(always)]
-            fn $method(self, o: X) -> X {
-                self.zip(o, |a, b| a $op b)
-            }
-        }
-    };
-}
-lane_op!(Add, add, +);
-lane_op!(Sub, sub, -);
-lane_op!(Mul, mul, *);
-lane_op!(Div, div, /);
-
-impl std::ops::Neg for X {
-    type Output = X;
-    #[inline(always)]
-    fn neg(self) -> X {
-        self.map(|a| -a)
-    }
-}
+const ZERO: X = X::ZERO;
 
 /// Newton's iteration limit, as in [`crate::assemble_and_project`].
 const MAX_ITERATIONS: usize = 50;
@@ -630,7 +542,7 @@ fn analyse_lanes(
             Kkt { rows: &w.ideal, st, schur: &w.schur, stride, inv_diag: &w.inv_diag, inverse_mass: &w.inverse_mass };
         kkt.solve(None, &w.rhs, (&mut w.acc[..], &mut w.reaction[..], &mut w.lambda[..]), &mut w.step, None);
         for k in 0..n {
-            w.q[k] = w.q[k].select(moving, w.q[k] + w.step[k]);
+            w.q[k] = w.q[k].replaced_where(moving, w.q[k] + w.step[k]);
         }
     }
     // The velocity projection at the assembled positions.

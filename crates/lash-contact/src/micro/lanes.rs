@@ -22,25 +22,17 @@
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
 use crate::clearance::PENETRATION_LIMIT_FRACTION;
 use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use crate::clearance::{journal_load, normal_motion, penetration};
 use crate::friction::FrictionLaw;
-use crate::law::{NormalForce, onset_reciprocal};
+use crate::friction::{LaneFriction, lane_coefficient};
+use crate::law::{NormalForce, hysteresis_force, onset_reciprocal, three_halves};
 use lash_core::Ticks;
+use lash_core::lane::{F64x8, Real};
 use lash_mech::Vec2;
 use nalgebra::{SMatrix, SVector};
 
 /// The micro model of one planar clearance joint.
 pub type OneJoint = InterfaceModel<ClearanceJoint, 2, 1, 1, 1>;
-
-/// The friction law's kind shared by the lanes of a group.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LaneFriction {
-    /// No friction.
-    None,
-    /// μ sign(v_t).
-    Coulomb,
-    /// Ambrósio's modified Coulomb.
-    Ambrosio,
-}
 
 /// The laws' kind of a model that can run in lanes, or `None`.
 pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
@@ -63,171 +55,20 @@ pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
 pub type LaneOutcome = Result<(), (usize, f64, crate::PenetrationError)>;
 
 /// Runs advanced together.
-pub const LANES: usize = 8;
+pub const LANES: usize = lash_core::lane::LANES;
 const L: usize = LANES;
 
 /// One number per lane.
 type V = [f64; L];
 
-/// The lanes as one value: IEEE operations lane by lane, correctly rounded, so each lane gets the
-/// bits the scalar code gets. Written as plain loops over the lanes that the compiler turns into
-/// vector instructions of whatever width the CPU offers: [`advance`] runs in a copy compiled for
+/// The lanes as one value ([`lash_core::lane`]): [`advance`] runs in a copy compiled for
 /// AVX-512 or AVX2 where the CPU has it (chosen at run time), else for the baseline (SSE2 pairs).
-type X = vector::F64x8;
-
-mod vector {
-    use super::L;
-    use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
-
-    /// Eight numbers, one per lane; a comparison gives a mask (all bits set where true).
-    #[derive(Clone, Copy, Debug)]
-    pub struct F64x8(pub [f64; L]);
-
-    #[inline(always)]
-    fn each(f: impl Fn(usize) -> f64) -> F64x8 {
-        F64x8(std::array::from_fn(f))
-    }
-
-    #[inline(always)]
-    fn flag(b: bool) -> f64 {
-        f64::from_bits(if b { u64::MAX } else { 0 })
-    }
-
-    impl F64x8 {
-        pub const ZERO: Self = Self([0.0; L]);
-        pub const ONE: Self = Self([1.0; L]);
-
-        #[inline(always)]
-        pub fn splat(v: f64) -> Self {
-            Self([v; L])
-        }
-        #[inline(always)]
-        pub fn sqrt(self) -> Self {
-            each(|l| self.0[l].sqrt())
-        }
-        /// `f64::max` lane by lane.
-        #[inline(always)]
-        pub fn max(self, o: Self) -> Self {
-            each(|l| self.0[l].max(o.0[l]))
-        }
-        #[inline(always)]
-        pub fn abs(self) -> Self {
-            each(|l| self.0[l].abs())
-        }
-        #[inline(always)]
-        pub fn simd_gt(self, o: Self) -> Self {
-            each(|l| flag(self.0[l] > o.0[l]))
-        }
-        #[inline(always)]
-        pub fn simd_ge(self, o: Self) -> Self {
-            each(|l| flag(self.0[l] >= o.0[l]))
-        }
-        #[inline(always)]
-        pub fn simd_lt(self, o: Self) -> Self {
-            each(|l| flag(self.0[l] < o.0[l]))
-        }
-        #[inline(always)]
-        pub fn simd_le(self, o: Self) -> Self {
-            each(|l| flag(self.0[l] <= o.0[l]))
-        }
-        #[inline(always)]
-        pub fn simd_ne(self, o: Self) -> Self {
-            each(|l| flag(self.0[l] != o.0[l]))
-        }
-        /// For a mask: `t` where set, `f` elsewhere.
-        #[inline(always)]
-        pub fn select(self, t: Self, f: Self) -> Self {
-            each(|l| {
-                let m = self.0[l].to_bits();
-                f64::from_bits((m & t.0[l].to_bits()) | (!m & f.0[l].to_bits()))
-            })
-        }
-        /// For a mask: whether every lane is set.
-        #[inline(always)]
-        pub fn all(self) -> bool {
-            self.to_bitmask() == (1 << L) - 1
-        }
-        /// For a mask: bit l set where lane l is.
-        #[inline(always)]
-        pub fn to_bitmask(self) -> u32 {
-            self.0.iter().enumerate().fold(0, |b, (l, v)| b | (((v.to_bits() >> 63) as u32) << l))
-        }
-    }
-
-    impl From<[f64; L]> for F64x8 {
-        #[inline(always)]
-        fn from(a: [f64; L]) -> Self {
-            Self(a)
-        }
-    }
-
-    impl From<F64x8> for [f64; L] {
-        #[inline(always)]
-        fn from(v: F64x8) -> Self {
-            v.0
-        }
-    }
-
-    impl From<f64> for F64x8 {
-        #[inline(always)]
-        fn from(v: f64) -> Self {
-            Self([v; L])
-        }
-    }
-
-    macro_rules! arithmetic {
-        ($($trait:ident $method:ident $op:tt),*) => {$(
-            impl $trait for F64x8 {
-                type Output = Self;
-                #[inline(always)]
-                fn $method(self, o: Self) -> Self {
-                    each(|l| self.0[l] $op o.0[l])
-                }
-            }
-        )*};
-    }
-    arithmetic!(Add add +, Sub sub -, Mul mul *, Div div /);
-
-    macro_rules! bitwise {
-        ($($trait:ident $method:ident $op:tt),*) => {$(
-            impl $trait for F64x8 {
-                type Output = Self;
-                #[inline(always)]
-                fn $method(self, o: Self) -> Self {
-                    each(|l| f64::from_bits(self.0[l].to_bits() $op o.0[l].to_bits()))
-                }
-            }
-        )*};
-    }
-    bitwise!(BitAnd bitand &, BitOr bitor |, BitXor bitxor ^);
-
-    impl Neg for F64x8 {
-        type Output = Self;
-        #[inline(always)]
-        fn neg(self) -> Self {
-            each(|l| -self.0[l])
-        }
-    }
-
-    impl Not for F64x8 {
-        type Output = Self;
-        #[inline(always)]
-        fn not(self) -> Self {
-            each(|l| f64::from_bits(!self.0[l].to_bits()))
-        }
-    }
-}
+type X = F64x8;
 
 /// The lanes of an array in vector registers.
 #[inline(always)]
 fn x(a: &V) -> X {
     X::from(*a)
-}
-
-/// A mask from per-lane flags.
-#[inline(always)]
-fn mask(flags: &[bool; L]) -> X {
-    X::from(flags.map(flag))
 }
 
 /// A lane of a mask: all bits set where `f`.
@@ -324,20 +165,21 @@ impl Joint {
         gated(&contact, &self.clearance)
     }
 
-    /// |e| and the penetration δ = |e| − c of every lane at the eccentricity (ex, ey).
+    /// |e| and the penetration δ = |e| − c of every lane at the eccentricity (ex, ey)
+    /// ([`penetration`]).
     #[inline(always)]
     fn geometry(&self, ex: X, ey: X) -> (X, X) {
-        let norm = (ex * ex + ey * ey).sqrt();
-        (norm, norm - x(&self.clearance))
+        penetration([ex, ey], x(&self.clearance))
     }
 
     /// The contact of every lane at (e, ė) with the bodies' angular velocities, each lane in its
     /// mode (`in_contact`, and `reciprocal`: each lane's 1 / max(δ̇⁻, floor), formed where its
-    /// onset velocity changes): [`ClearanceJoint::evaluate_relative_as`] as the micro model calls
-    /// it (`contact_at_as`), the free-flight lanes' onset velocity taken as δ̇⁺ where they first
-    /// indent (their reciprocal formed here, the rare lanes' one division). `geometry` is
-    /// [`Joint::geometry`] at e. Kept in registers: a stage of the step reads only its loads
-    /// ([`gated`]), the step end is stored whole ([`Contact::store`]).
+    /// onset velocity changes): the laws [`ClearanceJoint::evaluate_relative_as`] evaluates as the
+    /// micro model calls it (`contact_at_as`) — the same functions, at eight lanes — the
+    /// free-flight lanes' onset velocity taken as δ̇⁺ where they first indent (their reciprocal
+    /// formed here, the rare lanes' one division). `geometry` is [`Joint::geometry`] at e. Kept
+    /// in registers: a stage of the step reads only its loads ([`gated`]), the step end is stored
+    /// whole ([`Contact::store`]).
     #[inline(always)]
     fn contact(
         &self,
@@ -347,53 +189,22 @@ impl Joint {
         in_contact: X,
         reciprocal: &V,
     ) -> Contact {
-        let (zero, one, sign_bit) = (X::ZERO, X::ONE, X::splat(-0.0));
-        let positive = norm.simd_gt(zero);
-        let inverse = one / norm;
-        let nx = positive.select(ex * inverse, one);
-        let ny = positive.select(ey * inverse, zero);
-        // t = (−n_y, n_x).
-        let tx = ny ^ sign_bit;
-        let delta_dot = u * nx + v * ny;
-        let slip = (u * tx + v * nx) + x(wj) * x(&self.journal_radius) - x(wb) * x(&self.bearing_radius);
+        let zero = X::ZERO;
+        let radii = [x(&self.journal_radius), x(&self.bearing_radius)];
+        let ([nx, ny], delta_dot, slip) = normal_motion([ex, ey], norm, [u, v], [x(wj), x(wb)], radii);
         // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
         let indenting = !in_contact & delta.simd_gt(zero);
         let reciprocal = if indenting.to_bitmask() == 0 {
             x(reciprocal)
         } else {
-            indenting.select(one / delta_dot.max(zero).max(x(&self.floor)), x(reciprocal))
+            indenting.select(onset_reciprocal(delta_dot.max(zero), x(&self.floor)), x(reciprocal))
         };
-        let f = x(&self.stiffness) * (delta * delta.sqrt()) * (one + x(&self.chi) * delta_dot * reciprocal);
+        let f = hysteresis_force(x(&self.stiffness), three_halves(delta), x(&self.chi), delta_dot, reciprocal);
         let normal = delta.simd_le(zero).select(zero, f.max(zero));
-        let sign = slip.simd_gt(zero).select(one, slip.simd_lt(zero).select(-one, zero));
-        let coefficient = match self.friction {
-            LaneFriction::None => zero,
-            LaneFriction::Coulomb => x(&self.mu) * sign,
-            LaneFriction::Ambrosio => {
-                let a = slip.abs();
-                let (v0, v1) = (x(&self.v0), x(&self.v1));
-                let (stuck, sliding) = (a.simd_le(v0), a.simd_ge(v1));
-                // The blend's division only when a lane is between v0 and v1 (rare at speed).
-                let between = if (stuck | sliding).all() { one } else { (a - v0) / (v1 - v0) };
-                let cd = stuck.select(zero, sliding.select(one, between));
-                x(&self.mu) * cd * sign
-            }
-        };
+        let coefficient = lane_coefficient(self.friction, x(&self.mu), x(&self.v0), x(&self.v1), slip);
         let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
-        Contact {
-            ex,
-            ey,
-            norm,
-            nx,
-            ny,
-            delta,
-            delta_dot,
-            slip,
-            normal,
-            tangential,
-            fx: ((nx * normal) ^ sign_bit) - tx * tangential,
-            fy: ((ny * normal) ^ sign_bit) - nx * tangential,
-        }
+        let [fx, fy] = journal_load([nx, ny], normal, tangential);
+        Contact { ex, ey, norm, nx, ny, delta, delta_dot, slip, normal, tangential, fx, fy }
     }
 }
 
@@ -819,11 +630,11 @@ fn advance_lanes(
     let penetration_limit: V = std::array::from_fn(|l| PENETRATION_LIMIT_FRACTION * models[l].joints[0].journal_radius);
     let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
     // (As a mask for the lanes' arithmetic, formed again where a lane's mode changes.)
-    let mut contact_mask = mask(&in_contact);
+    let mut contact_mask = X::mask(in_contact);
     // The lanes stepped here (running, not by their models) as a mask, and whether any running
     // lane is stepped by its model: formed again only where a lane changes.
     let masks = |running: &[bool; L], by_model: &[bool; L]| {
-        (mask(running) & !mask(by_model), (0..L).any(|l| running[l] && by_model[l]))
+        (X::mask(*running) & !X::mask(*by_model), (0..L).any(|l| running[l] && by_model[l]))
     };
     let (mut stepped, mut any_by_model) = masks(&running, &by_model);
     let mut lanes_changed = false;
@@ -932,7 +743,7 @@ fn advance_lanes(
             kept.trackers.set(l, m.open[0]);
             in_contact[l] = m.joints[0].in_contact;
             reciprocal[l] = onset_reciprocal(m.joints[0].onset_velocity, joint.floor[l]);
-            contact_mask = mask(&in_contact);
+            contact_mask = X::mask(in_contact);
         }
         // The step end's contact state (not gated), then the impact trackers.
         let end = joint.contact(
@@ -961,7 +772,7 @@ fn advance_lanes(
                     by_model[l] = !kept.gather(l, models[l], next);
                     in_contact[l] = models[l].joints[0].in_contact;
                     reciprocal[l] = onset_reciprocal(models[l].joints[0].onset_velocity, joint.floor[l]);
-                    contact_mask = mask(&in_contact);
+                    contact_mask = X::mask(in_contact);
                     lanes_changed = true;
                 }
             }

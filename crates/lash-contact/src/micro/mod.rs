@@ -392,7 +392,8 @@ pub fn do_steps_together(
     refs: &[ValueReference],
     rows: &mut [&mut [f64]],
 ) -> Vec<Steps> {
-    use lanes::{LANES, LaneFriction, OneJoint};
+    use crate::friction::LaneFriction;
+    use lanes::{LANES, OneJoint};
     assert_eq!(subs.len(), rows.len(), "one row buffer per subsystem");
     let mut results: Vec<Option<Steps>> = (0..subs.len()).map(|_| None).collect();
     // Which subsystems can run in lanes, by their laws' kind, with their row widths.
