@@ -404,7 +404,7 @@ fn runs_stepped_together_equal_each_run_alone() {
             })
             .collect();
         let mut observers: Vec<&mut [(&mut dyn Observer, Ticks)]> = lists.iter_mut().map(|l| &mut l[..]).collect();
-        let mut step = lash_contact::micro::do_steps_together;
+        let mut step = lash_micro::do_steps_together;
         let mut work = lash_mech::lanes::KinematicLanes::default();
         let mut ahead = |subs: &mut [&mut dyn lash_core::Subsystem], t, h| {
             lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);

@@ -9,9 +9,9 @@
 //! `resources/scenario.toml`, from which the instance builds its model (sized by the scenario's
 //! clearance joints) and its identity (name, instantiation token).
 
-use lash_contact::micro::InterfaceSubsystem;
 use lash_core::Subsystem;
 use lash_fmi::{ModelInfo, instantiation_token};
+use lash_micro::InterfaceSubsystem;
 use lash_run::FullSubsystem;
 use lash_scenario::parameters::{BuildError, ParameterError, clearance_parameters, mechanism_parameters};
 use lash_scenario::{AnyScenario, LoadError, Scenario, WithParameters};

@@ -360,17 +360,17 @@ fn time_runner(r: &mut dyn lash_run::Runner) -> Result<(f64, lash_run::Summary),
 /// checks), so the figure is the one a run pays, in the instruction set a run gets.
 fn time_micro_steps<const N: usize, const K: usize>(
     joints: Vec<lash_contact::ClearanceJoint>,
-    inputs: lash_contact::micro::PlanarInputs<N, K>,
+    inputs: lash_micro::PlanarInputs<N, K>,
     reps: usize,
     steps: usize,
 ) -> Result<f64, CliError> {
     let step = lash_core::Ticks::from_seconds(1e-5).expect("a valid step");
     let mut times = Vec::with_capacity(reps);
     for _ in 0..reps {
-        let mut m = lash_contact::micro::PlanarInterfaceModel::<N, K>::new(joints.clone());
+        let mut m = lash_micro::PlanarInterfaceModel::<N, K>::new(joints.clone());
         m.inputs = inputs;
         let t0 = Instant::now();
-        lash_contact::micro::rk4_steps_as_in_a_run(&mut m, lash_core::Ticks(0), step, steps)
+        lash_micro::rk4_steps_as_in_a_run(&mut m, lash_core::Ticks(0), step, steps)
             .map_err(|(_, t, e)| CliError::Failure(format!("micro step benchmark at t = {t} s: {e}")))?;
         black_box(&m.states);
         times.push(t0.elapsed().as_secs_f64() / steps as f64 * 1e9);
@@ -379,16 +379,16 @@ fn time_micro_steps<const N: usize, const K: usize>(
 }
 
 /// Median over `reps` of the cost per step and per lane [ns] of `steps` micro steps of copies
-/// of `joint` advanced in lockstep (`lash_contact::micro::lanes`), in intervals of 100 steps with
+/// of `joint` advanced in lockstep (`lash_micro::lanes`), in intervals of 100 steps with
 /// the penetration check after each step — the same work as four models stepped one by one.
 fn time_lane_steps(
     joint: &lash_contact::ClearanceJoint,
-    inputs: lash_contact::micro::PlanarInputs<2, 1>,
+    inputs: lash_micro::PlanarInputs<2, 1>,
     reps: usize,
     steps: usize,
 ) -> f64 {
-    use lash_contact::micro::lanes;
     use lash_core::Ticks;
+    use lash_micro::lanes;
     const LANES: usize = lanes::LANES;
     let step = Ticks::from_seconds(1e-5).expect("a valid step");
     let record = [false; 100];
@@ -396,7 +396,7 @@ fn time_lane_steps(
         (0..reps)
             .map(|_| {
                 let mut models: Vec<lanes::OneJoint> =
-                    (0..LANES).map(|_| lash_contact::micro::PlanarInterfaceModel::new(vec![joint.clone()])).collect();
+                    (0..LANES).map(|_| lash_micro::PlanarInterfaceModel::new(vec![joint.clone()])).collect();
                 for m in &mut models {
                     m.inputs = inputs;
                 }
@@ -427,7 +427,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     let a = builtin::by_name("A").expect("built-in");
     let joint = lash_run::build_model(&a, BuildOptions::default()).clearances[0].clone();
     let n = if quick { 100_000 } else { 400_000 };
-    let mut a_inputs = lash_contact::micro::PlanarInputs::<2, 1> {
+    let mut a_inputs = lash_micro::PlanarInputs::<2, 1> {
         effective_mass: nalgebra::Matrix2::new(0.33, 0.01, 0.01, 0.21),
         effective_force: nalgebra::Vector2::new(-900.0, 300.0),
         friction_moment_force: nalgebra::Vector2::new(-20.0, 8.0),
@@ -439,7 +439,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     let lane_ns = time_lane_steps(&joint, a_inputs, reps, n);
     // Two such joints coupled by off-diagonal blocks of M̃ (the 4 × 4 Cholesky path).
     let two_joint_ns = {
-        let mut inputs = lash_contact::micro::PlanarInputs::<4, 2> {
+        let mut inputs = lash_micro::PlanarInputs::<4, 2> {
             effective_mass: nalgebra::Matrix4::new(
                 0.33, 0.01, 0.05, 0.0, 0.01, 0.21, 0.0, 0.04, 0.05, 0.0, 0.40, 0.02, 0.0, 0.04, 0.02, 0.25,
             ),
@@ -498,7 +498,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
     println!("  micro step alone (RK4, LN + Ambrósio, 4 law evaluations)  {micro_ns:8.1} ns   (target ≤ 100 ns)");
     println!(
         "  the same in {} lanes (runs in lockstep), per lane         {lane_ns:8.1} ns   ({:.2}× one run; with the penetration check)",
-        lash_contact::micro::lanes::LANES,
+        lash_micro::lanes::LANES,
         micro_ns / lane_ns
     );
     println!(

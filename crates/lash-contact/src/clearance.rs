@@ -350,7 +350,7 @@ pub struct Impact {
 /// ~1e-16 relative). A largest sample at an end of the step is searched only if the force falls
 /// away from that end into the step (otherwise the peak lies in the neighbouring step, which finds
 /// it). Returns (θ, force), or None.
-pub(crate) fn step_peak(mut force: impl FnMut(f64) -> f64) -> Option<(f64, f64)> {
+pub fn step_peak(mut force: impl FnMut(f64) -> f64) -> Option<(f64, f64)> {
     const N: usize = 8;
     const EPS: f64 = 1e-7;
     let samples: [f64; N + 1] = std::array::from_fn(|k| force(k as f64 / N as f64));
@@ -396,7 +396,7 @@ pub(crate) fn step_peak(mut force: impl FnMut(f64) -> f64) -> Option<(f64, f64)>
 
 /// What a search of one step's continuous extension found for an open contact: the deepest
 /// penetration among the samples and the force peak (time, force) if the step holds it.
-pub(crate) struct StepSearch {
+pub struct StepSearch {
     deepest: f64,
     peak: Option<(f64, f64)>,
 }
@@ -417,7 +417,8 @@ impl StepSearch {
 
 /// Follows an open impact and refines its force peak.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct ImpactTracker {
+pub struct ImpactTracker {
+    /// The impact so far.
     pub impact: Impact,
     samples: [(f64, f64); 3],
     count: usize,
@@ -472,7 +473,7 @@ impl ImpactTracker {
     /// The vertex (time, force) of the parabola through three samples (t, F) when the middle one
     /// is a peak and the vertex lies between the outer two.
     #[inline]
-    pub(crate) fn vertex(samples: [(f64, f64); 3]) -> Option<(f64, f64)> {
+    pub fn vertex(samples: [(f64, f64); 3]) -> Option<(f64, f64)> {
         let [(t0, f0), (t1, f1), (t2, f2)] = samples;
         if !(f1 >= f0 && f1 >= f2 && (f1 > f0 || f1 > f2)) {
             return None;
@@ -492,12 +493,12 @@ impl ImpactTracker {
 
     /// The tracker's numbers: the impact so far, the last three samples (t, F), how many samples
     /// it took, and whether its peaks come from searches.
-    pub(crate) fn parts(&self) -> (Impact, [(f64, f64); 3], usize, bool) {
+    pub fn parts(&self) -> (Impact, [(f64, f64); 3], usize, bool) {
         (self.impact, self.samples, self.count, self.searched)
     }
 
     /// A tracker from its numbers ([`ImpactTracker::parts`]).
-    pub(crate) fn from_parts(impact: Impact, samples: [(f64, f64); 3], count: usize, searched: bool) -> Self {
+    pub fn from_parts(impact: Impact, samples: [(f64, f64); 3], count: usize, searched: bool) -> Self {
         Self { impact, samples, count, searched }
     }
 
@@ -527,6 +528,7 @@ impl ImpactTracker {
         Impact { exit_time: f64::NAN, duration: t - self.impact.onset_time, ..self.impact }
     }
 
+    /// Closes the impact at `t` (its exit): the last sample, exit time and duration.
     pub fn close(mut self, t: f64) -> Impact {
         self.sample(t, 0.0, 0.0);
         self.impact.exit_time = t;

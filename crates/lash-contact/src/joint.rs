@@ -2,8 +2,8 @@
 //! clearance, whose contact is open or closed (with the approach velocity its contact began at).
 //! The planar revolute joint ([`ClearanceJoint`]) and the spherical one ([`SphericalClearance`])
 //! are clearance joints; so, for the micro model, is the flexible bushing (always loaded). The
-//! full models' impact log ([`crate::impact_log::ImpactLog`]) and the micro model
-//! ([`crate::micro::MicroJoint`]) speak to a joint through this trait.
+//! full models' impact log (lash-full-model's `ImpactLog`) and the micro model
+//! (lash-micro's `MicroJoint`) speak to a joint through this trait.
 
 use crate::clearance::{ClearanceJoint, PenetrationError};
 use crate::spherical::SphericalClearance;

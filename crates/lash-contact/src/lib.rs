@@ -1,6 +1,6 @@
-//! Contact mechanics of lash: normal contact laws, friction laws, the planar revolute clearance
-//! joint and the spatial spherical clearance joint, and the full (monolithic) models of planar and
-//! spatial mechanisms with clearance joints.
+//! Contact mechanics of lash: normal contact laws, friction laws, and the clearance joints —
+//! planar revolute, translational (a block in a guide) and spatial spherical — that the full
+//! models (lash-full-model) and the micro interface model evaluate.
 //!
 //! Sign conventions (docs/theory.md): eccentricity e = r_J − r_B (journal centre minus bearing
 //! centre), penetration δ = |e| − c, normal n = e/|e|, tangent t = ⊥n, penetration rate δ̇ = ė·n,
@@ -9,22 +9,16 @@
 
 pub mod clearance;
 pub mod friction;
-pub mod full_model;
-pub mod impact_log;
 pub mod joint;
 pub mod law;
-pub mod micro;
 pub mod parameters;
-pub mod spatial_model;
 pub mod spherical;
 pub mod translational;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact, PenetrationError};
 pub use friction::FrictionLaw;
-pub use full_model::{FullModel, ModelError};
 pub use joint::Clearance;
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step};
 pub use parameters::ClearanceDefinition;
-pub use spatial_model::{SpatialFullModel, SpatialFullModelState};
 pub use spherical::{SphericalClearance, SphericalContactState};
 pub use translational::{Block, CornerState, Guide, SlotState, TranslationalClearance};

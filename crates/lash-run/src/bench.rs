@@ -1,6 +1,6 @@
 //! Shared pieces of the benchmarks (criterion benches and `lash bench`).
 
-use lash_contact::FullModel;
+use lash_full_model::FullModel;
 use lash_ode::OdeSystem;
 
 /// Fixed-step classical RK4 on the full model with preallocated stage buffers, restarted from the

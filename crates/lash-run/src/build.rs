@@ -1,7 +1,8 @@
 //! From a validated scenario to a runnable full model.
 
 use lash_contact::translational::{Block, Guide};
-use lash_contact::{ClearanceJoint, FullModel, Material, TranslationalClearance};
+use lash_contact::{ClearanceJoint, Material, TranslationalClearance};
+use lash_full_model::FullModel;
 use lash_mech::{Body, BodyId, Driver, Joint, JointKind, Load, Mechanism, Vec2};
 use lash_scenario::schema::*;
 

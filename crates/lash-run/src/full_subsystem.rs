@@ -11,13 +11,13 @@ use crate::record::Recorder;
 use crate::run::sensor_points;
 use crate::spatial::SpatialSampler;
 use crate::{BuildOptions, build_model};
-use lash_contact::SpatialFullModel;
-use lash_contact::full_model::FullModel;
 use lash_core::subsystem::{Phase, element_count};
 use lash_core::{
     Causality, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, ValueReference, Variability, Variable,
     VariableTable,
 };
+use lash_full_model::SpatialFullModel;
+use lash_full_model::full_model::FullModel;
 use lash_mech::{BodyId, Vec2};
 use lash_ode::{Method, OdeSystem};
 use lash_scenario::AnyScenario;
@@ -81,8 +81,8 @@ macro_rules! full_model {
     };
 }
 
-full_model!(FullModel, lash_contact::full_model::FullModelState);
-full_model!(SpatialFullModel, lash_contact::SpatialFullModelState);
+full_model!(FullModel, lash_full_model::full_model::FullModelState);
+full_model!(SpatialFullModel, lash_full_model::SpatialFullModelState);
 
 /// How an engine reads every channel of its model at `(t, y)`.
 trait Sampling<M>: Send {

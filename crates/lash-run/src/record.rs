@@ -3,8 +3,9 @@
 //! selected columns to the sink.
 
 use crate::run::{ChannelStats, ClearanceSummary, Sink};
-use lash_contact::{FullModel, Impact, SlotState};
+use lash_contact::{Impact, SlotState};
 use lash_core::BoxError;
+use lash_full_model::FullModel;
 use lash_mech::{BodyId, Mechanism, Vec2, driver_torque, kinematics, point_kinematics};
 use lash_scenario::channels::{Channel, Source};
 use std::collections::BTreeMap;

@@ -1,6 +1,6 @@
 //! The reduced interface model of a scenario (docs/theory.md §6): builds the macro
 //! subsystem ([`lash_mech::MechanismSubsystem`]), the micro subsystem
-//! ([`lash_contact::micro::InterfaceSubsystem`]) and runs them with the multirate master
+//! ([`lash_micro::InterfaceSubsystem`]) and runs them with the multirate master
 //! ([`lash_orchestrate::InterfaceMaster`]), recording the same channels as the full model:
 //!
 //! * sensor positions and velocities: macro outputs, cubic Hermite in time (with their exported
@@ -16,9 +16,9 @@
 
 use crate::build::{BuildOptions, build_model};
 use crate::run::{RunError, Sink, Summary, driver_period};
-use lash_contact::micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_core::{BoxError, Coupling, Subsystem, Ticks};
 use lash_mech::{ClearanceInterface, Interface, MechanismSubsystem, Probe, Vec2};
+use lash_micro::{InterfaceSubsystem, MicroIntegrator};
 use lash_ode::AdaptiveOptions;
 use lash_orchestrate::{Execution, InterfaceMaster, Interpolation, MasterOptions, MasterStats, Observer, Signal};
 use lash_scenario::channels::{CLEARANCE_QUANTITIES, Channel, Source, channel_sources};
@@ -108,11 +108,7 @@ impl ReducedRun {
                 scenario.clearances[0].joint, scenario.bushings[0].joint
             )));
         }
-        let max_joints = if bushed {
-            3
-        } else {
-            lash_contact::micro::MAX_COORDINATES / lash_contact::micro::PLANAR_JOINT_COORDINATES
-        };
+        let max_joints = if bushed { 3 } else { lash_micro::MAX_COORDINATES / lash_micro::PLANAR_JOINT_COORDINATES };
         let count = scenario.clearances.len() + scenario.bushings.len();
         if count == 0 || count > max_joints {
             return Err(RunError::Unsupported(format!(
@@ -154,7 +150,7 @@ impl ReducedRun {
                     journal_radius: 0.0,
                     bearing_radius: 0.0,
                 });
-                bushings.push(lash_contact::micro::BushingJoint {
+                bushings.push(lash_micro::BushingJoint {
                     name: scenario.bushings[bushings.len()].joint.clone(),
                     stiffness: *stiffness,
                     damping: *damping,
@@ -166,7 +162,7 @@ impl ReducedRun {
         });
         let k = interfaces.len();
         // Loads per propagated value: the contact forces (n = 2k), then the friction forces (k).
-        let loads = k * (lash_contact::micro::PLANAR_JOINT_COORDINATES + 1);
+        let loads = k * (lash_micro::PLANAR_JOINT_COORDINATES + 1);
 
         let sources = channel_sources(scenario, false);
         let selected = lash_scenario::channels::selected_channels(scenario, &sources);
@@ -540,7 +536,7 @@ pub(crate) fn run_reduced(
 
 /// Runs several reduced models side by side ([`InterfaceMaster::run_together`]), their micro
 /// subsystems stepped together — the one-joint RK4 ones eight at a time in vector lanes
-/// ([`lash_contact::micro::do_steps_together`]). Each run's rows and summary are what
+/// ([`lash_micro::do_steps_together`]). Each run's rows and summary are what
 /// [`run_reduced`] gives it, bit for bit, but for its CPU and wall times: the group's, shared
 /// equally. Runs whose settings cannot go together (two-way coupling, threads, cubic Hermite,
 /// different steps or output intervals) run one after the other, as [`run_reduced`] runs them.
@@ -577,7 +573,7 @@ pub(crate) fn run_reduced_together<'c, 's>(
             }
         }
         let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = observers.iter_mut().map(|o| &mut o[..]).collect();
-        let mut step = lash_contact::micro::do_steps_together;
+        let mut step = lash_micro::do_steps_together;
         let mut work = lash_mech::lanes::KinematicLanes::default();
         let mut ahead = |subs: &mut [&mut dyn Subsystem], t, h| {
             lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);

@@ -3,8 +3,9 @@
 
 use crate::build::{BuildOptions, build_model};
 use crate::record::Recorder;
-use lash_contact::{FullModel, Impact};
+use lash_contact::Impact;
 use lash_core::BoxError;
+use lash_full_model::FullModel;
 use lash_mech::{BodyId, Motion, Vec2};
 use lash_ode::{OdeError, OdeSystem};
 use lash_scenario::channels::{Channel, Source, channel_sources};
@@ -17,7 +18,7 @@ use std::collections::BTreeMap;
 pub enum RunError {
     /// Initial conditions could not be found.
     #[error("initial conditions: {0}")]
-    Initial(#[from] lash_contact::ModelError),
+    Initial(#[from] lash_full_model::ModelError),
     /// The integration stopped.
     #[error("simulation failed at t = {t} s: {message}")]
     Simulation {

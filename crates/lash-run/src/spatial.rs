@@ -3,8 +3,9 @@
 //! [`Summary`] as the planar runners.
 
 use crate::run::{ClearanceSummary, RunError, Sink, Summary};
-use lash_contact::{Material, SpatialFullModel, SphericalClearance};
+use lash_contact::{Material, SphericalClearance};
 use lash_core::BoxError;
+use lash_full_model::SpatialFullModel;
 use lash_mech::{BodyId, Motion};
 use lash_scenario::Channel;
 use lash_scenario::spatial::{
@@ -379,7 +380,7 @@ pub struct SpatialReducedRun {
     scenario: SpatialScenario,
     options: crate::ReducedOptions,
     macro_sub: lash_spatial::SpatialMechanismSubsystem,
-    micro_sub: lash_contact::micro::InterfaceSubsystem,
+    micro_sub: lash_micro::InterfaceSubsystem,
     recording: crate::reduced::Recording,
     signals: Vec<lash_orchestrate::Signal>,
     master_options: lash_orchestrate::MasterOptions,
@@ -391,7 +392,7 @@ impl SpatialReducedRun {
     pub fn new(scenario: &SpatialScenario, options: crate::ReducedOptions) -> Result<Self, RunError> {
         use lash_orchestrate::Signal;
         let unsupported = |m: &str| Err(RunError::Unsupported(m.to_string()));
-        let max_joints = lash_contact::micro::MAX_COORDINATES / 3;
+        let max_joints = lash_micro::MAX_COORDINATES / 3;
         if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
             return Err(RunError::Unsupported(format!(
                 "the reduced model couples 1 to {max_joints} spherical clearance joints; the scenario has {}",
@@ -544,7 +545,7 @@ impl SpatialReducedRun {
         let macro_sub =
             lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
         let integrator = if options.error_controlled_micro {
-            lash_contact::micro::MicroIntegrator::Dopri5(lash_ode::AdaptiveOptions {
+            lash_micro::MicroIntegrator::Dopri5(lash_ode::AdaptiveOptions {
                 rtol: 1e-9,
                 atol: 1e-12,
                 initial_step: 1e-7,
@@ -552,7 +553,7 @@ impl SpatialReducedRun {
                 min_step: 1e-14,
             })
         } else {
-            lash_contact::micro::MicroIntegrator::Rk4 { step: options.micro_step }
+            lash_micro::MicroIntegrator::Rk4 { step: options.micro_step }
         };
         let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| scenario.materials[n]);
         let definitions = scenario
@@ -567,13 +568,13 @@ impl SpatialReducedRun {
                 bearing_material: material(&c.bearing_material),
             })
             .collect();
-        let micro_sub = lash_contact::micro::InterfaceSubsystem::with_definitions(joints, integrator, definitions)
+        let micro_sub = lash_micro::InterfaceSubsystem::with_definitions(joints, integrator, definitions)
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self { scenario: scenario.clone(), options, macro_sub, micro_sub, recording, signals, master_options })
     }
 
     /// The two subsystems, unstarted (for export as FMUs or for another master).
-    pub fn into_subsystems(self) -> (lash_spatial::SpatialMechanismSubsystem, lash_contact::micro::InterfaceSubsystem) {
+    pub fn into_subsystems(self) -> (lash_spatial::SpatialMechanismSubsystem, lash_micro::InterfaceSubsystem) {
         (self.macro_sub, self.micro_sub)
     }
 

@@ -64,7 +64,7 @@ pub struct ExecuteOptions {
 }
 
 /// Runs a worker simulates side by side by default: as many as the micro models' vector lanes.
-pub const SIDE_BY_SIDE: usize = lash_contact::micro::lanes::LANES;
+pub const SIDE_BY_SIDE: usize = lash_micro::lanes::LANES;
 
 /// What happened to runs, for progress display.
 #[derive(Debug, Clone, Copy)]

@@ -4,7 +4,7 @@
 //! Lankarani–Nikravesh c_e = 0.9, Ambrósio friction μ = 0.01) with RK4 at h_r = 1e-5 s inside each
 //! communication step. Inputs: effective mass and force with their rates, the bodies' angular
 //! velocities; outputs: contact force, impulse, eccentricity, penetration, … (the variable table of
-//! [`InterfaceSubsystem`](lash_contact::micro::InterfaceSubsystem)); parameters: the joint's radii and law coefficients, named like the
+//! [`InterfaceSubsystem`](lash_micro::InterfaceSubsystem)); parameters: the joint's radii and law coefficients, named like the
 //! scenario file (`journal_radius`, `contact.restitution`, `friction.coefficient`, …), settable
 //! before initialization.
 
@@ -14,7 +14,7 @@ use lash_fmi::fmi3::Exportable;
 pub struct InterfaceFmu;
 
 impl Exportable for InterfaceFmu {
-    type Model = lash_contact::micro::InterfaceSubsystem;
+    type Model = lash_micro::InterfaceSubsystem;
 
     fn info(
         resources: Option<&std::path::Path>,

@@ -117,7 +117,7 @@ fn the_c_abis_refuse_bad_calls_and_leak_nothing() {
             t = next;
         }
         let mut micro_steps = [0.0];
-        let vr = [lash_contact::micro::vr::MICRO_STEPS];
+        let vr = [lash_micro::vr::MICRO_STEPS];
         assert_eq!(fmi3GetFloat64(i, vr.as_ptr(), 1, micro_steps.as_mut_ptr(), 1), 0);
         assert_eq!(micro_steps[0], (1 + 1000 + 10 * 100) as f64, "noisy step sizes changed the micro-step count");
         fmi3FreeInstance(i);

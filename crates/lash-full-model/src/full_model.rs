@@ -2,7 +2,7 @@
 //! contact forces, as an [`OdeSystem`] with one event function per clearance joint.
 //!
 //! Contacts: one per revolute clearance joint, then four per translational clearance joint (its
-//! block's corners, [`crate::translational::CORNER_SIGNS`] order); event function, impact record
+//! block's corners, [`lash_contact::translational::CORNER_SIGNS`] order); event function, impact record
 //! and contact mode are per contact.
 //!
 //! State y = [q; q̇; s], s the deflections of the bushes whose damping is in series with their
@@ -11,10 +11,10 @@
 //! negative in contact, so the adaptive integrator locates every onset and exit; the approach
 //! velocity δ̇⁻ of the hysteresis laws is captured at the located onset.
 
-use crate::clearance::{ClearanceJoint, ContactState, Impact, StepSearch};
 use crate::impact_log::ImpactLog;
-use crate::joint::Clearance;
-use crate::translational::{CornerState, SlotState, TranslationalClearance};
+use lash_contact::clearance::{ClearanceJoint, ContactState, Impact, StepSearch};
+use lash_contact::joint::Clearance;
+use lash_contact::translational::{CornerState, SlotState, TranslationalClearance};
 use lash_mech::constraints::pose_of;
 use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, Vec2, assemble, kinematics, velocity_analysis};
 use lash_ode::OdeSystem;

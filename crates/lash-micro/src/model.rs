@@ -22,9 +22,9 @@
 //! which multiplies instead of solving.
 
 use super::joint::MicroJoint;
-use crate::PenetrationError;
-use crate::clearance::PENETRATION_LIMIT_FRACTION;
-use crate::clearance::{ClearanceJoint, Impact, ImpactTracker};
+use lash_contact::PenetrationError;
+use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
+use lash_contact::clearance::{ClearanceJoint, Impact, ImpactTracker};
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 use nalgebra::{SMatrix, SVector};
 
@@ -1052,7 +1052,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             if self.open[j].is_none() {
                 continue;
             }
-            let search = crate::clearance::StepSearch::run_with(t, h, |theta| {
+            let search = lash_contact::clearance::StepSearch::run_with(t, h, |theta| {
                 dense.eval(theta, y);
                 let s = self.contact_at(t + theta * h, j, &y[d * j..d * (j + 1)], &y[N + d * j..N + d * (j + 1)]);
                 (J::normal_force(&s), J::penetration(&s))
@@ -1173,8 +1173,8 @@ mod tests {
 
     /// Two spherical joints (N = 6, M = 6) with a clearance far larger than any motion here:
     /// free flight, ẅ = M̃(t)⁻¹ f̃(t).
-    fn two_balls() -> super::InterfaceModel<crate::SphericalClearance, 6, 2, 6, 6> {
-        let ball = |name: &str| crate::SphericalClearance {
+    fn two_balls() -> super::InterfaceModel<lash_contact::SphericalClearance, 6, 2, 6, 6> {
+        let ball = |name: &str| lash_contact::SphericalClearance {
             name: name.into(),
             journal_body: lash_mech::BodyId::Body(0),
             journal_point: lash_spatial::Vec3::zeros(),
@@ -1182,8 +1182,8 @@ mod tests {
             bearing_point: lash_spatial::Vec3::zeros(),
             journal_radius: 0.001,
             bearing_radius: 1.0,
-            law: crate::NormalForce::Power { stiffness: 1e9, exponent: 1.5 },
-            friction: crate::FrictionLaw::Coulomb { coefficient: 0.1 },
+            law: lash_contact::NormalForce::Power { stiffness: 1e9, exponent: 1.5 },
+            friction: lash_contact::FrictionLaw::Coulomb { coefficient: 0.1 },
             in_contact: false,
             onset_velocity: 0.0,
         };

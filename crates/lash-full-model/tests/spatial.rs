@@ -1,6 +1,7 @@
 //! The spatial full model: energy balance of a pendulum hanging from a spherical clearance joint.
 
-use lash_contact::{FrictionLaw, NormalForce, SpatialFullModel, SphericalClearance};
+use lash_contact::{FrictionLaw, NormalForce, SphericalClearance};
+use lash_full_model::SpatialFullModel;
 use lash_mech::BodyId;
 use lash_ode::{AdaptiveOptions, Method, integrate};
 use lash_spatial::{Baumgarte, Orientation, SpatialBody, SpatialMechanism, Vec3, kinetic_energy, potential_energy};

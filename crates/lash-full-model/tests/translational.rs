@@ -7,7 +7,8 @@
 //! clearance goes to zero.
 
 use lash_contact::translational::{Block, Guide};
-use lash_contact::{FrictionLaw, FullModel, NormalForce, TranslationalClearance};
+use lash_contact::{FrictionLaw, NormalForce, TranslationalClearance};
+use lash_full_model::FullModel;
 use lash_mech::{Baumgarte, Body, BodyId, Driver, Joint, JointKind, Mechanism, Motion, Pose, Vec2};
 use lash_ode::{AdaptiveOptions, Method, integrate};
 

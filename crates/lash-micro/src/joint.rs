@@ -7,9 +7,9 @@
 //! force's torques are R_J n × F_T on the ball's body and −R_B n × F_T on the socket's, which the
 //! macro side's map carries with the radii).
 
-use crate::clearance::{ClearanceJoint, ContactState};
-use crate::joint::Clearance;
-use crate::spherical::{SphericalClearance, SphericalContactState};
+use lash_contact::clearance::{ClearanceJoint, ContactState};
+use lash_contact::joint::Clearance;
+use lash_contact::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::Vec2;
 use lash_spatial::Vec3;
 

@@ -3,9 +3,9 @@
 //! open), whether a stage left its joint's contact mode, and the first error met inside a
 //! right-hand side. The joints keep their own modes (in contact, onset velocity).
 
-use crate::clearance::{Impact, ImpactTracker, PENETRATION_LIMIT_FRACTION, PenetrationError, StepSearch};
 use crate::full_model::ModelError;
-use crate::joint::Clearance;
+use lash_contact::clearance::{Impact, ImpactTracker, PENETRATION_LIMIT_FRACTION, PenetrationError, StepSearch};
+use lash_contact::joint::Clearance;
 
 /// The impacts and mode flags of a full model's clearance joints (see the module).
 #[derive(Debug, Clone)]

@@ -24,13 +24,13 @@ pub mod joint;
 pub mod lanes;
 pub mod model;
 
-use crate::PenetrationError;
-use crate::clearance::{ClearanceJoint, Impact};
-use crate::joint::Clearance;
-use crate::parameters::ClearanceDefinition;
-use crate::spherical::SphericalClearance;
 pub use bushing::BushingJoint;
 pub use joint::MicroJoint;
+use lash_contact::PenetrationError;
+use lash_contact::clearance::{ClearanceJoint, Impact};
+use lash_contact::joint::Clearance;
+use lash_contact::parameters::ClearanceDefinition;
+use lash_contact::spherical::SphericalClearance;
 use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape, row_major};
 use lash_core::{SavedState, StepOutcome, Steps, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
 use lash_ode::AdaptiveOptions;
@@ -117,7 +117,7 @@ pub mod vr {
         /// Output: micro steps taken since initialization (DOPRI5: accepted steps).
         MICRO_STEPS,
     }
-    /// First parameter (with the joints' [`crate::ClearanceDefinition`]s): each joint's
+    /// First parameter (with the joints' [`lash_contact::ClearanceDefinition`]s): each joint's
     /// `journal_radius`, `bearing_radius`, then its laws' numeric fields.
     pub const FIRST_PARAMETER: ValueReference = DECLARED;
 }
@@ -392,8 +392,8 @@ pub fn do_steps_together(
     refs: &[ValueReference],
     rows: &mut [&mut [f64]],
 ) -> Vec<Steps> {
-    use crate::friction::LaneFriction;
     use lanes::{LANES, OneJoint};
+    use lash_contact::friction::LaneFriction;
     assert_eq!(subs.len(), rows.len(), "one row buffer per subsystem");
     let mut results: Vec<Option<Steps>> = (0..subs.len()).map(|_| None).collect();
     // Which subsystems can run in lanes, by their laws' kind, with their row widths.
@@ -1148,7 +1148,7 @@ impl Subsystem for InterfaceSubsystem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{FrictionLaw, NormalForce};
+    use lash_contact::{FrictionLaw, NormalForce};
     use lash_mech::{BodyId, Vec2};
     use nalgebra::Matrix2;
 
@@ -1296,13 +1296,13 @@ mod tests {
 
     #[test]
     fn parameters_are_set_before_initialization_only_and_checked_there() {
-        let definition = crate::ClearanceDefinition {
+        let definition = lash_contact::ClearanceDefinition {
             journal_radius: 0.0099,
             bearing_radius: 0.01,
-            contact: crate::ContactLaw::Hertz { stiffness: Some(1e10), exponent: 1.5 },
+            contact: lash_contact::ContactLaw::Hertz { stiffness: Some(1e10), exponent: 1.5 },
             friction: FrictionLaw::Coulomb { coefficient: 0.1 },
-            journal_material: crate::Material::STEEL,
-            bearing_material: crate::Material::STEEL,
+            journal_material: lash_contact::Material::STEEL,
+            bearing_material: lash_contact::Material::STEEL,
         };
         let mut s = InterfaceSubsystem::with_definitions(
             vec![joint()],

@@ -6,8 +6,8 @@
 //! alone holds the interface force (the quasi-static deflection), as the full model starts.
 
 use super::MicroJoint;
-use crate::clearance::ContactState;
-use crate::joint::Clearance;
+use lash_contact::clearance::ContactState;
+use lash_contact::joint::Clearance;
 use lash_mech::{RadialCurve, Vec2};
 
 /// A bushing of the micro model.

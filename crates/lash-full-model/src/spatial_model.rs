@@ -2,9 +2,9 @@
 //! with the joints' contact forces and moments, as an [`OdeSystem`] with one event function per
 //! joint (δ in free flight, −δ in contact), like the planar [`crate::FullModel`].
 
-use crate::clearance::{Impact, StepSearch};
 use crate::impact_log::ImpactLog;
-use crate::spherical::{SphericalClearance, SphericalContactState};
+use lash_contact::clearance::{Impact, StepSearch};
+use lash_contact::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::BodyId;
 use lash_ode::OdeSystem;
 use lash_spatial::constraints::BodyFrame;
@@ -170,7 +170,7 @@ impl SpatialFullModel {
     }
 
     /// The error a right-hand side recorded (a singular solve), if any; cleared.
-    pub fn take_error(&mut self) -> Option<crate::ModelError> {
+    pub fn take_error(&mut self) -> Option<crate::full_model::ModelError> {
         self.log.take_error()
     }
 

@@ -20,12 +20,12 @@
 //! [`InterfaceModel::rk4_step`]: super::model::InterfaceModel::rk4_step
 
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
-use crate::clearance::PENETRATION_LIMIT_FRACTION;
-use crate::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
-use crate::clearance::{journal_load, normal_motion, penetration};
-use crate::friction::FrictionLaw;
-use crate::friction::{LaneFriction, lane_coefficient};
-use crate::law::{NormalForce, hysteresis_force, onset_reciprocal, three_halves};
+use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
+use lash_contact::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use lash_contact::clearance::{journal_load, normal_motion, penetration};
+use lash_contact::friction::FrictionLaw;
+use lash_contact::friction::{LaneFriction, lane_coefficient};
+use lash_contact::law::{NormalForce, hysteresis_force, onset_reciprocal, three_halves};
 use lash_core::Ticks;
 use lash_core::lane::{F64x8, Real};
 use lash_mech::Vec2;
@@ -52,7 +52,7 @@ pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
 }
 
 /// How a lane's advance ended: the steps completed, and the failure (time reached, message).
-pub type LaneOutcome = Result<(), (usize, f64, crate::PenetrationError)>;
+pub type LaneOutcome = Result<(), (usize, f64, lash_contact::PenetrationError)>;
 
 /// Runs advanced together.
 pub const LANES: usize = lash_core::lane::LANES;
@@ -812,7 +812,7 @@ fn advance_lanes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::micro::model::InterfaceInputs;
+    use crate::model::InterfaceInputs;
     use lash_mech::BodyId;
 
     fn joint(l: usize) -> ClearanceJoint {

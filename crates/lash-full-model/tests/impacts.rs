@@ -3,7 +3,8 @@
 //! its own copy of each law's formula.
 
 use lash_contact::law::HysteresisParams;
-use lash_contact::{ClearanceJoint, ContactLaw, FrictionLaw, FullModel, Material};
+use lash_contact::{ClearanceJoint, ContactLaw, FrictionLaw, Material};
+use lash_full_model::FullModel;
 use lash_mech::{Baumgarte, Body, BodyId, Mechanism, Vec2};
 use lash_ode::{AdaptiveOptions, Method, integrate};
 
@@ -347,7 +348,7 @@ fn the_micro_model_integrates_a_bush_damped_in_series_like_the_reference() {
     let mut joint = free_journal(&law, FrictionLaw::None, Vec2::zeros()).clearances[0].clone();
     joint.bush_stiffness = k_b;
     joint.bush_damping = k_b * 2e-5;
-    let mut m = lash_contact::micro::PlanarInterfaceModel::<2, 1>::new(vec![joint]);
+    let mut m = lash_micro::PlanarInterfaceModel::<2, 1>::new(vec![joint]);
     m.inputs.effective_mass = nalgebra::SMatrix::<f64, 2, 2>::identity() * MASS;
     m.eccentricity_rate = nalgebra::SVector::<f64, 2>::new(v_in, 0.0);
     let t_end = C / v_in + 8e-4;
