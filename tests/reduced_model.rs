@@ -160,7 +160,7 @@ fn runs_executed_together_equal_each_run_alone() {
         .iter()
         .map(|s| {
             let mut runner = lash_run::runner(s, model).unwrap();
-            let (summary, _, rows) = rows(runner.as_mut());
+            let (summary, _, rows) = rows(&mut runner);
             (comparable(&summary), rows)
         })
         .collect();

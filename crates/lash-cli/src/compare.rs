@@ -2,7 +2,7 @@
 
 use crate::CliError;
 use lash_metrics as compare;
-use lash_run::{BuildOptions, FullRun, ReducedOptions, Runner, SpatialRun};
+use lash_run::{AnyRunner, BuildOptions, FullRun, ReducedOptions, SpatialRun};
 use lash_scenario::AnyScenario;
 use std::path::Path;
 
@@ -27,10 +27,10 @@ fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
 }
 
 /// The full (or ideal) model's runner of a planar or spatial scenario.
-fn full_runner(s: &AnyScenario, ideal: bool) -> Box<dyn Runner> {
+fn full_runner(s: &AnyScenario, ideal: bool) -> AnyRunner {
     match s {
-        AnyScenario::Planar(p) => Box::new(FullRun::new(p, BuildOptions { ideal })),
-        AnyScenario::Spatial(p) => Box::new(SpatialRun::new(p, ideal)),
+        AnyScenario::Planar(p) => AnyRunner::Full(Box::new(FullRun::new(p, BuildOptions { ideal }))),
+        AnyScenario::Spatial(p) => AnyRunner::Spatial(Box::new(SpatialRun::new(p, ideal))),
     }
 }
 
@@ -119,8 +119,7 @@ fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, qui
     let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
     let csv = crate::output::Format::Csv;
     let settings = (s.simulation(), s.output());
-    let (full, full_summary) =
-        crate::run::run(s, settings, full_runner(s, false).as_mut(), &out.join("full"), csv, quiet)?;
+    let (full, full_summary) = crate::run::run(s, settings, &mut full_runner(s, false), &out.join("full"), csv, quiet)?;
     let chooses = !micro_step_given && !options.error_controlled_micro;
     let mut micro_step_choice = None;
     if chooses {
@@ -133,7 +132,7 @@ fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, qui
     }
     let run_reduced = |options: ReducedOptions| {
         let mut runner = lash_run::runner(s, lash_run::Model::Reduced(options)).map_err(refuse)?;
-        crate::run::run(s, settings, runner.as_mut(), &out.join("reduced"), csv, quiet)
+        crate::run::run(s, settings, &mut runner, &out.join("reduced"), csv, quiet)
     };
     let (mut reduced, reduced_summary) = run_reduced(options)?;
     // A pressed contact the chosen step does not hold: again at a tenth of the step (as `lash run`).
@@ -163,7 +162,7 @@ fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, qui
         crate::run::run(
             f,
             (f.simulation(), f.output()),
-            full_runner(f, false).as_mut(),
+            &mut full_runner(f, false),
             &out.join("full-fixed-step"),
             csv,
             true,
@@ -174,7 +173,7 @@ fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, qui
         Err(format!("{problems}"))
     };
     // The ideal mechanism (clearance joints closed), drawn as the reference curve of the figures.
-    let ideal_ok = crate::run::run(s, settings, full_runner(s, true).as_mut(), &out.join("ideal"), csv, true).is_ok();
+    let ideal_ok = crate::run::run(s, settings, &mut full_runner(s, true), &out.join("ideal"), csv, true).is_ok();
     Ok(Written {
         options,
         micro_step_choice,
@@ -197,8 +196,8 @@ fn steady_speedups(
     with_fixed: bool,
     reduced: crate::steady::Make<'_>,
 ) -> Result<(Vec<crate::steady::Timed>, usize), CliError> {
-    let mut full_make = || -> Result<Box<dyn Runner>, lash_run::RunError> { Ok(full_runner(s, false)) };
-    let mut fixed_make = || -> Result<Box<dyn Runner>, lash_run::RunError> { Ok(full_runner(fixed, false)) };
+    let mut full_make = || -> Result<AnyRunner, lash_run::RunError> { Ok(full_runner(s, false)) };
+    let mut fixed_make = || -> Result<AnyRunner, lash_run::RunError> { Ok(full_runner(fixed, false)) };
     let mut makers: Vec<crate::steady::Make<'_>> = vec![reduced, &mut full_make];
     if with_fixed {
         makers.push(&mut fixed_make);

@@ -645,7 +645,7 @@ fn run_reduced(
     let run_once = |options: lash_run::ReducedOptions| -> Result<lash_run::Summary, CliError> {
         let model = lash_run::Model::Reduced(options);
         let mut r = lash_run::runner(s, model).map_err(|e| CliError::Input(format!("--model reduced: {e}")))?;
-        run::run(s, (s.simulation(), s.output()), &mut *r, out, format, quiet).map(|(_, summary)| summary)
+        run::run(s, (s.simulation(), s.output()), &mut r, out, format, quiet).map(|(_, summary)| summary)
     };
     let summary = run_once(options)?;
     if !micro_step_given
@@ -731,7 +731,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             };
             let lash_run::Model::Reduced(options) = model else {
                 let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(e.to_string()))?;
-                return run::run(&s, (s.simulation(), s.output()), &mut *r, &out, format, quiet).map(|_| ());
+                return run::run(&s, (s.simulation(), s.output()), &mut r, &out, format, quiet).map(|_| ());
             };
             let settings = ReducedSettings {
                 request: ReducedRequest { options, ..reduced.request() },

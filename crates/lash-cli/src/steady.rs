@@ -7,7 +7,7 @@
 //! A single reduced run of A's default horizon lasts about a millisecond, where a busy 2-core
 //! machine moves one timing by a factor of several.
 
-use lash_run::{RunError, Runner};
+use lash_run::{AnyRunner, RunError};
 use serde::Serialize;
 
 /// Wall time the rounds add up to, at least \[s\].
@@ -29,10 +29,10 @@ pub struct Timed {
 }
 
 /// Builds a runner of one model (each built outside the timing).
-pub type Make<'a> = &'a mut dyn FnMut() -> Result<Box<dyn Runner>, RunError>;
+pub type Make<'a> = &'a mut dyn FnMut() -> Result<AnyRunner, RunError>;
 
 /// Wall time of `runs` runs of `make`'s model, rows discarded \[s\].
-fn run(make: &mut dyn FnMut() -> Result<Box<dyn Runner>, RunError>, runs: usize) -> Result<f64, RunError> {
+fn run(make: &mut dyn FnMut() -> Result<AnyRunner, RunError>, runs: usize) -> Result<f64, RunError> {
     let mut total = 0.0;
     for _ in 0..runs {
         let mut runner = make()?;
@@ -104,8 +104,8 @@ mod tests {
         let reduced = |horizon: f64| {
             let mut s = a.clone();
             s.simulation.horizon = horizon;
-            move || -> Result<Box<dyn Runner>, RunError> {
-                Ok(Box::new(lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default())?))
+            move || -> Result<AnyRunner, RunError> {
+                Ok(AnyRunner::Reduced(Box::new(lash_run::ReducedRun::new(&s, lash_run::ReducedOptions::default())?)))
             }
         };
         let (mut short, mut long) = (reduced(0.002), reduced(0.02));

@@ -307,7 +307,7 @@ fn simulate(
         scenario.output_mut().channels = channels.clone();
         dt = scenario.simulation().output_interval;
         let runner = lash_run::runner(&scenario, lash_run::Model::Reduced(options))?;
-        indices.push(columns(runner.as_ref(), &channels)?);
+        indices.push(columns(&runner, &channels)?);
         runners.push(runner);
     }
     let mut rows: Vec<Vec<Vec<f64>>> = vec![Vec::new(); draws.len()];
@@ -559,7 +559,7 @@ fn logged_full_run(
     scenario.output_mut().channels = channels.clone();
     let dt = scenario.simulation().output_interval;
     let mut runner = lash_run::runner(&scenario, lash_run::Model::Full { ideal: false }).ok()?;
-    let index = columns(runner.as_ref(), &channels).ok()?;
+    let index = columns(&runner, &channels).ok()?;
     let mut rows: Vec<Vec<f64>> = Vec::new();
     runner
         .execute(

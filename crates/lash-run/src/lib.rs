@@ -6,7 +6,8 @@
 //!   interface (micro) as subsystems on lash-orchestrate's execution engine.
 //! * [`SpatialRun`]: the full model (or the ideal mechanism) of a spatial scenario.
 //! * [`FullSubsystem`]: the full model as a co-simulation subsystem (its FMU's model).
-//! * Both runners implement [`Runner`] and return the same [`Summary`].
+//! * Every runner implements [`Runner`] and returns the same [`Summary`]; [`runner`] picks one
+//!   ([`AnyRunner`]).
 
 pub mod bench;
 pub mod build;
@@ -38,16 +39,61 @@ pub enum Model {
     Reduced(ReducedOptions),
 }
 
+/// A runner of either model of either kind of scenario, as [`runner`] picks it. The variants
+/// are the runners' own types: a batch ([`execute_together`]) finds its planar reduced runs by
+/// matching, without asking a trait object what it is. (Boxed: the runners differ in size by
+/// kilobytes.)
+pub enum AnyRunner {
+    /// A planar scenario's full (or ideal) model.
+    Full(Box<FullRun>),
+    /// A planar scenario's reduced model.
+    Reduced(Box<ReducedRun>),
+    /// A spatial scenario's full (or ideal) model.
+    Spatial(Box<SpatialRun>),
+    /// A spatial scenario's reduced model.
+    SpatialReduced(Box<SpatialReducedRun>),
+}
+
+impl AnyRunner {
+    /// Column names with units, time first ([`Runner::header`]).
+    pub fn header(&self) -> Vec<String> {
+        self.runner().header()
+    }
+
+    /// Runs the horizon ([`Runner::execute`]).
+    pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
+        self.runner_mut().execute(sink, progress)
+    }
+
+    fn runner(&self) -> &dyn Runner {
+        match self {
+            AnyRunner::Full(r) => &**r,
+            AnyRunner::Reduced(r) => &**r,
+            AnyRunner::Spatial(r) => &**r,
+            AnyRunner::SpatialReduced(r) => &**r,
+        }
+    }
+
+    fn runner_mut(&mut self) -> &mut dyn Runner {
+        match self {
+            AnyRunner::Full(r) => &mut **r,
+            AnyRunner::Reduced(r) => &mut **r,
+            AnyRunner::Spatial(r) => &mut **r,
+            AnyRunner::SpatialReduced(r) => &mut **r,
+        }
+    }
+}
+
 /// The runner of `model` for a planar or spatial scenario: the one place that picks it (the
 /// command line, sweeps and the Python package all come here). The error says why the model
 /// cannot be built (a reduced model asked of an ideal run, an unsupported option).
-pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Box<dyn Runner>, RunError> {
+pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<AnyRunner, RunError> {
     use lash_scenario::AnyScenario::{Planar, Spatial};
     Ok(match (scenario, model) {
-        (Planar(s), Model::Full { ideal }) => Box::new(FullRun::new(s, BuildOptions { ideal })),
-        (Planar(s), Model::Reduced(o)) => Box::new(ReducedRun::new(s, o)?),
-        (Spatial(s), Model::Full { ideal }) => Box::new(SpatialRun::new(s, ideal)),
-        (Spatial(s), Model::Reduced(o)) => Box::new(SpatialReducedRun::new(s, o)?),
+        (Planar(s), Model::Full { ideal }) => AnyRunner::Full(Box::new(FullRun::new(s, BuildOptions { ideal }))),
+        (Planar(s), Model::Reduced(o)) => AnyRunner::Reduced(Box::new(ReducedRun::new(s, o)?)),
+        (Spatial(s), Model::Full { ideal }) => AnyRunner::Spatial(Box::new(SpatialRun::new(s, ideal))),
+        (Spatial(s), Model::Reduced(o)) => AnyRunner::SpatialReduced(Box::new(SpatialReducedRun::new(s, o)?)),
     })
 }
 
@@ -55,18 +101,18 @@ pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Box
 /// planar reduced runs go side by side ([`ReducedRun::execute_together`], their micro models
 /// stepped in vector lanes where they can be — the same rows and summaries bit for bit, the CPU
 /// and wall times shared), the others one after the other. Nothing reports progress.
-pub fn execute_together(runners: &mut [Box<dyn Runner>], sinks: Vec<Sink<'_>>) -> Vec<Result<Summary, RunError>> {
+pub fn execute_together(runners: &mut [AnyRunner], sinks: Vec<Sink<'_>>) -> Vec<Result<Summary, RunError>> {
     assert_eq!(runners.len(), sinks.len(), "one sink per runner");
-    let reduced: Vec<bool> = runners.iter_mut().map(|r| r.as_reduced().is_some()).collect();
     let mut results: Vec<Option<Result<Summary, RunError>>> = runners.iter().map(|_| None).collect();
     let (mut group, mut group_sinks, mut members) = (Vec::new(), Vec::new(), Vec::new());
-    for (i, ((runner, sink), together)) in runners.iter_mut().zip(sinks).zip(reduced).enumerate() {
-        if together {
-            group.push(runner.as_reduced().expect("a reduced run"));
-            group_sinks.push(sink);
-            members.push(i);
-        } else {
-            results[i] = Some(runner.execute(sink, &mut |_| {}));
+    for (i, (runner, sink)) in runners.iter_mut().zip(sinks).enumerate() {
+        match runner {
+            AnyRunner::Reduced(run) => {
+                group.push(&mut **run);
+                group_sinks.push(sink);
+                members.push(i);
+            }
+            other => results[i] = Some(other.execute(sink, &mut |_| {})),
         }
     }
     for (i, r) in members.into_iter().zip(ReducedRun::execute_together(&mut group, group_sinks)) {

@@ -596,11 +596,6 @@ pub trait Runner {
     fn header(&self) -> Vec<String>;
     /// Runs the horizon.
     fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError>;
-    /// The planar reduced run this is, if it is one (runs that [`crate::execute_together`] can
-    /// step side by side).
-    fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {
-        None
-    }
 }
 
 /// Runs whose inherent `header` and `execute` are the trait's.
@@ -617,19 +612,13 @@ macro_rules! inherent_runner {
     )*};
 }
 
-inherent_runner!(FullRun, crate::spatial::SpatialRun, crate::spatial::SpatialReducedRun);
-
-impl Runner for crate::reduced::ReducedRun {
-    fn header(&self) -> Vec<String> {
-        crate::reduced::ReducedRun::header(self)
-    }
-    fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
-        crate::reduced::ReducedRun::execute(self, sink, progress)
-    }
-    fn as_reduced(&mut self) -> Option<&mut crate::reduced::ReducedRun> {
-        Some(self)
-    }
-}
+inherent_runner!(
+    FullRun,
+    crate::reduced::ReducedRun,
+    crate::spatial::SpatialRun,
+    crate::spatial::SpatialReducedRun,
+    crate::AnyRunner
+);
 
 #[cfg(test)]
 mod tests {

@@ -222,7 +222,7 @@ struct Simulation {
 
 impl Simulation {
     /// The runner of run `run` of `plan`, and what keeps its `channels`.
-    fn new(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(Box<dyn lash_run::Runner>, Self), String> {
+    fn new(plan: &Plan, run: &RunSpec, channels: &[ChannelInfo]) -> Result<(lash_run::AnyRunner, Self), String> {
         let mut scenario = plan.scenario(run).map_err(|e| e.to_string())?;
         // The runner samples the forces; the sweep emulates the measurement as they stream.
         let measurements = std::mem::take(&mut scenario.output_mut().measurements);
