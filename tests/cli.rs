@@ -861,6 +861,49 @@ fn the_error_estimate_adds_the_coupling_error_over_the_whole_run() {
     }
 }
 
+/// A two-way run's second term is the step term: the run against itself at half the macro step
+/// over the whole run, twice their distance (first-order extrapolation), recomputed here from the
+/// written CSVs. Its order is measured too: on A-200um the two-way run's RMS levels move by about
+/// half as much again at each halving of the macro step (first order). The window term alone
+/// stays below the whole run's measured error on every main channel, the sum brackets it
+/// (docs/validation.md §6).
+#[test]
+fn a_two_way_run_is_estimated_with_its_step_error() {
+    let dir = scratch("step-term");
+    let cmp = dir.join("cmp");
+    let args = ["compare", "A-200um", "--horizon", "0.2", "--coupling", "two-way", "--quiet", "--out"];
+    let o = lash(&[&args[..], &[cmp.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value = read_json(&cmp.join("comparison.json"));
+    let h = c["reduced_options"]["micro_step"].as_f64().unwrap().to_string();
+    let halved = |macro_step: &str| {
+        let out = dir.join(macro_step);
+        let args = ["run", "A-200um", "--model", "reduced", "--coupling", "two-way", "--horizon", "0.2"];
+        let extra = ["--no-error-estimate", "--micro-step", &h, "--macro-step", macro_step, "--out"];
+        let o = lash(&[&args[..], &extra[..], &[out.to_str().unwrap()]].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        out.join("timeseries.csv")
+    };
+    let (half, quarter) = (halved("5e-4"), halved("2.5e-4"));
+    let rms_of = |file: &Path, name: &str| column_rms(file, name, f64::NEG_INFINITY);
+    let e = &c["error_estimate"];
+    for channel in e["estimate"]["channels"].as_array().unwrap() {
+        let name = channel["name"].as_str().unwrap();
+        let (own, h2, h4) =
+            (rms_of(&cmp.join("reduced/timeseries.csv"), name), rms_of(&half, name), rms_of(&quarter, name));
+        let step = channel["step_error"].as_f64().unwrap();
+        let expected = 2.0 * (own - h2).abs() / h2;
+        assert!((step - expected).abs() <= 1e-9 * expected, "{name}: {step} vs {expected}");
+        assert!(channel["coupling_error"].is_null(), "{channel}");
+        let order = (own - h2).abs() / (h2 - h4).abs();
+        assert!((1.5..3.0).contains(&order), "{name}: successive differences' ratio {order} (first order: 2)");
+        let window = channel["rms_level_error"].as_f64().unwrap();
+        assert!((channel["estimated_error"].as_f64().unwrap() - (window + step)).abs() < 1e-15, "{channel}");
+        let measured = e["whole_run_rms_level_error"][name].as_f64().unwrap();
+        assert!(window < measured && window + step >= measured, "{name}: {window} + {step} vs {measured}");
+    }
+}
+
 /// By default (`--coupling auto`), where the estimate's coupling term is past the stated 10 % the
 /// run takes the coupling closer to the converged full model over the probe window: over 0.2 s F
 /// turns two-way — its written run is the two-way run's to the bit, with the choice and the
@@ -896,7 +939,8 @@ fn the_default_coupling_is_the_one_closer_to_the_full_model() {
         assert!(why.contains(&figures) && (two_way < one_way) == turns, "{name}: {why} / {figures}");
         if turns {
             assert!(why.starts_with("two-way coupling, chosen") && stderr(&o).contains(why), "{}", stderr(&o));
-            assert!(s["error_estimate"]["channels"].as_array().unwrap().iter().all(|c| c["coupling_error"].is_null()));
+            let channels = s["error_estimate"]["channels"].as_array().unwrap().clone();
+            assert!(channels.iter().all(|c| c["coupling_error"].is_null() && c["step_error"].is_f64()), "{s}");
             let (_, _, two_way_rows) = run(name, &["--coupling", "two-way", "--no-error-estimate", "--micro-step", &h]);
             assert!(auto_rows == two_way_rows, "the written run is the two-way run");
             let cmp = dir.join("cmp");

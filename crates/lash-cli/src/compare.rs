@@ -37,12 +37,12 @@ fn full_runner(s: &AnyScenario, ideal: bool) -> AnyRunner {
 /// The reduced run's error estimate (crate::probe) beside the error the comparison measures
 /// over the whole run, channel by channel: how well the estimate brackets the truth.
 fn error_check(
-    estimate: &Result<crate::probe::ErrorEstimate, String>,
+    estimate: &Result<crate::probe::ErrorEstimate, crate::probe::NoEstimate>,
     metrics: &std::collections::BTreeMap<String, compare::ChannelComparison>,
 ) -> serde_json::Value {
     let estimate = match estimate {
         Ok(e) => e,
-        Err(e) => return serde_json::json!({ "error": e }),
+        Err(e) => return serde_json::json!({ "error": e.to_string() }),
     };
     let measured: serde_json::Map<String, serde_json::Value> = estimate
         .channels
@@ -97,7 +97,7 @@ struct Written {
     /// Why the coupling is two-way under `--coupling auto`, if it is.
     coupling_choice: Option<String>,
     /// The reduced run's error estimate (crate::probe), or why there is none.
-    estimate: Result<crate::probe::ErrorEstimate, String>,
+    estimate: Result<crate::probe::ErrorEstimate, crate::probe::NoEstimate>,
     full: crate::run::Timing,
     reduced: crate::run::Timing,
     /// The full model by RK4 at the micro step: its timing, or why it did not run.
@@ -147,7 +147,7 @@ fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, qui
         reduced = run_reduced(options)?.0;
         micro_step_choice = Some(micro_step_choice.map_or(why.clone(), |first| format!("{first}; then {why}")));
     }
-    let probe = crate::probe::FullProbe::run(s, options.macro_step, true);
+    let probe = crate::probe::FullProbe::run(s, options.macro_step, true).map_err(crate::probe::NoEstimate::from);
     let rerun = |o| run_reduced(o).map(|(timing, _)| reduced = timing);
     let crate::probe::Estimated { options, estimate, coupling_choice } =
         crate::probe::estimate_and_choose_coupling(&probe, options, coupling_auto, quiet, rerun)?;

@@ -607,8 +607,9 @@ fn run_reduced(
     quiet: bool,
 ) -> Result<(), CliError> {
     let ReducedRequest { mut options, micro_step_given, coupling_auto } = settings.request;
-    let probe = (settings.error_estimate || !micro_step_given)
-        .then(|| probe::FullProbe::run(s, options.macro_step, settings.error_estimate));
+    let probe = (settings.error_estimate || !micro_step_given).then(|| {
+        probe::FullProbe::run(s, options.macro_step, settings.error_estimate).map_err(probe::NoEstimate::from)
+    });
     let mut notes = serde_json::Map::new();
     match &probe {
         Some(Ok(p)) => {

@@ -6,7 +6,12 @@
 //! - the coupling term (one-way runs): the one-way and the two-way reduced model over the whole
 //!   run, compared likewise — what taking the ideal mechanism's motion for the real one costs,
 //!   over the part of the run the window does not see (a joint that settles into a different
-//!   regime later, as B's rod–slider pin does).
+//!   regime later, as B's rod–slider pin does);
+//! - the step term (two-way runs): the two-way run and the same at half the macro step over the
+//!   whole run, extrapolated (Richardson) to the run's own step error: the coupling converges at
+//!   first order in the macro step (measured, docs/validation.md §6), so the run is twice the
+//!   difference away from its limit. For a rattling pin the difference is also the spread between
+//!   realisations of a chaotic motion.
 //!
 //! The estimate is their sum (the triangle inequality, with the window term standing for the
 //! two-way model's own distance from the full model); docs/validation.md §6 shows how it compares
@@ -27,7 +32,12 @@ pub struct ChannelError {
     /// |RMS(one-way) − RMS(two-way)| / RMS(two-way) over the whole run (none for a two-way run,
     /// or when the two-way run failed).
     pub coupling_error: Option<f64>,
-    /// The estimate: `rms_level_error` + `coupling_error`.
+    /// For a two-way run, 2 |RMS(h_m) − RMS(h_m / 2)| / RMS(h_m / 2) over the whole run: the run
+    /// against itself at half the macro step, extrapolated at first order to its own step error
+    /// (none for a one-way run, or when the run failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_error: Option<f64>,
+    /// The estimate: `rms_level_error` + `coupling_error` (one-way) or + `step_error` (two-way).
     pub estimated_error: f64,
 }
 
@@ -38,7 +48,8 @@ pub struct ErrorEstimate {
     pub window_s: f64,
     /// Per main channel (channels at round-off in the full model are left out).
     pub channels: Vec<ChannelError>,
-    /// Why there is no coupling term, when a one-way run has none (the two-way run failed).
+    /// Why there is no coupling term, when a one-way run has none (the two-way run failed), or
+    /// no step term, when a two-way run has none (the run at half the macro step failed).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coupling_error_missing: Option<String>,
     /// Wall time of the estimate (every model it ran) \[s\].
@@ -88,7 +99,7 @@ impl ErrorEstimate {
         let parts: Vec<String> = self
             .channels
             .iter()
-            .map(|c| match c.coupling_error {
+            .map(|c| match c.coupling_error.or(c.step_error) {
                 Some(k) => format!(
                     "{} {:.1} % ({:.1} % + {:.1} %)",
                     c.name,
@@ -104,11 +115,15 @@ impl ErrorEstimate {
                 "against the converged full model over the first {:.4} s + one-way against two-way coupling over the run",
                 self.window_s
             )
+        } else if self.channels.iter().any(|c| c.step_error.is_some()) {
+            format!(
+                "against the converged full model over the first {:.4} s + the run against itself at half the macro step",
+                self.window_s
+            )
         } else {
             format!("against the converged full model over the first {:.4} s", self.window_s)
         };
-        let missing =
-            self.coupling_error_missing.as_ref().map_or(String::new(), |m| format!(" (no coupling term: {m})"));
+        let missing = self.coupling_error_missing.as_ref().map_or(String::new(), |m| format!(" (no second term: {m})"));
         format!("error estimate of the RMS levels ({terms}): {}{missing}", parts.join(", "))
     }
 }
@@ -152,6 +167,18 @@ pub enum ProbeError {
     /// The two runs could not be compared.
     #[error(transparent)]
     Compare(#[from] lash_metrics::CompareError),
+}
+
+/// Why a run has no error estimate: its probe or its estimate failed. Shared (a clone is a
+/// pointer): one probe's failure is the reason of every estimate made against it.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error(transparent)]
+pub struct NoEstimate(std::sync::Arc<ProbeError>);
+
+impl From<ProbeError> for NoEstimate {
+    fn from(e: ProbeError) -> Self {
+        Self(std::sync::Arc::new(e))
+    }
 }
 
 /// Runs `model` of `scenario` and keeps its rows and summary.
@@ -241,6 +268,7 @@ impl FullProbe {
                     rms_level_error,
                     spectral_distance: c.spectral_distance,
                     coupling_error: None,
+                    step_error: None,
                     estimated_error: rms_level_error,
                 })
             })
@@ -250,8 +278,8 @@ impl FullProbe {
     }
 
     /// The error estimate of a whole reduced run with `options`: [`FullProbe::estimate`]'s window
-    /// term, plus for a one-way run the coupling term over the whole run (the two-way run's
-    /// simulated fraction to `progress`: it is the long part).
+    /// term, plus over the whole run the coupling term for a one-way run or the step term for a
+    /// two-way one (the second run's simulated fraction to `progress`: it is the long part).
     pub fn estimate_run(
         &self,
         options: lash_run::ReducedOptions,
@@ -259,26 +287,46 @@ impl FullProbe {
     ) -> Result<ErrorEstimate, ProbeError> {
         let clock = std::time::Instant::now();
         let mut e = self.estimate(options)?;
-        if options.coupling != lash_core::Coupling::OneWay {
-            return Ok(e);
-        }
         let mut whole = self.scenario.clone();
         whole.simulation_mut().horizon = self.horizon;
         let names: Vec<String> = e.channels.iter().map(|c| c.name.clone()).collect();
-        let run = |coupling, progress: &mut dyn FnMut(f64)| {
-            let o = lash_run::ReducedOptions { channels_only: true, coupling, ..options };
+        let run = |o: lash_run::ReducedOptions, progress: &mut dyn FnMut(f64)| {
+            let o = lash_run::ReducedOptions { channels_only: true, ..o };
             whole_run_rms(&whole, lash_run::Model::Reduced(o), &names, progress)
         };
-        let one_way = run(lash_core::Coupling::OneWay, &mut |_| {})?;
-        match run(lash_core::Coupling::TwoWay, progress) {
-            Ok(two_way) => {
-                for ((c, a), b) in e.channels.iter_mut().zip(one_way).zip(two_way) {
-                    let k = if b > 0.0 { (a - b).abs() / b } else { 0.0 };
-                    c.coupling_error = Some(k);
+        let one_way = options.coupling == lash_core::Coupling::OneWay;
+        // The run itself, and the one it is measured against: two-way, or itself at half the
+        // macro step (and half the micro step where the halved macro step would not hold a whole
+        // number of them).
+        let other = if one_way {
+            lash_run::ReducedOptions { coupling: lash_core::Coupling::TwoWay, ..options }
+        } else {
+            let macro_step = options.macro_step / 2.0;
+            let ticks = |s: f64| lash_core::Ticks::from_seconds(s).ok();
+            let whole_steps = ticks(macro_step)
+                .zip(ticks(options.micro_step))
+                .is_some_and(|(m, r)| lash_orchestrate::check_step_ratio(m, r).is_ok());
+            let micro_step = if whole_steps { options.micro_step } else { options.micro_step / 2.0 };
+            lash_run::ReducedOptions { macro_step, micro_step, ..options }
+        };
+        let own = run(options, &mut |_| {})?;
+        match run(other, progress) {
+            Ok(reference) => {
+                // (The coupling converges at first order in the macro step: a run is twice its
+                // distance from the run at half the step away from the limit.)
+                let extrapolation = if one_way { 1.0 } else { 2.0 };
+                for ((c, a), b) in e.channels.iter_mut().zip(own).zip(reference) {
+                    let k = if b > 0.0 { extrapolation * (a - b).abs() / b } else { 0.0 };
+                    if one_way {
+                        c.coupling_error = Some(k);
+                    } else {
+                        c.step_error = Some(k);
+                    }
                     c.estimated_error = c.rms_level_error + k;
                 }
             }
-            Err(why) => e.coupling_error_missing = Some(format!("the two-way run failed: {why}")),
+            Err(why) if one_way => e.coupling_error_missing = Some(format!("the two-way run failed: {why}")),
+            Err(why) => e.coupling_error_missing = Some(format!("the run at half the macro step failed: {why}")),
         }
         e.wall_s += clock.elapsed().as_secs_f64();
         Ok(e)
@@ -455,10 +503,10 @@ pub fn choose_micro_step(
 /// Writes an error estimate, or why there is none, into a run's summary (as JSON) as
 /// `error_estimate`, and the estimate's coupling warning into its `warnings`: what `lash run`
 /// and Python's `lash.run` both record.
-pub fn record(summary: &mut serde_json::Map<String, serde_json::Value>, estimated: &Result<ErrorEstimate, String>) {
+pub fn record(summary: &mut serde_json::Map<String, serde_json::Value>, estimated: &Result<ErrorEstimate, NoEstimate>) {
     let value = match estimated {
         Ok(e) => serde_json::to_value(e).unwrap_or_else(|e| serde_json::json!({ "error": e.to_string() })),
-        Err(e) => serde_json::json!({ "error": e }),
+        Err(e) => serde_json::json!({ "error": e.to_string() }),
     };
     summary.insert("error_estimate".into(), value);
     let warning = estimated.as_ref().ok().and_then(ErrorEstimate::coupling_warning);
@@ -470,15 +518,15 @@ pub fn record(summary: &mut serde_json::Map<String, serde_json::Value>, estimate
 /// The error estimate of a reduced run with `options` against `probe` ([`FullProbe::estimate_run`],
 /// with a bar of its two-way run that shows after a second unless `quiet`), or why there is none.
 pub fn estimate_against(
-    probe: &Result<FullProbe, ProbeError>,
+    probe: &Result<FullProbe, NoEstimate>,
     options: lash_run::ReducedOptions,
     quiet: bool,
-) -> Result<ErrorEstimate, String> {
-    let probe = probe.as_ref().map_err(|e| e.to_string())?;
+) -> Result<ErrorEstimate, NoEstimate> {
+    let probe = probe.as_ref().map_err(Clone::clone)?;
     let mut bar = crate::run::DelayedBar::new("simulated (the error estimate's two-way run)", quiet);
     let estimate = probe.estimate_run(options, &mut |f| bar.update(f));
     bar.finish();
-    estimate.map_err(|e| e.to_string())
+    Ok(estimate?)
 }
 
 /// A written reduced run's options, error estimate and coupling choice
@@ -488,7 +536,7 @@ pub struct Estimated {
     /// The options the written run has.
     pub options: lash_run::ReducedOptions,
     /// Its error estimate, or why there is none.
-    pub estimate: Result<ErrorEstimate, String>,
+    pub estimate: Result<ErrorEstimate, NoEstimate>,
     /// Why its coupling is not the one asked for, when it is not.
     pub coupling_choice: Option<String>,
 }
@@ -503,7 +551,7 @@ pub struct Estimated {
 /// (docs/validation.md §6) — so the full model decides. Returns the options the written run
 /// has, its estimate, and the choice with its figures ([`Estimated`]).
 pub fn estimate_and_choose_coupling<E>(
-    probe: &Result<FullProbe, ProbeError>,
+    probe: &Result<FullProbe, NoEstimate>,
     options: lash_run::ReducedOptions,
     auto: bool,
     quiet: bool,
@@ -563,7 +611,7 @@ pub fn estimate_and_choose_coupling<E>(
 /// ([`ErrorEstimate::coupling_warning`]) to its warnings, and `notes` (how its steps and coupling
 /// were chosen); prints the estimate. An estimate that failed is recorded as such: the run stands.
 pub fn attach(
-    estimated: Option<Result<ErrorEstimate, String>>,
+    estimated: Option<Result<ErrorEstimate, NoEstimate>>,
     notes: serde_json::Map<String, serde_json::Value>,
     out: &std::path::Path,
     quiet: bool,

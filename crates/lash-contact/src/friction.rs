@@ -69,8 +69,9 @@ pub fn slip_sign<R: Real>(v: R) -> R {
 
 /// Ambrósio's dynamic correction c_d(|v|): 0 up to `v0`, 1 from `v1`, linear between. Behind
 /// branches taken when every lane sticks or every lane slides — for one run, the law's own
-/// `if`s: written as one chain of selections instead, the scalar micro step took 100 ns against
-/// 80 (measured) — its division is formed only where some lane is between (rare at speed).
+/// `if`s, which the compiler keeps as branches (one chain of selections cost the scalar micro
+/// step a fifth of its time: docs/performance.md) — its division is formed only where some lane
+/// is between (rare at speed).
 #[inline(always)]
 pub fn ambrosio_factor<R: Real>(speed: R, v0: R, v1: R) -> R {
     let (zero, one) = (R::splat(0.0), R::splat(1.0));
@@ -194,6 +195,31 @@ mod tests {
         assert_eq!(s.coefficient(0.0), 0.0);
         let t = laws()[4];
         assert!((t.coefficient(1e-3) - 0.1 * (1.0 - (-3.0f64).exp())).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_laws_in_lanes_are_the_scalar_laws_bit_for_bit() {
+        use lash_core::lane::{F64x8, LANES};
+        // Groups all stuck, all sliding, and mixed (stuck, between, sliding, both signs, rest).
+        let groups: [[f64; LANES]; 3] = [
+            [0.0, 1e-5, -2e-5, 5e-5, -9e-5, 1e-4, -1e-4, 3e-5],
+            [2e-3, -5e-3, 1.0, -0.7, 1e-3, -1e-3, 12.0, -3e-3],
+            [0.0, 5e-5, -3e-4, 7e-4, -2e-3, 0.4, -1e-4, 1e-3],
+        ];
+        let (mu, v0, v1) = (0.12, 1e-4, 1e-3);
+        for v in groups {
+            for (kind, law) in [
+                (LaneFriction::None, FrictionLaw::None),
+                (LaneFriction::Coulomb, FrictionLaw::Coulomb { coefficient: mu }),
+                (LaneFriction::Ambrosio, FrictionLaw::Ambrosio { coefficient: mu, v0, v1 }),
+            ] {
+                let (m, a, b) = (F64x8::splat(mu), F64x8::splat(v0), F64x8::splat(v1));
+                let lanes = lane_coefficient(kind, m, a, b, F64x8(v));
+                for l in 0..LANES {
+                    assert_eq!(lanes[l].to_bits(), law.coefficient(v[l]).to_bits(), "{kind:?} at {}", v[l]);
+                }
+            }
+        }
     }
 
     proptest! {

@@ -109,9 +109,9 @@ fn each(f: impl Fn(usize) -> f64) -> F64x8 {
     F64x8(std::array::from_fn(f))
 }
 
-/// A mask lane: all bits set where `b`.
+/// One lane of a mask: all bits set where `b`.
 #[inline(always)]
-fn flag(b: bool) -> f64 {
+pub fn flag(b: bool) -> f64 {
     f64::from_bits(if b { u64::MAX } else { 0 })
 }
 

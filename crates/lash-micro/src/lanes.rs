@@ -27,7 +27,7 @@ use lash_contact::friction::FrictionLaw;
 use lash_contact::friction::{LaneFriction, lane_coefficient};
 use lash_contact::law::{NormalForce, hysteresis_force, onset_reciprocal, three_halves};
 use lash_core::Ticks;
-use lash_core::lane::{F64x8, Real};
+use lash_core::lane::{F64x8, Real, flag};
 use lash_mech::Vec2;
 use nalgebra::{SMatrix, SVector};
 
@@ -69,12 +69,6 @@ type X = F64x8;
 #[inline(always)]
 fn x(a: &V) -> X {
     X::from(*a)
-}
-
-/// A lane of a mask: all bits set where `f`.
-#[inline(always)]
-fn flag(f: bool) -> f64 {
-    f64::from_bits(if f { u64::MAX } else { 0 })
 }
 
 /// A lane's numbers for one stage evaluation: the loads on the journal and the contact state.

@@ -270,7 +270,7 @@ impl ReducedSettings<'_> {
 /// converged full model's impacts over `probe`'s window); why, when it is not the default or the
 /// probe failed. DOPRI5's communication step is kept.
 fn choose_micro_step(
-    probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::ProbeError>,
+    probe: &Result<lash_cli::probe::FullProbe, lash_cli::probe::NoEstimate>,
     options: &mut lash_run::ReducedOptions,
 ) -> Option<String> {
     if options.error_controlled_micro {
@@ -314,7 +314,7 @@ fn run<'py>(
     let reduced = model == "reduced" && !ideal;
     let probe = (reduced && (given.is_none() || error_estimate)).then(|| {
         let (s, h) = (&scenario.inner, options.macro_step);
-        py.detach(|| lash_cli::probe::FullProbe::run(s, h, error_estimate))
+        py.detach(|| lash_cli::probe::FullProbe::run(s, h, error_estimate).map_err(lash_cli::probe::NoEstimate::from))
     });
     let choice = match &probe {
         Some(p) if given.is_none() => choose_micro_step(p, &mut options),
@@ -366,7 +366,7 @@ fn run<'py>(
 fn summary_json(
     summary: &lash_run::Summary,
     notes: [(&str, Option<String>); 3],
-    estimate: Option<&Result<lash_cli::probe::ErrorEstimate, String>>,
+    estimate: Option<&Result<lash_cli::probe::ErrorEstimate, lash_cli::probe::NoEstimate>>,
 ) -> PyResult<String> {
     let mut summary = serde_json::to_value(summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
     if let Some(map) = summary.as_object_mut() {
