@@ -523,7 +523,7 @@ pub fn estimate_against(
     quiet: bool,
 ) -> Result<ErrorEstimate, NoEstimate> {
     let probe = probe.as_ref().map_err(Clone::clone)?;
-    let mut bar = crate::run::DelayedBar::new("simulated (the error estimate's two-way run)", quiet);
+    let mut bar = crate::run::DelayedBar::new("simulated (the error estimate's second run)", quiet);
     let estimate = probe.estimate_run(options, &mut |f| bar.update(f));
     bar.finish();
     Ok(estimate?)
@@ -570,14 +570,16 @@ pub fn estimate_and_choose_coupling<E>(
         execution: lash_orchestrate::Execution::Sequential,
         ..options
     };
-    let two_way_estimate = estimate_against(probe, two_way, true);
+    // The decision reads the two-way window term alone; the step term over the whole run is
+    // made only for a run that turns two-way.
+    let two_way_window = probe.as_ref().map_err(Clone::clone).and_then(|p| Ok(p.estimate(two_way)?));
     let bound = 100.0 * lash_metrics::STATED.rms;
     let moved = format!(
         "in one-way coupling {name}'s RMS level over the run moved by {:.1} % against two-way coupling, past the stated \
          bound of {bound:.0} %",
         100.0 * k
     );
-    let (closer, against) = match &two_way_estimate {
+    let (closer, against) = match &two_way_window {
         Ok(t) => (
             t.worst_rms_level_error() < one_way_worst,
             format!(
@@ -603,7 +605,8 @@ pub fn estimate_and_choose_coupling<E>(
         eprintln!("note: {why}");
     }
     rerun(two_way)?;
-    Ok(Estimated { options: two_way, estimate: two_way_estimate, coupling_choice: Some(why) })
+    let estimate = estimate_against(probe, two_way, quiet);
+    Ok(Estimated { options: two_way, estimate, coupling_choice: Some(why) })
 }
 
 /// Adds to a reduced run's summary.json (written into `out`) its error estimate (`estimated`;
