@@ -87,6 +87,31 @@ fn blk(id: BodyId, dr: Vec2, dtheta: f64) -> Block {
     }
 }
 
+/// The row of Φ = v·d, d = r_i + a_i − r_j − a_j: the distance of point a_i of body i from the
+/// line through point a_j of body j along a direction fixed on body j, whose normal is v (world
+/// components) — its Jacobian row, its value and γ (0 unless `GAMMA`). A prismatic joint's second
+/// row (v normal to its axis); with v along the axis, the slide of a translational clearance
+/// joint's block along its guide.
+#[inline(always)]
+pub(crate) fn line_row<const GAMMA: bool>(
+    (body_i, body_j): (BodyId, BodyId),
+    (pi, pj): (&Pose, &Pose),
+    (ai, aj): (Vec2, Vec2),
+    v: Vec2,
+) -> (JacobianRow, f64, f64) {
+    let (wi, wj) = (pi.angular_velocity, pj.angular_velocity);
+    let d = pi.position + ai - pj.position - aj;
+    let pv = perp(v);
+    let row = [blk(body_i, v, v.dot(&perp(ai))), blk(body_j, -v, pv.dot(&d) - v.dot(&perp(aj)))];
+    let gamma = if GAMMA {
+        let d_dot = pi.velocity + perp(ai) * wi - pj.velocity - perp(aj) * wj;
+        wj * wj * v.dot(&d) - 2.0 * wj * pv.dot(&d_dot) + wi * wi * v.dot(&ai) - wj * wj * v.dot(&aj)
+    } else {
+        0.0
+    };
+    (row, v.dot(&d), gamma)
+}
+
 /// The constraint terms at one state.
 pub struct ConstraintTerms<'a> {
     /// Φ_q by rows (sparse: two body blocks per row); every row is overwritten.
@@ -145,16 +170,12 @@ pub(crate) fn evaluate_as<const GAMMA: bool>(mech: &Mechanism, t: f64, poses: &[
                 // Φ2 = v·d, v = A_j ⊥u (unit normal to the axis), d = r_i + a_i − r_j − a_j
                 let u = axis_j / axis_j.norm();
                 let v = pj.rotate(perp(u));
-                let d = pi.position + ai - pj.position - aj;
-                let pv = perp(v);
-                jac[row + 1] =
-                    [blk(joint.body_i, v, v.dot(&perp(ai))), blk(joint.body_j, -v, pv.dot(&d) - v.dot(&perp(aj)))];
-                phi[row + 1] = v.dot(&d);
+                let (r, value, g) = line_row::<GAMMA>((joint.body_i, joint.body_j), (&pi, &pj), (ai, aj), v);
+                jac[row + 1] = r;
+                phi[row + 1] = value;
                 nu[row + 1] = 0.0;
                 if GAMMA {
-                    let d_dot = pi.velocity + perp(ai) * wi - pj.velocity - perp(aj) * wj;
-                    gamma[row + 1] =
-                        wj * wj * v.dot(&d) - 2.0 * wj * pv.dot(&d_dot) + wi * wi * v.dot(&ai) - wj * wj * v.dot(&aj);
+                    gamma[row + 1] = g;
                 }
             }
         }

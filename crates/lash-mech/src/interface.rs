@@ -11,6 +11,7 @@
 //! so that M̃ ẅ = f̃ + f_c. One factorisation serves the three right-hand sides [Q | Jᵀe_x | Jᵀe_y];
 //! the λ-parts of the same solves give joint reactions and driver torques as λ = λ_free + Λ f_c.
 
+use crate::constraints::{Block, JacobianRow, line_row, pose_of};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::{MechError, Solver};
 use crate::{Pose, Vec2, cross, perp};
@@ -75,16 +76,108 @@ fn interface_rate(iface: &Interface, poses: &[Pose], x: &[f64]) -> Vec2 {
 }
 
 /// One clearance joint among several coupled through the cut mechanism: where its journal and
-/// bearing centres are, and the radii at which its friction force acts.
+/// bearing centres are, and the radii at which its friction force acts — or, for a translational
+/// clearance joint, its block and guide.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ClearanceInterface {
-    /// Journal and bearing centres.
+    /// Journal and bearing centres; for a guide, the block's centre on the block's body
+    /// (`journal_*`) and a point of the guide's mid-line on the guide's body (`bearing_*`).
     pub interface: Interface,
     /// Journal radius R_J \[m\] (the friction force acts at the contact point, R_J from the journal
     /// centre).
     pub journal_radius: f64,
     /// Bearing radius R_B \[m\].
     pub bearing_radius: f64,
+    /// A translational clearance joint's guide (`None`: a revolute clearance joint).
+    pub guide: Option<GuideAxis>,
+}
+
+/// The guide of a translational clearance joint. Its two interface coordinates are the rows of
+/// the prismatic joint it replaces: the block's tilt θ_block − θ_guide − θ0 and its centre's
+/// offset from the guide's mid-line, m·d (m the mid-line's left normal, d the block centre less
+/// the mid-line point); its one friction load is the force along the guide on the block (whose
+/// moment about the block's centre the micro side puts in the tilt's generalized force), acting
+/// through the slide u·d.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuideAxis {
+    /// The mid-line's direction u on the guide's body (unit).
+    pub axis: Vec2,
+    /// The block's relative angle θ_block − θ_guide when it is aligned with the guide \[rad\].
+    pub angle_offset: f64,
+}
+
+/// A guide's three rows at the solver's poses (tilt, offset, slide), each with its γ
+/// (Φ_q q̈ = γ, so that the coordinate's acceleration is row · q̈ − γ).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct GuideRows {
+    rows: [JacobianRow; 3],
+    gamma: [f64; 3],
+}
+
+impl GuideRows {
+    fn at(iface: &Interface, guide: &GuideAxis, poses: &[Pose]) -> Self {
+        let (bi, bj) = (iface.journal_body, iface.bearing_body);
+        let (pi, pj) = (pose_of(poses, bi), pose_of(poses, bj));
+        let (ai, aj) = (pi.rotate(iface.journal_point), pj.rotate(iface.bearing_point));
+        let tilt =
+            [Block { body: body_index(bi), d: [0.0, 0.0, 1.0] }, Block { body: body_index(bj), d: [0.0, 0.0, -1.0] }];
+        let u = pj.rotate(guide.axis / guide.axis.norm());
+        let (offset, _, offset_gamma) = line_row::<true>((bi, bj), (&pi, &pj), (ai, aj), perp(u));
+        let (slide, _, slide_gamma) = line_row::<true>((bi, bj), (&pi, &pj), (ai, aj), u);
+        Self { rows: [tilt, offset, slide], gamma: [0.0, offset_gamma, slide_gamma] }
+    }
+
+    /// Row `r` times a coordinate-space vector.
+    fn times(&self, r: usize, x: &[f64]) -> f64 {
+        self.rows[r]
+            .iter()
+            .filter(|b| b.body != Block::NONE)
+            .map(|b| (0..3).map(|i| b.d[i] * x[3 * b.body + i]).sum::<f64>())
+            .sum()
+    }
+
+    /// Adds row `r`ᵀ times `load` (the generalized force of that load on the coordinate) to
+    /// `force`.
+    fn add_to(&self, r: usize, load: f64, force: &mut [f64]) {
+        for b in self.rows[r].iter().filter(|b| b.body != Block::NONE) {
+            for i in 0..3 {
+                force[3 * b.body + i] += b.d[i] * load;
+            }
+        }
+    }
+}
+
+impl ClearanceInterface {
+    /// A guide's slide: the block's speed along the guide u·ḋ and its rate at `poses` (which
+    /// carry the velocities) and accelerations `qdd`; `None` for a revolute clearance joint.
+    pub fn slide_rates(&self, poses: &[Pose], qd: &[f64], qdd: &[f64]) -> Option<(f64, f64)> {
+        let rows = GuideRows::at(&self.interface, self.guide.as_ref()?, poses);
+        Some((rows.times(2, qd), rows.times(2, qdd) - rows.gamma[2]))
+    }
+
+    /// Adds the generalized force of the joint's friction load `load` at `poses` to `forces`:
+    /// a revolute joint's friction moments −R_J F_T on the journal's body and +R_B F_T on the
+    /// bearing's, a guide's force along it through its slide.
+    pub fn add_friction_load(&self, poses: &[Pose], load: f64, forces: &mut [f64]) {
+        if let Some(guide) = &self.guide {
+            GuideRows::at(&self.interface, guide, poses).add_to(2, load, forces);
+            return;
+        }
+        for (body, arm) in
+            [(self.interface.journal_body, -self.journal_radius), (self.interface.bearing_body, self.bearing_radius)]
+        {
+            if let BodyId::Body(b) = body {
+                forces[3 * b + 2] += arm * load;
+            }
+        }
+    }
+}
+
+fn body_index(id: BodyId) -> usize {
+    match id {
+        BodyId::Body(k) => k,
+        BodyId::Ground => Block::NONE,
+    }
 }
 
 /// The effective terms of k clearance joints at once (n = 2k interface coordinates: joint j's
@@ -131,6 +224,7 @@ struct Scratch {
     zero_gamma: Vec<f64>,
     lambda: DVector<f64>,
     arms: Vec<[Vec2; 2]>,
+    guides: Vec<Option<GuideRows>>,
 }
 
 impl CoupledTerms {
@@ -153,6 +247,7 @@ impl CoupledTerms {
                 zero_gamma: vec![0.0; constraints],
                 lambda: DVector::zeros(constraints),
                 arms: Vec::with_capacity(joints),
+                guides: Vec::with_capacity(joints),
             },
         }
     }
@@ -217,9 +312,21 @@ pub fn coupled_effective_terms_into(
         let iface = &j.interface;
         [arm(iface.journal_body, iface.journal_point), arm(iface.bearing_body, iface.bearing_point)]
     }));
-    let Scratch { force, zero_gamma, lambda, arms } = scratch;
+    scratch.guides.clear();
+    scratch.guides.extend(joints.iter().map(|j| j.guide.map(|g| GuideRows::at(&j.interface, &g, &solver.poses))));
+    let Scratch { force, zero_gamma, lambda, arms, guides } = scratch;
     for (j, joint) in joints.iter().enumerate() {
         let iface = &joint.interface;
+        if let Some(rows) = &guides[j] {
+            // The unit loads on the tilt and the offset, then on the slide (the friction load).
+            for (column, r) in [(2 * j, 0), (2 * j + 1, 1), (2 * k + j, 2)] {
+                force.fill(0.0);
+                rows.add_to(r, 1.0, force);
+                solver.solve_with(force, zero_gamma, &mut gain[column], lambda);
+                lambda_gain[column].copy_from_slice(lambda.as_slice());
+            }
+            continue;
+        }
         for (i, e) in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)].into_iter().enumerate() {
             // Jᵀ e: the unit force on the journal point and its opposite on the bearing point.
             force.fill(0.0);
@@ -265,6 +372,19 @@ pub fn coupled_rates_into(solver: &Solver, joints: &[ClearanceInterface], terms:
     };
     for (row, joint) in joints.iter().enumerate() {
         let iface = &joint.interface;
+        if let Some(guide) = &joint.guide {
+            let rows = GuideRows::at(iface, guide, poses);
+            for r in 0..2 {
+                for c in 0..dim {
+                    terms.mobility[(2 * row + r, c)] = rows.times(r, &terms.gain[c]);
+                }
+                for c in 0..k {
+                    terms.friction_mobility[(2 * row + r, c)] = rows.times(r, &terms.gain[dim + c]);
+                }
+                terms.free_acceleration[2 * row + r] = rows.times(r, &terms.free_accelerations) - rows.gamma[r];
+            }
+            continue;
+        }
         for c in 0..dim {
             let w = interface_rate(iface, poses, &terms.gain[c]);
             terms.mobility[(2 * row, c)] = w.x;
@@ -337,7 +457,7 @@ pub fn effective_terms(
     q: &[f64],
     qd: &[f64],
 ) -> Result<EffectiveTerms, MechError> {
-    let joint = ClearanceInterface { interface: *iface, journal_radius: 0.0, bearing_radius: 0.0 };
+    let joint = ClearanceInterface { interface: *iface, journal_radius: 0.0, bearing_radius: 0.0, guide: None };
     let c = coupled_effective_terms(mech, solver, &[joint], t, q, qd)?;
     let two = |m: &DMatrix<f64>| Matrix2::new(m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]);
     let mut gain = c.gain.into_iter();

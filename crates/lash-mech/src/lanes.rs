@@ -97,7 +97,8 @@ pub fn terms_signature(
     joints: &[ClearanceInterface],
     shared: bool,
 ) -> Option<Vec<u64>> {
-    (shared && cut.loads.is_empty()).then(|| {
+    // (A guide's rows are not in the lanes' solves.)
+    (shared && cut.loads.is_empty() && joints.iter().all(|j| j.guide.is_none())).then(|| {
         let mut v = signature(cut, solver);
         v.push(joints.len() as u64);
         v.extend(

@@ -27,8 +27,8 @@ pub mod solver;
 pub mod subsystem;
 
 pub use interface::{
-    ClearanceInterface, CoupledTerms, EffectiveTerms, Interface, coupled_effective_terms, coupled_effective_terms_into,
-    effective_terms, own_interface_load,
+    ClearanceInterface, CoupledTerms, EffectiveTerms, GuideAxis, Interface, coupled_effective_terms,
+    coupled_effective_terms_into, effective_terms, own_interface_load,
 };
 pub use kinematics::{
     PointKinematics, assemble, assemble_and_project, driver_torque, initial_guess, joint_reaction, kinetic_energy,

@@ -87,14 +87,7 @@ fn apply_prescribed(p: &Prescribed, solver: &mut Solver, rows: &[usize], joints:
         solver.gamma[row + 1] += a.y;
     }
     for (joint, &f) in joints.iter().zip(&p.friction) {
-        for (body, arm) in [
-            (joint.interface.journal_body, -joint.journal_radius),
-            (joint.interface.bearing_body, joint.bearing_radius),
-        ] {
-            if let BodyId::Body(b) = body {
-                solver.forces[3 * b + 2] += arm * f;
-            }
-        }
+        joint.add_friction_load(&solver.poses, f, &mut solver.forces);
     }
 }
 
@@ -594,10 +587,21 @@ impl MechanismSubsystem {
                 *o = f(j);
             }
         };
-        each(vr::JOURNAL_ANGULAR_VELOCITY, &|j| omega(j.interface.journal_body, &self.qd));
-        each(vr::JOURNAL_ANGULAR_ACCELERATION, &|j| omega(j.interface.journal_body, &self.qdd));
-        each(vr::BEARING_ANGULAR_VELOCITY, &|j| omega(j.interface.bearing_body, &self.qd));
-        each(vr::BEARING_ANGULAR_ACCELERATION, &|j| omega(j.interface.bearing_body, &self.qdd));
+        // (A guide's slip is its block's speed along it: the "journal" rate, the bearing's 0.)
+        let poses = &self.cut_solver.poses;
+        let slide = |j: &ClearanceInterface| j.slide_rates(poses, &self.qd, &self.qdd);
+        each(vr::JOURNAL_ANGULAR_VELOCITY, &|j| {
+            slide(j).map_or_else(|| omega(j.interface.journal_body, &self.qd), |s| s.0)
+        });
+        each(vr::JOURNAL_ANGULAR_ACCELERATION, &|j| {
+            slide(j).map_or_else(|| omega(j.interface.journal_body, &self.qdd), |s| s.1)
+        });
+        each(vr::BEARING_ANGULAR_VELOCITY, &|j| {
+            if j.guide.is_some() { 0.0 } else { omega(j.interface.bearing_body, &self.qd) }
+        });
+        each(vr::BEARING_ANGULAR_ACCELERATION, &|j| {
+            if j.guide.is_some() { 0.0 } else { omega(j.interface.bearing_body, &self.qdd) }
+        });
         let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         // Constraint error of the macro's own mechanism (the cut one's rows are a subset of the
         // ideal one's; the cut solver holds the current state).

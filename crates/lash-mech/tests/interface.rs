@@ -157,6 +157,7 @@ fn two_clearance_joints(radius_j: f64, radius_b: f64) -> (Mechanism, Mechanism, 
             },
             journal_radius: radius_j,
             bearing_radius: radius_b,
+            guide: None,
         });
         closed.joints.push(j);
     }
@@ -292,7 +293,16 @@ fn a_cut_solver_sharing_the_ideal_factor_gives_the_same_terms_bit_for_bit() {
         .iter()
         .map(|name| {
             let (cut_m, ideal, iface) = cut(name);
-            (cut_m, ideal, vec![ClearanceInterface { interface: iface, journal_radius: 9.5e-3, bearing_radius: 1e-2 }])
+            (
+                cut_m,
+                ideal,
+                vec![ClearanceInterface {
+                    interface: iface,
+                    journal_radius: 9.5e-3,
+                    bearing_radius: 1e-2,
+                    guide: None,
+                }],
+            )
         })
         .chain(std::iter::once(two_clearance_joints(9.5e-3, 10.0e-3)))
         .collect();
@@ -345,5 +355,99 @@ fn a_cut_solver_sharing_the_ideal_factor_gives_the_same_terms_bit_for_bit() {
             }
             assert!(s_cut.factor().is_err(), "a share is used once only (t = {t})");
         }
+    }
+}
+
+/// A translational clearance joint's interface (the slider's prismatic joint cut, its block in a
+/// guide): the coordinates are the prismatic joint's rows, tilt and offset, and the friction load
+/// acts through the slide along the guide. Checked at many crank angles against computations of
+/// the test's own: J by finite differences of (θ_slider − θ0, m·d, u·d); M̃ and the friction
+/// column by the null-space route; f̃ equal to the ideal prismatic joint's multipliers; q̈ with
+/// the load −f̃ the ideal mechanism's; the slide's speed and acceleration by differences in time
+/// along the ideal motion.
+#[test]
+fn a_guide_interface_has_the_identities_of_the_prismatic_joint_it_replaces() {
+    let (cut_m, ideal_m, iface) = cut("guide");
+    let guide = GuideAxis { axis: Vec2::new(1.0, 0.0), angle_offset: 0.0 };
+    let joint = ClearanceInterface { interface: iface, journal_radius: 0.0, bearing_radius: 0.0, guide: Some(guide) };
+    // Tilt, offset and slide of the block centre (body i's joint point) against the ground's axis.
+    let coordinates = |q: &[f64]| -> [f64; 3] {
+        let zero = vec![0.0; q.len()];
+        let p = Pose::of(iface.journal_body, q, &zero);
+        let d = p.position + p.rotate(iface.journal_point) - iface.bearing_point;
+        [p.angle, d.y, d.x]
+    };
+    let mut s_ideal = Solver::new(&ideal_m);
+    let mut s_cut = Solver::new(&cut_m);
+    let (mut q, _) = kinematics::initial_guess(&ideal_m);
+    let period = 2.0 * std::f64::consts::PI / OMEGA;
+    let analysed = |t: f64, q: &mut Vec<f64>, s: &mut Solver| {
+        assemble(&ideal_m, t, q, s, 1e-14).unwrap();
+        let mut qd = vec![0.0; q.len()];
+        velocity_analysis(&ideal_m, t, q, &mut qd, s).unwrap();
+        qd
+    };
+    for i in 0..24 {
+        let t = period * ((i as f64 * 0.618_033_988_75).fract());
+        let qd = analysed(t, &mut q, &mut s_ideal);
+        let terms = coupled_effective_terms(&cut_m, &mut s_cut, &[joint], t, &q, &qd).unwrap();
+        let mt = terms.effective_mass.clone().expect("the cut slider moves in tilt and offset");
+        let n = q.len();
+        let mut jac = DMatrix::zeros(3, n);
+        let h = 1e-7;
+        for k in 0..n {
+            let (mut qp, mut qm) = (q.clone(), q.clone());
+            qp[k] += h;
+            qm[k] -= h;
+            let (gp, gm) = (coordinates(&qp), coordinates(&qm));
+            for r in 0..3 {
+                jac[(r, k)] = (gp[r] - gm[r]) / (2.0 * h);
+            }
+        }
+        let a = null_space_inverse_mass(&cut_m, t, &q);
+        let (rows, slide) = (jac.rows(0, 2).into_owned(), jac.rows(2, 1).into_owned());
+        let mt_null = (&rows * &a * rows.transpose()).try_inverse().unwrap();
+        let rel = (&mt - &mt_null).abs().max() / mt.abs().max();
+        assert!(rel < 1e-6, "t = {t}: M̃ {mt} vs null space {mt_null} ({rel:e})");
+        let friction_null = &rows * &a * slide.transpose();
+        let scale = friction_null.abs().max().max(terms.mobility.abs().max());
+        assert!(
+            (&terms.friction_mobility - &friction_null).abs().max() < 1e-6 * scale,
+            "t = {t}: W_T {} vs {friction_null}",
+            terms.friction_mobility
+        );
+
+        // f̃ = the multipliers of the ideal prismatic joint's rows (its reaction is −λ).
+        s_ideal.accelerations(&ideal_m, t, &q, &qd, |_| {}).unwrap();
+        let row = ideal_m.joint_row(ideal_m.joints.len() - 1);
+        for r in 0..2 {
+            let lambda = s_ideal.lambda[row + r];
+            assert!(
+                (terms.effective_force[r] - lambda).abs() < 1e-8 * lambda.abs().max(1.0),
+                "t = {t}: f̃[{r}] {} vs λ {lambda}",
+                terms.effective_force[r]
+            );
+        }
+        let mut qdd = vec![0.0; n];
+        terms.accelerations(&[-terms.effective_force[0], -terms.effective_force[1]], &[0.0], &mut qdd);
+        let scale = s_ideal.accelerations.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for k in 0..n {
+            assert!((qdd[k] - s_ideal.accelerations[k]).abs() < 1e-9 * scale, "t = {t}: q̈[{k}]");
+        }
+
+        // The slide's speed and acceleration against differences of u·d along the ideal motion.
+        let (rate, acceleration) = joint.slide_rates(&s_cut.poses, &qd, &s_ideal.accelerations).unwrap();
+        let dt = 1e-6;
+        let slide_at = |t: f64| {
+            let mut qt = q.clone();
+            let mut s = Solver::new(&ideal_m);
+            assemble(&ideal_m, t, &mut qt, &mut s, 1e-14).unwrap();
+            coordinates(&qt)[2]
+        };
+        let (before, now, after) = (slide_at(t - dt), slide_at(t), slide_at(t + dt));
+        let speed = (after - before) / (2.0 * dt);
+        let second = (after - 2.0 * now + before) / (dt * dt);
+        assert!((rate - speed).abs() < 1e-6 * speed.abs().max(1.0), "t = {t}: ẋ {rate} vs {speed}");
+        assert!((acceleration - second).abs() < 1e-4 * second.abs().max(1.0), "t = {t}: ẍ {acceleration} vs {second}");
     }
 }

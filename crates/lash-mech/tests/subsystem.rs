@@ -25,7 +25,7 @@ fn subsystem(clearance: &str, coupling: Coupling) -> MechanismSubsystem {
 }
 
 fn joints(interface: Interface) -> Vec<ClearanceInterface> {
-    vec![ClearanceInterface { interface, journal_radius: 0.0095, bearing_radius: 0.01 }]
+    vec![ClearanceInterface { interface, journal_radius: 0.0095, bearing_radius: 0.01, guide: None }]
 }
 
 fn value(s: &MechanismSubsystem, name: &str) -> Vec<f64> {
@@ -155,6 +155,7 @@ fn variant(k: usize, clearances: &[&str], unreachable: bool) -> MechanismSubsyst
             },
             journal_radius: 0.0095,
             bearing_radius: 0.01 + 1e-4 * f,
+            guide: None,
         });
         ideal.joints.push(j);
     }

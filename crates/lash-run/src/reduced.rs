@@ -132,6 +132,7 @@ impl ReducedRun {
                 },
                 journal_radius: j.journal_radius,
                 bearing_radius: j.bearing_radius,
+                guide: None,
             })
             .collect();
         // A bushing's two points are the interface (its force is the micro side's): the cut
@@ -149,6 +150,7 @@ impl ReducedRun {
                     },
                     journal_radius: 0.0,
                     bearing_radius: 0.0,
+                    guide: None,
                 });
                 bushings.push(lash_micro::BushingJoint {
                     name: scenario.bushings[bushings.len()].joint.clone(),
