@@ -60,6 +60,15 @@ fn unsupported_scenarios_are_refused_clearly() {
     let s = builtin::by_name("B").unwrap();
     let e = ReducedRun::new(&s, ReducedOptions { micro_step: 3e-5, ..Default::default() }).err().unwrap();
     assert!(e.to_string().contains("whole multiple"), "{e}");
+    // A guide beside a revolute clearance joint: two micro models of different kinds.
+    let mut s = builtin::by_name("G").unwrap();
+    s.clearances = builtin::by_name("B").unwrap().clearances;
+    let e = ReducedRun::new(&s, ReducedOptions::default()).err().expect("a guide and a clearance joint");
+    assert!(e.to_string().contains("one translational clearance joint alone (guide \"slider_guide\")"), "{e}");
+    // The error-controlled micro model does not locate a corner's events yet.
+    let s = builtin::by_name("G").unwrap();
+    let e = ReducedRun::new(&s, ReducedOptions { error_controlled_micro: true, ..Default::default() }).err().unwrap();
+    assert!(e.to_string().contains("DOPRI5 micro integrator"), "{e}");
 }
 
 #[test]
@@ -222,4 +231,51 @@ fn channels_only_writes_the_same_rows_and_no_statistics() {
     assert!(full_summary.clearances[0].impacts > 0, "the 20 ms should hold impacts");
     assert!(lean_summary.channels.is_empty() && lean_summary.clearances.is_empty());
     assert_eq!(lean_summary.samples, full_summary.samples);
+}
+
+/// Scenario G (a block in a guide with 1 mm play either side, free motion, 0.2 s): the reduced
+/// model — the guide's interface the prismatic joint's rows, the corners a micro joint of four
+/// contacts — against the converged full model. One-way at its default steps: the same impacts
+/// at each corner (±1), their peak normal forces within 2 % and median contact durations within
+/// 2 %, and over the steady window (t ≥ 0.05 s) the RMS levels of the slider's lateral
+/// acceleration, the guide's lateral force and the block's offset within 3 %. Two-way coupling
+/// meets the same RMS bound once its macro step is short against the corners' 0.2 ms contacts
+/// (h_m = 1e-4 s; at the default 1e-3 s its correction, prescribed over a step that holds whole
+/// impacts, takes a third off the lateral acceleration).
+#[test]
+fn a_translational_clearance_joint_reduced_against_full() {
+    let s = builtin::by_name("G").unwrap();
+    let (full_summary, hf, full) = rows(&mut FullRun::new(&s, BuildOptions::default()));
+    let rms = |header: &[String], rows: &[Vec<f64>], name: &str| {
+        let k = column(header, name);
+        let steady: Vec<f64> = rows.iter().filter(|r| r[0] >= 0.05).map(|r| r[k]).collect();
+        (steady.iter().map(|v| v * v).sum::<f64>() / steady.len() as f64).sqrt()
+    };
+    let channels = ["slider.ay", "slider_guide.fy", "slider_guide.offset"];
+    let compare = |options: ReducedOptions, contacts: bool| {
+        let (summary, hr, red) = rows(&mut ReducedRun::new(&s, options).unwrap());
+        assert_eq!(full.len(), red.len());
+        for name in channels {
+            let (f, r) = (rms(&hf, &full, name), rms(&hr, &red, name));
+            eprintln!("{name} RMS: full {f:.4e}, reduced {r:.4e} ({options:?})");
+            assert!((r / f - 1.0).abs() < 0.03, "{name}: RMS {r} vs {f}");
+        }
+        if !contacts {
+            return;
+        }
+        assert_eq!(summary.clearances.len(), 4, "one contact per corner");
+        for (f, r) in full_summary.clearances.iter().zip(&summary.clearances) {
+            assert_eq!(f.name, r.name);
+            eprintln!(
+                "{}: impacts {} / {}, peak {:.1} / {:.1} N",
+                f.name, f.impacts, r.impacts, f.peak_normal_force, r.peak_normal_force
+            );
+            assert!(f.impacts.abs_diff(r.impacts) <= 1, "{}: {} vs {} impacts", f.name, r.impacts, f.impacts);
+            assert!((r.peak_normal_force / f.peak_normal_force - 1.0).abs() < 0.02, "{}: peak", f.name);
+            let (df, dr) = (f.median_impact_duration.unwrap(), r.median_impact_duration.unwrap());
+            assert!((dr / df - 1.0).abs() < 0.02, "{}: contact {dr} s vs {df} s", f.name);
+        }
+    };
+    compare(ReducedOptions::default(), true);
+    compare(ReducedOptions { coupling: lash_core::Coupling::TwoWay, macro_step: 1e-4, ..Default::default() }, false);
 }

@@ -124,7 +124,11 @@ fn info(
 
 /// "scenario A's crank_pivot" / "scenario C's crank_pivot and rod_slider".
 fn joints_of(s: &AnyScenario) -> String {
-    let names: Vec<&str> = s.clearances().iter().map(|c| c.joint.as_str()).collect();
+    let guides = match s {
+        AnyScenario::Planar(p) => p.guides.iter().map(|g| g.joint.as_str()).collect(),
+        AnyScenario::Spatial(_) => Vec::new(),
+    };
+    let names: Vec<&str> = s.clearances().iter().map(|c| c.joint.as_str()).chain(guides).collect();
     let list = match names.as_slice() {
         [] => "no joint".to_string(),
         [one] => one.to_string(),
@@ -136,6 +140,7 @@ fn joints_of(s: &AnyScenario) -> String {
 /// FMI identity of the interface FMU of `s` (its variables are `vars`).
 pub fn interface_info(s: &AnyScenario, vars: &[lash_core::Variable]) -> ModelInfo {
     let (kind, per_joint) = match s {
+        AnyScenario::Planar(p) if !p.guides.is_empty() => ("translational", 2),
         AnyScenario::Planar(_) => ("revolute", 2),
         AnyScenario::Spatial(_) => ("spherical", 3),
     };
@@ -146,7 +151,7 @@ pub fn interface_info(s: &AnyScenario, vars: &[lash_core::Variable]) -> ModelInf
             "Micro subsystem of lash's reduced interface model: M~ w'' = f~ + f_c(w, w') + H L for the {kind} \
              clearance joints {} ({} coordinates), RK4 at the micro step",
             joints_of(s),
-            per_joint * s.clearance_count()
+            per_joint * s.interface_count()
         ),
         vars,
         s.simulation().horizon.min(0.01),

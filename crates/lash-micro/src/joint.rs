@@ -26,8 +26,38 @@ pub trait MicroJoint: Clearance + Clone + std::fmt::Debug {
     /// communication step) rather than in effective-mass form (M̃, f̃ and H linear, M̃ factored at
     /// every instant a micro step needs): see [`super::model::Mobility`].
     const MOBILITY_FORM: bool = false;
+    /// Contacts of one joint, each with its own mode and impacts: 1 (a journal in its bearing),
+    /// 4 (a translational joint's corners). A joint of several contacts evaluates each under its
+    /// own mode ([`MicroJoint::evaluate`] ignores `onset`) and switches them through
+    /// [`MicroJoint::contact_gap`].
+    const CONTACTS: usize = 1;
     /// Geometry, kinematics and forces at one state.
     type State: Copy + Default + std::fmt::Debug + PartialEq;
+
+    /// Whether a contact may be closed at eccentricity `e` (false: free flight, no contact law
+    /// evaluated): |e| > c for a journal in its bearing.
+    #[inline(always)]
+    fn may_touch(&self, e: &[f64]) -> bool {
+        let c = self.radial_clearance();
+        e.iter().map(|x| x * x).sum::<f64>() > c * c
+    }
+    /// A joint of several contacts: contact `k`'s penetration δ_k and its rate δ̇_k at (e, ė),
+    /// from the geometry alone (its mode switches are placed by them).
+    fn contact_gap(&self, _e: &[f64], _e_dot: &[f64], _k: usize) -> (f64, f64) {
+        unreachable!("a joint of one contact switches by its eccentricity")
+    }
+    /// Contact `k`'s mode: closed, and the approach velocity it closed at.
+    fn contact_mode(&self, _k: usize) -> (bool, f64) {
+        (self.in_contact(), self.onset_velocity())
+    }
+    /// Sets contact `k`'s mode.
+    fn set_contact_mode(&mut self, _k: usize, in_contact: bool, onset_velocity: f64) {
+        self.set_mode(in_contact, onset_velocity)
+    }
+    /// Contact `k`'s normal force F_N \[N\] and penetration δ \[m\] in state `s`.
+    fn contact_sample(s: &Self::State, _k: usize) -> (f64, f64) {
+        (Self::normal_force(s), Self::penetration(s))
+    }
 
     /// The state from the eccentricity `e`, its rate `e_dot` (COORDINATES each) and the journal's
     /// and bearing's angular velocities (ROTATIONS each).

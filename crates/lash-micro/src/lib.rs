@@ -20,11 +20,13 @@
 //! file, prefixed with the joint's name when there are several joints.
 
 pub mod bushing;
+pub mod guide;
 pub mod joint;
 pub mod lanes;
 pub mod model;
 
 pub use bushing::BushingJoint;
+pub use guide::GuideJoint;
 pub use joint::MicroJoint;
 use lash_contact::PenetrationError;
 use lash_contact::clearance::{ClearanceJoint, Impact};
@@ -116,6 +118,10 @@ pub mod vr {
         CONTACT_FORCE_MAGNITUDE,
         /// Output: micro steps taken since initialization (DOPRI5: accepted steps).
         MICRO_STEPS,
+        /// Output: each contact's F_N (k · contacts per joint: a translational joint's corners).
+        CONTACT_NORMAL_FORCE,
+        /// Output: each contact's δ.
+        CONTACT_PENETRATION,
     }
     /// First parameter (with the joints' [`lash_contact::ClearanceDefinition`]s): each joint's
     /// `journal_radius`, `bearing_radius`, then its laws' numeric fields.
@@ -138,6 +144,7 @@ enum Core {
     B2(Box<InterfaceModel<BushingJoint, 2, 1, 1, 1>>),
     B4(Box<InterfaceModel<BushingJoint, 4, 2, 2, 2>>),
     B6(Box<InterfaceModel<BushingJoint, 6, 3, 3, 3>>),
+    G2(Box<InterfaceModel<GuideJoint, 2, 1, 1, 1>>),
 }
 
 /// Runs `$body` with `$m` bound to the model of whichever kind and size `$core` holds.
@@ -157,6 +164,7 @@ macro_rules! each_core {
             Core::B2($m) => $body,
             Core::B4($m) => $body,
             Core::B6($m) => $body,
+            Core::G2($m) => $body,
         }
     };
 }
@@ -222,6 +230,14 @@ impl CoreJoint for BushingJoint {
         }))
     }
     /// A bushing has no clearance definition (its stiffness and damping are its own).
+    fn apply(&mut self, _d: &ClearanceDefinition) {}
+}
+
+impl CoreJoint for GuideJoint {
+    fn core(joints: Vec<Self>) -> Option<CoreBox> {
+        (joints.len() == 1).then(|| CoreBox(Core::G2(Box::new(InterfaceModel::new(joints)))))
+    }
+    /// A guide's block and laws are its own (no radii to resolve).
     fn apply(&mut self, _d: &ClearanceDefinition) {}
 }
 
@@ -559,7 +575,9 @@ fn read<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: 
             vr::PENETRATION => each_joint(out, |j| J::penetration(&s[j])),
             vr::PENETRATION_RATE => each_joint(out, |j| J::penetration_rate(&s[j])),
             vr::SLIP_VELOCITY => each_joint(out, |j| J::slip(&s[j])),
-            vr::IMPACTS => each_joint(out, |j| m.impacts[j].len() as f64),
+            vr::IMPACTS => each_joint(out, |j| {
+                m.impacts[j * J::CONTACTS..(j + 1) * J::CONTACTS].iter().map(Vec::len).sum::<usize>() as f64
+            }),
             vr::IN_CONTACT => each_joint(out, |j| if m.joints[j].in_contact() { 1.0 } else { 0.0 }),
             vr::RADIAL_CLEARANCE => each_joint(out, |j| m.joints[j].radial_clearance()),
             vr::CONTACT_FORCE_MAGNITUDE => {
@@ -570,6 +588,14 @@ fn read<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: 
                 })
             }
             vr::MICRO_STEPS => out[0] = micro_steps as f64,
+            vr::CONTACT_NORMAL_FORCE | vr::CONTACT_PENETRATION => {
+                for (j, s) in s.iter().enumerate() {
+                    for k in 0..J::CONTACTS {
+                        let (force, penetration) = J::contact_sample(s, k);
+                        out[j * J::CONTACTS + k] = if r == vr::CONTACT_NORMAL_FORCE { force } else { penetration };
+                    }
+                }
+            }
             vr::EFFECTIVE_MASS..=vr::FRICTION_MOMENT_FORCE_RATE if J::MOBILITY_FORM => {
                 let p = &m.mobility;
                 match r {
@@ -666,6 +692,17 @@ impl InterfaceSubsystem {
                 }
                 MicroIntegrator::Rk4 { .. } => {}
             }
+        }
+        if J::CONTACTS > 1 && matches!(integrator, MicroIntegrator::Dopri5(_)) {
+            return Err(SubsystemError::BadValue {
+                name: "micro integrator".into(),
+                problem: format!(
+                    "{} {:?} has {} contacts, whose events the DOPRI5 micro integrator does not locate yet; use RK4",
+                    J::KIND,
+                    joints[0].name(),
+                    J::CONTACTS
+                ),
+            });
         }
         if !definitions.is_empty() && definitions.len() != joints.len() {
             return Err(SubsystemError::BadArguments(format!(
@@ -845,6 +882,12 @@ impl InterfaceSubsystem {
             &[],
             &[0.0],
         );
+        let per_contact = per_joint_shape(k * J::CONTACTS, &[]);
+        let (force, penetration) = (vr::CONTACT_NORMAL_FORCE, vr::CONTACT_PENETRATION);
+        t.add_at(force, "contact_normal_force", Output, C, "N", "each contact's F_N", &per_contact, &[0.0]);
+        let minus_per_contact: Vec<f64> = minus.iter().flat_map(|&m| std::iter::repeat_n(m, J::CONTACTS)).collect();
+        let description = "each contact's penetration";
+        t.add_at(penetration, "contact_penetration", Output, C, "m", description, &per_contact, &minus_per_contact);
         let mut parameter_values = Vec::new();
         let mut ranges = Vec::with_capacity(definitions.len());
         for (joint, definition) in joints.iter().zip(definitions) {
@@ -915,14 +958,35 @@ impl InterfaceSubsystem {
         }
     }
 
-    /// Joint `j`'s completed impacts.
-    pub fn impacts(&self, j: usize) -> &[Impact] {
-        each_core!(&self.core, m => &m.impacts[j])
+    /// The contacts' names: a joint's own name where it has one contact, its name and the
+    /// contact's ("slider_guide corner 1") where it has several (a translational joint's
+    /// corners), joint by joint.
+    pub fn contact_names(&self) -> Vec<String> {
+        fn names<J: MicroJoint>(joints: &[J]) -> Vec<String> {
+            let mut out = Vec::new();
+            for j in joints {
+                for k in 0..J::CONTACTS {
+                    out.push(if J::CONTACTS == 1 {
+                        j.name().to_string()
+                    } else {
+                        format!("{} corner {}", j.name(), k + 1)
+                    });
+                }
+            }
+            out
+        }
+        each_core!(&self.core, m => names(&m.joints))
     }
 
-    /// Joint `j`'s impact still open at `t` (closed at `t` for reporting, exit time NaN).
-    pub fn open_impacts(&self, j: usize, t: f64) -> Vec<Impact> {
-        each_core!(&self.core, m => m.open_impacts(j, t))
+    /// Contact `c`'s completed impacts (in the order of [`InterfaceSubsystem::contact_names`];
+    /// joint j's where each joint has one contact).
+    pub fn impacts(&self, c: usize) -> &[Impact] {
+        each_core!(&self.core, m => &m.impacts[c])
+    }
+
+    /// Contact `c`'s impact still open at `t` (closed at `t` for reporting, exit time NaN).
+    pub fn open_impacts(&self, c: usize, t: f64) -> Vec<Impact> {
+        each_core!(&self.core, m => m.open_impacts(c, t))
     }
 
     /// The stacked eccentricities w (n) \[m\].

@@ -494,7 +494,7 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
     pub impulse: SVector<f64, N>,
     /// ∫ L dt of the friction loads since the start.
     pub friction_impulse: SVector<f64, M>,
-    /// Completed impacts of each joint.
+    /// Completed impacts of each contact (joint j's contact k at j · CONTACTS + k).
     pub impacts: Vec<Vec<Impact>>,
     /// Each joint's contact state at the current time.
     pub states: Vec<J::State>,
@@ -542,12 +542,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             bush_deflection: SVector::zeros(),
             impulse: SVector::zeros(),
             friction_impulse: SVector::zeros(),
-            impacts: (0..K).map(|_| Vec::with_capacity(1024)).collect(),
+            impacts: (0..K * J::CONTACTS).map(|_| Vec::with_capacity(1024)).collect(),
             states: vec![J::State::default(); K],
             inputs: InterfaceInputs::default(),
             input_time: 0.0,
             mobility: Mobility::default(),
-            open: vec![None; K],
+            open: vec![None; K * J::CONTACTS],
             violation: false,
             located: false,
             end: None,
@@ -591,6 +591,10 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let joint = &self.joints[j];
         let damped = DAMPED && joint.damped_in_series();
         let (wj, wb) = (&wj[..r], &wb[..r]);
+        if J::CONTACTS > 1 {
+            // (Each contact under its own mode: the joint's evaluation.)
+            return evaluate_joint::<J, SERIES>(joint, damped, (e, ed, wj, wb), 0.0, deflection);
+        }
         if joint.in_contact() {
             // The common case on the hot path, one evaluation returned as it is.
             return evaluate_joint::<J, SERIES>(joint, damped, (e, ed, wj, wb), joint.onset_velocity(), deflection);
@@ -638,9 +642,8 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     ) -> Loads<N, M> {
         let mut loads = Loads::zero();
         for j in 0..self.joints.len() {
-            let c = self.joints[j].radial_clearance();
             let ej = Self::part(e, j);
-            if ej.iter().map(|x| x * x).sum::<f64>() > c * c {
+            if self.joints[j].may_touch(ej) {
                 let (s, rate) = self.contact_at_as::<SERIES, DAMPED>(t, j, ej, Self::part(ed, j), deflection[j]);
                 self.put(&mut loads, j, &s);
                 if DAMPED {
@@ -854,8 +857,11 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         for j in 0..self.joints.len() {
             let (s, _) = self.contact_at_as::<SERIES, DAMPED>(t + h, j, Self::part(&e1, j), Self::part(&v1, j), s1[j]);
             self.put(&mut end, j, &s);
-            if let Some(tr) = self.open[j].as_mut() {
-                tr.sample(t + h, J::normal_force(&s), J::penetration(&s));
+            for k in 0..J::CONTACTS {
+                if let Some(tr) = self.open[j * J::CONTACTS + k].as_mut() {
+                    let (force, penetration) = J::contact_sample(&s, k);
+                    tr.sample(t + h, force, penetration);
+                }
             }
             self.states[j] = s;
         }
@@ -890,6 +896,9 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         (e0, v0, s0): (&SVector<f64, N>, &SVector<f64, N>, &SVector<f64, K>),
         (e1, v1, s1): (&SVector<f64, N>, &SVector<f64, N>, &SVector<f64, K>),
     ) {
+        if J::CONTACTS > 1 {
+            return self.switch_contact_modes(t, h, (e0, v0), (e1, v1));
+        }
         let d = J::COORDINATES;
         for j in 0..self.joints.len() {
             let c = self.joints[j].radial_clearance();
@@ -911,31 +920,61 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
                     // δ̇ − ṡ, the bush relaxing until the contact closes.
                     rate -= self.joints[j].relaxation_rate(s0[j] + (s1[j] - s0[j]) * frac);
                 }
-                self.open_contact(j, t + frac * h, rate);
+                self.open_contact(j, 0, t + frac * h, rate);
             } else if self.joints[j].in_contact() && d1 <= 0.0 {
                 let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
-                self.close_contact(j, t + frac * h);
+                self.close_contact(j, 0, t + frac * h);
             }
         }
     }
 
-    fn open_contact(&mut self, j: usize, t: f64, rate: f64) {
-        self.joints[j].set_mode(true, rate.max(0.0));
-        self.open[j] = Some(ImpactTracker::open(t, rate, self.located));
+    /// [`InterfaceModel::switch_modes`] for joints of several contacts: each contact by its own
+    /// penetration, the onset or exit placed by linear interpolation of it, the approach
+    /// velocity interpolated the same way.
+    fn switch_contact_modes(
+        &mut self,
+        t: f64,
+        h: f64,
+        (e0, v0): (&SVector<f64, N>, &SVector<f64, N>),
+        (e1, v1): (&SVector<f64, N>, &SVector<f64, N>),
+    ) {
+        for j in 0..self.joints.len() {
+            let (a0, a1, b0, b1) = (Self::part(e0, j), Self::part(e1, j), Self::part(v0, j), Self::part(v1, j));
+            for k in 0..J::CONTACTS {
+                let ((d0, r0), (d1, r1)) =
+                    (self.joints[j].contact_gap(a0, b0, k), self.joints[j].contact_gap(a1, b1, k));
+                let closed = self.joints[j].contact_mode(k).0;
+                if !closed && d1 > 0.0 {
+                    let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
+                    self.open_contact(j, k, t + frac * h, r0 + (r1 - r0) * frac);
+                } else if closed && d1 <= 0.0 {
+                    let frac = if d0 - d1 > 0.0 { (d0 / (d0 - d1)).clamp(0.0, 1.0) } else { 1.0 };
+                    self.close_contact(j, k, t + frac * h);
+                }
+            }
+        }
     }
 
-    fn close_contact(&mut self, j: usize, t: f64) {
-        let onset = self.joints[j].onset_velocity();
-        self.joints[j].set_mode(false, onset);
-        if let Some(tr) = self.open[j].take() {
-            self.impacts[j].push(tr.close(t));
+    fn open_contact(&mut self, j: usize, k: usize, t: f64, rate: f64) {
+        self.joints[j].set_contact_mode(k, true, rate.max(0.0));
+        self.open[j * J::CONTACTS + k] = Some(ImpactTracker::open(t, rate, self.located));
+    }
+
+    fn close_contact(&mut self, j: usize, k: usize, t: f64) {
+        let onset = self.joints[j].contact_mode(k).1;
+        self.joints[j].set_contact_mode(k, false, onset);
+        let c = j * J::CONTACTS + k;
+        if let Some(tr) = self.open[c].take() {
+            self.impacts[c].push(tr.close(t));
         }
     }
 
     /// Resets the discrete contact states (journals must be inside their clearances).
     pub fn reset_contacts(&mut self, t: f64) {
         for joint in &mut self.joints {
-            joint.set_mode(false, 0.0);
+            for k in 0..J::CONTACTS {
+                joint.set_contact_mode(k, false, 0.0);
+            }
         }
         self.bush_deflection = SVector::zeros();
         self.end = None;
@@ -962,9 +1001,10 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         Ok(stats.steps)
     }
 
-    /// Impacts of joint `j` still open (closed at `t` for reporting, exit time NaN).
-    pub fn open_impacts(&self, j: usize, t: f64) -> Vec<Impact> {
-        self.open[j].iter().map(|tr| tr.so_far(t)).collect()
+    /// Impacts of contact `c` still open (closed at `t` for reporting, exit time NaN; joint j's
+    /// contact k is c = j · CONTACTS + k).
+    pub fn open_impacts(&self, c: usize, t: f64) -> Vec<Impact> {
+        self.open[c].iter().map(|tr| tr.so_far(t)).collect()
     }
 
     /// Joint `j`'s penetration is within bounds (and its eccentricity finite).
@@ -1027,12 +1067,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
 
     fn on_event(&mut self, j: usize, t: f64, y: &[f64]) {
         if self.joints[j].in_contact() {
-            self.close_contact(j, t);
+            self.close_contact(j, 0, t);
         } else {
             let d = J::COORDINATES;
             let (e, v) = (&y[d * j..d * (j + 1)], &y[N + d * j..N + d * (j + 1)]);
             let rate = (0..d).map(|i| e[i] * v[i]).sum::<f64>() / norm(e).max(f64::MIN_POSITIVE);
-            self.open_contact(j, t, rate);
+            self.open_contact(j, 0, t, rate);
         }
     }
 

@@ -198,8 +198,8 @@ def test_bad_options_and_failing_runs_raise_the_right_errors():
 
 
 def test_a_translational_clearance_joint_runs_and_edits_as_on_the_command_line(tmp_path):
-    # Scenario G's slider is a block in a guide: the full model runs it from Python as `lash run`
-    # does, its guide is edited by path, and the reduced model refuses it naming the guide.
+    # Scenario G's slider is a block in a guide: the full and the reduced model run it from Python
+    # as `lash run` does, and its guide is edited by path.
     r = lash.run("G-driven", "full", horizon=0.02)
     done = cli("run", "G-driven", "--horizon", "0.02", "--out", str(tmp_path / "g"), "--quiet")
     assert done.returncode == 0, done.stderr
@@ -211,8 +211,14 @@ def test_a_translational_clearance_joint_runs_and_edits_as_on_the_command_line(t
     with pytest.raises(lash.ScenarioError) as e:
         lash.load("G").with_values({"guides[0].height": -0.05})
     assert any(f == "guides[0].height" for f, _ in e.value.problems)
-    with pytest.raises(Exception, match="slider_guide"):
-        lash.run("G", "reduced", horizon=0.01)
+    reduced = lash.run("G-driven", "reduced", horizon=0.02, coupling="one_way")
+    done = cli(
+        "run", "G-driven", "--model", "reduced", "--coupling", "one-way", "--horizon", "0.02",
+        "--out", str(tmp_path / "gr"), "--quiet",
+    )
+    assert done.returncode == 0, done.stderr
+    assert np.array_equal(reduced.samples, read_csv(tmp_path / "gr" / "timeseries.csv")[1])
+    assert [c["name"] for c in reduced.summary["clearances"]] == [f"slider_guide corner {k}" for k in range(1, 5)]
 
 
 # Sweeps and datasets.

@@ -92,9 +92,14 @@ fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
 impl ReducedRun {
     /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
-        if let Some(g) = scenario.guides.first() {
+        // A guide is a micro model of its own kind: alone, on the ground.
+        let guided = !scenario.guides.is_empty();
+        if let Some(g) = scenario.guides.first()
+            && (scenario.guides.len() > 1 || !scenario.clearances.is_empty() || !scenario.bushings.is_empty())
+        {
             return Err(RunError::Unsupported(format!(
-                "the reduced model couples no translational clearance joint yet (guide {:?}); run the full model",
+                "the reduced model couples one translational clearance joint alone (guide {:?}), not yet beside other \
+                 clearance joints, bushings or guides; run the full model",
                 g.joint
             )));
         }
@@ -109,7 +114,7 @@ impl ReducedRun {
             )));
         }
         let max_joints = if bushed { 3 } else { lash_micro::MAX_COORDINATES / lash_micro::PLANAR_JOINT_COORDINATES };
-        let count = scenario.clearances.len() + scenario.bushings.len();
+        let count = scenario.clearances.len() + scenario.bushings.len() + scenario.guides.len();
         if count == 0 || count > max_joints {
             return Err(RunError::Unsupported(format!(
                 "the reduced model couples 1 to {max_joints} {}; the scenario has {count}",
@@ -162,6 +167,28 @@ impl ReducedRun {
             }
             _ => true,
         });
+        let guides: Vec<lash_micro::GuideJoint> = full.slots.iter().map(lash_micro::GuideJoint::new).collect();
+        for slot in &full.slots {
+            // (The micro side reads the corners' forces in the guide's frame: the world's, for a
+            // guide on the ground along x.)
+            if slot.guide.body != lash_mech::BodyId::Ground || slot.guide.axis.y != 0.0 || slot.guide.axis.x <= 0.0 {
+                return Err(RunError::Unsupported(format!(
+                    "the reduced model takes a guide on the ground along +x; guide {:?} is not; run the full model",
+                    slot.name
+                )));
+            }
+            interfaces.push(ClearanceInterface {
+                interface: Interface {
+                    journal_body: slot.block.body,
+                    journal_point: slot.block.centre,
+                    bearing_body: slot.guide.body,
+                    bearing_point: slot.guide.point,
+                },
+                journal_radius: 0.0,
+                bearing_radius: 0.0,
+                guide: Some(lash_mech::GuideAxis { axis: slot.guide.axis, angle_offset: slot.aligned_angle() }),
+            });
+        }
         let k = interfaces.len();
         // Loads per propagated value: the contact forces (n = 2k), then the friction forces (k).
         let loads = k * (lash_micro::PLANAR_JOINT_COORDINATES + 1);
@@ -185,6 +212,18 @@ impl ReducedRun {
             Source::Clearance(j, q) => Some((j, CLEARANCE_QUANTITIES[q as usize].0)),
             _ => None,
         });
+        // A guide's corners, each a contact with its summary: the block's offset, the corner's
+        // normal force and penetration.
+        if !options.channels_only {
+            for (g, _) in scenario.guides.iter().enumerate() {
+                for q in guide_summary_quantities() {
+                    let k = sources.iter().position(|(_, s)| *s == Source::Guide(g, q)).expect("guide channels");
+                    if !recorded.contains(&k) {
+                        recorded.push(k);
+                    }
+                }
+            }
+        }
         // The force channels of the emulated measurements.
         let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
         crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);
@@ -239,6 +278,8 @@ impl ReducedRun {
         let definitions = scenario.clearances.iter().map(|c| crate::build::clearance_definition(scenario, c)).collect();
         let micro_sub = if bushed {
             InterfaceSubsystem::new(bushings, integrator)
+        } else if guided {
+            InterfaceSubsystem::new(guides, integrator)
         } else {
             InterfaceSubsystem::with_definitions(joints, integrator, definitions)
         }
@@ -270,8 +311,19 @@ impl ReducedRun {
                 .position(|(_, s)| matches!(s, Source::Clearance(c, q) if *c == j && CLEARANCE_QUANTITIES[*q as usize].0 == name))
                 .expect("recorded")
         };
-        // The clearance summary is the clearance joints' (a bushing has no impacts to count).
+        // The clearance summary is the clearance joints' (a bushing has no impacts to count), or
+        // a guide's corners' (the block's offset, the corner's normal force and penetration).
         let joints = if self.options.channels_only { 0 } else { self.scenario.clearances.len() };
+        let guides = if self.options.channels_only { 0 } else { self.scenario.guides.len() };
+        let guide_quantity =
+            |g: usize, q: u8| self.sources.iter().position(|(_, s)| *s == Source::Guide(g, q)).expect("recorded");
+        let corners = (0..guides).flat_map(|g| {
+            (0..4u8).map(move |k| JointSignals {
+                eccentricity: guide_quantity(g, 2),
+                force: guide_quantity(g, 4 + k),
+                penetration: guide_quantity(g, 8 + k),
+            })
+        });
         Recording {
             channels: self.sources.iter().map(|(c, _)| c.clone()).collect(),
             written: self.selected.len(),
@@ -282,6 +334,7 @@ impl ReducedRun {
                     force: quantity(j, "force"),
                     penetration: quantity(j, "penetration"),
                 })
+                .chain(corners)
                 .collect(),
             measurements: self.scenario.output.measurements.clone(),
             stresses: {
@@ -386,6 +439,12 @@ pub(crate) fn master_options(
     master_options.check().map_err(refuse)?;
     master_options.check_sampling(ticks(sim.output_interval, "simulation.output_interval")?).map_err(refuse)?;
     Ok(master_options)
+}
+
+/// A guide's channels its corners' summaries read (its [`lash_scenario::channels::GUIDE_QUANTITIES`]):
+/// the offset, each corner's normal force, each corner's penetration.
+fn guide_summary_quantities() -> impl Iterator<Item = u8> {
+    std::iter::once(2).chain(4..12)
 }
 
 /// Where a clearance joint's signals are among the recorded ones, for its summary.
@@ -625,7 +684,10 @@ fn summarise(
     let joints = recording.summary.len();
     let mut events = 0;
     let mut clearances = Vec::with_capacity(joints);
-    for (j, name) in micro.joint_names().into_iter().enumerate().take(joints) {
+    // Each contact: a joint where each has one, a guide's corners where it is the interface.
+    let contacts = micro.contact_names();
+    let per_joint = contacts.len() / micro.joint_count().max(1);
+    for (j, name) in contacts.into_iter().enumerate().take(joints) {
         let mut impacts = micro.impacts(j).to_vec();
         let open = micro.open_impacts(j, t_end);
         events += 2 * impacts.len() as u64 + open.len() as u64;
@@ -634,7 +696,7 @@ fn summarise(
             contact_samples: Some(contact_samples[j]),
             ..crate::run::ClearanceSummary::from_impacts(
                 name,
-                micro.radial_clearance(j),
+                micro.radial_clearance(j / per_joint),
                 impacts,
                 horizon,
                 c.period,
@@ -751,7 +813,20 @@ fn signal(s: &Scenario, joint_names: &[&str], loads: usize, c: &Channel, src: So
         }
         // The micro side's normal force, turned into the stress when recorded (Recording::stresses).
         Source::InterfaceStress(k) => Signal::Micro { name, variable: "normal_force".into(), element: k },
-        Source::Guide(..) => unreachable!("ReducedRun::new refuses guides"),
+        // A guide is micro joint k (the interface is the guide alone): its coordinates are the
+        // tilt and the offset, the corners' force across it their generalized force, along it
+        // the friction load.
+        Source::Guide(k, q) => {
+            let (variable, element) = match q {
+                0 => ("friction_load", k),
+                1 => ("contact_force", 2 * k + 1),
+                2 => ("eccentricity", 2 * k + 1),
+                3 => ("eccentricity", 2 * k),
+                4..=7 => ("contact_normal_force", 4 * k + q as usize - 4),
+                _ => ("contact_penetration", 4 * k + q as usize - 8),
+            };
+            Signal::Micro { name, variable: variable.into(), element }
+        }
         Source::BodyPose(k, q) => {
             let b = &s.bodies[k].name;
             let q = q as usize;

@@ -138,6 +138,15 @@ impl AnyScenario {
         }
     }
 
+    /// Number of interfaces the reduced model couples: the clearance joints, the guides
+    /// (translational clearance joints) and the bushings.
+    pub fn interface_count(&self) -> usize {
+        match self {
+            AnyScenario::Planar(s) => s.clearances.len() + s.guides.len() + s.bushings.len(),
+            AnyScenario::Spatial(s) => s.clearances.len(),
+        }
+    }
+
     /// Number of clearance joints.
     pub fn clearance_count(&self) -> usize {
         match self {

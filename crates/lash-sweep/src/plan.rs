@@ -77,8 +77,11 @@ impl Plan {
         if spec.output.channels.iter().any(|c| measured_force(&measurements, c).is_some()) {
             base.output_mut().measurements = measurements.clone();
         }
-        if spec.model == ModelKind::Reduced && base.clearance_count() == 0 {
-            p.push("model", "the reduced model needs at least one clearance joint; the base has none".to_string());
+        if spec.model == ModelKind::Reduced && base.interface_count() == 0 {
+            p.push(
+                "model",
+                "the reduced model needs at least one clearance joint, guide or bushing; the base has none".to_string(),
+            );
         }
         let base_table: toml::Table = match base.to_table() {
             Ok(t) => t,
