@@ -220,6 +220,37 @@ fn fmus_packed_for_the_two_joint_scenario_reproduce_its_in_process_run() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// The FMUs of scenario G-driven (a translational clearance joint): the interface FMU's
+/// coordinates are the block's tilt and offset, with a normal force per corner, and lash's master
+/// through the imported mechanism and interface FMUs reproduces the in-process reduced run's
+/// lateral slider acceleration bit for bit.
+#[test]
+fn fmus_packed_for_a_guide_reproduce_its_in_process_run() {
+    use lash_core::{Subsystem, Ticks};
+    use lash_fmi::import::ImportedFmu;
+    use lash_orchestrate::Execution;
+    let out = packed_scenario("guide", Some("G-driven"));
+    let cache = out.join("cache");
+    let mut g = lash_scenario::builtin::by_name("G-driven").unwrap();
+    g.simulation.horizon = 0.036;
+    g.simulation.output_interval = 1e-5;
+    let reference = in_process_channel(&g, "slider.ay");
+    let mut mechanism = ImportedFmu::open(&out.join("lash_mechanism.fmu"), &cache, "mechanism").unwrap();
+    let mut interface = ImportedFmu::open(&out.join("lash_interface.fmu"), &cache, "interface").unwrap();
+    let shape = |name: &str| interface.variables().iter().find(|v| v.name == name).unwrap().shape.clone();
+    assert_eq!(shape("effective_mass"), vec![2, 2], "tilt and offset");
+    assert_eq!(shape("contact_normal_force"), vec![4], "one normal force per corner");
+    let stop = Ticks::from_seconds(0.036).unwrap();
+    mechanism.setup(Ticks::ZERO, Some(stop)).unwrap();
+    interface.setup(Ticks::ZERO, Some(stop)).unwrap();
+    let imported = master_slider_acceleration_along(&mut mechanism, &mut interface, stop, Execution::Sequential, 1);
+    assert_eq!(imported.len(), reference.len());
+    let differing = imported.iter().zip(&reference).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+    assert_eq!(differing, 0, "the imported FMUs of G-driven must reproduce the in-process run bit for bit");
+    assert!(reference.iter().any(|a| a.abs() > 1e3), "the corners' impacts reach the slider");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 #[test]
 fn lash_coupling_its_own_imported_fmus_equals_the_in_process_run() {
     use lash_core::{Subsystem, Ticks};
@@ -288,13 +319,26 @@ fn master_slider_acceleration(
     stop: lash_core::Ticks,
     execution: lash_orchestrate::Execution,
 ) -> Vec<f64> {
+    master_slider_acceleration_along(mechanism, interface, stop, execution, 0)
+}
+
+/// The slider's acceleration along x (`axis` 0) or y (1) at every micro step of lash's master
+/// coupling `mechanism` and `interface` one-way (three loads per propagated value: one joint's
+/// two interface forces and its friction load).
+fn master_slider_acceleration_along(
+    mechanism: &mut dyn lash_core::Subsystem,
+    interface: &mut dyn lash_core::Subsystem,
+    stop: lash_core::Ticks,
+    execution: lash_orchestrate::Execution,
+    axis: usize,
+) -> Vec<f64> {
     use lash_core::Ticks;
     use lash_orchestrate::{InterfaceMaster, Observer, Signal};
     let options = common::one_way_options(stop, execution);
     let signals = vec![Signal::Propagated {
-        name: "slider.ax".into(),
-        free: ("slider.acceleration_free".into(), 0),
-        gain: ("slider.acceleration_gain".into(), 0),
+        name: "slider.a".into(),
+        free: ("slider.acceleration_free".into(), axis),
+        gain: ("slider.acceleration_gain".into(), 3 * axis),
     }];
     let mut master = InterfaceMaster::new(mechanism, interface, options, signals).unwrap();
     let mut values = Vec::new();
@@ -309,8 +353,13 @@ fn master_slider_acceleration(
 
 /// Slider acceleration at every micro step of scenario A's reduced model run in process.
 fn in_process_slider_acceleration(a: &lash_scenario::Scenario) -> Vec<f64> {
+    in_process_channel(a, "slider.ax")
+}
+
+/// Channel `channel` at every micro step of a scenario's reduced model run in process.
+fn in_process_channel(a: &lash_scenario::Scenario, channel: &str) -> Vec<f64> {
     let mut a = a.clone();
-    a.output.channels = vec!["slider.ax".into()];
+    a.output.channels = vec![channel.into()];
     let mut values = Vec::new();
     lash_run::ReducedRun::new(&a, lash_run::ReducedOptions::default())
         .unwrap()
