@@ -143,6 +143,21 @@ impl TranslationalClearance {
         Self { name, block, guide, clearance, law, friction, corners }
     }
 
+    /// A joint in its guide's frame: the block centred on body 0's centroid along its x axis, the
+    /// guide the ground's x axis through the origin (the micro model's view, and the tests').
+    pub fn in_guide_frame(
+        name: impl Into<String>,
+        (half_length, half_height): (f64, f64),
+        clearance: f64,
+        law: NormalForce,
+        friction: FrictionLaw,
+    ) -> Self {
+        let x = Vec2::new(1.0, 0.0);
+        let block = Block { body: BodyId::Body(0), centre: Vec2::zeros(), axis: x, half_length, half_height };
+        let guide = Guide { body: BodyId::Ground, point: Vec2::zeros(), axis: x };
+        Self::new(name, block, guide, clearance, law, friction)
+    }
+
     /// Corner `k`'s contact mode (corner order of [`CORNER_SIGNS`]).
     pub fn corner(&self, k: usize) -> &Corner {
         &self.corners[k]
@@ -259,24 +274,11 @@ mod tests {
     const C: f64 = 0.001;
 
     fn joint(guide_angle: f64) -> TranslationalClearance {
-        TranslationalClearance::new(
-            "slot",
-            Block {
-                body: BodyId::Body(0),
-                centre: Vec2::zeros(),
-                axis: Vec2::new(1.0, 0.0),
-                half_length: A,
-                half_height: B,
-            },
-            Guide {
-                body: BodyId::Ground,
-                point: Vec2::new(0.0, 0.0),
-                axis: Vec2::new(guide_angle.cos(), guide_angle.sin()),
-            },
-            C,
-            NormalForce::Power { stiffness: 1e9, exponent: 1.5 },
-            FrictionLaw::Coulomb { coefficient: 0.1 },
-        )
+        let law = NormalForce::Power { stiffness: 1e9, exponent: 1.5 };
+        let mut j =
+            TranslationalClearance::in_guide_frame("slot", (A, B), C, law, FrictionLaw::Coulomb { coefficient: 0.1 });
+        j.guide.axis = Vec2::new(guide_angle.cos(), guide_angle.sin());
+        j
     }
 
     fn pose(x: f64, y: f64, angle: f64, v: Vec2, omega: f64) -> Pose {

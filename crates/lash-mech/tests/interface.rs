@@ -6,26 +6,31 @@ use common::*;
 use lash_mech::*;
 use nalgebra::{DMatrix, Matrix2};
 
-/// Dense J (2 × n) of the interface by finite differences of g(q) — independent of the code's J.
-fn interface_jacobian(iface: &Interface, q: &[f64]) -> DMatrix<f64> {
-    let g = |q: &[f64]| {
-        let zero = vec![0.0; q.len()];
-        let pj = Pose::of(iface.journal_body, q, &zero);
-        let pb = Pose::of(iface.bearing_body, q, &zero);
-        pj.position + pj.rotate(iface.journal_point) - pb.position - pb.rotate(iface.bearing_point)
-    };
-    let n = q.len();
-    let mut jac = DMatrix::zeros(2, n);
+/// Dense ∂g/∂q (rows × n) by central differences of g(q).
+fn jacobian_by_differences(q: &[f64], rows: usize, g: impl Fn(&[f64]) -> Vec<f64>) -> DMatrix<f64> {
+    let mut jac = DMatrix::zeros(rows, q.len());
     let h = 1e-7;
-    for k in 0..n {
+    for k in 0..q.len() {
         let (mut qp, mut qm) = (q.to_vec(), q.to_vec());
         qp[k] += h;
         qm[k] -= h;
-        let d = (g(&qp) - g(&qm)) / (2.0 * h);
-        jac[(0, k)] = d.x;
-        jac[(1, k)] = d.y;
+        let (gp, gm) = (g(&qp), g(&qm));
+        for r in 0..rows {
+            jac[(r, k)] = (gp[r] - gm[r]) / (2.0 * h);
+        }
     }
     jac
+}
+
+/// Dense J (2 × n) of the interface by finite differences of g(q) — independent of the code's J.
+fn interface_jacobian(iface: &Interface, q: &[f64]) -> DMatrix<f64> {
+    jacobian_by_differences(q, 2, |q| {
+        let zero = vec![0.0; q.len()];
+        let pj = Pose::of(iface.journal_body, q, &zero);
+        let pb = Pose::of(iface.bearing_body, q, &zero);
+        let d = pj.position + pj.rotate(iface.journal_point) - pb.position - pb.rotate(iface.bearing_point);
+        vec![d.x, d.y]
+    })
 }
 
 /// Dense Φ_q of the cut mechanism by finite differences of its constraint values.
@@ -393,17 +398,7 @@ fn a_guide_interface_has_the_identities_of_the_prismatic_joint_it_replaces() {
         let terms = coupled_effective_terms(&cut_m, &mut s_cut, &[joint], t, &q, &qd).unwrap();
         let mt = terms.effective_mass.clone().expect("the cut slider moves in tilt and offset");
         let n = q.len();
-        let mut jac = DMatrix::zeros(3, n);
-        let h = 1e-7;
-        for k in 0..n {
-            let (mut qp, mut qm) = (q.clone(), q.clone());
-            qp[k] += h;
-            qm[k] -= h;
-            let (gp, gm) = (coordinates(&qp), coordinates(&qm));
-            for r in 0..3 {
-                jac[(r, k)] = (gp[r] - gm[r]) / (2.0 * h);
-            }
-        }
+        let jac = jacobian_by_differences(&q, 3, |q| coordinates(q).to_vec());
         let a = null_space_inverse_mass(&cut_m, t, &q);
         let (rows, slide) = (jac.rows(0, 2).into_owned(), jac.rows(2, 1).into_owned());
         let mt_null = (&rows * &a * rows.transpose()).try_inverse().unwrap();

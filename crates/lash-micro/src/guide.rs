@@ -13,8 +13,8 @@
 
 use crate::joint::MicroJoint;
 use lash_contact::joint::Clearance;
-use lash_contact::translational::{Block, CornerState, Guide, TranslationalClearance};
-use lash_mech::{BodyId, Pose, Vec2, cross};
+use lash_contact::translational::{CornerState, TranslationalClearance};
+use lash_mech::{Pose, Vec2, cross};
 
 /// A translational clearance joint in its guide's frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,10 +43,14 @@ pub struct GuideState {
 impl GuideJoint {
     /// The micro joint of `joint`: the same block, clearance and laws, every corner open.
     pub fn new(joint: &TranslationalClearance) -> Self {
-        let block = Block { body: BodyId::Body(0), centre: Vec2::zeros(), axis: Vec2::new(1.0, 0.0), ..joint.block };
-        let guide = Guide { body: BodyId::Ground, point: Vec2::zeros(), axis: Vec2::new(1.0, 0.0) };
-        let slot =
-            TranslationalClearance::new(joint.name.clone(), block, guide, joint.clearance, joint.law, joint.friction);
+        let size = (joint.block.half_length, joint.block.half_height);
+        let slot = TranslationalClearance::in_guide_frame(
+            joint.name.clone(),
+            size,
+            joint.clearance,
+            joint.law,
+            joint.friction,
+        );
         Self { slot }
     }
 
@@ -195,20 +199,8 @@ mod tests {
     /// A block of 0.5 kg (its rectangle's inertia) in a fixed guide, as a micro model whose
     /// macro terms are the free block's: M̃ = diag(I, m), f̃ = 0.
     fn block(e: [f64; 2], e_dot: [f64; 2]) -> InterfaceModel<GuideJoint, 2, 1, 1, 1> {
-        let slot = TranslationalClearance::new(
-            "slot",
-            Block {
-                body: BodyId::Body(0),
-                centre: Vec2::zeros(),
-                axis: Vec2::new(1.0, 0.0),
-                half_length: A,
-                half_height: B,
-            },
-            Guide { body: BodyId::Ground, point: Vec2::zeros(), axis: Vec2::new(1.0, 0.0) },
-            C,
-            NormalForce::Power { stiffness: K, exponent: 1.5 },
-            FrictionLaw::None,
-        );
+        let law = NormalForce::Power { stiffness: K, exponent: 1.5 };
+        let slot = TranslationalClearance::in_guide_frame("slot", (A, B), C, law, FrictionLaw::None);
         let mut m = InterfaceModel::new(vec![GuideJoint::new(&slot)]);
         let inertia = M * (4.0 * A * A + 4.0 * B * B) / 12.0;
         m.inputs.effective_mass = Matrix2::new(inertia, 0.0, 0.0, M);
