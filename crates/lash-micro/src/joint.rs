@@ -125,33 +125,42 @@ pub trait MicroJoint: Clearance + Clone + std::fmt::Debug {
     fn force_component(s: &Self::State, i: usize) -> f64;
 }
 
-/// The accessors of a joint whose state is the planar [`ContactState`] (the revolute clearance
-/// joint and the bushing).
-macro_rules! planar_state_accessors {
-    () => {
-        fn penetration(s: &ContactState) -> f64 {
+/// The accessors of a joint whose state holds its contact's quantities as fields of these names
+/// (`ContactState`, `SphericalContactState`).
+macro_rules! contact_state_fields {
+    ($state:ty) => {
+        fn penetration(s: &$state) -> f64 {
             s.penetration
         }
-        fn penetration_rate(s: &ContactState) -> f64 {
+        fn penetration_rate(s: &$state) -> f64 {
             s.penetration_rate
         }
-        fn normal_force(s: &ContactState) -> f64 {
+        fn normal_force(s: &$state) -> f64 {
             s.normal_force
         }
-        fn friction_force(s: &ContactState) -> f64 {
+        fn friction_force(s: &$state) -> f64 {
             s.friction_force
         }
-        fn eccentricity_norm(s: &ContactState) -> f64 {
+        fn eccentricity_norm(s: &$state) -> f64 {
             s.eccentricity_norm
         }
-        fn slip(s: &ContactState) -> f64 {
-            s.slip_velocity
-        }
-        fn force_component(s: &ContactState, i: usize) -> f64 {
+        fn force_component(s: &$state, i: usize) -> f64 {
             s.force_on_journal[i]
         }
     };
 }
+
+/// The accessors of a joint whose state is the planar [`ContactState`] (the revolute clearance
+/// joint and the bushing).
+macro_rules! planar_state_accessors {
+    () => {
+        $crate::joint::contact_state_fields!(ContactState);
+        fn slip(s: &ContactState) -> f64 {
+            s.slip_velocity
+        }
+    };
+}
+pub(crate) use contact_state_fields;
 pub(crate) use planar_state_accessors;
 
 impl MicroJoint for ClearanceJoint {
@@ -245,25 +254,8 @@ impl MicroJoint for SphericalClearance {
         force.copy_from_slice(f.as_slice());
         friction.copy_from_slice(s.normal.cross(&f).as_slice());
     }
-    fn penetration(s: &SphericalContactState) -> f64 {
-        s.penetration
-    }
-    fn penetration_rate(s: &SphericalContactState) -> f64 {
-        s.penetration_rate
-    }
-    fn normal_force(s: &SphericalContactState) -> f64 {
-        s.normal_force
-    }
-    fn friction_force(s: &SphericalContactState) -> f64 {
-        s.friction_force
-    }
-    fn eccentricity_norm(s: &SphericalContactState) -> f64 {
-        s.eccentricity_norm
-    }
+    contact_state_fields!(SphericalContactState);
     fn slip(s: &SphericalContactState) -> f64 {
         s.slip_velocity.norm()
-    }
-    fn force_component(s: &SphericalContactState, i: usize) -> f64 {
-        s.force_on_journal[i]
     }
 }

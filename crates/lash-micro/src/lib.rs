@@ -182,43 +182,29 @@ pub trait CoreJoint: MicroJoint + Sized {
 #[doc(hidden)]
 pub struct CoreBox(Core);
 
-impl CoreJoint for ClearanceJoint {
-    fn core(joints: Vec<Self>) -> Option<CoreBox> {
-        Some(CoreBox(match joints.len() {
-            1 => Core::C2(Box::new(InterfaceModel::new(joints))),
-            2 => Core::C4(Box::new(InterfaceModel::new(joints))),
-            3 => Core::C6(Box::new(InterfaceModel::new(joints))),
-            4 => Core::C8(Box::new(InterfaceModel::new(joints))),
-            5 => Core::C10(Box::new(InterfaceModel::new(joints))),
-            6 => Core::C12(Box::new(InterfaceModel::new(joints))),
-            _ => return None,
-        }))
-    }
-    fn apply(&mut self, d: &ClearanceDefinition) {
-        self.journal_radius = d.journal_radius;
-        self.bearing_radius = d.bearing_radius;
-        self.law = d.normal_force();
-        self.friction = d.friction;
-    }
+/// [`CoreJoint`] of a clearance joint kind with radii and laws (its definition's), whose models
+/// of 1, 2, … joints are the `Core` variants listed.
+macro_rules! clearance_core_joint {
+    ($joint:ty, $($count:literal => $variant:ident),+) => {
+        impl CoreJoint for $joint {
+            fn core(joints: Vec<Self>) -> Option<CoreBox> {
+                Some(CoreBox(match joints.len() {
+                    $($count => Core::$variant(Box::new(InterfaceModel::new(joints))),)+
+                    _ => return None,
+                }))
+            }
+            fn apply(&mut self, d: &ClearanceDefinition) {
+                self.journal_radius = d.journal_radius;
+                self.bearing_radius = d.bearing_radius;
+                self.law = d.normal_force();
+                self.friction = d.friction;
+            }
+        }
+    };
 }
 
-impl CoreJoint for SphericalClearance {
-    fn core(joints: Vec<Self>) -> Option<CoreBox> {
-        Some(CoreBox(match joints.len() {
-            1 => Core::S3(Box::new(InterfaceModel::new(joints))),
-            2 => Core::S6(Box::new(InterfaceModel::new(joints))),
-            3 => Core::S9(Box::new(InterfaceModel::new(joints))),
-            4 => Core::S12(Box::new(InterfaceModel::new(joints))),
-            _ => return None,
-        }))
-    }
-    fn apply(&mut self, d: &ClearanceDefinition) {
-        self.journal_radius = d.journal_radius;
-        self.bearing_radius = d.bearing_radius;
-        self.law = d.normal_force();
-        self.friction = d.friction;
-    }
-}
+clearance_core_joint!(ClearanceJoint, 1 => C2, 2 => C4, 3 => C6, 4 => C8, 5 => C10, 6 => C12);
+clearance_core_joint!(SphericalClearance, 1 => S3, 2 => S6, 3 => S9, 4 => S12);
 
 impl CoreJoint for BushingJoint {
     fn core(joints: Vec<Self>) -> Option<CoreBox> {
