@@ -92,173 +92,26 @@ fn ticks(v: f64, what: &str) -> Result<Ticks, RunError> {
 impl ReducedRun {
     /// Prepares a run; refuses scenarios and settings the reduced model does not cover.
     pub fn new(scenario: &Scenario, options: ReducedOptions) -> Result<Self, RunError> {
-        // A guide is a micro model of its own kind: alone, on the ground.
-        let guided = !scenario.guides.is_empty();
-        if let Some(g) = scenario.guides.first()
-            && (scenario.guides.len() > 1 || !scenario.clearances.is_empty() || !scenario.bushings.is_empty())
-        {
-            return Err(RunError::Unsupported(format!(
-                "the reduced model couples one translational clearance joint alone (guide {:?}), not yet beside other \
-                 clearance joints, bushings or guides; run the full model",
-                g.joint
-            )));
-        }
-        // The interface is either the clearance joints or the bushings (each a micro model of
-        // its own kind); both at once is not there yet.
-        let bushed = !scenario.bushings.is_empty();
-        if bushed && !scenario.clearances.is_empty() {
-            return Err(RunError::Unsupported(format!(
-                "the reduced model takes clearance joints or bushings, not both yet (clearance joint {:?}, bushing {:?}); \
-                 run the full model",
-                scenario.clearances[0].joint, scenario.bushings[0].joint
-            )));
-        }
-        let max_joints = if bushed { 3 } else { lash_micro::MAX_COORDINATES / lash_micro::PLANAR_JOINT_COORDINATES };
-        let count = scenario.clearances.len() + scenario.bushings.len() + scenario.guides.len();
-        if count == 0 || count > max_joints {
-            return Err(RunError::Unsupported(format!(
-                "the reduced model couples 1 to {max_joints} {}; the scenario has {count}",
-                if bushed { "bushings" } else { "clearance joints" }
-            )));
-        }
+        refuse_uncovered(scenario)?;
         let master_options = master_options(&scenario.simulation, options)?;
         let full = build_model(scenario, BuildOptions { ideal: false });
         let ideal = full.ideal_mechanism();
         let mut cut = full.mechanism.clone();
-        let joints = full.clearances.clone();
-        let mut interfaces: Vec<ClearanceInterface> = joints
-            .iter()
-            .map(|j| ClearanceInterface {
-                interface: Interface {
-                    journal_body: j.journal_body,
-                    journal_point: j.journal_point,
-                    bearing_body: j.bearing_body,
-                    bearing_point: j.bearing_point,
-                },
-                journal_radius: j.journal_radius,
-                bearing_radius: j.bearing_radius,
-                guide: None,
-            })
-            .collect();
-        // A bushing's two points are the interface (its force is the micro side's): the cut
-        // mechanism loses the bushing load as it lost the joint, and the bushing becomes a
-        // micro joint with the same law.
-        let mut bushings = Vec::new();
-        cut.loads.retain(|l| match l {
-            lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping, curve } => {
-                interfaces.push(ClearanceInterface {
-                    interface: Interface {
-                        journal_body: *body_i,
-                        journal_point: *point_i,
-                        bearing_body: *body_j,
-                        bearing_point: *point_j,
-                    },
-                    journal_radius: 0.0,
-                    bearing_radius: 0.0,
-                    guide: None,
-                });
-                bushings.push(lash_micro::BushingJoint {
-                    name: scenario.bushings[bushings.len()].joint.clone(),
-                    stiffness: *stiffness,
-                    damping: *damping,
-                    curve: curve.clone(),
-                });
-                false
-            }
-            _ => true,
-        });
-        let guides: Vec<lash_micro::GuideJoint> = full.slots.iter().map(lash_micro::GuideJoint::new).collect();
-        for slot in &full.slots {
-            // (The micro side reads the corners' forces in the guide's frame: the world's, for a
-            // guide on the ground along x.)
-            if slot.guide.body != lash_mech::BodyId::Ground || slot.guide.axis.y != 0.0 || slot.guide.axis.x <= 0.0 {
-                return Err(RunError::Unsupported(format!(
-                    "the reduced model takes a guide on the ground along +x; guide {:?} is not; run the full model",
-                    slot.name
-                )));
-            }
-            interfaces.push(ClearanceInterface {
-                interface: Interface {
-                    journal_body: slot.block.body,
-                    journal_point: slot.block.centre,
-                    bearing_body: slot.guide.body,
-                    bearing_point: slot.guide.point,
-                },
-                journal_radius: 0.0,
-                bearing_radius: 0.0,
-                guide: Some(lash_mech::GuideAxis { axis: slot.guide.axis, angle_offset: slot.aligned_angle() }),
-            });
-        }
-        let k = interfaces.len();
+        let (interfaces, micro_joints) = interfaces(scenario, &full, &mut cut)?;
         // Loads per propagated value: the contact forces (n = 2k), then the friction forces (k).
-        let loads = k * (lash_micro::PLANAR_JOINT_COORDINATES + 1);
+        let loads = interfaces.len() * (lash_micro::PLANAR_JOINT_COORDINATES + 1);
 
         let sources = channel_sources(scenario, false);
         let selected = lash_scenario::channels::selected_channels(scenario, &sources);
-        let joint_names: Vec<&str> = scenario
-            .joints
-            .iter()
-            .filter(|j| {
-                !scenario.clearances.iter().any(|c| c.joint == j.name)
-                    && !scenario.bushings.iter().any(|b| b.joint == j.name)
-            })
-            .map(|j| j.name.as_str())
-            .collect();
-        // One signal per recorded channel; every joint's eccentricity and force magnitude for the
-        // summary (unless only the channels are wanted).
-        let mut recorded: Vec<usize> = selected.clone();
-        let summarised = if options.channels_only { 0 } else { joints.len() };
-        crate::record::record_joint_summaries(&mut recorded, &sources, summarised, |s| match *s {
-            Source::Clearance(j, q) => Some((j, CLEARANCE_QUANTITIES[q as usize].0)),
-            _ => None,
-        });
-        // A guide's corners, each a contact with its summary: the block's offset, the corner's
-        // normal force and penetration.
-        if !options.channels_only {
-            for (g, _) in scenario.guides.iter().enumerate() {
-                for q in guide_summary_quantities() {
-                    let k = sources.iter().position(|(_, s)| *s == Source::Guide(g, q)).expect("guide channels");
-                    if !recorded.contains(&k) {
-                        recorded.push(k);
-                    }
-                }
-            }
-        }
-        // The force channels of the emulated measurements.
-        let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
-        crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);
+        let joint_names: Vec<&str> =
+            scenario.joints.iter().filter(|j| !scenario.is_cut(&j.name)).map(|j| j.name.as_str()).collect();
+        let recorded = recorded_channels(scenario, &sources, &selected, options.channels_only);
         let signals = recorded
             .iter()
             .map(|&k| signal(scenario, &joint_names, loads, &sources[k].0, sources[k].1))
             .collect::<Vec<_>>();
         let sources_recorded: Vec<(Channel, Source)> = recorded.iter().map(|&k| sources[k].clone()).collect();
-        // Probes (propagation maps exported by the macro subsystem) for the recorded channels only.
-        let mut probes: Vec<Probe> = Vec::new();
-        for (_, src) in &sources_recorded {
-            let probe = match *src {
-                Source::Sensor(k, _) => {
-                    let sen = &scenario.sensors[k];
-                    let body = cut.body_id(&sen.body).expect("validated");
-                    Probe::Point { name: sen.name.clone(), body, point: Vec2::new(sen.point[0], sen.point[1]) }
-                }
-                Source::JointReaction(k, _) => Probe::JointReaction { name: joint_names[k].to_string(), joint: k },
-                Source::DriverTorque(k) => Probe::DriverTorque { name: scenario.drivers[k].name.clone(), driver: k },
-                Source::BodyPose(k, _) => {
-                    let name = scenario.bodies[k].name.clone();
-                    Probe::Body { body: cut.body_id(&name).expect("validated"), name }
-                }
-                Source::Clearance(..)
-                | Source::ConstraintError
-                | Source::Bushing(..)
-                | Source::InterfaceStress(..)
-                | Source::Guide(..) => {
-                    continue;
-                }
-            };
-            if !probes.contains(&probe) {
-                probes.push(probe);
-            }
-        }
+        let probes = probes(scenario, &cut, &joint_names, &sources_recorded);
         let selected_positions = (0..selected.len()).collect();
 
         let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
@@ -273,15 +126,16 @@ impl ReducedRun {
         } else {
             MicroIntegrator::Rk4 { step: options.micro_step }
         };
-        // The joints' definitions as written, so that their radii and law coefficients are
-        // parameters of the micro subsystem (and of its FMU).
-        let definitions = scenario.clearances.iter().map(|c| crate::build::clearance_definition(scenario, c)).collect();
-        let micro_sub = if bushed {
-            InterfaceSubsystem::new(bushings, integrator)
-        } else if guided {
-            InterfaceSubsystem::new(guides, integrator)
-        } else {
-            InterfaceSubsystem::with_definitions(joints, integrator, definitions)
+        let micro_sub = match micro_joints {
+            MicroJoints::Bushings(bushings) => InterfaceSubsystem::new(bushings, integrator),
+            MicroJoints::Guides(guides) => InterfaceSubsystem::new(guides, integrator),
+            // The joints' definitions as written, so that their radii and law coefficients are
+            // parameters of the micro subsystem (and of its FMU).
+            MicroJoints::Clearances(joints) => {
+                let definitions =
+                    scenario.clearances.iter().map(|c| crate::build::clearance_definition(scenario, c)).collect();
+                InterfaceSubsystem::with_definitions(joints, integrator, definitions)
+            }
         }
         .map_err(|e| RunError::Unsupported(e.to_string()))?;
         Ok(Self {
@@ -439,6 +293,179 @@ pub(crate) fn master_options(
     master_options.check().map_err(refuse)?;
     master_options.check_sampling(ticks(sim.output_interval, "simulation.output_interval")?).map_err(refuse)?;
     Ok(master_options)
+}
+
+/// Refuses the interfaces the reduced model does not couple: a guide beside anything else (a
+/// guide is a micro model of its own kind), clearance joints beside bushings, too many or none.
+fn refuse_uncovered(scenario: &Scenario) -> Result<(), RunError> {
+    if let Some(g) = scenario.guides.first()
+        && (scenario.guides.len() > 1 || !scenario.clearances.is_empty() || !scenario.bushings.is_empty())
+    {
+        return Err(RunError::Unsupported(format!(
+            "the reduced model couples one translational clearance joint alone (guide {:?}), not yet beside other \
+             clearance joints, bushings or guides; run the full model",
+            g.joint
+        )));
+    }
+    // The interface is either the clearance joints or the bushings (each a micro model of its
+    // own kind); both at once is not there yet.
+    let bushed = !scenario.bushings.is_empty();
+    if bushed && !scenario.clearances.is_empty() {
+        return Err(RunError::Unsupported(format!(
+            "the reduced model takes clearance joints or bushings, not both yet (clearance joint {:?}, bushing {:?}); \
+             run the full model",
+            scenario.clearances[0].joint, scenario.bushings[0].joint
+        )));
+    }
+    let max_joints = if bushed { 3 } else { lash_micro::MAX_COORDINATES / lash_micro::PLANAR_JOINT_COORDINATES };
+    let count = scenario.clearances.len() + scenario.bushings.len() + scenario.guides.len();
+    if count == 0 || count > max_joints {
+        return Err(RunError::Unsupported(format!(
+            "the reduced model couples 1 to {max_joints} {}; the scenario has {count}",
+            if bushed { "bushings" } else { "clearance joints" }
+        )));
+    }
+    Ok(())
+}
+
+/// The micro joints of a reduced run: of one kind.
+enum MicroJoints {
+    Clearances(Vec<lash_contact::ClearanceJoint>),
+    Bushings(Vec<lash_micro::BushingJoint>),
+    Guides(Vec<lash_micro::GuideJoint>),
+}
+
+/// The macro side's interfaces and the micro side's joints of the full model `full` of
+/// `scenario`; a bushing's load leaves the cut mechanism `cut` (its two points are the interface,
+/// its force the micro side's, with the same law).
+fn interfaces(
+    scenario: &Scenario,
+    full: &lash_full_model::FullModel,
+    cut: &mut lash_mech::Mechanism,
+) -> Result<(Vec<ClearanceInterface>, MicroJoints), RunError> {
+    let between = |journal_body, journal_point, bearing_body, bearing_point| Interface {
+        journal_body,
+        journal_point,
+        bearing_body,
+        bearing_point,
+    };
+    let mut interfaces: Vec<ClearanceInterface> = full
+        .clearances
+        .iter()
+        .map(|j| ClearanceInterface {
+            interface: between(j.journal_body, j.journal_point, j.bearing_body, j.bearing_point),
+            journal_radius: j.journal_radius,
+            bearing_radius: j.bearing_radius,
+            guide: None,
+        })
+        .collect();
+    let mut bushings = Vec::new();
+    cut.loads.retain(|l| match l {
+        lash_mech::Load::Bushing { body_i, point_i, body_j, point_j, stiffness, damping, curve } => {
+            interfaces.push(ClearanceInterface {
+                interface: between(*body_i, *point_i, *body_j, *point_j),
+                journal_radius: 0.0,
+                bearing_radius: 0.0,
+                guide: None,
+            });
+            bushings.push(lash_micro::BushingJoint {
+                name: scenario.bushings[bushings.len()].joint.clone(),
+                stiffness: *stiffness,
+                damping: *damping,
+                curve: curve.clone(),
+            });
+            false
+        }
+        _ => true,
+    });
+    for slot in &full.slots {
+        // (The micro side reads the corners' forces in the guide's frame: the world's, for a
+        // guide on the ground along x.)
+        if slot.guide.body != lash_mech::BodyId::Ground || slot.guide.axis.y != 0.0 || slot.guide.axis.x <= 0.0 {
+            return Err(RunError::Unsupported(format!(
+                "the reduced model takes a guide on the ground along +x; guide {:?} is not; run the full model",
+                slot.name
+            )));
+        }
+        interfaces.push(ClearanceInterface {
+            interface: between(slot.block.body, slot.block.centre, slot.guide.body, slot.guide.point),
+            journal_radius: 0.0,
+            bearing_radius: 0.0,
+            guide: Some(lash_mech::GuideAxis { axis: slot.guide.axis, angle_offset: slot.aligned_angle() }),
+        });
+    }
+    let joints = if !bushings.is_empty() {
+        MicroJoints::Bushings(bushings)
+    } else if !full.slots.is_empty() {
+        MicroJoints::Guides(full.slots.iter().map(lash_micro::GuideJoint::new).collect())
+    } else {
+        MicroJoints::Clearances(full.clearances.clone())
+    };
+    Ok((interfaces, joints))
+}
+
+/// The channels a reduced run records (positions in `sources`): the selected ones, then, for
+/// the summary (unless only the channels are wanted), every clearance joint's eccentricity,
+/// force magnitude and penetration and every guide's offset and corners' normal forces and
+/// penetrations, then the force channels of the emulated measurements.
+fn recorded_channels(
+    scenario: &Scenario,
+    sources: &[(Channel, Source)],
+    selected: &[usize],
+    channels_only: bool,
+) -> Vec<usize> {
+    let mut recorded: Vec<usize> = selected.to_vec();
+    let summarised = if channels_only { 0 } else { scenario.clearances.len() };
+    crate::record::record_joint_summaries(&mut recorded, sources, summarised, |s| match *s {
+        Source::Clearance(j, q) => Some((j, CLEARANCE_QUANTITIES[q as usize].0)),
+        _ => None,
+    });
+    let guides = if channels_only { 0 } else { scenario.guides.len() };
+    for g in 0..guides {
+        for q in guide_summary_quantities() {
+            let k = sources.iter().position(|(_, s)| *s == Source::Guide(g, q)).expect("guide channels");
+            if !recorded.contains(&k) {
+                recorded.push(k);
+            }
+        }
+    }
+    let names: Vec<&str> = sources.iter().map(|(c, _)| c.name.as_str()).collect();
+    crate::measure::record_forces(&mut recorded, &names, &scenario.output.measurements);
+    recorded
+}
+
+/// The probes (propagation maps exported by the macro subsystem) of the recorded channels.
+fn probes(
+    scenario: &Scenario,
+    cut: &lash_mech::Mechanism,
+    joint_names: &[&str],
+    recorded: &[(Channel, Source)],
+) -> Vec<Probe> {
+    let mut probes: Vec<Probe> = Vec::new();
+    for (_, src) in recorded {
+        let probe = match *src {
+            Source::Sensor(k, _) => {
+                let sen = &scenario.sensors[k];
+                let body = cut.body_id(&sen.body).expect("validated");
+                Probe::Point { name: sen.name.clone(), body, point: Vec2::new(sen.point[0], sen.point[1]) }
+            }
+            Source::JointReaction(k, _) => Probe::JointReaction { name: joint_names[k].to_string(), joint: k },
+            Source::DriverTorque(k) => Probe::DriverTorque { name: scenario.drivers[k].name.clone(), driver: k },
+            Source::BodyPose(k, _) => {
+                let name = scenario.bodies[k].name.clone();
+                Probe::Body { body: cut.body_id(&name).expect("validated"), name }
+            }
+            Source::Clearance(..)
+            | Source::ConstraintError
+            | Source::Bushing(..)
+            | Source::InterfaceStress(..)
+            | Source::Guide(..) => continue,
+        };
+        if !probes.contains(&probe) {
+            probes.push(probe);
+        }
+    }
+    probes
 }
 
 /// A guide's channels its corners' summaries read (its [`lash_scenario::channels::GUIDE_QUANTITIES`]):
