@@ -534,6 +534,165 @@ impl TwoWayInputs {
     }
 }
 
+/// What a macro subsystem (the planar or the spatial mechanism around its clearance joints) is as
+/// an FMI-shaped model, whatever its mechanics: its name, its variables and their values (every
+/// output flattened in value-reference order), its clock and life-cycle phase, and its two-way
+/// inputs. One home for the calls of [`Subsystem`] that do not depend on the mechanics.
+#[derive(Debug, Clone)]
+pub struct MacroPorts {
+    name: String,
+    variables: Vec<Variable>,
+    /// Where each variable's values start in `values` (one past the last at the end).
+    offsets: Vec<usize>,
+    /// The outputs' values (the inputs' are kept in `two_way`).
+    pub values: Vec<f64>,
+    /// The communication point reached.
+    pub time: Ticks,
+    /// The life-cycle phase.
+    pub phase: Phase,
+    /// The two-way inputs and the eccentricities the last step ended on.
+    pub two_way: TwoWayInputs,
+}
+
+impl MacroPorts {
+    /// The ports of a subsystem `name` with `variables` (checked), their values zero, at time zero,
+    /// instantiated.
+    pub fn new(name: &str, variables: Vec<Variable>, two_way: TwoWayInputs) -> Self {
+        let mut offsets = Vec::with_capacity(variables.len() + 1);
+        let mut at = 0;
+        for v in &variables {
+            offsets.push(at);
+            at += v.len();
+        }
+        offsets.push(at);
+        Self {
+            name: name.to_string(),
+            variables,
+            offsets,
+            values: vec![0.0; at],
+            time: Ticks::ZERO,
+            phase: Phase::Instantiated,
+            two_way,
+        }
+    }
+
+    /// The subsystem's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The variables.
+    pub fn variables(&self) -> &[Variable] {
+        &self.variables
+    }
+
+    /// Each variable's offset in [`MacroPorts::values`] (one past the last at the end).
+    pub fn offsets(&self) -> &[usize] {
+        &self.offsets
+    }
+
+    /// The range of output `vr`'s values.
+    #[inline]
+    pub fn range(&self, vr: ValueReference) -> std::ops::Range<usize> {
+        self.offsets[vr as usize]..self.offsets[vr as usize + 1]
+    }
+
+    /// The value of output `vr` (its elements).
+    pub fn output(&self, vr: ValueReference) -> &[f64] {
+        &self.values[self.range(vr)]
+    }
+
+    /// The values to write, with each variable's offset in them.
+    pub fn values_and_offsets(&mut self) -> (&mut [f64], &[usize]) {
+        (&mut self.values, &self.offsets)
+    }
+
+    /// [`Subsystem::setup`]: the clock starts at `start`.
+    pub fn setup(&mut self, start: Ticks) -> Result<(), SubsystemError> {
+        self.phase.require("setup", &[Phase::Instantiated])?;
+        self.time = start;
+        self.phase = Phase::Configured;
+        Ok(())
+    }
+
+    /// [`Subsystem::set_f64`]: only the two-way inputs may be set.
+    pub fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
+        self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
+        self.two_way.set(&self.variables, refs, values)
+    }
+
+    /// [`Subsystem::get_f64`]: the inputs as set, the outputs as last computed.
+    pub fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
+        let count = element_count(&self.variables, refs)?;
+        if count != values.len() {
+            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
+        }
+        let input = |r: ValueReference| self.two_way.holds(r);
+        let (mut at, mut i) = (0, 0);
+        while i < refs.len() {
+            let r = refs[i];
+            let v = match self.two_way.get(r) {
+                Some(v) => v,
+                None => {
+                    // Consecutive outputs are one stretch of the values: one copy (a master
+                    // reads every output at every step).
+                    let mut last = i;
+                    while last + 1 < refs.len() && refs[last + 1] == refs[last] + 1 && !input(refs[last + 1]) {
+                        last += 1;
+                    }
+                    let stretch = &self.values[self.offsets[r as usize]..self.offsets[refs[last] as usize + 1]];
+                    i = last;
+                    stretch
+                }
+            };
+            values[at..at + v.len()].copy_from_slice(v);
+            at += v.len();
+            i += 1;
+        }
+        Ok(())
+    }
+
+    /// The checks of [`Subsystem::do_step`]: stepping, from the time reached, forward.
+    pub fn check_step(&self, t: Ticks, h: Ticks) -> Result<(), SubsystemError> {
+        self.phase.require("do_step", &[Phase::Stepping])?;
+        if t != self.time || h.0 <= 0 {
+            return Err(SubsystemError::BadArguments(format!(
+                "do_step(t = {} s, h = {} s) but the subsystem is at {} s",
+                t.seconds(),
+                h.seconds(),
+                self.time.seconds()
+            )));
+        }
+        Ok(())
+    }
+
+    /// A step from `t` over `h` ended (in error or not): the clock moves to its end, and a
+    /// two-way step's targets become the current eccentricities.
+    pub fn step_ended(&mut self, t: Ticks, h: Ticks, coupling: Coupling) {
+        self.time = Ticks(t.0 + h.0);
+        if coupling == Coupling::TwoWay {
+            self.two_way.step_done();
+        }
+    }
+
+    /// Every output finite, or the message naming the first that is not.
+    pub fn check_finite(&self) -> Result<(), String> {
+        match self.values.iter().position(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(bad) => {
+                let name = &self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name;
+                Err(format!("output {name} became {}", self.values[bad]))
+            }
+        }
+    }
+
+    /// The subsystem failed at the time reached with `message`.
+    pub fn fail(&mut self, message: String) -> SubsystemError {
+        self.phase = Phase::Failed;
+        SubsystemError::Simulation { t: self.time.seconds(), message }
+    }
+}
+
 /// How a step ended. A master must look at every outcome: only [`StepOutcome::Completed`] means
 /// that the subsystem reached `t + h` and may be stepped on; use [`StepOutcome::reached`] and
 /// [`StepOutcome::stop`] rather than matching on `Completed` alone.
@@ -1057,6 +1216,49 @@ mod tests {
         );
         inputs.step_done();
         assert_eq!(inputs.prescription(1e-3, 1e-3).from, first.to);
+    }
+
+    #[test]
+    fn macro_ports_read_outputs_and_inputs_in_any_order_step_forward_only_and_name_a_bad_output() {
+        let mut t = VariableTable::new();
+        t.add("mass", Causality::Output, Variability::Continuous, "kg", "", &[2, 2], &[0.0]);
+        t.add("force", Causality::Output, Variability::Continuous, "N", "", &[2], &[0.0]);
+        for name in ["eccentricity", "eccentricity_rate", "friction_force"] {
+            t.add(name, Causality::Input, Variability::Continuous, "1", "", &[2], &[0.0; 2]);
+        }
+        t.add("torque", Causality::Output, Variability::Continuous, "N m", "", &[], &[0.0]);
+        let mut ports = MacroPorts::new("m", t.into_checked_variables().unwrap(), TwoWayInputs::new(2, 2, 2));
+        assert_eq!(ports.offsets(), &[0, 4, 6, 8, 10, 12, 13]);
+        ports.values.iter_mut().enumerate().for_each(|(i, v)| *v = i as f64);
+        // Calls out of the life cycle's order are refused.
+        assert!(ports.set_f64(&[2], &[1.0, 2.0]).is_err());
+        ports.setup(Ticks(5)).unwrap();
+        ports.set_f64(&[2], &[1.0, 2.0]).unwrap();
+        assert!(matches!(ports.set_f64(&[0], &[0.0; 4]), Err(SubsystemError::BadValue { .. })));
+        // Outputs in one stretch (0, 1), an input between them, an output after; any order.
+        let mut out = [0.0; 9];
+        ports.get_f64(&[0, 1, 2, 5], &mut out).unwrap();
+        assert_eq!(out, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 1.0, 2.0, 12.0]);
+        let mut out = [0.0; 3];
+        ports.get_f64(&[5, 1], &mut out).unwrap();
+        assert_eq!(out, [12.0, 4.0, 5.0]);
+        assert!(matches!(ports.get_f64(&[5, 1], &mut [0.0; 2]), Err(SubsystemError::BadArguments(_))));
+        // Steps start where the last ended and go forward.
+        assert!(matches!(ports.check_step(Ticks(5), Ticks(1)), Err(SubsystemError::WrongState { .. })));
+        ports.phase = Phase::Stepping;
+        ports.check_step(Ticks(5), Ticks(1)).unwrap();
+        assert!(matches!(ports.check_step(Ticks(4), Ticks(1)), Err(SubsystemError::BadArguments(_))));
+        assert!(matches!(ports.check_step(Ticks(5), Ticks(0)), Err(SubsystemError::BadArguments(_))));
+        ports.step_ended(Ticks(5), Ticks(3), Coupling::TwoWay);
+        assert_eq!(ports.time, Ticks(8));
+        assert_eq!(ports.two_way.prescription(0.0, 1.0).from, vec![1.0, 2.0, 0.0, 0.0]);
+        // A non-finite output is named with its value.
+        ports.check_finite().unwrap();
+        ports.values[5] = f64::NAN;
+        assert_eq!(ports.check_finite(), Err("output force became NaN".to_string()));
+        let e = ports.fail("it broke".into());
+        assert_eq!(ports.phase, Phase::Failed);
+        assert!(matches!(e, SubsystemError::Simulation { message, .. } if message == "it broke"));
     }
 
     #[test]

@@ -22,12 +22,9 @@ use lash_ode::OdeSystem;
 /// Errors of building or running the full model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModelError {
-    /// The planar mechanics layer failed.
+    /// The mechanics layer (planar or spatial) failed.
     #[error(transparent)]
     Mech(#[from] MechError),
-    /// The spatial mechanics layer failed.
-    #[error(transparent)]
-    Spatial(#[from] lash_spatial::SpatialError),
 }
 
 /// Mechanism + clearance joints, ready to integrate.

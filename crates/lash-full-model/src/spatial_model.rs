@@ -5,12 +5,11 @@
 use crate::impact_log::ImpactLog;
 use lash_contact::clearance::{Impact, StepSearch};
 use lash_contact::spherical::{SphericalClearance, SphericalContactState};
-use lash_mech::BodyId;
+use lash_mech::{BodyId, MechError};
 use lash_ode::OdeSystem;
 use lash_spatial::constraints::BodyFrame;
 use lash_spatial::{
-    Marker, SpatialError, SpatialJoint, SpatialJointKind, SpatialMechanism, SpatialSolver, Vec3, assemble,
-    velocity_analysis,
+    Marker, SpatialJoint, SpatialJointKind, SpatialMechanism, SpatialSolver, Vec3, assemble, velocity_analysis,
 };
 
 /// Spatial mechanism + spherical clearance joints, ready to integrate. State y = [q; v].
@@ -94,7 +93,7 @@ impl SpatialFullModel {
 
     /// Consistent initial state at `t0`: the ideal mechanism (balls centred) assembled from the
     /// bodies' initial poses and driven to its velocities. Resets contact modes and impacts.
-    pub fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, SpatialError> {
+    pub fn initial_state(&mut self, t0: f64) -> Result<Vec<f64>, MechError> {
         let ideal = self.ideal_mechanism();
         let mut y = ideal.initial_state();
         let n = ideal.coordinate_count();
@@ -116,7 +115,7 @@ impl SpatialFullModel {
     }
 
     /// Evaluates contact forces, v̇ and λ at `(t, y)`; results in `solver` and `contacts`.
-    pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), SpatialError> {
+    pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
         let n = self.mechanism.coordinate_count();
         let (q, v) = y.split_at(n);
         let Self { mechanism, clearances, solver, contacts, log, strict_modes, .. } = self;

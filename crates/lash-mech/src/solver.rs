@@ -17,10 +17,10 @@ use crate::model::{BodyId, Load, Mechanism};
 use crate::{Pose, cross};
 use nalgebra::DVector;
 
-/// Errors of the mechanics layer.
+/// Errors of the mechanics layer, planar and spatial (lash-spatial reports its solves with it).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MechError {
-    /// Φ_q lost full row rank: redundant constraints or a singular configuration.
+    /// The constraint Jacobian (Φ_q) lost full row rank: redundant constraints or a singular configuration.
     #[error("constraint Jacobian is rank deficient at t = {t} s (redundant joints or a singular position)")]
     SingularConstraints {
         /// Time of the failed solve.

@@ -24,9 +24,9 @@ use crate::kinematics::{assemble_and_project, driver_torque, initial_guess, join
 use crate::model::{BodyId, Mechanism};
 use crate::solver::Solver;
 use crate::{Pose, Vec2};
-use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
+use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, per_joint_shape};
 use lash_core::{
-    Coupling, PrescribedInterface as Prescribed, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks,
+    Coupling, MacroPorts, PrescribedInterface as Prescribed, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks,
     TwoWayInputs, ValueReference, Variable,
 };
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
@@ -207,10 +207,8 @@ struct RefreshWork {
 
 /// The mechanism around its clearance joints as the macro [`Subsystem`].
 pub struct MechanismSubsystem {
-    name: String,
-    variables: Vec<Variable>,
-    offsets: Vec<usize>,
-    values: Vec<f64>,
+    /// Name, variables and values, clock, phase and two-way inputs.
+    ports: MacroPorts,
     cut: Mechanism,
     ideal: Mechanism,
     joints: Vec<ClearanceInterface>,
@@ -221,10 +219,6 @@ pub struct MechanismSubsystem {
     q: Vec<f64>,
     qd: Vec<f64>,
     qdd: Vec<f64>,
-    time: Ticks,
-    phase: Phase,
-    /// The two-way inputs and the eccentricities the last step ended on.
-    two_way: TwoWayInputs,
     offset_rows: Vec<usize>,
     last_prescribed: Option<Prescribed>,
     ideal_solver: Solver,
@@ -405,13 +399,6 @@ impl MechanismSubsystem {
         // The fixed variables are added in the order of `vr` (checked; every construction in the
         // tests would fail on a misplaced one).
         let variables = t.into_checked_variables().expect("the mechanism subsystem's variables follow `vr`");
-        let mut offsets = Vec::with_capacity(variables.len() + 1);
-        let mut at = 0;
-        for v in &variables {
-            offsets.push(at);
-            at += v.len();
-        }
-        offsets.push(at);
         let kinematic = coupling == Coupling::OneWay && ideal.constraint_count() == ideal.coordinate_count();
         // The closed clearance joints are the ideal mechanism's last joints.
         let first = ideal.joints.len() - k;
@@ -424,10 +411,7 @@ impl MechanismSubsystem {
         Self {
             signature,
             terms_signature,
-            name: name.to_string(),
-            variables,
-            offsets,
-            values: vec![0.0; at],
+            ports: MacroPorts::new(name, variables, TwoWayInputs::new(vr::ECCENTRICITY, n, k)),
             ideal_solver,
             cut_solver,
             cut_factor_shared,
@@ -450,9 +434,6 @@ impl MechanismSubsystem {
             q: vec![0.0; coordinates],
             qd: vec![0.0; coordinates],
             qdd: vec![0.0; coordinates],
-            time: Ticks::ZERO,
-            phase: Phase::Instantiated,
-            two_way: TwoWayInputs::new(vr::ECCENTRICITY, n, k),
             offset_rows,
             last_prescribed: None,
             terms: None,
@@ -476,23 +457,18 @@ impl MechanismSubsystem {
 
     /// The value of an output by value reference (elements).
     pub fn output(&self, vr: ValueReference) -> &[f64] {
-        &self.values[self.offsets[vr as usize]..self.offsets[vr as usize + 1]]
+        self.ports.output(vr)
     }
 
     /// All output values, flattened in value-reference order, and each variable's offset.
     pub fn values(&self) -> (&[f64], &[usize]) {
-        (&self.values, &self.offsets)
-    }
-
-    fn simulation_error(&mut self, message: String) -> SubsystemError {
-        self.phase = Phase::Failed;
-        SubsystemError::Simulation { t: self.time.seconds(), message }
+        (&self.ports.values, self.ports.offsets())
     }
 
     /// Motion at `t` of a fully driven mechanism: position and velocity analysis. Returns the
     /// assembled position's constraint error (max |Φ|).
     fn kinematic_motion(&mut self, t: f64) -> Result<f64, String> {
-        predict(&mut self.q, &self.qd, &self.qdd, t - self.time.seconds());
+        predict(&mut self.q, &self.qd, &self.qdd, t - self.ports.time.seconds());
         assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, ASSEMBLY_TOLERANCE)
             .map_err(|e| e.to_string())?;
         Ok(self.ideal_solver.constraint_error())
@@ -502,7 +478,7 @@ impl MechanismSubsystem {
     /// position analysis just done at this state (else it is evaluated); `solved`: the terms'
     /// solves were done at this state ahead ([`kinematic_steps_ahead`]), the cut solver holds it.
     fn refresh(&mut self, assembled_error: Option<f64>, solved: bool) -> Result<(), String> {
-        let t = self.time.seconds();
+        let t = self.ports.time.seconds();
         let (k, n) = (self.joints.len(), 2 * self.joints.len());
         let mut terms =
             self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
@@ -570,7 +546,7 @@ impl MechanismSubsystem {
             BodyId::Ground => 0.0,
         };
         let joints = &self.joints;
-        let (values, offsets) = (&mut self.values, &self.offsets);
+        let (values, offsets) = self.ports.values_and_offsets();
         let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
         // Matrices go out row-major.
         let mut put_matrix = |vr: ValueReference, m: &nalgebra::DMatrix<f64>| {
@@ -682,10 +658,7 @@ impl MechanismSubsystem {
                 }
             }
         }
-        if let Some(bad) = self.values.iter().position(|v| !v.is_finite()) {
-            let name = self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name.clone();
-            return Err(format!("output {name} became {}", self.values[bad]));
-        }
+        self.ports.check_finite()?;
         self.terms = Some(terms);
         Ok(())
     }
@@ -693,84 +666,46 @@ impl MechanismSubsystem {
 
 impl Subsystem for MechanismSubsystem {
     fn name(&self) -> &str {
-        &self.name
+        self.ports.name()
     }
 
     fn variables(&self) -> &[Variable] {
-        &self.variables
+        self.ports.variables()
     }
 
     fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
-        self.phase.require("setup", &[Phase::Instantiated])?;
-        self.time = start;
-        self.phase = Phase::Configured;
-        Ok(())
+        self.ports.setup(start)
     }
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
-        self.phase.require("initialize", &[Phase::Configured])?;
+        self.ports.phase.require("initialize", &[Phase::Configured])?;
         // Consistent initial conditions of the ideal mechanism (the journals centred, ideal
         // velocities): the cut mechanism starts from the same state.
-        let t = self.time.seconds();
+        let t = self.ports.time.seconds();
         let (q, qd) = initial_guess(&self.ideal);
         self.q = q;
         self.qd = qd;
         let r = assemble_and_project(&self.ideal, t, &mut self.q, &mut self.qd, &mut self.ideal_solver, 1e-13);
         if let Err(e) = r {
-            return Err(self.simulation_error(format!("initial conditions: {e}")));
+            return Err(self.ports.fail(format!("initial conditions: {e}")));
         }
         if let Err(m) = self.refresh(Some(self.ideal_solver.constraint_error()), false) {
-            return Err(self.simulation_error(m));
+            return Err(self.ports.fail(m));
         }
-        self.phase = Phase::Stepping;
+        self.ports.phase = Phase::Stepping;
         Ok(())
     }
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
-        self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        self.two_way.set(&self.variables, refs, values)
+        self.ports.set_f64(refs, values)
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        let count = element_count(&self.variables, refs)?;
-        if count != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
-        }
-        let input = |r: ValueReference| self.two_way.holds(r);
-        let (mut at, mut i) = (0, 0);
-        while i < refs.len() {
-            let r = refs[i];
-            let v = match self.two_way.get(r) {
-                Some(v) => v,
-                None => {
-                    // Consecutive outputs are one stretch of the values: one copy (a master
-                    // reads every output at every step).
-                    let mut last = i;
-                    while last + 1 < refs.len() && refs[last + 1] == refs[last] + 1 && !input(refs[last + 1]) {
-                        last += 1;
-                    }
-                    let stretch = &self.values[self.offsets[r as usize]..self.offsets[refs[last] as usize + 1]];
-                    i = last;
-                    stretch
-                }
-            };
-            values[at..at + v.len()].copy_from_slice(v);
-            at += v.len();
-            i += 1;
-        }
-        Ok(())
+        self.ports.get_f64(refs, values)
     }
 
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
-        self.phase.require("do_step", &[Phase::Stepping])?;
-        if t != self.time || h.0 <= 0 {
-            return Err(SubsystemError::BadArguments(format!(
-                "do_step(t = {} s, h = {} s) but the subsystem is at {} s",
-                t.seconds(),
-                h.seconds(),
-                self.time.seconds()
-            )));
-        }
+        self.ports.check_step(t, h)?;
         let (t0, t1) = (t.seconds(), Ticks(t.0 + h.0).seconds());
         let mut solved = false;
         let result = if self.kinematic {
@@ -784,7 +719,8 @@ impl Subsystem for MechanismSubsystem {
                 _ => self.kinematic_motion(t1).map(Some),
             }
         } else {
-            self.last_prescribed = (self.coupling == Coupling::TwoWay).then(|| self.two_way.prescription(t0, t1 - t0));
+            self.last_prescribed =
+                (self.coupling == Coupling::TwoWay).then(|| self.ports.two_way.prescription(t0, t1 - t0));
             let prescribed = self.last_prescribed.as_ref().map(|p| (p, &self.offset_rows[..], &self.joints[..]));
             let mut ode = MechanismOde { mech: &self.ideal, solver: &mut self.ideal_solver, prescribed, error: None };
             let mut y: Vec<f64> = self.q.iter().chain(&self.qd).copied().collect();
@@ -811,18 +747,15 @@ impl Subsystem for MechanismSubsystem {
                 Err(e) => Err(format!("macro integration: {}", lash_core::error_chain(&e))),
             }
         };
-        self.time = Ticks(t.0 + h.0);
-        if self.coupling == Coupling::TwoWay {
-            self.two_way.step_done();
-        }
+        self.ports.step_ended(t, h, self.coupling);
         if let Err(m) = result.and_then(|assembled_error| self.refresh(assembled_error, solved)) {
-            return Err(self.simulation_error(m));
+            return Err(self.ports.fail(m));
         }
         Ok(StepOutcome::Completed)
     }
 
     fn time(&self) -> Ticks {
-        self.time
+        self.ports.time
     }
 
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
@@ -833,11 +766,11 @@ impl Subsystem for MechanismSubsystem {
         Ok(SavedState(Box::new(Snapshot {
             q: self.q.clone(),
             qd: self.qd.clone(),
-            time: self.time,
-            phase: self.phase,
-            two_way: self.two_way.clone(),
+            time: self.ports.time,
+            phase: self.ports.phase,
+            two_way: self.ports.two_way.clone(),
             last_prescribed: self.last_prescribed.clone(),
-            values: self.values.clone(),
+            values: self.ports.values.clone(),
         })))
     }
 
@@ -849,12 +782,12 @@ impl Subsystem for MechanismSubsystem {
         self.ahead = None;
         self.q.clone_from(&s.q);
         self.qd.clone_from(&s.qd);
-        self.time = s.time;
-        self.phase = s.phase;
-        self.two_way.clone_from(&s.two_way);
+        self.ports.time = s.time;
+        self.ports.phase = s.phase;
+        self.ports.two_way.clone_from(&s.two_way);
         self.last_prescribed.clone_from(&s.last_prescribed);
-        self.values.clone_from(&s.values);
-        if self.phase == Phase::Stepping {
+        self.ports.values.clone_from(&s.values);
+        if self.ports.phase == Phase::Stepping {
             self.refresh(None, false).map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
         }
         Ok(())
@@ -901,7 +834,7 @@ pub fn kinematic_steps_ahead(
     let mut ready: Vec<&mut MechanismSubsystem> = subs
         .iter_mut()
         .filter_map(|s| s.as_any_mut().and_then(|a| a.downcast_mut::<MechanismSubsystem>()))
-        .filter(|m| m.kinematic && m.phase == Phase::Stepping && m.time == t && h.0 > 0)
+        .filter(|m| m.kinematic && m.ports.phase == Phase::Stepping && m.ports.time == t && h.0 > 0)
         .collect();
     let to = Ticks(t.0 + h.0);
     let t1 = to.seconds();
@@ -929,7 +862,7 @@ pub fn kinematic_steps_ahead(
                 m.ahead = None;
                 m.ahead_q.copy_from_slice(&m.q);
                 m.ahead_qd.copy_from_slice(&m.qd);
-                predict(&mut m.ahead_q, &m.qd, &m.qdd, t1 - m.time.seconds());
+                predict(&mut m.ahead_q, &m.qd, &m.qdd, t1 - m.ports.time.seconds());
                 LaneInput { mech: &m.ideal, solver: &mut m.ideal_solver, q: &mut m.ahead_q, qd: &mut m.ahead_qd }
             })
             .collect();

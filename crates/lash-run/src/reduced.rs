@@ -61,6 +61,25 @@ impl Default for ReducedOptions {
     }
 }
 
+impl ReducedOptions {
+    /// The micro model's integrator these options ask for: RK4 at the micro step, or DOPRI5
+    /// with contact events at tolerances far below the coupling's error, its steps up to the
+    /// micro step.
+    pub fn micro_integrator(&self) -> MicroIntegrator {
+        if self.error_controlled_micro {
+            MicroIntegrator::Dopri5(AdaptiveOptions {
+                rtol: 1e-9,
+                atol: 1e-12,
+                initial_step: 1e-7,
+                max_step: self.micro_step,
+                min_step: 1e-14,
+            })
+        } else {
+            MicroIntegrator::Rk4 { step: self.micro_step }
+        }
+    }
+}
+
 /// Details of a reduced run (in summary.json).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ReducedDetails {
@@ -115,17 +134,7 @@ impl ReducedRun {
         let selected_positions = (0..selected.len()).collect();
 
         let macro_sub = MechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
-        let integrator = if options.error_controlled_micro {
-            MicroIntegrator::Dopri5(AdaptiveOptions {
-                rtol: 1e-9,
-                atol: 1e-12,
-                initial_step: 1e-7,
-                max_step: options.micro_step,
-                min_step: 1e-14,
-            })
-        } else {
-            MicroIntegrator::Rk4 { step: options.micro_step }
-        };
+        let integrator = options.micro_integrator();
         let micro_sub = match micro_joints {
             MicroJoints::Bushings(bushings) => InterfaceSubsystem::new(bushings, integrator),
             MicroJoints::Guides(guides) => InterfaceSubsystem::new(guides, integrator),
@@ -215,7 +224,7 @@ impl ReducedRun {
             recording,
             simulation: &self.scenario.simulation,
             scenario: &self.scenario.name,
-            period: driver_period(&self.scenario),
+            period: driver_period(self.scenario.drivers.iter().map(|d| &d.motion)),
         }
     }
 
@@ -739,20 +748,15 @@ fn summarise(
         MicroIntegrator::Rk4 { step } => lash_ode::Method::Rk4 { step },
         MicroIntegrator::Dopri5(o) => lash_ode::Method::Dopri5(o),
     };
-    Ok(Summary {
-        scenario: c.scenario.to_string(),
-        model: "reduced",
-        integrator,
-        start_time: sim.start_time,
-        horizon,
-        output_interval: sim.output_interval,
-        samples,
-        cpu_time_s: cpu,
-        wall_time_s: wall,
+    // (The micro model's figures: its steps, four right-hand sides each, its impacts.)
+    let micro_stats = lash_ode::Stats {
         steps: master_stats.micro_steps,
-        rejected_steps: 0,
         rhs_evaluations: 4 * master_stats.micro_steps,
         events,
+        ..Default::default()
+    };
+    Ok(Summary {
+        samples,
         max_constraint_error,
         channels,
         warnings: [
@@ -764,6 +768,7 @@ fn summarise(
         reduced: Some(details(master_stats)),
         measurements,
         measured,
+        ..Summary::new(c.scenario, "reduced", integrator, sim, (cpu, wall), &micro_stats)
     })
 }
 

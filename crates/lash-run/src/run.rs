@@ -378,6 +378,43 @@ pub struct Summary {
     pub measured: Vec<crate::measure::MeasuredTable>,
 }
 
+impl Summary {
+    /// The summary of a run of `scenario` by `model` ("full", "ideal", "reduced") with
+    /// `integrator` over the scenario's simulation `sim`, whose integration took `cpu` and `wall`
+    /// seconds and `ode`'s steps; nothing sampled yet (the runner fills in what it recorded).
+    pub(crate) fn new(
+        scenario: &str,
+        model: &'static str,
+        integrator: lash_ode::Method,
+        sim: &lash_scenario::schema::SimulationSpec,
+        (cpu, wall): (f64, f64),
+        ode: &lash_ode::Stats,
+    ) -> Self {
+        Summary {
+            scenario: scenario.to_string(),
+            model,
+            integrator,
+            start_time: sim.start_time,
+            horizon: sim.horizon,
+            output_interval: sim.output_interval,
+            samples: 0,
+            cpu_time_s: cpu,
+            wall_time_s: wall,
+            steps: ode.steps,
+            rejected_steps: ode.rejected,
+            rhs_evaluations: ode.rhs_evaluations,
+            events: ode.events,
+            max_constraint_error: 0.0,
+            channels: BTreeMap::new(),
+            clearances: Vec::new(),
+            warnings: Vec::new(),
+            reduced: None,
+            measurements: Vec::new(),
+            measured: Vec::new(),
+        }
+    }
+}
+
 /// A prepared run.
 pub struct FullRun {
     /// The model.
@@ -450,7 +487,7 @@ impl FullRun {
         let (measurements, measured) = measurements
             .finish(t0, sim.output_interval)
             .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
-        let period = driver_period(&self.scenario);
+        let period = driver_period(self.scenario.drivers.iter().map(|d| &d.motion));
         // Each clearance joint, then each guide's corners (a contact each).
         let corners = self
             .model
@@ -466,20 +503,9 @@ impl FullRun {
                 recorder.clearance_summary(k, name, clearance, impacts, horizon, period)
             })
             .collect();
+        let model = if self.ideal { "ideal" } else { "full" };
         Ok(Summary {
-            scenario: self.scenario.name.clone(),
-            model: if self.ideal { "ideal" } else { "full" },
-            integrator: sim.integrator,
-            start_time: t0,
-            horizon,
-            output_interval: sim.output_interval,
             samples: recorder.samples,
-            cpu_time_s: cpu,
-            wall_time_s: wall,
-            steps: ode_stats.steps,
-            rejected_steps: ode_stats.rejected,
-            rhs_evaluations: ode_stats.rhs_evaluations,
-            events: ode_stats.events,
             max_constraint_error: recorder.max_constraint_error,
             channels: recorder.channel_stats(),
             warnings: [
@@ -489,9 +515,9 @@ impl FullRun {
             ]
             .concat(),
             clearances,
-            reduced: None,
             measurements,
             measured,
+            ..Summary::new(&self.scenario.name, model, sim.integrator, sim, (cpu, wall), &ode_stats)
         })
     }
 
@@ -557,9 +583,10 @@ pub(crate) fn sensor_points(s: &Scenario, mech: &lash_mech::Mechanism) -> Vec<(B
     s.sensors.iter().map(|x| (mech.body_id(&x.body).expect("validated"), Vec2::new(x.point[0], x.point[1]))).collect()
 }
 
-/// Period of the first constant-speed driver, if any.
-pub(crate) fn driver_period(s: &Scenario) -> Option<f64> {
-    s.drivers.iter().find_map(|d| match d.motion {
+/// Period of the first constant-speed motion among `motions` (a scenario's drivers', planar or
+/// spatial), if any.
+pub(crate) fn driver_period<'a>(motions: impl IntoIterator<Item = &'a Motion>) -> Option<f64> {
+    motions.into_iter().find_map(|m| match *m {
         Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
         _ => None,
     })

@@ -6,7 +6,7 @@ use crate::run::{ClearanceSummary, RunError, Sink, Summary};
 use lash_contact::{Material, SphericalClearance};
 use lash_core::BoxError;
 use lash_full_model::SpatialFullModel;
-use lash_mech::{BodyId, Motion};
+use lash_mech::BodyId;
 use lash_scenario::Channel;
 use lash_scenario::spatial::{
     SPATIAL_CLEARANCE_QUANTITIES, SpatialLoadSpec, SpatialScenario, SpatialSource, inertia_tensor, spatial_channels,
@@ -326,10 +326,7 @@ impl SpatialRun {
         let (measurements, measured) = measurements
             .finish(t0, sim.output_interval)
             .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
-        let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
-            Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
-            _ => None,
-        });
+        let period = crate::run::driver_period(self.scenario.drivers.iter().map(|d| &d.motion));
         let m = samples.max(1) as f64;
         let clearances: Vec<crate::run::ClearanceSummary> = (0..nc)
             .map(|k| {
@@ -348,27 +345,16 @@ impl SpatialRun {
             })
             .collect();
         let channels = stats.channel_stats(sources.iter().map(|(c, _)| c), samples);
+        let model = if self.ideal { "ideal" } else { "full" };
         Ok(Summary {
-            scenario: self.scenario.name.clone(),
-            model: if self.ideal { "ideal" } else { "full" },
-            integrator: sim.integrator,
-            start_time: t0,
-            horizon,
-            output_interval: sim.output_interval,
             samples,
-            cpu_time_s: cpu,
-            wall_time_s: wall,
-            steps: ode.steps,
-            rejected_steps: ode.rejected,
-            rhs_evaluations: ode.rhs_evaluations,
-            events: ode.events,
             max_constraint_error,
             channels,
             warnings: crate::run::resolution_warnings(&sim.integrator, &clearances),
             clearances,
-            reduced: None,
             measurements,
             measured,
+            ..Summary::new(&self.scenario.name, model, sim.integrator, &sim, (cpu, wall), &ode)
         })
     }
 }
@@ -544,17 +530,7 @@ impl SpatialReducedRun {
         };
         let macro_sub =
             lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
-        let integrator = if options.error_controlled_micro {
-            lash_micro::MicroIntegrator::Dopri5(lash_ode::AdaptiveOptions {
-                rtol: 1e-9,
-                atol: 1e-12,
-                initial_step: 1e-7,
-                max_step: options.micro_step,
-                min_step: 1e-14,
-            })
-        } else {
-            lash_micro::MicroIntegrator::Rk4 { step: options.micro_step }
-        };
+        let integrator = options.micro_integrator();
         let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| scenario.materials[n]);
         let definitions = scenario
             .clearances
@@ -587,10 +563,7 @@ impl SpatialReducedRun {
 
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
     pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
-        let period = self.scenario.drivers.iter().find_map(|d| match d.motion {
-            Motion::ConstantSpeed { omega, .. } if omega != 0.0 => Some(2.0 * std::f64::consts::PI / omega.abs()),
-            _ => None,
-        });
+        let period = crate::run::driver_period(self.scenario.drivers.iter().map(|d| &d.motion));
         let options = self.options;
         crate::reduced::run_reduced(
             crate::reduced::Coupled {

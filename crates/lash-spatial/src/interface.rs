@@ -19,8 +19,9 @@
 use crate::Vec3;
 use crate::constraints::BodyFrame;
 use crate::model::SpatialMechanism;
-use crate::solver::{SpatialError, SpatialSolver};
+use crate::solver::SpatialSolver;
 use lash_mech::BodyId;
+use lash_mech::MechError;
 use nalgebra::{DMatrix, DVector};
 
 /// Where a spherical clearance joint is: the ball centre on one body, the socket centre on another.
@@ -120,7 +121,7 @@ pub fn spatial_effective_terms(
     t: f64,
     q: &[f64],
     v: &[f64],
-) -> Result<SpatialCoupledTerms, SpatialError> {
+) -> Result<SpatialCoupledTerms, MechError> {
     let mut terms = SpatialCoupledTerms::zeros(v.len(), cut.constraint_count(), joints.len());
     spatial_effective_terms_into(cut, solver, joints, t, q, v, &mut terms)?;
     Ok(terms)
@@ -138,7 +139,7 @@ pub fn spatial_effective_terms_into(
     q: &[f64],
     v: &[f64],
     terms: &mut SpatialCoupledTerms,
-) -> Result<(), SpatialError> {
+) -> Result<(), MechError> {
     let k = joints.len();
     let n = 3 * k;
     assert!(

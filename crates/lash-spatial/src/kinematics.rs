@@ -1,13 +1,14 @@
 //! Assembly, velocity analysis, point kinematics, energy and angular momentum.
 
 use crate::model::SpatialMechanism;
-use crate::solver::{SpatialError, SpatialSolver};
+use crate::solver::SpatialSolver;
 use crate::{Orientation, Vec3};
+use lash_mech::MechError;
 
 /// Position analysis: Newton iterations on Φ(q, t) = 0 with the minimum-kinetic-energy step
 /// δ = −M⁻¹Cᵀ S⁻¹ Φ in (ṙ, ω') space; a body's orientation turns by the body-frame rotation
 /// vector δω' (p ← p ⊗ exp(δω'/2)). Returns the iterations spent.
-pub fn assemble(mech: &SpatialMechanism, t: f64, q: &mut [f64], tolerance: f64) -> Result<usize, SpatialError> {
+pub fn assemble(mech: &SpatialMechanism, t: f64, q: &mut [f64], tolerance: f64) -> Result<usize, MechError> {
     let mut solver = SpatialSolver::new(mech);
     let zero = vec![0.0; mech.velocity_count()];
     let mut residual = vec![0.0; mech.constraint_count()];
@@ -33,13 +34,13 @@ pub fn assemble(mech: &SpatialMechanism, t: f64, q: &mut [f64], tolerance: f64) 
         }
     }
     solver.set_state(mech, t, q, &zero);
-    Err(SpatialError::AssemblyFailed { t, residual: solver.constraint_error(), iterations: max_iterations })
+    Err(MechError::AssemblyFailed { t, residual: solver.constraint_error(), iterations: max_iterations })
 }
 
 /// Velocity analysis: the velocities closest to `v` in kinetic energy that satisfy C v = ν
 /// (corrected until max |C v − ν| ≤ 1e-12 of the velocities' scale, at most five times: once but
 /// for redundant equations).
-pub fn velocity_analysis(mech: &SpatialMechanism, t: f64, q: &[f64], v: &mut [f64]) -> Result<(), SpatialError> {
+pub fn velocity_analysis(mech: &SpatialMechanism, t: f64, q: &[f64], v: &mut [f64]) -> Result<(), MechError> {
     let mut solver = SpatialSolver::new(mech);
     let mut residual = vec![0.0; mech.constraint_count()];
     let mut delta = vec![0.0; v.len()];

@@ -35,9 +35,9 @@ pub use interface::{SpatialCoupledTerms, SphericalInterface, spatial_effective_t
 pub use kinematics::{
     SpatialPoint, angular_momentum, assemble, kinetic_energy, point_kinematics, potential_energy, velocity_analysis,
 };
-pub use lash_mech::{Baumgarte, BodyId, Motion};
+pub use lash_mech::{Baumgarte, BodyId, MechError, Motion};
 pub use model::{Marker, SpatialBody, SpatialDriver, SpatialJoint, SpatialJointKind, SpatialLoad, SpatialMechanism};
-pub use solver::{SpatialError, SpatialSolver};
+pub use solver::SpatialSolver;
 pub use subsystem::{SpatialMechanismSubsystem, SpatialProbe};
 pub use system::{ClosedJoints, SpatialSystem};
 

@@ -9,31 +9,8 @@
 use crate::constraints::{self, BodyFrame, Row};
 use crate::model::{SpatialLoad, SpatialMechanism};
 use crate::{Mat3, VELOCITY_COORDINATES, Vec3};
-use lash_mech::BodyId;
 use lash_mech::dense::SmallCholesky;
-
-/// Errors of the spatial engine.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SpatialError {
-    /// C lost full row rank: redundant constraints or a singular configuration.
-    #[error("constraint Jacobian is rank deficient at t = {t} s (redundant joints or a singular position)")]
-    SingularConstraints {
-        /// Time of the failed solve.
-        t: f64,
-    },
-    /// Assembly (position analysis) did not converge.
-    #[error(
-        "assembly did not converge at t = {t} s: constraint error {residual:e} after {iterations} Newton iterations"
-    )]
-    AssemblyFailed {
-        /// Time of the analysis.
-        t: f64,
-        /// Remaining max |Φ|.
-        residual: f64,
-        /// Iterations spent.
-        iterations: usize,
-    },
-}
+use lash_mech::{BodyId, MechError};
 
 /// Workspace and results of KKT solves for one mechanism.
 pub struct SpatialSolver {
@@ -201,7 +178,7 @@ impl SpatialSolver {
 
     /// Factors S = C M⁻¹ Cᵀ (+ `regularization` × its largest diagonal entry on the diagonal) of
     /// the current rows.
-    fn factor(&mut self, regularization: f64) -> Result<(), SpatialError> {
+    fn factor(&mut self, regularization: f64) -> Result<(), MechError> {
         for (r, w) in self.rows.iter().zip(self.weighted.iter_mut()) {
             for b in 0..2 {
                 w[b] = match r.bodies[b] {
@@ -231,7 +208,7 @@ impl SpatialSolver {
                 s[a * m + a] += regularization * largest;
             }
         }
-        if self.schur.factor() { Ok(()) } else { Err(SpatialError::SingularConstraints { t: self.time }) }
+        if self.schur.factor() { Ok(()) } else { Err(MechError::SingularConstraints { t: self.time }) }
     }
 
     /// C v for row `r`.
@@ -247,7 +224,7 @@ impl SpatialSolver {
     }
 
     /// Solves for v̇ and λ with Baumgarte's γ̂ = γ − 2α(C v − ν) − β²Φ.
-    pub fn solve(&mut self, mech: &SpatialMechanism) -> Result<(), SpatialError> {
+    pub fn solve(&mut self, mech: &SpatialMechanism) -> Result<(), MechError> {
         self.factor(0.0)?;
         let (alpha, beta) = (mech.baumgarte.alpha, mech.baumgarte.beta);
         for k in 0..self.frames.len() {
@@ -302,7 +279,7 @@ impl SpatialSolver {
     /// consistent equations (a planar loop of revolutes in space) make S singular: then S + εI
     /// with ε = 1e-10 of its largest diagonal entry gives the least-squares correction to that
     /// accuracy, and the callers iterate it.
-    pub fn correction(&mut self, residual: &[f64], delta: &mut [f64]) -> Result<(), SpatialError> {
+    pub fn correction(&mut self, residual: &[f64], delta: &mut [f64]) -> Result<(), MechError> {
         if self.factor(0.0).is_err() {
             self.factor(1e-10)?;
         }

@@ -20,9 +20,10 @@ use crate::model::SpatialMechanism;
 use crate::solver::SpatialSolver;
 use crate::system::{ClosedJoints, SpatialSystem};
 use crate::{Vec3, assemble, velocity_analysis};
-use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, element_count, per_joint_shape};
+use lash_core::subsystem::{Causality, Phase, Variability, VariableTable, per_joint_shape};
 use lash_core::{
-    Coupling, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, TwoWayInputs, ValueReference, Variable,
+    Coupling, MacroPorts, SavedState, StepOutcome, Subsystem, SubsystemError, Ticks, TwoWayInputs, ValueReference,
+    Variable,
 };
 use lash_mech::BodyId;
 use lash_ode::{AdaptiveOptions, Method};
@@ -112,10 +113,8 @@ pub mod vr {
 
 /// The spatial mechanism around its spherical clearance joints as the macro [`Subsystem`].
 pub struct SpatialMechanismSubsystem {
-    name: String,
-    variables: Vec<Variable>,
-    offsets: Vec<usize>,
-    values: Vec<f64>,
+    /// Name, variables and values, clock, phase and two-way inputs.
+    ports: MacroPorts,
     cut: SpatialMechanism,
     ideal: SpatialSystem,
     joints: Vec<SphericalInterface>,
@@ -123,10 +122,6 @@ pub struct SpatialMechanismSubsystem {
     integrator: AdaptiveOptions,
     coupling: Coupling,
     y: Vec<f64>,
-    time: Ticks,
-    phase: Phase,
-    /// The two-way inputs and the eccentricities the last step ended on.
-    two_way: TwoWayInputs,
     cut_solver: SpatialSolver,
     /// The effective terms at the current communication point.
     pub terms: Option<SpatialCoupledTerms>,
@@ -288,13 +283,6 @@ impl SpatialMechanismSubsystem {
             }
         }
         let variables = t.into_checked_variables().expect("the spatial mechanism subsystem's variables follow `vr`");
-        let mut offsets = Vec::with_capacity(variables.len() + 1);
-        let mut at = 0;
-        for v in &variables {
-            offsets.push(at);
-            at += v.len();
-        }
-        offsets.push(at);
         let dim = ideal.coordinate_count() + ideal.velocity_count();
         // The ideal motion is smooth: integrated with steps up to the communication step, it
         // needs no stiffer stabilisation than a 10 ms time constant. (E's α = β = 1000 1/s, chosen
@@ -307,10 +295,7 @@ impl SpatialMechanismSubsystem {
             beta: ideal.baumgarte.beta.min(MACRO_STABILISATION),
         };
         Self {
-            name: name.to_string(),
-            variables,
-            offsets,
-            values: vec![0.0; at],
+            ports: MacroPorts::new(name, variables, TwoWayInputs::new(vr::ECCENTRICITY, n, m)),
             cut_solver: SpatialSolver::new(&cut),
             cut,
             ideal: {
@@ -337,10 +322,7 @@ impl SpatialMechanismSubsystem {
             // 1e-8: 13.)
             integrator: AdaptiveOptions { rtol: 1e-6, atol: 1e-9, initial_step: 1e-5, max_step: 1e-3, min_step: 1e-12 },
             coupling,
-            two_way: TwoWayInputs::new(vr::ECCENTRICITY, n, m),
             y: vec![0.0; dim],
-            time: Ticks::ZERO,
-            phase: Phase::Instantiated,
             terms: None,
             work: RefreshWork::default(),
             integration_stats: lash_ode::Stats::default(),
@@ -350,22 +332,17 @@ impl SpatialMechanismSubsystem {
     /// Two-way: moves the closed clearance joints over the step from `start` over `span`, from
     /// the current eccentricities to the targets, under the mean friction loads given.
     fn prescribe(&mut self, start: f64, span: f64) {
-        self.ideal.prescribe(Some(self.two_way.prescription(start, span)));
+        self.ideal.prescribe(Some(self.ports.two_way.prescription(start, span)));
     }
 
     /// The value of an output by value reference.
     pub fn output(&self, vr: ValueReference) -> &[f64] {
-        &self.values[self.offsets[vr as usize]..self.offsets[vr as usize + 1]]
-    }
-
-    fn simulation_error(&mut self, message: String) -> SubsystemError {
-        self.phase = Phase::Failed;
-        SubsystemError::Simulation { t: self.time.seconds(), message }
+        self.ports.output(vr)
     }
 
     /// Terms and every output at the current state.
     fn refresh(&mut self) -> Result<(), String> {
-        let t = self.time.seconds();
+        let t = self.ports.time.seconds();
         let nq = self.cut.coordinate_count();
         let (q, v) = self.y.split_at(nq);
         let k = self.joints.len();
@@ -418,7 +395,7 @@ impl SpatialMechanismSubsystem {
             }
         };
         let omega = |b: BodyId| body_index(b).map_or(Vec3::zeros(), |k| frames[k].angular_velocity);
-        let (values, offsets) = (&mut self.values, &self.offsets);
+        let (values, offsets) = self.ports.values_and_offsets();
         let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
         // Matrices go out row-major.
         let mut put_matrix = |vr: ValueReference, m: &nalgebra::DMatrix<f64>| {
@@ -538,10 +515,7 @@ impl SpatialMechanismSubsystem {
                 }
             }
         }
-        if let Some(bad) = self.values.iter().position(|v| !v.is_finite()) {
-            let name = self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name.clone();
-            return Err(format!("output {name} became {}", self.values[bad]));
-        }
+        self.ports.check_finite()?;
         self.terms = Some(terms);
         Ok(())
     }
@@ -549,67 +523,45 @@ impl SpatialMechanismSubsystem {
 
 impl Subsystem for SpatialMechanismSubsystem {
     fn name(&self) -> &str {
-        &self.name
+        self.ports.name()
     }
 
     fn variables(&self) -> &[Variable] {
-        &self.variables
+        self.ports.variables()
     }
 
     fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
-        self.phase.require("setup", &[Phase::Instantiated])?;
-        self.time = start;
-        self.phase = Phase::Configured;
-        Ok(())
+        self.ports.setup(start)
     }
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
-        self.phase.require("initialize", &[Phase::Configured])?;
-        let t = self.time.seconds();
+        self.ports.phase.require("initialize", &[Phase::Configured])?;
+        let t = self.ports.time.seconds();
         let mech = &self.ideal.mechanism;
         self.y = mech.initial_state();
         let nq = mech.coordinate_count();
         let (q, v) = self.y.split_at_mut(nq);
         let r = assemble(mech, t, q, 1e-13).and_then(|_| velocity_analysis(mech, t, q, v));
         if let Err(e) = r {
-            return Err(self.simulation_error(format!("initial conditions: {e}")));
+            return Err(self.ports.fail(format!("initial conditions: {e}")));
         }
         if let Err(m) = self.refresh() {
-            return Err(self.simulation_error(m));
+            return Err(self.ports.fail(m));
         }
-        self.phase = Phase::Stepping;
+        self.ports.phase = Phase::Stepping;
         Ok(())
     }
 
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
-        self.phase.require("set_f64", &[Phase::Configured, Phase::Stepping])?;
-        self.two_way.set(&self.variables, refs, values)
+        self.ports.set_f64(refs, values)
     }
 
     fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        let count = element_count(&self.variables, refs)?;
-        if count != values.len() {
-            return Err(SubsystemError::BadArguments(format!("{} values for {} elements", values.len(), count)));
-        }
-        let mut at = 0;
-        for &r in refs {
-            let v = self.two_way.get(r).unwrap_or_else(|| self.output(r));
-            values[at..at + v.len()].copy_from_slice(v);
-            at += v.len();
-        }
-        Ok(())
+        self.ports.get_f64(refs, values)
     }
 
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
-        self.phase.require("do_step", &[Phase::Stepping])?;
-        if t != self.time || h.0 <= 0 {
-            return Err(SubsystemError::BadArguments(format!(
-                "do_step(t = {} s, h = {} s) but the subsystem is at {} s",
-                t.seconds(),
-                h.seconds(),
-                self.time.seconds()
-            )));
-        }
+        self.ports.check_step(t, h)?;
         let (t0, t1) = (t.seconds(), Ticks(t.0 + h.0).seconds());
         if self.coupling == Coupling::TwoWay {
             self.prescribe(t0, t1 - t0);
@@ -641,27 +593,24 @@ impl Subsystem for SpatialMechanismSubsystem {
             }
             Err(e) => Err(format!("macro integration: {}", lash_core::error_chain(&e))),
         };
-        self.time = Ticks(t.0 + h.0);
-        if self.coupling == Coupling::TwoWay {
-            self.two_way.step_done();
-        }
+        self.ports.step_ended(t, h, self.coupling);
         if let Err(m) = result.and_then(|_| self.refresh()) {
-            return Err(self.simulation_error(m));
+            return Err(self.ports.fail(m));
         }
         Ok(StepOutcome::Completed)
     }
 
     fn time(&self) -> Ticks {
-        self.time
+        self.ports.time
     }
 
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
         Ok(SavedState(Box::new(Snapshot {
             y: self.y.clone(),
-            time: self.time,
-            phase: self.phase,
-            values: self.values.clone(),
-            two_way: self.two_way.clone(),
+            time: self.ports.time,
+            phase: self.ports.phase,
+            values: self.ports.values.clone(),
+            two_way: self.ports.two_way.clone(),
             prescribed: self.ideal.prescribed().cloned(),
             next_step: self.integration_stats.next_step,
         })))
@@ -673,10 +622,10 @@ impl Subsystem for SpatialMechanismSubsystem {
             .downcast_ref::<Snapshot>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not a spatial mechanism subsystem's".into()))?;
         self.y.clone_from(&s.y);
-        self.time = s.time;
-        self.phase = s.phase;
-        self.values.clone_from(&s.values);
-        self.two_way.clone_from(&s.two_way);
+        self.ports.time = s.time;
+        self.ports.phase = s.phase;
+        self.ports.values.clone_from(&s.values);
+        self.ports.two_way.clone_from(&s.two_way);
         self.ideal.prescribe(s.prescribed.clone());
         self.integration_stats.next_step = s.next_step;
         Ok(())

@@ -2,9 +2,10 @@
 
 use crate::Vec3;
 use crate::model::SpatialMechanism;
-use crate::solver::{SpatialError, SpatialSolver};
+use crate::solver::SpatialSolver;
 use lash_core::PrescribedInterface;
 use lash_mech::BodyId;
+use lash_mech::MechError;
 use lash_ode::OdeSystem;
 
 /// The closed spherical clearance joints of an ideal mechanism, as two-way coupling moves them:
@@ -50,7 +51,7 @@ pub struct SpatialSystem {
     /// Its solver (frames, rows, v̇ and λ of the last evaluation).
     pub solver: SpatialSolver,
     /// The first failed solve, if any (the right side is NaN from then on).
-    pub failure: Option<SpatialError>,
+    pub failure: Option<MechError>,
     /// Right-hand-side evaluations.
     pub evaluations: u64,
     /// The clearance joints two-way coupling moves ([`SpatialSystem::close_joints`]) and their
@@ -112,7 +113,7 @@ impl SpatialSystem {
     }
 
     /// Solves at `(t, y)`: frames, rows, v̇ and λ in the solver.
-    pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), SpatialError> {
+    pub fn evaluate(&mut self, t: f64, y: &[f64]) -> Result<(), MechError> {
         let n = self.coordinates();
         self.set_state(t, &y[..n], &y[n..]);
         self.solver.solve(&self.mechanism)
