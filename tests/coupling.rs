@@ -331,6 +331,8 @@ fn the_interface_master_honours_early_returns_and_stop_requests() {
 #[test]
 fn runs_stepped_together_equal_each_run_alone() {
     use lash_core::{Subsystem, Ticks};
+    use lash_mech::MechanismSubsystem;
+    use lash_micro::InterfaceSubsystem;
     use lash_orchestrate::{InterfaceMaster, Observer, Signal};
     let stop = Ticks::from_seconds(0.02).unwrap();
     let options = one_way_options(stop, Execution::Sequential);
@@ -345,7 +347,7 @@ fn runs_stepped_together_equal_each_run_alone() {
             },
         ]
     };
-    let subsystems = || -> Vec<(Box<dyn Subsystem>, Box<dyn Subsystem>)> {
+    let subsystems = || -> Vec<(MechanismSubsystem, InterfaceSubsystem)> {
         (0..10)
             .map(|r| {
                 let mut a = builtin::by_name("A").unwrap();
@@ -357,7 +359,7 @@ fn runs_stepped_together_equal_each_run_alone() {
                 let (mut m, mut i) = ReducedRun::new(&a, ReducedOptions::default()).unwrap().into_subsystems();
                 m.setup(Ticks::ZERO, Some(stop)).unwrap();
                 i.setup(Ticks::ZERO, Some(stop)).unwrap();
-                (Box::new(m) as Box<dyn Subsystem>, Box::new(i) as Box<dyn Subsystem>)
+                (m, i)
             })
             .collect()
     };
@@ -375,17 +377,17 @@ fn runs_stepped_together_equal_each_run_alone() {
         let mut s = |t: Ticks, v: &[f64]| -> Result<(), lash_core::BoxError> { record(&mut slow, t, v) };
         let mut observers: [(&mut dyn Observer, Ticks); 2] =
             [(&mut f, Ticks::from_seconds(1e-5).unwrap()), (&mut s, Ticks::from_seconds(2e-4).unwrap())];
-        InterfaceMaster::new(&mut *m, &mut *i, options, signals()).unwrap().run(&mut observers).unwrap();
+        InterfaceMaster::new(&mut m, &mut i, options, signals()).unwrap().run(&mut observers).unwrap();
         alone.push((fast, slow));
     }
     // All together.
     let mut pairs = subsystems();
     let mut samples: Vec<(Samples, Samples)> = (0..pairs.len()).map(|_| (Vec::new(), Vec::new())).collect();
     {
-        let mut masters: Vec<InterfaceMaster<'_>> = pairs
-            .iter_mut()
-            .map(|(m, i)| InterfaceMaster::new(&mut **m, &mut **i, options, signals()).unwrap())
-            .collect();
+        // (The masters hold their subsystems by type: the group's step and look-ahead get them
+        // typed, with no downcast.)
+        let mut masters: Vec<InterfaceMaster<'_, MechanismSubsystem, InterfaceSubsystem>> =
+            pairs.iter_mut().map(|(m, i)| InterfaceMaster::new(m, i, options, signals()).unwrap()).collect();
         let mut closures: Vec<(Sink<'_>, Sink<'_>)> = samples
             .iter_mut()
             .map(|(fast, slow)| {
@@ -406,7 +408,7 @@ fn runs_stepped_together_equal_each_run_alone() {
         let mut observers: Vec<&mut [(&mut dyn Observer, Ticks)]> = lists.iter_mut().map(|l| &mut l[..]).collect();
         let mut step = lash_micro::do_steps_together;
         let mut work = lash_mech::lanes::KinematicLanes::default();
-        let mut ahead = |subs: &mut [&mut dyn lash_core::Subsystem], t, h| {
+        let mut ahead = |subs: &mut [&mut MechanismSubsystem], t, h| {
             lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);
         };
         let results = InterfaceMaster::run_together(&mut masters, &mut observers, &mut step, &mut ahead);

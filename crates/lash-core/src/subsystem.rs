@@ -856,13 +856,6 @@ pub trait Subsystem: Send {
         steps_one_by_one(self, t, h, record, refs, rows)
     }
 
-    /// The subsystem itself as `Any`, for code that knows its concrete type and can do better
-    /// than the trait's calls with it (the micro subsystems of several runs stepped together);
-    /// `None`, the default, keeps it opaque.
-    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
-        None
-    }
-
     /// The subsystem's current time.
     fn time(&self) -> Ticks;
 
@@ -907,6 +900,35 @@ pub trait Subsystem: Send {
     /// Ends the run (FMI `terminate`).
     fn terminate(&mut self) -> Result<(), SubsystemError> {
         Ok(())
+    }
+}
+
+/// A subsystem of a type known where it is made (`InterfaceSubsystem`) or chosen at run time
+/// (`dyn Subsystem`), seen as `dyn Subsystem`: what lets the interface master hold its
+/// subsystems by their own types — so that code stepping several of them together gets them
+/// typed, with no downcast — while its own work goes through the trait's calls.
+pub trait AsSubsystem: Subsystem {
+    /// The subsystem behind the trait's calls.
+    fn as_subsystem(&self) -> &dyn Subsystem;
+    /// The same, mutable.
+    fn as_subsystem_mut(&mut self) -> &mut dyn Subsystem;
+}
+
+impl<S: Subsystem> AsSubsystem for S {
+    fn as_subsystem(&self) -> &dyn Subsystem {
+        self
+    }
+    fn as_subsystem_mut(&mut self) -> &mut dyn Subsystem {
+        self
+    }
+}
+
+impl AsSubsystem for dyn Subsystem + '_ {
+    fn as_subsystem(&self) -> &dyn Subsystem {
+        self
+    }
+    fn as_subsystem_mut(&mut self) -> &mut dyn Subsystem {
+        self
     }
 }
 

@@ -758,10 +758,6 @@ impl Subsystem for MechanismSubsystem {
         self.ports.time
     }
 
-    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
-        Some(self)
-    }
-
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
         Ok(SavedState(Box::new(Snapshot {
             q: self.q.clone(),
@@ -823,9 +819,11 @@ fn predict(q: &mut [f64], qd: &[f64], qdd: &[f64], h: f64) {
 /// one structure at a time in vector lanes ([`crate::lanes::assemble_and_project_lanes`]): the
 /// position and velocity analysis their `do_step(t, h)` would do, bit for bit, which that
 /// `do_step` then takes. A subsystem whose analysis does not end cleanly in lanes (or that has
-/// no partner of its structure) analyses in its `do_step` as usual, meeting the same error.
+/// no partner of its structure) analyses in its `do_step` as usual, meeting the same error. (The
+/// interface master of runs stepped together hands them over by their type: lash-orchestrate's
+/// `GroupAhead`.)
 pub fn kinematic_steps_ahead(
-    subs: &mut [&mut dyn Subsystem],
+    subs: &mut [&mut MechanismSubsystem],
     t: Ticks,
     h: Ticks,
     work: &mut crate::lanes::KinematicLanes,
@@ -833,7 +831,7 @@ pub fn kinematic_steps_ahead(
     use crate::lanes::{LANES, LaneInput, TermsInput, assemble_and_project_lanes, effective_solves_lanes};
     let mut ready: Vec<&mut MechanismSubsystem> = subs
         .iter_mut()
-        .filter_map(|s| s.as_any_mut().and_then(|a| a.downcast_mut::<MechanismSubsystem>()))
+        .map(|s| &mut **s)
         .filter(|m| m.kinematic && m.ports.phase == Phase::Stepping && m.ports.time == t && h.0 > 0)
         .collect();
     let to = Ticks(t.0 + h.0);

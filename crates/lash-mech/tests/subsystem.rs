@@ -223,7 +223,7 @@ fn lanes_equal_alone(
     let (mut failed_at, mut taken) = (None, 0);
     for step in 0..40 {
         let t = Ticks(h.0 * step);
-        let mut subs: Vec<&mut dyn Subsystem> = ahead.iter_mut().map(|s| s as &mut dyn Subsystem).collect();
+        let mut subs: Vec<&mut MechanismSubsystem> = ahead.iter_mut().collect();
         lash_mech::subsystem::kinematic_steps_ahead(&mut subs, t, h, &mut work);
         for (k, (a, b)) in alone.iter_mut().zip(ahead.iter_mut()).enumerate() {
             if a.time() != t {

@@ -385,9 +385,10 @@ fn rk4_recorded_in<
 /// planar clearance joint stepped by RK4 at their own micro step, with laws that run in lanes
 /// ([`lanes::lane_laws`]), are advanced [`lanes::LANES`] at a time in lockstep
 /// ([`lanes::advance`]); the others, and the last group when it is not full, one by one. `rows[i]`
-/// receives subsystem i's flagged rows as `do_steps` writes them.
+/// receives subsystem i's flagged rows as `do_steps` writes them. (The interface master of
+/// runs stepped together hands them over by their type: lash-orchestrate's `GroupStep`.)
 pub fn do_steps_together(
-    subs: &mut [&mut dyn Subsystem],
+    subs: &mut [&mut InterfaceSubsystem],
     t: Ticks,
     h: Ticks,
     record: &[bool],
@@ -400,8 +401,7 @@ pub fn do_steps_together(
     let mut results: Vec<Option<Steps>> = (0..subs.len()).map(|_| None).collect();
     // Which subsystems can run in lanes, by their laws' kind, with their row widths.
     let mut groups: Vec<(LaneFriction, Vec<(usize, usize)>)> = Vec::new();
-    for (i, (sub, out)) in subs.iter_mut().zip(rows.iter_mut()).enumerate() {
-        let Some(micro) = sub.as_any_mut().and_then(|a| a.downcast_mut::<InterfaceSubsystem>()) else { continue };
+    for (i, (micro, out)) in subs.iter_mut().zip(rows.iter_mut()).enumerate() {
         let fast = matches!(micro.integrator, MicroIntegrator::Rk4 { .. })
             && h == micro.micro_step
             && micro.phase == Phase::Stepping
@@ -423,16 +423,14 @@ pub fn do_steps_together(
     for (kind, members) in groups.iter().filter(|(_, m)| m.len() == LANES) {
         // The members' models, their step counts and parameters (for reading outputs), and rows.
         let mut picked: Vec<(&mut InterfaceSubsystem, &mut [f64], usize)> = Vec::with_capacity(LANES);
-        let mut rest: &mut [&mut dyn Subsystem] = &mut subs[..];
+        let mut rest: &mut [&mut InterfaceSubsystem] = &mut subs[..];
         let mut rows_rest: &mut [&mut [f64]] = &mut rows[..];
         let mut offset = 0;
         for &(i, width) in members {
             let (sub_tail, row_tail) = (std::mem::take(&mut rest), std::mem::take(&mut rows_rest));
             let (sub, sub_tail) = sub_tail[i - offset..].split_first_mut().expect("a member index");
             let (out, row_tail) = row_tail[i - offset..].split_first_mut().expect("a member index");
-            let micro =
-                sub.as_any_mut().and_then(|a| a.downcast_mut::<InterfaceSubsystem>()).expect("a micro subsystem");
-            picked.push((micro, &mut **out, width));
+            picked.push((&mut **sub, &mut **out, width));
             (rest, rows_rest, offset) = (sub_tail, row_tail, i + 1);
         }
         let mut contexts = Vec::with_capacity(LANES);
@@ -1140,10 +1138,6 @@ impl Subsystem for InterfaceSubsystem {
     /// RK4 at its own micro step: the steps are taken in one loop over the model, each flagged
     /// one's outputs read from it directly (the same arithmetic as one `do_step` and `get_f64`
     /// per step: results are bit-identical). Otherwise one step at a time.
-    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
-        Some(self)
-    }
-
     fn do_steps(&mut self, t: Ticks, h: Ticks, record: &[bool], refs: &[ValueReference], rows: &mut [f64]) -> Steps {
         let fast = matches!(self.integrator, MicroIntegrator::Rk4 { .. })
             && h == self.micro_step
@@ -1314,7 +1308,7 @@ mod tests {
                 assert_eq!(a.set_f64(&inputs, &values).is_ok(), b.set_f64(&inputs, &values).is_ok(), "{l}");
             }
             let mut rows_together = vec![vec![0.0; 10 * width]; 12];
-            let mut subs: Vec<&mut dyn Subsystem> = together.iter_mut().map(|s| s as &mut dyn Subsystem).collect();
+            let mut subs: Vec<&mut InterfaceSubsystem> = together.iter_mut().collect();
             let mut outs: Vec<&mut [f64]> = rows_together.iter_mut().map(|r| &mut r[..]).collect();
             let steps = do_steps_together(&mut subs, t, h, &record, &outputs, &mut outs);
             for (l, b) in alone.iter_mut().enumerate() {

@@ -61,7 +61,9 @@ use stepper::Stepper;
 pub use together::GroupAhead;
 
 use crossbeam_channel::bounded;
-use lash_core::{Causality, Coupling, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
+use lash_core::{
+    AsSubsystem, Causality, Coupling, StopReason, Subsystem, SubsystemError, Ticks, ValueReference, Variable,
+};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
@@ -204,10 +206,12 @@ impl CouplingIndex {
     }
 }
 
-/// The multirate master of the reduced interface model.
-pub struct InterfaceMaster<'a> {
-    macro_sub: &'a mut dyn Subsystem,
-    micro_sub: &'a mut dyn Subsystem,
+/// The multirate master of the reduced interface model, over a macro subsystem of type `Ma` and a
+/// micro subsystem of type `Mi` (either `dyn Subsystem`, the default, or a concrete type: runs
+/// stepped together hand their subsystems to the group's own code by that type).
+pub struct InterfaceMaster<'a, Ma: AsSubsystem + ?Sized = dyn Subsystem, Mi: AsSubsystem + ?Sized = dyn Subsystem> {
+    macro_sub: &'a mut Ma,
+    micro_sub: &'a mut Mi,
     options: MasterOptions,
     signals: Vec<Signal>,
 }
@@ -524,16 +528,16 @@ impl<'s> Sides<'s> {
     }
 }
 
-impl<'a> InterfaceMaster<'a> {
+impl<'a, Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized> InterfaceMaster<'a, Ma, Mi> {
     /// A master over two subsystems that have been set up (not yet initialised).
     pub fn new(
-        macro_sub: &'a mut dyn Subsystem,
-        micro_sub: &'a mut dyn Subsystem,
+        macro_sub: &'a mut Ma,
+        micro_sub: &'a mut Mi,
         options: MasterOptions,
         signals: Vec<Signal>,
     ) -> Result<Self, MasterError> {
         let o = &options;
-        for sub in [&*macro_sub, &*micro_sub] {
+        for sub in [macro_sub.as_subsystem(), micro_sub.as_subsystem()] {
             lash_core::check_variable_table(sub.variables())
                 .map_err(|e| MasterError::Variables { subsystem: sub.name().to_string(), problem: e.to_string() })?;
         }
@@ -556,7 +560,7 @@ impl<'a> InterfaceMaster<'a> {
         let fractions: Vec<f64> = (0..=per_macro).map(|j| j as f64 / per_macro as f64).collect();
         let macro_steps = Ticks(o.stop.0 - o.start.0).exact_ratio(o.macro_step).expect("checked") as usize;
         let decimation = decimation(o.micro_step, "micro step", observers)?;
-        let sides = Sides::of(&*self.macro_sub, &*self.micro_sub);
+        let sides = Sides::of(self.macro_sub.as_subsystem(), self.micro_sub.as_subsystem());
         let c = sides.couplings(o.coupling)?;
         let (n, k) = (c.n, c.k);
         let loads = n + k;
@@ -580,7 +584,7 @@ impl<'a> InterfaceMaster<'a> {
         // Initialise.
         self.macro_sub.initialize().map_err(macro_err)?;
         self.micro_sub.initialize().map_err(micro_err)?;
-        let first = read_frame(&*self.macro_sub, &all_macro, width, None)?;
+        let first = read_frame(self.macro_sub.as_subsystem(), &all_macro, width, None)?;
         let ahead = match (o.coupling, o.interpolation) {
             (Coupling::OneWay, Interpolation::CubicHermite) => 2,
             _ => 1,
@@ -650,7 +654,7 @@ impl<'a> InterfaceMaster<'a> {
         let macro_side = MacroSide { all: p.all_macro.clone(), width: p.width, steps: p.macro_steps };
         let mut s = Stepper::start(p, observers, o.start)?;
         let Self { macro_sub, micro_sub, .. } = self;
-        let micro_sub: &mut dyn Subsystem = &mut **micro_sub;
+        let micro_sub = micro_sub.as_subsystem_mut();
         let mut run = |frames: &mut Frames<'_>| -> Result<(), MasterError> {
             for step in 0..s.p.macro_steps {
                 let t_k = Ticks(o.start.0 + step as i64 * o.macro_step.0);
@@ -690,7 +694,7 @@ impl<'a> InterfaceMaster<'a> {
             }
             other => other,
         };
-        let macro_seconds = execute(&o, &mut **macro_sub, macro_side, &mut run)?;
+        let macro_seconds = execute(&o, macro_sub.as_subsystem_mut(), macro_side, &mut run)?;
         let stats = s.stats();
         stats.macro_seconds = macro_seconds;
         stats.stopped = stopped;
@@ -750,20 +754,13 @@ fn execute(
     }
 }
 
-/// How the micro subsystems of runs stepped together are advanced: as [`Subsystem::do_steps`] of
-/// each (same `t`, `h`, flags and outputs for all), row buffer by row buffer — e.g. lash-contact's
-/// `do_steps_together`, which steps suitable ones in lanes.
-pub type GroupStep<'f> = dyn FnMut(
-        &mut [&mut dyn Subsystem],
-        Ticks,
-        Ticks,
-        &[bool],
-        &[ValueReference],
-        &mut [&mut [f64]],
-    ) -> Vec<lash_core::Steps>
+/// How the micro subsystems (of type `Mi`) of runs stepped together are advanced: as
+/// [`Subsystem::do_steps`] of each (same `t`, `h`, flags and outputs for all), row buffer by row
+/// buffer — e.g. lash-micro's `do_steps_together`, which steps suitable ones in lanes.
+pub type GroupStep<'f, Mi = dyn Subsystem> = dyn FnMut(&mut [&mut Mi], Ticks, Ticks, &[bool], &[ValueReference], &mut [&mut [f64]]) -> Vec<lash_core::Steps>
     + 'f;
 
-impl Algorithm for InterfaceMaster<'_> {
+impl<Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized> Algorithm for InterfaceMaster<'_, Ma, Mi> {
     fn signal_names(&self) -> Vec<String> {
         InterfaceMaster::signal_names(self)
     }

@@ -364,7 +364,7 @@ fn a_group_of_runs_steps_each_as_it_steps_alone() {
         let mut samples: Vec<Samples> = vec![Vec::new(); 3];
         let (mut calls, mut aheads) = (0, 0);
         let results = {
-            let mut masters: Vec<InterfaceMaster<'_>> = subsystems
+            let mut masters: Vec<InterfaceMaster<'_, Macro, Micro>> = subsystems
                 .iter_mut()
                 .map(|(mac, mic)| InterfaceMaster::new(mac, mic, options(interpolation), signals()).unwrap())
                 .collect();
@@ -380,7 +380,7 @@ fn a_group_of_runs_steps_each_as_it_steps_alone() {
             let mut lists: Vec<Vec<(&mut dyn Observer, Ticks)>> =
                 observers.iter_mut().map(|o| vec![(o as &mut dyn Observer, t(2e-4))]).collect();
             let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = lists.iter_mut().map(|l| &mut l[..]).collect();
-            let mut step = |subs: &mut [&mut dyn Subsystem],
+            let mut step = |subs: &mut [&mut Micro],
                             t: Ticks,
                             h: Ticks,
                             due: &[bool],
@@ -389,7 +389,7 @@ fn a_group_of_runs_steps_each_as_it_steps_alone() {
                 calls += 1;
                 subs.iter_mut().zip(rows.iter_mut()).map(|(s, r)| s.do_steps(t, h, due, refs, r)).collect()
             };
-            let mut ahead = |subs: &mut [&mut dyn Subsystem], _: Ticks, _: Ticks| aheads += subs.len();
+            let mut ahead = |subs: &mut [&mut Macro], _: Ticks, _: Ticks| aheads += subs.len();
             InterfaceMaster::run_together(&mut masters, &mut lists, &mut step, &mut ahead)
         };
         for (i, (result, (alone_samples, alone_stats))) in results.into_iter().zip(&alone).enumerate() {

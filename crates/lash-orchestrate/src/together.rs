@@ -7,9 +7,9 @@ use super::*;
 /// instead of doing it alone — e.g. lash-mech's `kinematic_steps_ahead`, which analyses fully
 /// driven mechanisms in lanes. It must leave each subsystem's results as its own `do_step` would
 /// make them.
-pub type GroupAhead<'f> = dyn FnMut(&mut [&mut dyn Subsystem], Ticks, Ticks) + 'f;
+pub type GroupAhead<'f, Ma = dyn Subsystem> = dyn FnMut(&mut [&mut Ma], Ticks, Ticks) + 'f;
 
-impl<'a> InterfaceMaster<'a> {
+impl<'a, Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized> InterfaceMaster<'a, Ma, Mi> {
     /// Runs several masters side by side, a macro step at a time, their micro subsystems advanced
     /// together by `step` once per macro step: each run's result is what its own
     /// [`InterfaceMaster::run`] gives (the same calls in the same order on its subsystems and
@@ -17,10 +17,10 @@ impl<'a> InterfaceMaster<'a> {
     /// sequential execution, inputs held as value and rate (not cubic Hermite), the same observer
     /// intervals and the same micro outputs; otherwise each runs alone.
     pub fn run_together(
-        masters: &mut [InterfaceMaster<'a>],
+        masters: &mut [InterfaceMaster<'a, Ma, Mi>],
         observers: &mut [&mut [(&mut dyn Observer, Ticks)]],
-        step: &mut GroupStep<'_>,
-        ahead: &mut GroupAhead<'_>,
+        step: &mut GroupStep<'_, Mi>,
+        ahead: &mut GroupAhead<'_, Ma>,
     ) -> Vec<Result<MasterStats, MasterError>> {
         assert_eq!(masters.len(), observers.len(), "one observer list per master");
         let o = masters.first().map(|m| m.options);
@@ -60,17 +60,17 @@ impl<'a> InterfaceMaster<'a> {
         }
         group.finish()
     }
+}
 
-    /// A run ended by `e`: a stop is a clean end (the observers keep what they have), anything
-    /// else the run's error.
-    fn ended(e: MasterError, stats: &mut MasterStats) -> Result<MasterStats, MasterError> {
-        match e {
-            MasterError::Stopped { subsystem, reason } => {
-                stats.stopped = Some((subsystem.to_string(), reason));
-                Ok(stats.clone())
-            }
-            other => Err(other),
+/// A run ended by `e`: a stop is a clean end (the observers keep what they have), anything else
+/// the run's error.
+fn ended(e: MasterError, stats: &mut MasterStats) -> Result<MasterStats, MasterError> {
+    match e {
+        MasterError::Stopped { subsystem, reason } => {
+            stats.stopped = Some((subsystem.to_string(), reason));
+            Ok(stats.clone())
         }
+        other => Err(other),
     }
 }
 
@@ -86,8 +86,8 @@ struct Group {
 impl Group {
     /// Each run prepared and its observers' samples at the start taken; runs that read other
     /// micro outputs than the first are refused.
-    fn start(
-        masters: &mut [InterfaceMaster<'_>],
+    fn start<Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized>(
+        masters: &mut [InterfaceMaster<'_, Ma, Mi>],
         observers: &mut [&mut [(&mut dyn Observer, Ticks)]],
         start: Ticks,
     ) -> Self {
@@ -122,23 +122,23 @@ impl Group {
     /// Ends run `i` with `e`.
     fn end(&mut self, i: usize, e: MasterError) {
         if let Some(mut l) = self.lanes[i].take() {
-            self.results[i] = Some(InterfaceMaster::ended(e, l.stats()));
+            self.results[i] = Some(ended(e, l.stats()));
         }
     }
 
     /// Each run's macro frames up to what macro step `step_index` needs, macro step by macro
     /// step (the runs produce the same steps: same options), each preceded by the group's
     /// `ahead`.
-    fn macro_steps(
+    fn macro_steps<Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized>(
         &mut self,
-        masters: &mut [InterfaceMaster<'_>],
+        masters: &mut [InterfaceMaster<'_, Ma, Mi>],
         step_index: usize,
         o: &MasterOptions,
-        ahead: &mut GroupAhead<'_>,
+        ahead: &mut GroupAhead<'_, Ma>,
     ) {
         while let Some(t) = self.lanes.iter().flatten().filter_map(|s| s.wants_frame(step_index, o)).min() {
             {
-                let mut subs: Vec<&mut dyn Subsystem> = Vec::with_capacity(self.lanes.len());
+                let mut subs: Vec<&mut Ma> = Vec::with_capacity(self.lanes.len());
                 for (lane, m) in self.lanes.iter().zip(masters.iter_mut()) {
                     if lane.as_ref().is_some_and(|s| s.wants_frame(step_index, o) == Some(t)) {
                         subs.push(&mut *m.macro_sub);
@@ -152,7 +152,15 @@ impl Group {
                     continue;
                 }
                 let spare = s.take_spare();
-                match step_macro(&mut *m.macro_sub, &s.p.all_macro, s.p.width, t, o.macro_step, None, spare) {
+                match step_macro(
+                    m.macro_sub.as_subsystem_mut(),
+                    &s.p.all_macro,
+                    s.p.width,
+                    t,
+                    o.macro_step,
+                    None,
+                    spare,
+                ) {
                     Ok(frame) => s.push_frame(frame),
                     Err(e) => self.end(i, e),
                 }
@@ -161,12 +169,17 @@ impl Group {
     }
 
     /// Each run: its share of the macro time and its micro inputs for the interval.
-    fn set_micro_inputs(&mut self, masters: &mut [InterfaceMaster<'_>], kind: Interpolation, share: f64) {
+    fn set_micro_inputs<Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized>(
+        &mut self,
+        masters: &mut [InterfaceMaster<'_, Ma, Mi>],
+        kind: Interpolation,
+        share: f64,
+    ) {
         for (i, m) in masters.iter_mut().enumerate() {
             let Some(s) = self.lanes[i].as_mut() else { continue };
             s.stats().macro_seconds += share;
             s.begin_interval();
-            if let Err(e) = s.set_inputs(&mut *m.micro_sub, kind, 0) {
+            if let Err(e) = s.set_inputs(m.micro_sub.as_subsystem_mut(), kind, 0) {
                 self.end(i, e);
             }
         }
@@ -174,18 +187,18 @@ impl Group {
 
     /// Every run's micro interval in one call of `step`, then each run's samples, in order, to
     /// its observers.
-    fn micro_interval(
+    fn micro_interval<Ma: AsSubsystem + ?Sized, Mi: AsSubsystem + ?Sized>(
         &mut self,
-        masters: &mut [InterfaceMaster<'_>],
+        masters: &mut [InterfaceMaster<'_, Ma, Mi>],
         observers: &mut [&mut [(&mut dyn Observer, Ticks)]],
-        step: &mut GroupStep<'_>,
+        step: &mut GroupStep<'_, Mi>,
         (t_k, h): (Ticks, Ticks),
         due: &[bool],
     ) {
         let started = Instant::now();
         let members: Vec<usize> = (0..self.lanes.len()).filter(|&i| self.lanes[i].is_some()).collect();
         let outcomes = {
-            let mut subs: Vec<&mut dyn Subsystem> = Vec::with_capacity(members.len());
+            let mut subs: Vec<&mut Mi> = Vec::with_capacity(members.len());
             let mut rows: Vec<&mut [f64]> = Vec::with_capacity(members.len());
             for (m, lane) in masters.iter_mut().zip(self.lanes.iter_mut()) {
                 if let Some(l) = lane {

@@ -215,7 +215,7 @@ impl ReducedRun {
     }
 
     /// The two subsystems with what the master and the summary need.
-    fn coupled<'a>(&'a mut self, recording: &'a Recording) -> Coupled<'a> {
+    fn coupled<'a>(&'a mut self, recording: &'a Recording) -> Coupled<'a, MechanismSubsystem> {
         Coupled {
             macro_sub: &mut self.macro_sub,
             micro_sub: &mut self.micro_sub,
@@ -253,7 +253,8 @@ impl ReducedRun {
     pub fn execute_together(runs: &mut [&mut ReducedRun], sinks: Vec<Sink<'_>>) -> Vec<Result<Summary, RunError>> {
         let recordings: Vec<Recording> = runs.iter().map(|r| r.recording()).collect();
         let details: Vec<_> = runs.iter().map(|r| r.details()).collect();
-        let group: Vec<Coupled<'_>> = runs.iter_mut().zip(&recordings).map(|(r, rec)| r.coupled(rec)).collect();
+        let group: Vec<Coupled<'_, MechanismSubsystem>> =
+            runs.iter_mut().zip(&recordings).map(|(r, rec)| r.coupled(rec)).collect();
         let results = run_reduced_together(group, sinks, |i, master| details[i](master));
         results
             .into_iter()
@@ -506,9 +507,10 @@ pub(crate) struct Recording {
     pub stresses: Vec<(usize, std::sync::Arc<lash_bush::InterfaceStress>)>,
 }
 
-/// A macro and a micro subsystem with what the master and the summary need.
-pub(crate) struct Coupled<'a> {
-    pub macro_sub: &'a mut dyn Subsystem,
+/// A macro subsystem (of type `Ma`: planar or spatial) and a micro subsystem with what the master
+/// and the summary need.
+pub(crate) struct Coupled<'a, Ma: Subsystem> {
+    pub macro_sub: &'a mut Ma,
     pub micro_sub: &'a mut InterfaceSubsystem,
     pub master: MasterOptions,
     pub signals: &'a [Signal],
@@ -538,7 +540,7 @@ struct Recorder<'c, 's> {
 }
 
 impl<'c, 's> Recorder<'c, 's> {
-    fn new(c: &Coupled<'c>, sink: Sink<'s>, progress: Option<&'s mut dyn FnMut(f64)>) -> Self {
+    fn new<Ma: Subsystem>(c: &Coupled<'c, Ma>, sink: Sink<'s>, progress: Option<&'s mut dyn FnMut(f64)>) -> Self {
         let recording = c.recording;
         let joints = recording.summary.len();
         let names: Vec<&str> = recording.channels.iter().map(|ch| ch.name.as_str()).collect();
@@ -600,7 +602,7 @@ impl Observer for Recorder<'_, '_> {
 }
 
 /// Sets both subsystems of `c` up for its time span.
-fn setup(c: &mut Coupled<'_>) -> Result<(), RunError> {
+fn setup<Ma: Subsystem>(c: &mut Coupled<'_, Ma>) -> Result<(), RunError> {
     let (start, stop) = (c.master.start, c.master.stop);
     let t = c.simulation.start_time;
     let failed = |e: lash_core::SubsystemError| RunError::Simulation { t, message: e.to_string() };
@@ -610,8 +612,8 @@ fn setup(c: &mut Coupled<'_>) -> Result<(), RunError> {
 
 /// Runs a reduced model (planar or spatial) on the interface master over the horizon: rows to
 /// `sink`, statistics and the clearance summary from the micro subsystem's impacts.
-pub(crate) fn run_reduced(
-    mut c: Coupled<'_>,
+pub(crate) fn run_reduced<Ma: Subsystem>(
+    mut c: Coupled<'_, Ma>,
     details: impl FnOnce(MasterStats) -> ReducedDetails,
     sink: Sink<'_>,
     progress: &mut dyn FnMut(f64),
@@ -638,7 +640,7 @@ pub(crate) fn run_reduced(
 /// equally. Runs whose settings cannot go together (two-way coupling, threads, cubic Hermite,
 /// different steps or output intervals) run one after the other, as [`run_reduced`] runs them.
 pub(crate) fn run_reduced_together<'c, 's>(
-    mut group: Vec<Coupled<'c>>,
+    mut group: Vec<Coupled<'c, MechanismSubsystem>>,
     sinks: Vec<Sink<'s>>,
     details: impl Fn(usize, MasterStats) -> ReducedDetails,
 ) -> Vec<Result<Summary, RunError>> {
@@ -672,7 +674,7 @@ pub(crate) fn run_reduced_together<'c, 's>(
         let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = observers.iter_mut().map(|o| &mut o[..]).collect();
         let mut step = lash_micro::do_steps_together;
         let mut work = lash_mech::lanes::KinematicLanes::default();
-        let mut ahead = |subs: &mut [&mut dyn Subsystem], t, h| {
+        let mut ahead = |subs: &mut [&mut MechanismSubsystem], t, h| {
             lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);
         };
         let stats = InterfaceMaster::run_together(&mut masters, &mut lists, &mut step, &mut ahead);
@@ -690,7 +692,7 @@ pub(crate) fn run_reduced_together<'c, 's>(
 /// The summary of a run of `c` that `recorder` observed: its channel statistics, the clearance
 /// summary from the micro subsystem's impacts, the master's counters; or the run's error.
 fn summarise(
-    c: &Coupled<'_>,
+    c: &Coupled<'_, impl Subsystem>,
     recorder: Recorder<'_, '_>,
     master_stats: Result<MasterStats, lash_orchestrate::MasterError>,
     (cpu, wall): (f64, f64),
