@@ -65,10 +65,11 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     let header = std::fs::read_to_string(&csv2).unwrap();
     assert!(header.contains("\"contact_force[1]\""), "FMI 2.0 flattens arrays: {}", &header[..200.min(header.len())]);
 
-    // A Python master co-simulating both FMUs reproduces lash's in-process reduced run.
+    // A Python master co-simulating both FMUs reproduces lash's in-process reduced run (at the
+    // FMUs' communication step, 1 ms: `lash run` alone would choose 0.5 ms at 5000 rpm).
     let reduced = out.join("reduced");
     let o = Command::new(env!("CARGO_BIN_EXE_lash"))
-        .args(["run", "A", "--model", "reduced", "--quiet", "--out"])
+        .args(["run", "A", "--model", "reduced", "--macro-step", "1e-3", "--quiet", "--out"])
         .arg(&reduced)
         .output()
         .unwrap();
@@ -93,7 +94,7 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
     let c_reduced = out.join("C-reduced");
     let o = Command::new(env!("CARGO_BIN_EXE_lash"))
-        .args(["run", "C", "--model", "reduced", "--micro-step", "1e-5", "--quiet", "--out"])
+        .args(["run", "C", "--model", "reduced", "--macro-step", "1e-3", "--micro-step", "1e-5", "--quiet", "--out"])
         .arg(&c_reduced)
         .output()
         .unwrap();
@@ -126,7 +127,18 @@ fn fmpy_validates_simulates_and_cosimulates_the_fmus() {
     std::fs::write(&scenario, edited).unwrap();
     let reference = out.join("edited");
     let o = Command::new(env!("CARGO_BIN_EXE_lash"))
-        .args(["run", scenario.to_str().unwrap(), "--model", "reduced", "--quiet", "--horizon", "0.036", "--out"])
+        .args([
+            "run",
+            scenario.to_str().unwrap(),
+            "--model",
+            "reduced",
+            "--macro-step",
+            "1e-3",
+            "--quiet",
+            "--horizon",
+            "0.036",
+            "--out",
+        ])
         .arg(&reference)
         .output()
         .unwrap();

@@ -376,7 +376,10 @@ fn the_example_system_runs() {
 fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_fmus() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = std::env::temp_dir().join(format!("lash-system-reduced-{}", std::process::id()));
-    let o = lash(&["run", "A", "--model", "reduced", "--quiet", "--out", out.join("reference").to_str().unwrap()]);
+    // (At the system's communication step, 1 ms: `lash run` alone would choose 0.5 ms at 5000 rpm.)
+    let reference_a = out.join("reference");
+    let args = ["run", "A", "--model", "reduced", "--macro-step", "1e-3", "--quiet", "--out"];
+    let o = lash(&[&args[..], &[reference_a.to_str().unwrap()]].concat());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let reference = read_csv(&out.join("reference/timeseries.csv"));
     let o = lash(&["fmu", "pack", "--out", out.to_str().unwrap()]);
@@ -419,6 +422,8 @@ fn the_reduced_model_as_a_system_equals_lash_run_reduced_with_builtins_and_with_
         "C",
         "--model",
         "reduced",
+        "--macro-step",
+        "1e-3",
         "--micro-step",
         "1e-5",
         "--quiet",

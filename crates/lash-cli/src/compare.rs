@@ -92,6 +92,8 @@ fn micro_step_for(summary: &lash_run::Summary, s: &AnyScenario, options: Reduced
 struct Written {
     /// The reduced model's options, its micro step and coupling as chosen.
     options: ReducedOptions,
+    /// Why the macro step is not the default, if it is not (chosen from the fastest rotation).
+    macro_step_choice: Option<String>,
     /// Why the micro step is not the one asked for (chosen, then refined), if it is not.
     micro_step_choice: Option<String>,
     /// Why the coupling is two-way under `--coupling auto`, if it is.
@@ -114,8 +116,14 @@ struct Written {
 /// does not hold a pressed contact, and in two-way coupling when `--coupling auto` finds one-way
 /// coupling's error past its bound (with the error estimate that decides it); the full model by
 /// RK4 at that step; the ideal mechanism.
-fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, quiet: bool) -> Result<Written, CliError> {
-    let crate::ReducedRequest { mut options, micro_step_given, coupling_auto } = request;
+fn written_runs(
+    s: &AnyScenario,
+    out: &Path,
+    mut request: crate::ReducedRequest,
+    quiet: bool,
+) -> Result<Written, CliError> {
+    let macro_step_choice = request.choose_macro_step(s, quiet);
+    let crate::ReducedRequest { mut options, micro_step_given, coupling_auto, .. } = request;
     let refuse = |e: lash_run::RunError| CliError::Input(format!("the reduced model cannot run this scenario: {e}"));
     let csv = crate::output::Format::Csv;
     let settings = (s.simulation(), s.output());
@@ -176,6 +184,7 @@ fn written_runs(s: &AnyScenario, out: &Path, request: crate::ReducedRequest, qui
     let ideal_ok = crate::run::run(s, settings, &mut full_runner(s, true), &out.join("ideal"), csv, true).is_ok();
     Ok(Written {
         options,
+        macro_step_choice,
         micro_step_choice,
         coupling_choice,
         estimate,
@@ -302,6 +311,7 @@ pub fn run(
     }
     let Written {
         options,
+        macro_step_choice,
         micro_step_choice,
         coupling_choice,
         estimate,
@@ -362,6 +372,7 @@ pub fn run(
             "full_rk4_at_micro_step": fixed_steady,
         },
         "reduced_options": options,
+        "macro_step_choice": macro_step_choice,
         "micro_step_choice": micro_step_choice,
         "coupling_choice": coupling_choice,
         "first_window_s": FIRST_WINDOW,

@@ -92,9 +92,11 @@ pub enum MicroArg {
 /// Settings of the reduced model.
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct ReducedArgs {
-    /// Reduced model: macro step h_m \[s\].
-    #[arg(long, default_value_t = 1e-3)]
-    macro_step: f64,
+    /// Reduced model: macro step h_m \[s\]. Without it, 1e-3 s or the largest step below it
+    /// (5e-4, 4e-4, 2.5e-4, …, a whole number of micro steps) in which the fastest body of the
+    /// mechanism turns by at most 16° (5e-4 s at 5000 rpm).
+    #[arg(long)]
+    macro_step: Option<f64>,
     /// Reduced model: micro step h_r \[s\]. Without it, 1e-5 s or the largest step below it
     /// (5e-6, 4e-6, 2.5e-6, …, dividing the macro step and the output interval) that gives each
     /// clearance joint's impacts at least 7 steps, by their median duration in the converged
@@ -122,13 +124,14 @@ impl ReducedArgs {
         ReducedRequest {
             options: self.options(),
             micro_step_given: self.micro_step.is_some(),
+            macro_step_given: self.macro_step.is_some(),
             coupling_auto: self.coupling == CouplingArg::Auto,
         }
     }
 
     fn options(&self) -> lash_run::ReducedOptions {
         lash_run::ReducedOptions {
-            macro_step: self.macro_step,
+            macro_step: self.macro_step.unwrap_or(lash_run::ReducedOptions::default().macro_step),
             micro_step: self.micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step),
             interpolation: match self.interpolation {
                 InterpolationArg::Linear => lash_orchestrate::Interpolation::Linear,
@@ -546,17 +549,38 @@ fn quiet_on_broken_pipe() {
 }
 
 /// A reduced run as asked for: its options (one-way coupling under `--coupling auto`), whether
-/// the micro step was given (else lash chooses it), and whether lash chooses the coupling.
+/// the macro and the micro step were given (else lash chooses them), and whether lash chooses the
+/// coupling.
 #[derive(Debug, Clone, Copy)]
 pub struct ReducedRequest {
-    /// The options, the micro step the default when none was given.
+    /// The options, each step the default when none was given.
     pub options: lash_run::ReducedOptions,
     /// Whether the user gave the micro step.
     pub micro_step_given: bool,
+    /// Whether the user gave the macro step.
+    pub macro_step_given: bool,
     /// `--coupling auto`: where the error estimate finds one-way coupling's own error past the
     /// stated bound, the coupling closer to the converged full model over the probe window
     /// ([`probe::estimate_and_choose_coupling`]).
     pub coupling_auto: bool,
+}
+
+impl ReducedRequest {
+    /// The macro step for `s` when none was given ([`lash_run::macro_step_for_rotation`] from the
+    /// default, at the micro step given or the default one), with why it is not the default;
+    /// printed unless `quiet`. One home for `lash run`, `lash compare` and Python.
+    pub fn choose_macro_step(&mut self, s: &lash_scenario::AnyScenario, quiet: bool) -> Option<String> {
+        if self.macro_step_given {
+            return None;
+        }
+        let o = &mut self.options;
+        let (h, why) = lash_run::macro_step_for_rotation(o.macro_step, o.micro_step, s.fastest_rotation());
+        o.macro_step = h;
+        if let (Some(why), false) = (&why, quiet) {
+            eprintln!("note: {why}");
+        }
+        why
+    }
 }
 
 /// `lash compare` (also the Python package's `lash.compare`): the runs, figures and
@@ -606,11 +630,16 @@ fn run_reduced(
     format: output::Format,
     quiet: bool,
 ) -> Result<(), CliError> {
-    let ReducedRequest { mut options, micro_step_given, coupling_auto } = settings.request;
+    let mut request = settings.request;
+    let macro_step_choice = request.choose_macro_step(s, quiet);
+    let ReducedRequest { mut options, micro_step_given, coupling_auto, .. } = request;
     let probe = (settings.error_estimate || !micro_step_given).then(|| {
         probe::FullProbe::run(s, options.macro_step, settings.error_estimate).map_err(probe::NoEstimate::from)
     });
     let mut notes = serde_json::Map::new();
+    if let Some(why) = macro_step_choice {
+        notes.insert("macro_step_choice".into(), why.into());
+    }
     match &probe {
         Some(Ok(p)) => {
             // (DOPRI5 locates every contact itself: its communication step is kept.)

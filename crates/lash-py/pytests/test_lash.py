@@ -125,10 +125,11 @@ def test_a_pressed_contact_the_step_does_not_hold_is_run_again_finer_as_the_comm
 
 
 def test_a_reduced_run_estimates_its_error_as_the_command_line(tmp_path):
-    # B over 0.2 s in one-way coupling: the error estimate (window term + coupling term) and the
-    # coupling warning are those `lash run` writes, to the bit; without error_estimate there is none.
-    r = lash.run("B", "reduced", horizon=0.2, error_estimate=True, coupling="one_way")
-    args = ("run", "B", "--model", "reduced", "--horizon", "0.2", "--quiet")
+    # B over 0.2 s in one-way coupling at a macro step of 1 ms: the error estimate (window term +
+    # coupling term) and the coupling warning are those `lash run` writes, to the bit; without
+    # error_estimate there is none.
+    r = lash.run("B", "reduced", horizon=0.2, error_estimate=True, coupling="one_way", macro_step=1e-3)
+    args = ("run", "B", "--model", "reduced", "--horizon", "0.2", "--macro-step", "1e-3", "--quiet")
     done = cli(*args, "--coupling", "one-way", "--out", str(tmp_path / "b"))
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "b" / "summary.json") as f:
@@ -142,10 +143,11 @@ def test_a_reduced_run_estimates_its_error_as_the_command_line(tmp_path):
         w for w in written["warnings"] if w.startswith("one-way coupling")
     ] != []
     assert "error_estimate" not in lash.run("B", "reduced", horizon=0.012).summary
-    # The default coupling ("auto") takes two-way for F over 0.2 s, as `lash run` does by default:
-    # the same samples, choice and estimate (now the two-way run's window term alone).
-    auto = lash.run("F", "reduced", horizon=0.2, error_estimate=True)
-    done = cli("run", "F", "--model", "reduced", "--horizon", "0.2", "--quiet", "--out", str(tmp_path / "auto"))
+    # The default coupling ("auto") takes two-way for F over 0.2 s at a macro step of 1 ms, as
+    # `lash run` does: the same samples, choice and estimate (now the two-way run's window term alone).
+    auto = lash.run("F", "reduced", horizon=0.2, error_estimate=True, macro_step=1e-3)
+    done = cli("run", "F", "--model", "reduced", "--horizon", "0.2", "--macro-step", "1e-3", "--quiet",
+               "--out", str(tmp_path / "auto"))
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "auto" / "summary.json") as f:
         written = json.load(f)
@@ -268,7 +270,8 @@ def test_a_sweep_gives_a_dataset_whose_runs_equal_single_runs(tmp_path):
     for k, run_id in enumerate(data.run_ids):
         values = dict(zip(data.parameters, data.inputs[k]))
         values["simulation.output_interval"] = 1 / 20000.0
-        r = lash.run(lash.load("A").with_values(values), "reduced", horizon=0.01)
+        # (A sweep's macro step is its file's, 1 ms by default; a run without one chooses 0.5 ms.)
+        r = lash.run(lash.load("A").with_values(values), "reduced", horizon=0.01, macro_step=1e-3)
         np.testing.assert_array_equal(data.values[k, :, 0], r["slider.ax"])
         np.testing.assert_array_equal(data.values[k, :, 1], r["crank_pivot.force"])
     # Batches: every run once per pass, inputs and values of the same runs.

@@ -256,11 +256,16 @@ impl ReducedSettings<'_> {
         })
     }
 
-    /// The run as asked for (`lash_cli::ReducedRequest`), with whether the micro step was given.
-    fn request(&self, py: Python<'_>, micro_step_given: bool) -> PyResult<lash_cli::ReducedRequest> {
+    /// The run as asked for (`lash_cli::ReducedRequest`), with whether each step was given.
+    fn request(
+        &self,
+        py: Python<'_>,
+        (macro_step_given, micro_step_given): (bool, bool),
+    ) -> PyResult<lash_cli::ReducedRequest> {
         Ok(lash_cli::ReducedRequest {
             options: self.options(py)?,
             micro_step_given,
+            macro_step_given,
             coupling_auto: self.coupling == "auto",
         })
     }
@@ -288,7 +293,7 @@ fn choose_micro_step(
 /// Runs a scenario's full or reduced model and returns (names, units, samples, summary JSON).
 #[pyfunction]
 #[pyo3(signature = (
-    scenario, model = "full", ideal = false, macro_step = 1e-3, micro_step = None,
+    scenario, model = "full", ideal = false, macro_step = None, micro_step = None,
     interpolation = "linear", coupling = "auto", micro = "rk4", threaded = false, error_estimate = false
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -297,7 +302,7 @@ fn run<'py>(
     scenario: &Scenario,
     model: &str,
     ideal: bool,
-    macro_step: f64,
+    macro_step: Option<f64>,
     micro_step: Option<f64>,
     interpolation: &str,
     coupling: &str,
@@ -306,9 +311,18 @@ fn run<'py>(
     error_estimate: bool,
 ) -> PyResult<RunResult<'py>> {
     let given = micro_step;
-    let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
-    let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded };
-    let lash_cli::ReducedRequest { mut options, coupling_auto, .. } = settings.request(py, given.is_some())?;
+    let defaults = lash_run::ReducedOptions::default();
+    let settings = ReducedSettings {
+        macro_step: macro_step.unwrap_or(defaults.macro_step),
+        micro_step: micro_step.unwrap_or(defaults.micro_step),
+        interpolation,
+        coupling,
+        micro,
+        threaded,
+    };
+    let mut request = settings.request(py, (macro_step.is_some(), given.is_some()))?;
+    let macro_choice = (model == "reduced").then(|| request.choose_macro_step(&scenario.inner, true)).flatten();
+    let lash_cli::ReducedRequest { mut options, coupling_auto, .. } = request;
     // The converged full model over the first part of the run, as `lash run` runs it: over the
     // error estimate's window when one is asked for, else over the micro step's choice window.
     let reduced = model == "reduced" && !ideal;
@@ -356,7 +370,12 @@ fn run<'py>(
         _ => None,
     };
     let (header, values, summary) = outcome?;
-    let notes = [("micro_step_choice", choice), ("micro_step_refined", refined), ("coupling_choice", coupling_choice)];
+    let notes = [
+        ("macro_step_choice", macro_choice),
+        ("micro_step_choice", choice),
+        ("micro_step_refined", refined),
+        ("coupling_choice", coupling_choice),
+    ];
     let summary = summary_json(&summary, notes, estimate.as_ref())?;
     run_result(py, &header, values, summary)
 }
@@ -365,7 +384,7 @@ fn run<'py>(
 /// chosen (`notes`: key and why, where there is one) and its error estimate, if asked for.
 fn summary_json(
     summary: &lash_run::Summary,
-    notes: [(&str, Option<String>); 3],
+    notes: [(&str, Option<String>); 4],
     estimate: Option<&Result<lash_cli::probe::ErrorEstimate, lash_cli::probe::NoEstimate>>,
 ) -> PyResult<String> {
     let mut summary = serde_json::to_value(summary).map_err(|e| SimulationError::new_err(e.to_string()))?;
@@ -500,7 +519,7 @@ fn compare(
     py: Python<'_>,
     scenario: &Scenario,
     out: PathBuf,
-    macro_step: f64,
+    macro_step: Option<f64>,
     micro_step: Option<f64>,
     interpolation: &str,
     coupling: &str,
@@ -511,11 +530,18 @@ fn compare(
     if !(1..=64).contains(&realisations) {
         return Err(field_error(py, "realisations", format!("{realisations}: must be 1 to 64")));
     }
-    // Without a micro step, the command line's choice from the full run's impacts.
-    let given = micro_step.is_some();
-    let micro_step = micro_step.unwrap_or(lash_run::ReducedOptions::default().micro_step);
-    let settings = ReducedSettings { macro_step, micro_step, interpolation, coupling, micro, threaded: false };
-    let request = settings.request(py, given)?;
+    // Without a step, the command line's choice (the macro step from the fastest rotation, the
+    // micro step from the full run's impacts).
+    let defaults = lash_run::ReducedOptions::default();
+    let settings = ReducedSettings {
+        macro_step: macro_step.unwrap_or(defaults.macro_step),
+        micro_step: micro_step.unwrap_or(defaults.micro_step),
+        interpolation,
+        coupling,
+        micro,
+        threaded: false,
+    };
+    let request = settings.request(py, (macro_step.is_some(), micro_step.is_some()))?;
     let scenario = scenario.inner.clone();
     py.detach(|| lash_cli::compare_into(&scenario, &out, request, realisations, true, report))
         .map_err(|e| cli_error(py, e))?;

@@ -22,8 +22,8 @@ pub use build::{BuildOptions, build_model};
 pub use full_subsystem::FullSubsystem;
 pub use reduced::{ReducedOptions, ReducedRun};
 pub use run::{
-    ChannelStats, ClearanceSummary, ContactSamples, FullRun, RunError, Runner, Sink, Summary,
-    micro_step_for_unheld_contacts, micro_step_ladder, resolving_micro_step,
+    ChannelStats, ClearanceSummary, ContactSamples, FullRun, MACRO_STEP_ANGLE, RunError, Runner, Sink, Summary,
+    macro_step_for_rotation, micro_step_for_unheld_contacts, micro_step_ladder, resolving_micro_step,
 };
 pub use spatial::{SpatialReducedRun, SpatialRun, build_spatial};
 

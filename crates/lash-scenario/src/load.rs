@@ -138,6 +138,23 @@ impl AnyScenario {
         }
     }
 
+    /// The fastest rotation at the start \[rad/s\]: the largest |ω| of the drivers' motions at
+    /// the start time and of the bodies' given initial angular velocities (`None`: nothing turns).
+    pub fn fastest_rotation(&self) -> Option<f64> {
+        let t0 = self.simulation().start_time;
+        let (drivers, bodies): (Vec<f64>, Vec<f64>) = match self {
+            AnyScenario::Planar(s) => (
+                s.drivers.iter().map(|d| d.motion.eval(t0).1).collect(),
+                s.bodies.iter().map(|b| b.angular_velocity).collect(),
+            ),
+            AnyScenario::Spatial(s) => (
+                s.drivers.iter().map(|d| d.motion.eval(t0).1).collect(),
+                s.bodies.iter().map(|b| b.angular_velocity.iter().map(|w| w * w).sum::<f64>().sqrt()).collect(),
+            ),
+        };
+        drivers.into_iter().chain(bodies).map(f64::abs).filter(|w| *w > 0.0).reduce(f64::max)
+    }
+
     /// Number of interfaces the reduced model couples: the clearance joints, the guides
     /// (translational clearance joints) and the bushings.
     pub fn interface_count(&self) -> usize {

@@ -204,7 +204,7 @@ def run(
     model: str = "full",
     *,
     ideal: bool = False,
-    macro_step: float = 1e-3,
+    macro_step: Optional[float] = None,
     micro_step: Optional[float] = None,
     interpolation: str = "linear",
     coupling: str = "auto",
@@ -226,7 +226,10 @@ def run(
     probe window (so one-way unless ``error_estimate=True``; the summary's ``coupling_choice``
     gives both figures);
     ``micro`` integrator ``"rk4"`` or the error-controlled ``"dopri5"``; ``threaded`` runs the
-    macro subsystem on its own thread, same results). Without ``micro_step`` a reduced run's is
+    macro subsystem on its own thread, same results). Without ``macro_step`` a reduced run's is
+    chosen as ``lash run`` chooses it: 1e-3 s, or the largest step below in which the fastest
+    body turns by at most 16° (5e-4 s at 5000 rpm; the summary's ``macro_step_choice`` says
+    why). Without ``micro_step`` a reduced run's is
     chosen as ``lash run`` chooses it: 1e-5 s, or the largest step below that gives each
     clearance joint's impacts (their median duration in the converged full model over the first
     50 ms of the run) at least 7 steps — which costs that full-model run; the summary's
@@ -380,7 +383,7 @@ def compare(
     *,
     report: bool = True,
     horizon: Optional[float] = None,
-    macro_step: float = 1e-3,
+    macro_step: Optional[float] = None,
     micro_step: Optional[float] = None,
     interpolation: str = "linear",
     coupling: str = "auto",
@@ -390,7 +393,8 @@ def compare(
     """The converged full model, the reduced model and the ideal mechanism of a scenario side by
     side (``lash compare``): their runs, figures and ``comparison.json`` in ``out``, and with
     ``report`` the page ``out/report.html`` (see :func:`report`). The reduced model's options are
-    :func:`run`'s; without ``micro_step`` it is chosen as the command line chooses it: 1e-5 s, or
+    :func:`run`'s; without ``macro_step`` it is chosen from the fastest rotation as :func:`run`
+    chooses it (``macro_step_choice``); without ``micro_step`` it is chosen as the command line chooses it: 1e-5 s, or
     the largest step below that gives each clearance joint's impacts (their median duration in
     the full run) at least 7 steps (``comparison.json``'s ``micro_step_choice`` says why);
     ``coupling="auto"`` takes two-way coupling when the error estimate finds one-way coupling's

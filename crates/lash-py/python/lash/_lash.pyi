@@ -45,7 +45,7 @@ def run(
     scenario: Scenario,
     model: str = "full",
     ideal: bool = False,
-    macro_step: float = 1e-3,
+    macro_step: Optional[float] = None,
     micro_step: Optional[float] = None,
     interpolation: str = "linear",
     coupling: str = "one_way",
@@ -61,7 +61,7 @@ def merge(inputs: List[Union[str, PathLike[str]]], out: Union[str, PathLike[str]
 def compare(
     scenario: Scenario,
     out: Union[str, PathLike[str]],
-    macro_step: float,
+    macro_step: Optional[float],
     micro_step: Optional[float],
     interpolation: str,
     coupling: str,
