@@ -183,6 +183,10 @@ pub struct Manifest {
     pub channels: Vec<ChannelInfo>,
     /// Parameter paths (params columns after run_id, seed, status).
     pub parameters: Vec<String>,
+    /// The reduced model's steps the runs took (the file's, or those lash chose for the base);
+    /// absent for the full model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reduced: Option<crate::spec::ReducedSteps>,
     /// "running" or "complete".
     pub status: String,
     /// Runs held here, by id (complete manifests).

@@ -204,6 +204,10 @@ fn new_manifest(plan: &Plan, shard: Option<Shard>) -> Manifest {
         shard,
         channels: channel_infos(plan),
         parameters: plan.parameter_paths(),
+        reduced: (plan.spec.model == ModelKind::Reduced).then(|| {
+            let o = plan::reduced_options(&plan.spec, &plan.base);
+            spec::ReducedSteps { macro_step: o.macro_step, micro_step: o.micro_step }
+        }),
         status: "running".into(),
         runs: Vec::new(),
     }
@@ -232,7 +236,7 @@ impl Simulation {
         };
         let model = match plan.spec.model {
             ModelKind::Full => lash_run::Model::Full { ideal: false },
-            ModelKind::Reduced => lash_run::Model::Reduced(plan::reduced_options(&plan.spec)),
+            ModelKind::Reduced => lash_run::Model::Reduced(plan::reduced_options(&plan.spec, &plan.base)),
         };
         let runner = lash_run::runner(&scenario, model).map_err(|e| e.to_string())?;
         let header = runner.header();

@@ -114,7 +114,7 @@ impl Plan {
         if p.is_empty() && spec.model == ModelKind::Reduced {
             // Step sizes, sampling and horizon must fit the reduced model's integer time grid:
             // building its runner for the base checks them once, before any run.
-            let refused = lash_run::runner(&base, lash_run::Model::Reduced(reduced_options(&spec))).err();
+            let refused = lash_run::runner(&base, lash_run::Model::Reduced(reduced_options(&spec, &base))).err();
             if let Some(e) = refused {
                 let field = if e.to_string().contains("output_interval") { "output.sample_rate" } else { "model" };
                 p.push(field, format!("the reduced model refuses the base scenario: {e}"));
@@ -204,13 +204,22 @@ pub fn measured_force<'a>(
     measured_axis(measurements, channel).map(|(force, _)| force)
 }
 
-/// Options of the reduced model for this sweep.
-pub fn reduced_options(spec: &SweepSpec) -> lash_run::ReducedOptions {
+/// Options of the reduced model for this sweep of `base`: the file's steps, or without them the
+/// defaults `lash run` takes — the macro step from the base scenario's fastest rotation
+/// ([`lash_run::macro_step_for_rotation`]), once for every run, so that runs at other speeds
+/// still share it (and their lanes), and the micro step of 1e-5 s.
+pub fn reduced_options(spec: &SweepSpec, base: &AnyScenario) -> lash_run::ReducedOptions {
     // (A run's summary is not part of the dataset: only its channels are computed.)
     let mut options = lash_run::ReducedOptions { channels_only: true, ..Default::default() };
-    if let Some(r) = spec.reduced {
-        options.macro_step = r.macro_step;
-        options.micro_step = r.micro_step;
+    match spec.reduced {
+        Some(r) => {
+            options.macro_step = r.macro_step;
+            options.micro_step = r.micro_step;
+        }
+        None => {
+            let fastest = base.fastest_rotation();
+            options.macro_step = lash_run::macro_step_for_rotation(options.macro_step, options.micro_step, fastest).0;
+        }
     }
     options
 }

@@ -29,7 +29,8 @@ use std::collections::BTreeMap;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ModelKind {
-    /// The reduced interface model (default settings: h_m = 1e-3 s, h_r = 1e-5 s, RK4 micro).
+    /// The reduced interface model (default settings: h_m as `lash run` chooses it, h_r = 1e-5 s,
+    /// RK4 micro).
     #[default]
     Reduced,
     /// The full model with the scenario's integrator.
@@ -164,7 +165,8 @@ pub struct SweepSpec {
     /// Overrides the base scenario's horizon \[s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub horizon: Option<f64>,
-    /// Reduced-model step sizes (defaults: 1e-3 s and 1e-5 s).
+    /// Reduced-model step sizes (defaults: as `lash run` takes them — 1e-3 s or less, at most 16°
+    /// of the base scenario's fastest rotation per macro step — and 1e-5 s).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reduced: Option<ReducedSteps>,
     /// Output channels and sampling.
