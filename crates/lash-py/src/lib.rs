@@ -225,7 +225,25 @@ struct ReducedSettings<'a> {
     threaded: bool,
 }
 
-impl ReducedSettings<'_> {
+impl<'a> ReducedSettings<'a> {
+    /// The settings as given, a step not given the default (lash chooses it later: see
+    /// [`ReducedSettings::request`]).
+    fn given(
+        (macro_step, micro_step): (Option<f64>, Option<f64>),
+        (interpolation, coupling, micro): (&'a str, &'a str, &'a str),
+        threaded: bool,
+    ) -> Self {
+        let defaults = lash_run::ReducedOptions::default();
+        Self {
+            macro_step: macro_step.unwrap_or(defaults.macro_step),
+            micro_step: micro_step.unwrap_or(defaults.micro_step),
+            interpolation,
+            coupling,
+            micro,
+            threaded,
+        }
+    }
+
     /// The options, or the field that is wrong.
     fn options(&self, py: Python<'_>) -> PyResult<lash_run::ReducedOptions> {
         for (field, v) in [("macro_step", self.macro_step), ("micro_step", self.micro_step)] {
@@ -311,15 +329,7 @@ fn run<'py>(
     error_estimate: bool,
 ) -> PyResult<RunResult<'py>> {
     let given = micro_step;
-    let defaults = lash_run::ReducedOptions::default();
-    let settings = ReducedSettings {
-        macro_step: macro_step.unwrap_or(defaults.macro_step),
-        micro_step: micro_step.unwrap_or(defaults.micro_step),
-        interpolation,
-        coupling,
-        micro,
-        threaded,
-    };
+    let settings = ReducedSettings::given((macro_step, micro_step), (interpolation, coupling, micro), threaded);
     let mut request = settings.request(py, (macro_step.is_some(), given.is_some()))?;
     let macro_choice = (model == "reduced").then(|| request.choose_macro_step(&scenario.inner, true)).flatten();
     let lash_cli::ReducedRequest { mut options, coupling_auto, .. } = request;
@@ -532,15 +542,7 @@ fn compare(
     }
     // Without a step, the command line's choice (the macro step from the fastest rotation, the
     // micro step from the full run's impacts).
-    let defaults = lash_run::ReducedOptions::default();
-    let settings = ReducedSettings {
-        macro_step: macro_step.unwrap_or(defaults.macro_step),
-        micro_step: micro_step.unwrap_or(defaults.micro_step),
-        interpolation,
-        coupling,
-        micro,
-        threaded: false,
-    };
+    let settings = ReducedSettings::given((macro_step, micro_step), (interpolation, coupling, micro), false);
     let request = settings.request(py, (macro_step.is_some(), micro_step.is_some()))?;
     let scenario = scenario.inner.clone();
     py.detach(|| lash_cli::compare_into(&scenario, &out, request, realisations, true, report))

@@ -48,7 +48,7 @@ def run(
     macro_step: Optional[float] = None,
     micro_step: Optional[float] = None,
     interpolation: str = "linear",
-    coupling: str = "one_way",
+    coupling: str = "auto",
     micro: str = "rk4",
     threaded: bool = False,
     error_estimate: bool = False,
