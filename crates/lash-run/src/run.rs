@@ -207,19 +207,24 @@ pub fn initial_velocity_warnings(scenario: &Scenario, qd: &[f64]) -> Vec<String>
 /// (docs/validation.md).
 pub const STEPS_PER_CONTACT: f64 = 7.0;
 
+/// Whether `span` is a whole number (one or more) of steps `h`, to rounding.
+fn divides(h: f64, span: f64) -> bool {
+    let ratio = span / h;
+    ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-9 * ratio
+}
+
+/// `largest`, then the steps below it on the ladder 5, 4, 2.5, 2, 1 × 10⁻ⁿ s over the decades
+/// `n`, largest first: the steps lash chooses among (micro and macro).
+fn step_ladder(largest: f64, n: std::ops::RangeInclusive<i32>) -> impl Iterator<Item = f64> {
+    let ladder = n.flat_map(|n| [5.0, 4.0, 2.5, 2.0, 1.0].map(|m| m / 10f64.powi(n)));
+    std::iter::once(largest).chain(ladder.filter(move |&h| h < largest * (1.0 - 1e-9)))
+}
+
 /// `largest`, then the steps below it on the ladder 5, 4, 2.5, 2, 1 × 10⁻ⁿ s (n = 5 … 7) that
 /// divide both `macro_step` and `output_interval`, largest first: the micro steps lash chooses
 /// among.
 pub fn micro_step_ladder(largest: f64, macro_step: f64, output_interval: f64) -> Vec<f64> {
-    let divides = |h: f64, span: f64| {
-        let ratio = span / h;
-        ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-9 * ratio
-    };
-    let ladder = (5..=7).flat_map(|n| [5.0, 4.0, 2.5, 2.0, 1.0].map(|m| m / 10f64.powi(n)));
-    std::iter::once(largest)
-        .chain(ladder.filter(|&h| h < largest * (1.0 - 1e-9)))
-        .filter(|&h| divides(h, macro_step) && divides(h, output_interval))
-        .collect()
+    step_ladder(largest, 5..=7).filter(|&h| divides(h, macro_step) && divides(h, output_interval)).collect()
 }
 
 /// The largest angle \[rad\] the fastest body turns in one macro step at the defaults: 16°. At
@@ -235,15 +240,8 @@ pub const MACRO_STEP_ANGLE: f64 = 16.0 * std::f64::consts::PI / 180.0;
 /// it is not `largest`. Nothing turning, or no such step: `largest`.
 pub fn macro_step_for_rotation(largest: f64, micro_step: f64, fastest: Option<f64>) -> (f64, Option<String>) {
     let Some(omega) = fastest.filter(|w| w.is_finite() && *w > 0.0) else { return (largest, None) };
-    let whole = |h: f64| {
-        let ratio = h / micro_step;
-        ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-9 * ratio
-    };
-    let ladder = (3..=6).flat_map(|n| [5.0, 4.0, 2.5, 2.0, 1.0].map(|m| m / 10f64.powi(n)));
-    let chosen = std::iter::once(largest)
-        .chain(ladder.filter(|&h| h < largest * (1.0 - 1e-9)))
-        .filter(|&h| whole(h))
-        .find(|&h| omega * h <= MACRO_STEP_ANGLE);
+    let chosen =
+        step_ladder(largest, 3..=6).filter(|&h| divides(micro_step, h)).find(|&h| omega * h <= MACRO_STEP_ANGLE);
     match chosen {
         Some(h) if h < largest => {
             let why = format!(
