@@ -415,15 +415,64 @@ impl StepSearch {
     }
 }
 
-/// Follows an open impact and refines its force peak.
+/// Follows open impacts and refines their force peaks, at any width: one impact ([`ImpactTracker`],
+/// `f64`) or one per lane of a sweep's runs stepped side by side (`lash_core::lane::F64x8`). Each
+/// lane's numbers are the ones a single tracker of its impact holds, changed by the same
+/// comparisons and selections ([`Tracker::sample_where`]).
 #[derive(Debug, Clone, Copy)]
-pub struct ImpactTracker {
-    /// The impact so far.
-    pub impact: Impact,
-    samples: [(f64, f64); 3],
-    count: usize,
+pub struct Tracker<R: Real> {
+    /// When the impact began \[s\].
+    pub onset_time: R,
+    /// Its penetration rate at the onset [m/s].
+    pub onset_velocity: R,
+    /// The highest normal force so far \[N\].
+    pub peak_force: R,
+    /// When it was reached \[s\].
+    pub peak_time: R,
+    /// The deepest penetration so far \[m\].
+    pub max_penetration: R,
+    /// The last three samples' times, oldest first \[s\].
+    pub times: [R; 3],
+    /// Their normal forces \[N\].
+    pub forces: [R; 3],
+    /// Samples taken (a whole number).
+    pub count: R,
     /// Peaks come from searches on continuous extensions (no parabola through samples then).
-    searched: bool,
+    pub searched: R::Mask,
+}
+
+/// One open impact's tracker.
+pub type ImpactTracker = Tracker<f64>;
+
+impl<R: Real> Tracker<R> {
+    /// Adds a sample (t, F, δ) to the trackers in `active`; returns those whose middle sample is now
+    /// a peak of three (not searched), whose parabola's vertex ([`ImpactTracker::vertex`]) the
+    /// caller offers as the peak — rare, and taken lane by lane.
+    #[inline(always)]
+    pub fn sample_where(&mut self, active: R::Mask, t: R, force: R, penetration: R) -> R::Mask {
+        self.max_penetration = R::select(active, self.max_penetration.max(penetration), self.max_penetration);
+        // (A sample at or before the last one only deepens.)
+        let later = active & !t.simd_le(self.times[2]);
+        if !R::any(later) {
+            return later;
+        }
+        let shift = |v: [R; 3], new: R| {
+            [R::select(later, v[1], v[0]), R::select(later, v[2], v[1]), R::select(later, new, v[2])]
+        };
+        self.times = shift(self.times, t);
+        self.forces = shift(self.forces, force);
+        self.count = R::select(later, self.count + R::splat(1.0), self.count);
+        let higher = later & force.simd_gt(self.peak_force);
+        self.peak_force = R::select(higher, force, self.peak_force);
+        self.peak_time = R::select(higher, t, self.peak_time);
+        let [f0, f1, f2] = self.forces;
+        later
+            & self.count.simd_ge(R::splat(3.0))
+            & !self.searched
+            & f1.simd_ge(f0)
+            & f1.simd_ge(f2)
+            & (f1.simd_gt(f0) | f1.simd_gt(f2))
+    }
 }
 
 impl ImpactTracker {
@@ -433,40 +482,34 @@ impl ImpactTracker {
     /// not used.
     pub fn open(t: f64, onset_velocity: f64, searched: bool) -> Self {
         Self {
-            impact: Impact {
-                onset_time: t,
-                onset_velocity,
-                exit_time: f64::NAN,
-                duration: f64::NAN,
-                peak_force: 0.0,
-                peak_time: t,
-                max_penetration: 0.0,
-            },
-            samples: [(t, 0.0); 3],
-            count: 1,
+            onset_time: t,
+            onset_velocity,
+            peak_force: 0.0,
+            peak_time: t,
+            max_penetration: 0.0,
+            times: [t; 3],
+            forces: [0.0; 3],
+            count: 1.0,
             searched,
         }
     }
 
     /// Adds a sample of the trajectory (at an accepted step or an event).
     pub fn sample(&mut self, t: f64, force: f64, penetration: f64) {
-        self.impact.max_penetration = self.impact.max_penetration.max(penetration);
-        if t <= self.samples[2].0 {
-            return;
+        if self.sample_where(true, t, force, penetration) {
+            self.offer_vertex();
         }
-        self.samples = [self.samples[1], self.samples[2], (t, force)];
-        self.count += 1;
-        if force > self.impact.peak_force {
-            self.impact.peak_force = force;
-            self.impact.peak_time = t;
-        }
-        if self.count >= 3
-            && !self.searched
-            && let Some((tv, fv)) = Self::vertex(self.samples)
-            && fv > self.impact.peak_force
+    }
+
+    /// Offers the vertex of the parabola through the last three samples as the peak.
+    #[inline]
+    pub fn offer_vertex(&mut self) {
+        let samples = std::array::from_fn(|k| (self.times[k], self.forces[k]));
+        if let Some((tv, fv)) = Self::vertex(samples)
+            && fv > self.peak_force
         {
-            self.impact.peak_force = fv;
-            self.impact.peak_time = tv;
+            self.peak_force = fv;
+            self.peak_time = tv;
         }
     }
 
@@ -491,27 +534,16 @@ impl ImpactTracker {
         Some((tv, f1 + d0 * (tv - t1) + curv * (tv - t0) * (tv - t1)))
     }
 
-    /// The tracker's numbers: the impact so far, the last three samples (t, F), how many samples
-    /// it took, and whether its peaks come from searches.
-    pub fn parts(&self) -> (Impact, [(f64, f64); 3], usize, bool) {
-        (self.impact, self.samples, self.count, self.searched)
-    }
-
-    /// A tracker from its numbers ([`ImpactTracker::parts`]).
-    pub fn from_parts(impact: Impact, samples: [(f64, f64); 3], count: usize, searched: bool) -> Self {
-        Self { impact, samples, count, searched }
-    }
-
     /// Records a penetration seen inside a step.
     pub fn deepen(&mut self, penetration: f64) {
-        self.impact.max_penetration = self.impact.max_penetration.max(penetration);
+        self.max_penetration = self.max_penetration.max(penetration);
     }
 
     /// Offers a refined peak (from a search on a step's continuous extension).
     pub fn peak_candidate(&mut self, t: f64, force: f64) {
-        if force > self.impact.peak_force {
-            self.impact.peak_force = force;
-            self.impact.peak_time = t;
+        if force > self.peak_force {
+            self.peak_force = force;
+            self.peak_time = t;
         }
     }
 
@@ -525,15 +557,21 @@ impl ImpactTracker {
 
     /// The impact as it stands at `t` while still open (exit time NaN, duration so far).
     pub fn so_far(&self, t: f64) -> Impact {
-        Impact { exit_time: f64::NAN, duration: t - self.impact.onset_time, ..self.impact }
+        Impact {
+            onset_time: self.onset_time,
+            onset_velocity: self.onset_velocity,
+            exit_time: f64::NAN,
+            duration: t - self.onset_time,
+            peak_force: self.peak_force,
+            peak_time: self.peak_time,
+            max_penetration: self.max_penetration,
+        }
     }
 
     /// Closes the impact at `t` (its exit): the last sample, exit time and duration.
     pub fn close(mut self, t: f64) -> Impact {
         self.sample(t, 0.0, 0.0);
-        self.impact.exit_time = t;
-        self.impact.duration = t - self.impact.onset_time;
-        self.impact
+        Impact { exit_time: t, ..self.so_far(t) }
     }
 }
 

@@ -286,6 +286,15 @@ operators!(
     BitXor bitxor |a, b| f64::from_bits(a.to_bits() ^ b.to_bits())
 );
 
+/// Every lane times one number (as `* F64x8::splat(f)`): a step's fractions scale lanes.
+impl Mul<f64> for F64x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, f: f64) -> Self {
+        self.map(|v| v * f)
+    }
+}
+
 impl Neg for F64x8 {
     type Output = Self;
     #[inline(always)]

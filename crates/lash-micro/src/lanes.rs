@@ -20,8 +20,9 @@
 //! [`InterfaceModel::rk4_step`]: super::model::InterfaceModel::rk4_step
 
 use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
+use super::stages::{self, Rk4Stage};
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
-use lash_contact::clearance::{ClearanceJoint, ContactState, Impact, ImpactTracker};
+use lash_contact::clearance::{ClearanceJoint, ContactState, ImpactTracker, Tracker};
 use lash_contact::clearance::{journal_load, normal_motion, penetration};
 use lash_contact::friction::FrictionLaw;
 use lash_contact::friction::{LaneFriction, lane_coefficient};
@@ -71,9 +72,40 @@ fn x(a: &V) -> X {
     X::from(*a)
 }
 
-/// A lane's numbers for one stage evaluation: the loads on the journal and the contact state.
+/// Every lane's (x, y) pair: w, ẇ or ẅ of the step ([`stages::rk4`]'s vectors).
 #[derive(Clone, Copy)]
-struct Stage {
+struct Plane {
+    x: X,
+    y: X,
+}
+
+impl Plane {
+    /// The pair from arrays.
+    #[inline(always)]
+    fn of(px: &V, py: &V) -> Self {
+        Self { x: x(px), y: x(py) }
+    }
+}
+
+impl std::ops::Add for Plane {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self { x: self.x + o.x, y: self.y + o.y }
+    }
+}
+
+impl std::ops::Mul<f64> for Plane {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, f: f64) -> Self {
+        Self { x: self.x * f, y: self.y * f }
+    }
+}
+
+/// Each lane's loads at one stage evaluation: on the journal, and the friction load.
+#[derive(Clone, Copy)]
+struct LaneLoads {
     fx: V,
     fy: V,
     friction: V,
@@ -153,9 +185,8 @@ impl Joint {
 
     /// The gated loads of a stage at (e, ė) ([`Joint::contact`], [`gated`]).
     #[inline(always)]
-    fn stage(&self, (ex, ey, vx, vy): (&V, &V, &V, &V), w: (&V, &V), in_contact: X, reciprocal: &V) -> Stage {
-        let (ex, ey) = (x(ex), x(ey));
-        let contact = self.contact((ex, ey, x(vx), x(vy)), self.geometry(ex, ey), w, in_contact, reciprocal);
+    fn stage(&self, e: Plane, v: Plane, w: (&V, &V), in_contact: X, reciprocal: &V) -> LaneLoads {
+        let contact = self.contact((e.x, e.y, v.x, v.y), self.geometry(e.x, e.y), w, in_contact, reciprocal);
         gated(&contact, &self.clearance)
     }
 
@@ -261,38 +292,36 @@ impl Inputs {
         }
     }
 
-    /// M̃ + Ṁ dt of every lane by Cramer's rule: the matrix (row-major 2 × 2) and 1/det.
+    /// M̃ + Ṁ dt of every lane and its determinant's reciprocal ([`stages::planar_mass`]).
     #[inline(always)]
     fn mass_at(&self, dt: &V) -> ([V; 4], V) {
-        let dt = x(dt);
-        let m: [X; 4] = std::array::from_fn(|k| x(&self.mass[k]) + x(&self.mass_rate[k]) * dt);
-        let det = m[0] * m[3] - m[1] * m[2];
-        (m.map(Into::into), (X::ONE / det).into())
+        let (m, inv) = stages::planar_mass(self.mass.map(X::from), self.mass_rate.map(X::from), x(dt));
+        (m.map(Into::into), inv.into())
     }
 
     /// ẅ of every lane: M̃⁻¹ (f̃ + ḟ dt + f_c + (H + Ḣ dt) F_T), the friction term only where
-    /// F_T ≠ 0 ([`InterfaceModel`]'s `acceleration_with`).
+    /// F_T ≠ 0 (the functions of [`InterfaceModel`]'s `acceleration_with`).
     #[inline(always)]
-    fn acceleration(&self, dt: &V, (m, inv): &([V; 4], V), loads: &Stage) -> (V, V) {
+    fn acceleration(&self, dt: &V, (m, inv): &([V; 4], V), loads: &LaneLoads) -> Plane {
         let dt = x(dt);
-        let r0 = x(&self.force[0]) + x(&self.force_rate[0]) * dt + x(&loads.fx);
-        let r1 = x(&self.force[1]) + x(&self.force_rate[1]) * dt + x(&loads.fy);
         let f = x(&loads.friction);
-        let acting = f.simd_ne(X::ZERO);
-        let r0 = acting.select(r0 + (x(&self.moment[0]) + x(&self.moment_rate[0]) * dt) * f, r0);
-        let r1 = acting.select(r1 + (x(&self.moment[1]) + x(&self.moment_rate[1]) * dt) * f, r1);
-        let (m0, m1, m2, m3, inv) = (x(&m[0]), x(&m[1]), x(&m[2]), x(&m[3]), x(inv));
-        (((m3 * r0 - m1 * r1) * inv).into(), ((m0 * r1 - m2 * r0) * inv).into())
+        let load = |i: usize, contact: &V| {
+            let force = (x(&self.force[i]), x(&self.force_rate[i]));
+            stages::planar_load(force, dt, x(contact), (x(&self.moment[i]), x(&self.moment_rate[i])), f)
+        };
+        let r = [load(0, &loads.fx), load(1, &loads.fy)];
+        let [ax, ay] = stages::planar_solve((&m.map(X::from), x(inv)), r);
+        Plane { x: ax, y: ay }
     }
 }
 
 /// The loads of a contact with the micro model's gate: nothing for a lane whose journal is
 /// inside its clearance (|e|² ≤ c², `loads_at`).
 #[inline(always)]
-fn gated(c: &Contact, clearance: &V) -> Stage {
+fn gated(c: &Contact, clearance: &V) -> LaneLoads {
     let (ex, ey, r) = (c.ex, c.ey, x(clearance));
     let outside = (ex * ex + ey * ey).simd_gt(r * r);
-    Stage {
+    LaneLoads {
         fx: outside.select(c.fx, X::ZERO).into(),
         fy: outside.select(c.fy, X::ZERO).into(),
         friction: outside.select(c.tangential, X::ZERO).into(),
@@ -324,7 +353,7 @@ struct Kept {
     impulse: [V; 2],
     friction_impulse: V,
     end_time: V,
-    end_loads: Stage,
+    end_loads: LaneLoads,
     end_mass: ([V; 4], V),
     /// The kept factor was formed with the current inputs.
     end_inputs: [bool; L],
@@ -334,131 +363,78 @@ struct Kept {
     trackers: Trackers,
 }
 
-/// The lanes' open impacts, number by number ([`ImpactTracker`]'s, one per lane), so that the
-/// step end samples every lane's at once: each lane gets what [`ImpactTracker::sample`] gives it
-/// (the same comparisons and selections; the parabola's vertex, where a sample follows a peak,
-/// through the tracker's own code). Sampled lane by lane through the trackers, this bookkeeping
-/// took ~10 % of a sweep of scenario A, whose joint is in contact most of the time.
+/// The lanes' open impacts: one [`Tracker`] of eight lanes (next to the lanes' numbers, not
+/// behind each model's pointers, and written back with the rest of the lane), sampled at every
+/// step end by the single tracker's own code ([`Tracker::sample_where`]). Sampled lane by lane
+/// through the models' trackers, this bookkeeping took ~10 % of a sweep of scenario A, whose joint
+/// is in contact most of the time.
 #[derive(Clone, Copy)]
 struct Trackers {
     /// Lanes with an open impact (a mask: all bits set).
-    open: V,
-    onset_time: V,
-    onset_velocity: V,
-    exit_time: V,
-    duration: V,
-    peak_force: V,
-    peak_time: V,
-    max_penetration: V,
-    /// The last three samples' times and forces, oldest first.
-    time: [V; 3],
-    force: [V; 3],
-    /// Samples taken (whole numbers).
-    count: V,
-    /// Lanes whose peaks come from searches (a mask).
-    searched: V,
+    open: X,
+    /// Their trackers' numbers (a closed lane's are not read).
+    numbers: Tracker<X>,
 }
 
 impl Trackers {
     const NONE: Self = Self {
-        open: [0.0; L],
-        onset_time: [0.0; L],
-        onset_velocity: [0.0; L],
-        exit_time: [0.0; L],
-        duration: [0.0; L],
-        peak_force: [0.0; L],
-        peak_time: [0.0; L],
-        max_penetration: [0.0; L],
-        time: [[0.0; L]; 3],
-        force: [[0.0; L]; 3],
-        count: [0.0; L],
-        searched: [0.0; L],
+        open: X::ZERO,
+        numbers: Tracker {
+            onset_time: X::ZERO,
+            onset_velocity: X::ZERO,
+            peak_force: X::ZERO,
+            peak_time: X::ZERO,
+            max_penetration: X::ZERO,
+            times: [X::ZERO; 3],
+            forces: [X::ZERO; 3],
+            count: X::ZERO,
+            searched: X::ZERO,
+        },
     };
 
     /// Lane `l` takes `tracker`.
     fn set(&mut self, l: usize, tracker: Option<ImpactTracker>) {
         self.open[l] = flag(tracker.is_some());
-        let Some(tracker) = tracker else { return };
-        let (impact, samples, count, searched) = tracker.parts();
-        self.onset_time[l] = impact.onset_time;
-        self.onset_velocity[l] = impact.onset_velocity;
-        self.exit_time[l] = impact.exit_time;
-        self.duration[l] = impact.duration;
-        self.peak_force[l] = impact.peak_force;
-        self.peak_time[l] = impact.peak_time;
-        self.max_penetration[l] = impact.max_penetration;
-        for (k, (t, f)) in samples.into_iter().enumerate() {
-            self.time[k][l] = t;
-            self.force[k][l] = f;
+        let Some(tr) = tracker else { return };
+        let n = &mut self.numbers;
+        (n.onset_time[l], n.onset_velocity[l]) = (tr.onset_time, tr.onset_velocity);
+        (n.peak_force[l], n.peak_time[l], n.max_penetration[l]) = (tr.peak_force, tr.peak_time, tr.max_penetration);
+        for k in 0..3 {
+            (n.times[k][l], n.forces[k][l]) = (tr.times[k], tr.forces[k]);
         }
-        self.count[l] = count as f64;
-        self.searched[l] = flag(searched);
+        (n.count[l], n.searched[l]) = (tr.count, flag(tr.searched));
     }
 
     /// Lane `l`'s tracker.
     fn get(&self, l: usize) -> Option<ImpactTracker> {
-        (self.open[l].to_bits() != 0).then(|| {
-            let impact = Impact {
-                onset_time: self.onset_time[l],
-                onset_velocity: self.onset_velocity[l],
-                exit_time: self.exit_time[l],
-                duration: self.duration[l],
-                peak_force: self.peak_force[l],
-                peak_time: self.peak_time[l],
-                max_penetration: self.max_penetration[l],
-            };
-            let samples = std::array::from_fn(|k| (self.time[k][l], self.force[k][l]));
-            ImpactTracker::from_parts(impact, samples, self.count[l] as usize, self.searched[l].to_bits() != 0)
+        let n = &self.numbers;
+        (self.open[l].to_bits() != 0).then(|| Tracker {
+            onset_time: n.onset_time[l],
+            onset_velocity: n.onset_velocity[l],
+            peak_force: n.peak_force[l],
+            peak_time: n.peak_time[l],
+            max_penetration: n.max_penetration[l],
+            times: n.times.map(|v| v[l]),
+            forces: n.forces.map(|v| v[l]),
+            count: n.count[l],
+            searched: n.searched[l].to_bits() != 0,
         })
     }
 
     /// [`ImpactTracker::sample`] at (t, F, δ) for the open trackers of the lanes in `lanes` (a
-    /// mask).
+    /// mask): the parabola's vertex, where a sample follows a peak, lane by lane through the
+    /// single tracker's code.
     #[inline(always)]
     fn sample(&mut self, lanes: X, t: X, force: X, penetration: X) {
-        let active = lanes & x(&self.open);
+        let active = lanes & self.open;
         if active.to_bitmask() == 0 {
             return;
         }
-        let deepest = x(&self.max_penetration);
-        self.max_penetration = active.select(deepest.max(penetration), deepest).into();
-        // (A sample at or before the last one only deepens.)
-        let later = active & !t.simd_le(x(&self.time[2]));
-        if later.to_bitmask() == 0 {
-            return;
-        }
-        let shift = |v: &mut [V; 3], new: X| {
-            let (a, b, c) = (x(&v[0]), x(&v[1]), x(&v[2]));
-            *v = [later.select(b, a).into(), later.select(c, b).into(), later.select(new, c).into()];
-        };
-        shift(&mut self.time, t);
-        shift(&mut self.force, force);
-        let count = x(&self.count);
-        self.count = later.select(count + X::ONE, count).into();
-        let (peak, peak_time) = (x(&self.peak_force), x(&self.peak_time));
-        let higher = later & force.simd_gt(peak);
-        self.peak_force = higher.select(force, peak).into();
-        self.peak_time = higher.select(t, peak_time).into();
-        // The parabola's vertex where the middle sample is a peak (rare): lane by lane.
-        let (f0, f1, f2) = (x(&self.force[0]), x(&self.force[1]), x(&self.force[2]));
-        let peaked = later
-            & x(&self.count).simd_ge(X::splat(3.0))
-            & !x(&self.searched)
-            & f1.simd_ge(f0)
-            & f1.simd_ge(f2)
-            & (f1.simd_gt(f0) | f1.simd_gt(f2));
-        let peaked = peaked.to_bitmask();
-        if peaked == 0 {
-            return;
-        }
-        for l in 0..L {
-            if peaked >> l & 1 == 1
-                && let Some((tv, fv)) =
-                    ImpactTracker::vertex(std::array::from_fn(|k| (self.time[k][l], self.force[k][l])))
-                && fv > self.peak_force[l]
-            {
-                self.peak_force[l] = fv;
-                self.peak_time[l] = tv;
+        let peaked = self.numbers.sample_where(active, t, force, penetration).to_bitmask();
+        for l in (0..L).filter(|l| peaked >> l & 1 == 1) {
+            if let Some(mut tracker) = self.get(l) {
+                tracker.offer_vertex();
+                (self.numbers.peak_force[l], self.numbers.peak_time[l]) = (tracker.peak_force, tracker.peak_time);
             }
         }
     }
@@ -595,7 +571,7 @@ fn advance_lanes(
         impulse: [zero; 2],
         friction_impulse: zero,
         end_time: zero,
-        end_loads: Stage { fx: zero, fy: zero, friction: zero },
+        end_loads: LaneLoads { fx: zero, fy: zero, friction: zero },
         end_mass: ([zero; 4], zero),
         end_inputs: [false; L],
         states: States {
@@ -690,37 +666,29 @@ fn advance_lanes(
             )
         };
         let (w_half, w_end) = (omega(&dt_half), omega(&dt_end));
-        let (e0x, e0y, v0x, v0y) = (kept.ex, kept.ey, kept.vx, kept.vy);
+        let (e0, v0) = (Plane::of(&kept.ex, &kept.ey), Plane::of(&kept.vx, &kept.vy));
         // Stage 1 from the kept step end's loads.
         let l1 = kept.end_loads;
-        let (k1x, k1y) = inputs.acceleration(&dt0, &start, &l1);
-        let along = |a: &V, b: &V, f: f64| -> V { (x(a) + x(b) * X::splat(f)).into() };
-        let (k2ex, k2ey) = (along(&v0x, &k1x, 0.5 * h), along(&v0y, &k1y, 0.5 * h));
-        let (s2x, s2y) = (along(&e0x, &v0x, 0.5 * h), along(&e0y, &v0y, 0.5 * h));
-        let l2 = joint.stage((&s2x, &s2y, &k2ex, &k2ey), (&w_half.0, &w_half.1), contact_mask, &reciprocal);
-        let (k2x, k2y) = inputs.acceleration(&dt_half, &middle, &l2);
-        let (k3ex, k3ey) = (along(&v0x, &k2x, 0.5 * h), along(&v0y, &k2y, 0.5 * h));
-        let (s3x, s3y) = (along(&e0x, &k2ex, 0.5 * h), along(&e0y, &k2ey, 0.5 * h));
-        let l3 = joint.stage((&s3x, &s3y, &k3ex, &k3ey), (&w_half.0, &w_half.1), contact_mask, &reciprocal);
-        let (k3x, k3y) = inputs.acceleration(&dt_half, &middle, &l3);
-        let (k4ex, k4ey) = (along(&v0x, &k3x, h), along(&v0y, &k3y, h));
-        let (s4x, s4y) = (along(&e0x, &k3ex, h), along(&e0y, &k3ey, h));
-        let l4 = joint.stage((&s4x, &s4y, &k4ex, &k4ey), (&w_end.0, &w_end.1), contact_mask, &reciprocal);
-        let (k4x, k4y) = inputs.acceleration(&dt_end, &finish, &l4);
-        let sixth = h / 6.0;
-        let combine = |y0: &V, a: &V, b: &V, c: &V, d: &V| -> V {
-            (x(y0) + (x(a) + (x(b) + x(c)) * X::splat(2.0) + x(d)) * X::splat(sixth)).into()
-        };
-        let (e1x, e1y) = (combine(&e0x, &v0x, &k2ex, &k3ex, &k4ex), combine(&e0y, &v0y, &k2ey, &k3ey, &k4ey));
-        let (v1x, v1y) = (combine(&v0x, &k1x, &k2x, &k3x, &k4x), combine(&v0y, &k1y, &k2y, &k3y, &k4y));
+        let first = (inputs.acceleration(&dt0, &start, &l1), l1);
+        let stepped_to = stages::rk4(h, (e0, v0), first, |stage, e, v| {
+            let (dt, mass, w) =
+                if stage == Rk4Stage::Fourth { (&dt_end, &finish, &w_end) } else { (&dt_half, &middle, &w_half) };
+            let loads = joint.stage(e, v, (&w.0, &w.1), contact_mask, &reciprocal);
+            (inputs.acceleration(dt, mass, &loads), loads)
+        });
+        let [l1, l2, l3, l4] = stepped_to.loads;
+        let (e1, v1) = (stepped_to.eccentricity, stepped_to.eccentricity_rate);
+        let (e1x, e1y, v1x, v1y): (V, V, V, V) = (e1.x.into(), e1.y.into(), v1.x.into(), v1.y.into());
+        let (e0x, e0y, v0x, v0y) = (kept.ex, kept.ey, kept.vx, kept.vy);
+        let sum = |y0: &V, k: [&V; 4]| -> V { stages::weighted(x(y0), k.map(x), h).into() };
         let impulse = [
-            combine(&kept.impulse[0], &l1.fx, &l2.fx, &l3.fx, &l4.fx),
-            combine(&kept.impulse[1], &l1.fy, &l2.fy, &l3.fy, &l4.fy),
+            sum(&kept.impulse[0], [&l1.fx, &l2.fx, &l3.fx, &l4.fx]),
+            sum(&kept.impulse[1], [&l1.fy, &l2.fy, &l3.fy, &l4.fy]),
         ];
-        let friction_impulse = combine(&kept.friction_impulse, &l1.friction, &l2.friction, &l3.friction, &l4.friction);
+        let friction_impulse = sum(&kept.friction_impulse, [&l1.friction, &l2.friction, &l3.friction, &l4.friction]);
         // Mode switches (rare), lane by lane through the model's own code.
         // (|e| and δ at the step end do not depend on the mode: computed once, before the switch.)
-        let end_geometry = joint.geometry(x(&e1x), x(&e1y));
+        let end_geometry = joint.geometry(e1.x, e1.y);
         let closed = end_geometry.1.simd_gt(X::ZERO);
         let switching = (closed ^ contact_mask).to_bitmask();
         for l in 0..L {
@@ -740,13 +708,8 @@ fn advance_lanes(
             contact_mask = X::mask(in_contact);
         }
         // The step end's contact state (not gated), then the impact trackers.
-        let end = joint.contact(
-            (x(&e1x), x(&e1y), x(&v1x), x(&v1y)),
-            end_geometry,
-            (&w_end.0, &w_end.1),
-            contact_mask,
-            &reciprocal,
-        );
+        let end =
+            joint.contact((e1.x, e1.y, v1.x, v1.y), end_geometry, (&w_end.0, &w_end.1), contact_mask, &reciprocal);
         end.store(&mut kept.states);
         let end_time: V = (x(&now) + X::splat(h)).into();
         kept.trackers.sample(stepped, x(&end_time), end.normal, end.delta);
@@ -755,7 +718,7 @@ fn advance_lanes(
         (kept.ex, kept.ey, kept.vx, kept.vy) = (e1x, e1y, v1x, v1y);
         (kept.impulse, kept.friction_impulse) = (impulse, friction_impulse);
         kept.end_time = end_time;
-        kept.end_loads = Stage { fx: end.fx.into(), fy: end.fy.into(), friction: end.tangential.into() };
+        kept.end_loads = LaneLoads { fx: end.fx.into(), fy: end.fy.into(), friction: end.tangential.into() };
         kept.end_mass = finish;
         kept.end_inputs = [true; L];
         // Lanes stepped by their models come back into the lanes.

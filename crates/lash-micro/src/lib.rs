@@ -24,6 +24,7 @@ pub mod guide;
 pub mod joint;
 pub mod lanes;
 pub mod model;
+pub mod stages;
 
 pub use bushing::BushingJoint;
 pub use guide::GuideJoint;

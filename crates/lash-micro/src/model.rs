@@ -22,6 +22,7 @@
 //! which multiplies instead of solving.
 
 use super::joint::MicroJoint;
+use super::stages::{self, Rk4Stage};
 use lash_contact::PenetrationError;
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
 use lash_contact::clearance::{ClearanceJoint, Impact, ImpactTracker};
@@ -95,6 +96,12 @@ impl<const N: usize, const M: usize> Loads<N, M> {
     }
 }
 
+/// A 2 × 2 matrix's entries row by row ([`stages`]' order; called where N = 2 only).
+#[inline(always)]
+fn row_major_2x2<const N: usize>(m: &SMatrix<f64, N, N>) -> [f64; 4] {
+    [m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]]
+}
+
 /// Euclidean norm of a short slice.
 #[inline(always)]
 fn norm(x: &[f64]) -> f64 {
@@ -130,10 +137,9 @@ impl<const N: usize> MassFactor<N> {
     /// definite nodes): NaN, which the step's penetration check reports.
     #[inline(always)]
     pub fn new(mass: SMatrix<f64, N, N>) -> Self {
-        let m = &mass;
         if N == 2 {
-            let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
-            return Self { mass, reciprocal_determinant: 1.0 / det, reciprocal_diagonal: SVector::zeros() };
+            let reciprocal_determinant = stages::planar_factor(&row_major_2x2(&mass));
+            return Self { mass, reciprocal_determinant, reciprocal_diagonal: SVector::zeros() };
         }
         // M̃ = L D Lᵀ, L unit lower triangular (below the diagonal of `mass`), 1/D kept: no square
         // root, one division per coordinate.
@@ -146,7 +152,9 @@ impl<const N: usize> MassFactor<N> {
     #[inline(always)]
     pub fn interpolated(mass: &SMatrix<f64, N, N>, rate: &SMatrix<f64, N, N>, dt: f64) -> Self {
         if N == 2 {
-            return Self::new(mass + rate * dt);
+            let (m, reciprocal_determinant) = stages::planar_mass(row_major_2x2(mass), row_major_2x2(rate), dt);
+            let mass = SMatrix::from_fn(|i, j| m[2 * i + j]);
+            return Self { mass, reciprocal_determinant, reciprocal_diagonal: SVector::zeros() };
         }
         Self::factor_lower(Self::lower_at(mass, rate, dt))
     }
@@ -266,9 +274,9 @@ impl<const N: usize> MassFactor<N> {
         let m = &self.mass;
         let mut x = SVector::zeros();
         if N == 2 {
-            let inv = self.reciprocal_determinant;
-            x[0] = (m[(1, 1)] * r[0] - m[(0, 1)] * r[1]) * inv;
-            x[1] = (m[(0, 0)] * r[1] - m[(1, 0)] * r[0]) * inv;
+            let solved = stages::planar_solve((&row_major_2x2(m), self.reciprocal_determinant), [r[0], r[1]]);
+            x[0] = solved[0];
+            x[1] = solved[1];
             return x;
         }
         // L y = r, y ← D⁻¹ y, then Lᵀ x = y (L unit lower triangular).
@@ -679,28 +687,31 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     fn acceleration_with(&self, t: f64, mass: &MassFactor<N>, loads: &Loads<N, M>) -> SVector<f64, N> {
         let dt = t - self.input_time;
         let u = &self.inputs;
+        if N == 2 && M == 1 {
+            // One planar joint: the lanes' function ([`stages::planar_load`]), entries indexed.
+            let (map, rate) = (&u.friction_moment_force, &u.friction_moment_force_rate);
+            let mut r = SVector::<f64, N>::zeros();
+            for i in 0..2 {
+                let force = (u.effective_force[i], u.effective_force_rate[i]);
+                r[i] = stages::planar_load(force, dt, loads.contact[i], (map[(i, 0)], rate[(i, 0)]), loads.friction[0]);
+            }
+            return mass.solve(&r);
+        }
         let mut r = u.effective_force + u.effective_force_rate * dt + loads.contact;
         for j in 0..M {
             let l = loads.friction[j];
             if l == 0.0 {
                 continue;
             }
-            if N == 2 {
-                // One planar joint: two entries, indexed (as slices the step measured 3 % slower).
-                for i in 0..N {
-                    r[i] += (u.friction_moment_force[(i, j)] + u.friction_moment_force_rate[(i, j)] * dt) * l;
-                }
-            } else {
-                // Column j of H and of its rate, as slices (indexed entry by entry, this term was
-                // a seventh of the spatial micro step's instructions).
-                let columns = N * j..N * (j + 1);
-                let (map, rate) = (
-                    &u.friction_moment_force.as_slice()[columns.clone()],
-                    &u.friction_moment_force_rate.as_slice()[columns],
-                );
-                for ((ri, hi), ri_rate) in r.iter_mut().zip(map).zip(rate) {
-                    *ri += (hi + ri_rate * dt) * l;
-                }
+            // Column j of H and of its rate, as slices (indexed entry by entry, this term was a
+            // seventh of the spatial micro step's instructions).
+            let columns = N * j..N * (j + 1);
+            let (map, rate) = (
+                &u.friction_moment_force.as_slice()[columns.clone()],
+                &u.friction_moment_force_rate.as_slice()[columns],
+            );
+            for ((ri, hi), ri_rate) in r.iter_mut().zip(map).zip(rate) {
+                *ri += (hi + ri_rate * dt) * l;
             }
         }
         mass.solve(&r)
@@ -786,8 +797,6 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         self.located = false;
         let (e0, v0) = (self.eccentricity, self.eccentricity_rate);
         let s0 = if DAMPED { self.bush_deflection } else { SVector::zeros() };
-        let (mut r1, mut r2, mut r3, mut r4) =
-            (SVector::<f64, K>::zeros(), SVector::zeros(), SVector::zeros(), SVector::zeros());
         // The last step's end (same time, same inputs) is this step's start: its factor and, for
         // the same state, its loads are reused.
         // (Loads for the same instant and state; the factor only if the inputs were not set since.)
@@ -816,37 +825,26 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             (None, None) => unreachable!("terms either kept or computed"),
         };
         let [middle, finish] = F::pair(self, [t + 0.5 * h, t + h]);
-        let (k1v, l1) = match reused {
+        // The bushes' deflection rates of the four stages (unused, and compiled out, without
+        // damped bushes): a stage's deflections follow the rates of the stage before it.
+        let mut rates = [SVector::<f64, K>::zeros(); 4];
+        let first = match reused {
             Some(loads) => (start.acceleration(self, t, &loads), loads),
-            None => self.acceleration::<SERIES, DAMPED, F>(t, start, (&e0, &v0), &s0, &mut r1),
+            None => self.acceleration::<SERIES, DAMPED, F>(t, start, (&e0, &v0), &s0, &mut rates[0]),
         };
-        // The deflections of the stages (unused, and compiled out, without damped bushes).
-        let stage = |r: &SVector<f64, K>, f: f64| if DAMPED { s0 + r * f } else { s0 };
-        let k1e = v0;
-        let k2e = v0 + k1v * (0.5 * h);
-        let (k2v, l2) = self.acceleration::<SERIES, DAMPED, F>(
-            t + 0.5 * h,
-            &middle,
-            (&(e0 + k1e * (0.5 * h)), &k2e),
-            &stage(&r1, 0.5 * h),
-            &mut r2,
-        );
-        let k3e = v0 + k2v * (0.5 * h);
-        let (k3v, l3) = self.acceleration::<SERIES, DAMPED, F>(
-            t + 0.5 * h,
-            &middle,
-            (&(e0 + k2e * (0.5 * h)), &k3e),
-            &stage(&r2, 0.5 * h),
-            &mut r3,
-        );
-        let k4e = v0 + k3v * h;
-        let (k4v, l4) =
-            self.acceleration::<SERIES, DAMPED, F>(t + h, &finish, (&(e0 + k3e * h), &k4e), &stage(&r3, h), &mut r4);
-        let e1 = e0 + (k1e + (k2e + k3e) * 2.0 + k4e) * (h / 6.0);
-        let v1 = v0 + (k1v + (k2v + k3v) * 2.0 + k4v) * (h / 6.0);
-        let s1 = if DAMPED { s0 + (r1 + (r2 + r3) * 2.0 + r4) * (h / 6.0) } else { s0 };
-        self.impulse += (l1.contact + (l2.contact + l3.contact) * 2.0 + l4.contact) * (h / 6.0);
-        self.friction_impulse += (l1.friction + (l2.friction + l3.friction) * 2.0 + l4.friction) * (h / 6.0);
+        let step = stages::rk4(h, (e0, v0), first, |stage, e, v| {
+            let terms = if stage == Rk4Stage::Fourth { &finish } else { &middle };
+            let f = stage.fraction() * h;
+            let i = stage.index();
+            let deflection = if DAMPED { s0 + rates[i - 1] * f } else { s0 };
+            self.acceleration::<SERIES, DAMPED, F>(t + f, terms, (&e, &v), &deflection, &mut rates[i])
+        });
+        let (e1, v1) = (step.eccentricity, step.eccentricity_rate);
+        let s1 = if DAMPED { stages::weighted(s0, rates, h) } else { s0 };
+        let [l1, l2, l3, l4] = step.loads;
+        self.impulse = stages::weighted(self.impulse, [l1.contact, l2.contact, l3.contact, l4.contact], h);
+        self.friction_impulse =
+            stages::weighted(self.friction_impulse, [l1.friction, l2.friction, l3.friction, l4.friction], h);
         self.switch_modes::<DAMPED>(t, h, (&e0, &v0, &s0), (&e1, &v1, &s1));
         self.eccentricity = e1;
         self.eccentricity_rate = v1;
