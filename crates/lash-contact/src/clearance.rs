@@ -441,13 +441,20 @@ pub struct Tracker<R: Real> {
     pub searched: R::Mask,
 }
 
+/// The last three samples with `new` appended where `later` holds (the oldest dropped).
+#[inline(always)]
+fn shifted<R: Real>(later: R::Mask, v: [R; 3], new: R) -> [R; 3] {
+    [R::select(later, v[1], v[0]), R::select(later, v[2], v[1]), R::select(later, new, v[2])]
+}
+
 /// One open impact's tracker.
 pub type ImpactTracker = Tracker<f64>;
 
 impl<R: Real> Tracker<R> {
-    /// Adds a sample (t, F, δ) to the trackers in `active`; returns those whose middle sample is now
-    /// a peak of three (not searched), whose parabola's vertex ([`ImpactTracker::vertex`]) the
-    /// caller offers as the peak — rare, and taken lane by lane.
+    /// Adds a sample (t, F, δ) to the trackers in `active`; returns those that took it and hold
+    /// three samples (and whose peaks are not searched), whose parabola's vertex
+    /// ([`ImpactTracker::vertex`]) the caller offers as the peak where the middle sample is one
+    /// ([`Tracker::middle_is_peak`]; rare for a lane, taken lane by lane).
     #[inline(always)]
     pub fn sample_where(&mut self, active: R::Mask, t: R, force: R, penetration: R) -> R::Mask {
         self.max_penetration = R::select(active, self.max_penetration.max(penetration), self.max_penetration);
@@ -456,22 +463,21 @@ impl<R: Real> Tracker<R> {
         if !R::any(later) {
             return later;
         }
-        let shift = |v: [R; 3], new: R| {
-            [R::select(later, v[1], v[0]), R::select(later, v[2], v[1]), R::select(later, new, v[2])]
-        };
-        self.times = shift(self.times, t);
-        self.forces = shift(self.forces, force);
+        self.times = shifted(later, self.times, t);
+        self.forces = shifted(later, self.forces, force);
         self.count = R::select(later, self.count + R::splat(1.0), self.count);
         let higher = later & force.simd_gt(self.peak_force);
         self.peak_force = R::select(higher, force, self.peak_force);
         self.peak_time = R::select(higher, t, self.peak_time);
+        later & self.count.simd_ge(R::splat(3.0)) & !self.searched
+    }
+
+    /// Whether the middle one of the last three samples is a peak ([`ImpactTracker::vertex`]'s
+    /// first test, for every lane at once).
+    #[inline(always)]
+    pub fn middle_is_peak(&self) -> R::Mask {
         let [f0, f1, f2] = self.forces;
-        later
-            & self.count.simd_ge(R::splat(3.0))
-            & !self.searched
-            & f1.simd_ge(f0)
-            & f1.simd_ge(f2)
-            & (f1.simd_gt(f0) | f1.simd_gt(f2))
+        f1.simd_ge(f0) & f1.simd_ge(f2) & (f1.simd_gt(f0) | f1.simd_gt(f2))
     }
 }
 

@@ -17,6 +17,11 @@ pub const LANES: usize = 8;
 pub trait Real:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
+    /// Lanes in one number: 1 for `f64` (one run), 8 for [`F64x8`]. A function written over `Real`
+    /// may skip work that every lane can do without only where one run does it (`WIDTH == 1`):
+    /// for eight lanes the test itself ([`Real::any`] forms a bit mask lane by lane) can cost
+    /// more than the work.
+    const WIDTH: usize;
     /// A comparison's result, lane by lane.
     type Mask: Copy + BitAnd<Output = Self::Mask> + BitOr<Output = Self::Mask> + Not<Output = Self::Mask>;
     /// `v` in every lane.
@@ -46,6 +51,7 @@ pub trait Real:
 }
 
 impl Real for f64 {
+    const WIDTH: usize = 1;
     type Mask = bool;
     #[inline(always)]
     fn splat(v: f64) -> Self {
@@ -171,6 +177,7 @@ impl F64x8 {
 }
 
 impl Real for F64x8 {
+    const WIDTH: usize = LANES;
     type Mask = F64x8;
     #[inline(always)]
     fn splat(v: f64) -> Self {

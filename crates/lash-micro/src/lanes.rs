@@ -103,6 +103,34 @@ impl std::ops::Mul<f64> for Plane {
     }
 }
 
+/// The second to fourth stages of every lane's step ([`stages::rk4`]): the joints and inputs, the
+/// terms at the step's middle and end (time past the inputs' node, M̃ with its determinant's
+/// reciprocal, the journal's and the bearing's angular velocities), each lane's contact mode and
+/// its onset velocity's reciprocal.
+struct LaterStages<'a> {
+    joint: &'a Joint,
+    inputs: &'a Inputs,
+    middle: (&'a V, &'a ([V; 4], V), &'a (V, V)),
+    end: (&'a V, &'a ([V; 4], V), &'a (V, V)),
+    in_contact: X,
+    reciprocal: &'a V,
+}
+
+impl stages::StageRates<Plane, LaneLoads> for LaterStages<'_> {
+    #[inline(always)]
+    fn rate(&mut self, stage: Rk4Stage, e: Plane, v: Plane) -> (Plane, LaneLoads) {
+        let (dt, mass, w) = if stage == Rk4Stage::Fourth { self.end } else { self.middle };
+        let loads = self.joint.stage(e, v, (&w.0, &w.1), self.in_contact, self.reciprocal);
+        (self.inputs.acceleration(dt, mass, &loads), loads)
+    }
+}
+
+/// [`stages::weighted`] of every lane.
+#[inline(always)]
+fn weighted(y0: &V, k: [&V; 4], h: f64) -> V {
+    stages::weighted(x(y0), k.map(x), h).into()
+}
+
 /// Each lane's loads at one stage evaluation: on the journal, and the friction load.
 #[derive(Clone, Copy)]
 struct LaneLoads {
@@ -295,22 +323,20 @@ impl Inputs {
     /// M̃ + Ṁ dt of every lane and its determinant's reciprocal ([`stages::planar_mass`]).
     #[inline(always)]
     fn mass_at(&self, dt: &V) -> ([V; 4], V) {
-        let (m, inv) = stages::planar_mass(self.mass.map(X::from), self.mass_rate.map(X::from), x(dt));
-        (m.map(Into::into), inv.into())
+        let four = |v: &[V; 4]| [x(&v[0]), x(&v[1]), x(&v[2]), x(&v[3])];
+        let (m, inv) = stages::planar_mass(four(&self.mass), four(&self.mass_rate), x(dt));
+        ([m[0].into(), m[1].into(), m[2].into(), m[3].into()], inv.into())
     }
 
     /// ẅ of every lane: M̃⁻¹ (f̃ + ḟ dt + f_c + (H + Ḣ dt) F_T), the friction term only where
     /// F_T ≠ 0 (the functions of [`InterfaceModel`]'s `acceleration_with`).
     #[inline(always)]
     fn acceleration(&self, dt: &V, (m, inv): &([V; 4], V), loads: &LaneLoads) -> Plane {
-        let dt = x(dt);
-        let f = x(&loads.friction);
-        let load = |i: usize, contact: &V| {
-            let force = (x(&self.force[i]), x(&self.force_rate[i]));
-            stages::planar_load(force, dt, x(contact), (x(&self.moment[i]), x(&self.moment_rate[i])), f)
-        };
-        let r = [load(0, &loads.fx), load(1, &loads.fy)];
-        let [ax, ay] = stages::planar_solve((&m.map(X::from), x(inv)), r);
+        let two = |v: &[V; 2]| [x(&v[0]), x(&v[1])];
+        let force = (two(&self.force), two(&self.force_rate));
+        let map = (two(&self.moment), two(&self.moment_rate));
+        let r = stages::planar_load(force, x(dt), [x(&loads.fx), x(&loads.fy)], map, x(&loads.friction));
+        let [ax, ay] = stages::planar_solve((&[x(&m[0]), x(&m[1]), x(&m[2]), x(&m[3])], x(inv)), r);
         Plane { x: ax, y: ay }
     }
 }
@@ -430,7 +456,8 @@ impl Trackers {
         if active.to_bitmask() == 0 {
             return;
         }
-        let peaked = self.numbers.sample_where(active, t, force, penetration).to_bitmask();
+        let ready = self.numbers.sample_where(active, t, force, penetration);
+        let peaked = (ready & self.numbers.middle_is_peak()).to_bitmask();
         for l in (0..L).filter(|l| peaked >> l & 1 == 1) {
             if let Some(mut tracker) = self.get(l) {
                 tracker.offer_vertex();
@@ -670,22 +697,25 @@ fn advance_lanes(
         // Stage 1 from the kept step end's loads.
         let l1 = kept.end_loads;
         let first = (inputs.acceleration(&dt0, &start, &l1), l1);
-        let stepped_to = stages::rk4(h, (e0, v0), first, |stage, e, v| {
-            let (dt, mass, w) =
-                if stage == Rk4Stage::Fourth { (&dt_end, &finish, &w_end) } else { (&dt_half, &middle, &w_half) };
-            let loads = joint.stage(e, v, (&w.0, &w.1), contact_mask, &reciprocal);
-            (inputs.acceleration(dt, mass, &loads), loads)
-        });
+        let mut later = LaterStages {
+            joint: &joint,
+            inputs: &inputs,
+            middle: (&dt_half, &middle, &w_half),
+            end: (&dt_end, &finish, &w_end),
+            in_contact: contact_mask,
+            reciprocal: &reciprocal,
+        };
+        let stepped_to = stages::rk4(h, (e0, v0), first, &mut later);
         let [l1, l2, l3, l4] = stepped_to.loads;
         let (e1, v1) = (stepped_to.eccentricity, stepped_to.eccentricity_rate);
         let (e1x, e1y, v1x, v1y): (V, V, V, V) = (e1.x.into(), e1.y.into(), v1.x.into(), v1.y.into());
         let (e0x, e0y, v0x, v0y) = (kept.ex, kept.ey, kept.vx, kept.vy);
-        let sum = |y0: &V, k: [&V; 4]| -> V { stages::weighted(x(y0), k.map(x), h).into() };
         let impulse = [
-            sum(&kept.impulse[0], [&l1.fx, &l2.fx, &l3.fx, &l4.fx]),
-            sum(&kept.impulse[1], [&l1.fy, &l2.fy, &l3.fy, &l4.fy]),
+            weighted(&kept.impulse[0], [&l1.fx, &l2.fx, &l3.fx, &l4.fx], h),
+            weighted(&kept.impulse[1], [&l1.fy, &l2.fy, &l3.fy, &l4.fy], h),
         ];
-        let friction_impulse = sum(&kept.friction_impulse, [&l1.friction, &l2.friction, &l3.friction, &l4.friction]);
+        let friction_impulse =
+            weighted(&kept.friction_impulse, [&l1.friction, &l2.friction, &l3.friction, &l4.friction], h);
         // Mode switches (rare), lane by lane through the model's own code.
         // (|e| and δ at the step end do not depend on the mode: computed once, before the switch.)
         let end_geometry = joint.geometry(e1.x, e1.y);

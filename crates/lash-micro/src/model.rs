@@ -524,6 +524,45 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
 /// The micro model of k planar revolute clearance joints (N = 2k).
 pub type PlanarInterfaceModel<const N: usize, const K: usize> = InterfaceModel<ClearanceJoint, N, K, K, K>;
 
+/// The second to fourth stages of [`InterfaceModel::rk4_step`] ([`stages::rk4`]): the model at the
+/// step's start `t`, the macro terms at the step's middle and end, and the bushes damped in series:
+/// their deflections at the start, and each stage's deflection rates (a stage's deflections follow
+/// the rates of the stage before it; unused, and compiled out, without such bushes).
+struct LaterStages<
+    'a,
+    J: MicroJoint,
+    F,
+    const N: usize,
+    const K: usize,
+    const M: usize,
+    const R: usize,
+    const SERIES: bool,
+    const DAMPED: bool,
+> {
+    model: &'a InterfaceModel<J, N, K, M, R>,
+    t: f64,
+    h: f64,
+    terms: [&'a F; 2],
+    deflection: SVector<f64, K>,
+    rates: [SVector<f64, K>; 4],
+}
+
+impl<J, F, const N: usize, const K: usize, const M: usize, const R: usize, const SERIES: bool, const DAMPED: bool>
+    stages::StageRates<SVector<f64, N>, Loads<N, M>> for LaterStages<'_, J, F, N, K, M, R, SERIES, DAMPED>
+where
+    J: MicroJoint,
+    F: InstantTerms<N, M>,
+{
+    #[inline(always)]
+    fn rate(&mut self, stage: Rk4Stage, e: SVector<f64, N>, v: SVector<f64, N>) -> (SVector<f64, N>, Loads<N, M>) {
+        let terms = if stage == Rk4Stage::Fourth { self.terms[1] } else { self.terms[0] };
+        let f = stage.fraction() * self.h;
+        let i = stage.index();
+        let deflection = if DAMPED { self.deflection + self.rates[i - 1] * f } else { self.deflection };
+        self.model.acceleration::<SERIES, DAMPED, F>(self.t + f, terms, (&e, &v), &deflection, &mut self.rates[i])
+    }
+}
+
 /// What a step's end leaves to the next step's start.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct StepEnd<const N: usize, const M: usize> {
@@ -689,13 +728,12 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         let u = &self.inputs;
         if N == 2 && M == 1 {
             // One planar joint: the lanes' function ([`stages::planar_load`]), entries indexed.
-            let (map, rate) = (&u.friction_moment_force, &u.friction_moment_force_rate);
-            let mut r = SVector::<f64, N>::zeros();
-            for i in 0..2 {
-                let force = (u.effective_force[i], u.effective_force_rate[i]);
-                r[i] = stages::planar_load(force, dt, loads.contact[i], (map[(i, 0)], rate[(i, 0)]), loads.friction[0]);
-            }
-            return mass.solve(&r);
+            let pair = |v: &SVector<f64, N>| [v[0], v[1]];
+            let column = |m: &SMatrix<f64, N, M>| [m[(0, 0)], m[(1, 0)]];
+            let force = (pair(&u.effective_force), pair(&u.effective_force_rate));
+            let map = (column(&u.friction_moment_force), column(&u.friction_moment_force_rate));
+            let r = stages::planar_load(force, dt, pair(&loads.contact), map, loads.friction[0]);
+            return mass.solve(&SVector::from_fn(|i, _| r[i]));
         }
         let mut r = u.effective_force + u.effective_force_rate * dt + loads.contact;
         for j in 0..M {
@@ -832,13 +870,16 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             Some(loads) => (start.acceleration(self, t, &loads), loads),
             None => self.acceleration::<SERIES, DAMPED, F>(t, start, (&e0, &v0), &s0, &mut rates[0]),
         };
-        let step = stages::rk4(h, (e0, v0), first, |stage, e, v| {
-            let terms = if stage == Rk4Stage::Fourth { &finish } else { &middle };
-            let f = stage.fraction() * h;
-            let i = stage.index();
-            let deflection = if DAMPED { s0 + rates[i - 1] * f } else { s0 };
-            self.acceleration::<SERIES, DAMPED, F>(t + f, terms, (&e, &v), &deflection, &mut rates[i])
-        });
+        let mut later = LaterStages::<'_, J, F, N, K, M, R, SERIES, DAMPED> {
+            model: self,
+            t,
+            h,
+            terms: [&middle, &finish],
+            deflection: s0,
+            rates,
+        };
+        let step = stages::rk4(h, (e0, v0), first, &mut later);
+        let rates = later.rates;
         let (e1, v1) = (step.eccentricity, step.eccentricity_rate);
         let s1 = if DAMPED { stages::weighted(s0, rates, h) } else { s0 };
         let [l1, l2, l3, l4] = step.loads;
