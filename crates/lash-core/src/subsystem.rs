@@ -675,13 +675,13 @@ impl MacroPorts {
         }
     }
 
-    /// Every output finite, or the message naming the first that is not.
-    pub fn check_finite(&self) -> Result<(), String> {
+    /// Every output finite, or the first that is not.
+    pub fn check_finite(&self) -> Result<(), NonFiniteOutput> {
         match self.values.iter().position(|v| !v.is_finite()) {
             None => Ok(()),
             Some(bad) => {
-                let name = &self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name;
-                Err(format!("output {name} became {}", self.values[bad]))
+                let name = self.variables[self.offsets.partition_point(|&o| o <= bad) - 1].name.clone();
+                Err(NonFiniteOutput { name, value: self.values[bad] })
             }
         }
     }
@@ -691,6 +691,16 @@ impl MacroPorts {
         self.phase = Phase::Failed;
         SubsystemError::Simulation { t: self.time.seconds(), message }
     }
+}
+
+/// An output of a subsystem that is not finite (NaN or infinite): its variable and value.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("output {name} became {value}")]
+pub struct NonFiniteOutput {
+    /// The variable's name.
+    pub name: String,
+    /// Its value.
+    pub value: f64,
 }
 
 /// How a step ended. A master must look at every outcome: only [`StepOutcome::Completed`] means
@@ -1277,7 +1287,8 @@ mod tests {
         // A non-finite output is named with its value.
         ports.check_finite().unwrap();
         ports.values[5] = f64::NAN;
-        assert_eq!(ports.check_finite(), Err("output force became NaN".to_string()));
+        let bad = ports.check_finite().expect_err("a NaN output");
+        assert_eq!((bad.name.as_str(), bad.to_string().as_str()), ("force", "output force became NaN"));
         let e = ports.fail("it broke".into());
         assert_eq!(ports.phase, Phase::Failed);
         assert!(matches!(e, SubsystemError::Simulation { message, .. } if message == "it broke"));

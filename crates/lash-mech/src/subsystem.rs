@@ -658,7 +658,7 @@ impl MechanismSubsystem {
                 }
             }
         }
-        self.ports.check_finite()?;
+        self.ports.check_finite().map_err(|e| e.to_string())?;
         self.terms = Some(terms);
         Ok(())
     }

@@ -515,7 +515,7 @@ impl SpatialMechanismSubsystem {
                 }
             }
         }
-        self.ports.check_finite()?;
+        self.ports.check_finite().map_err(|e| e.to_string())?;
         self.terms = Some(terms);
         Ok(())
     }
