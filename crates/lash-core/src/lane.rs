@@ -19,8 +19,8 @@ pub trait Real:
 {
     /// Lanes in one number: 1 for `f64` (one run), 8 for [`F64x8`]. A function written over `Real`
     /// may skip work that every lane can do without only where one run does it (`WIDTH == 1`):
-    /// for eight lanes the test itself ([`Real::any`] forms a bit mask lane by lane) can cost
-    /// more than the work.
+    /// for eight lanes the test and its branch in the middle of the arithmetic can cost more
+    /// than the work.
     const WIDTH: usize;
     /// A comparison's result, lane by lane.
     type Mask: Copy + BitAnd<Output = Self::Mask> + BitOr<Output = Self::Mask> + Not<Output = Self::Mask>;
