@@ -72,6 +72,12 @@ fn x(a: &V) -> X {
     X::from(*a)
 }
 
+/// Several arrays of lanes in vector registers.
+#[inline(always)]
+fn xs<const K: usize>(a: &[V; K]) -> [X; K] {
+    std::array::from_fn(|k| x(&a[k]))
+}
+
 /// Every lane's (x, y) pair: w, ẇ or ẅ of the step ([`stages::rk4`]'s vectors), kept as arrays
 /// (loaded into registers per operation: held in registers across the step's stages, the pairs
 /// crowded the contact law's numbers out of them, and the lanes' step measured 15–20 % slower).
@@ -326,8 +332,7 @@ impl Inputs {
     /// M̃ + Ṁ dt of every lane and its determinant's reciprocal ([`stages::planar_mass`]).
     #[inline(always)]
     fn mass_at(&self, dt: &V) -> ([V; 4], V) {
-        let four = |v: &[V; 4]| [x(&v[0]), x(&v[1]), x(&v[2]), x(&v[3])];
-        let (m, inv) = stages::planar_mass(four(&self.mass), four(&self.mass_rate), x(dt));
+        let (m, inv) = stages::planar_mass(xs(&self.mass), xs(&self.mass_rate), x(dt));
         ([m[0].into(), m[1].into(), m[2].into(), m[3].into()], inv.into())
     }
 
@@ -335,11 +340,10 @@ impl Inputs {
     /// F_T ≠ 0 (the functions of [`InterfaceModel`]'s `acceleration_with`).
     #[inline(always)]
     fn acceleration(&self, dt: &V, (m, inv): &([V; 4], V), loads: &LaneLoads) -> Plane {
-        let two = |v: &[V; 2]| [x(&v[0]), x(&v[1])];
-        let force = (two(&self.force), two(&self.force_rate));
-        let map = (two(&self.moment), two(&self.moment_rate));
+        let force = (xs(&self.force), xs(&self.force_rate));
+        let map = (xs(&self.moment), xs(&self.moment_rate));
         let r = stages::planar_load(force, x(dt), [x(&loads.fx), x(&loads.fy)], map, x(&loads.friction));
-        let [ax, ay] = stages::planar_solve((&[x(&m[0]), x(&m[1]), x(&m[2]), x(&m[3])], x(inv)), r);
+        let [ax, ay] = stages::planar_solve((&xs(m), x(inv)), r);
         Plane::of(ax, ay)
     }
 }
