@@ -124,6 +124,8 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
         "40",
         "--cases",
         "4",
+        "--track-impacts",
+        "32",
         "--quiet",
         "--out",
         dir.join("hidden").to_str().unwrap(),
@@ -134,6 +136,9 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
     assert_eq!(report["cases"], 4);
     let rms_error = report["force_rms_error"][0].as_f64().unwrap();
     assert!(rms_error < 0.15, "the contact force's RMS within 15 % even from a small bank: {report}");
+    // The impact tracking ran on every case (its particles, and how many cases it followed).
+    assert_eq!(report["tracking"][0], 32, "{report}");
+    assert!(report["tracking"][1].as_u64().is_some_and(|f| f <= 4), "{report}");
     // Bad input: exit 2 with the field named.
     let bad = dir.join("bad.csv");
     std::fs::write(&bad, "time [s],slider.ax [m/s^2]\n0,1\n0.0001,nan\n").unwrap();
@@ -147,6 +152,7 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
             "--clearance: 2 values for 1",
         ),
         (vec!["estimate", "validate", "--prepared", p, "--cases", "0"], "--cases"),
+        (vec!["estimate", m, "--prepared", p, "--track-impacts", "1"], "--track-impacts: 2 to 100000 particles"),
     ] {
         let o = lash(&args);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));

@@ -118,10 +118,16 @@ fn show(value: f64, unit: &str) -> String {
 }
 
 /// `lash estimate MEASUREMENT --prepared FILE [--out DIR]`.
-pub fn estimate(measurement: &Path, prepared: &Path, out: Option<&Path>) -> Result<(), CliError> {
+pub fn estimate(
+    measurement: &Path,
+    prepared: &Path,
+    out: Option<&Path>,
+    track_impacts: Option<usize>,
+) -> Result<(), CliError> {
     let estimator = load(prepared)?;
     let setup = &estimator.setup;
-    let (e, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, measurement).map_err(cli)?;
+    let track = tracking(track_impacts)?;
+    let (e, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, measurement, track).map_err(cli)?;
     let f0 = e.crank_frequency;
     println!("{} (setup {}, crank at {:.2} Hz = {:.0} rpm):", measurement.display(), setup.name, f0, f0 * 60.0);
     for note in &notes {
@@ -147,6 +153,19 @@ pub fn estimate(measurement: &Path, prepared: &Path, out: Option<&Path>) -> Resu
     } else {
         println!(
             "  hidden signals (bands: the posterior draws' spread, not calibrated — an estimator prepared before bands were calibrated):"
+        );
+    }
+    if let Some(t) = &hidden.tracking {
+        println!(
+            "  impact tracking ({} particles): innovation {:.0} % of the measurement's RMS (the draw alone {:.0} %): {}",
+            t.particles,
+            100.0 * t.innovation / t.measured_rms,
+            100.0 * t.replay_residual / t.measured_rms,
+            if t.follows {
+                "it follows the measurement, the onsets are its own"
+            } else {
+                "it does not follow the measurement, the onsets are the draws'"
+            }
         );
     }
     for (j, onsets) in hidden.onsets.iter().enumerate() {
@@ -241,12 +260,22 @@ pub fn validate(
     Ok(())
 }
 
+/// The impact tracking's options for `--track-impacts PARTICLES`.
+fn tracking(particles: Option<usize>) -> Result<Option<lash_estimate::track::TrackOptions>, CliError> {
+    match particles {
+        Some(p) if !(2..=100_000).contains(&p) => {
+            Err(CliError::Input(format!("--track-impacts: 2 to 100000 particles, got {p}")))
+        }
+        Some(particles) => Ok(Some(lash_estimate::track::TrackOptions { particles, ..Default::default() })),
+        None => Ok(None),
+    }
+}
+
 /// `lash estimate validate --prepared FILE --hidden SNR_DB [--cases N] [--seed S] [--out DIR]`.
 pub fn validate_hidden(
     prepared: &Path,
-    cases: u64,
-    seed: u64,
-    snr_db: f64,
+    (cases, seed, snr_db): (u64, u64, f64),
+    track_impacts: Option<usize>,
     out: Option<&Path>,
     quiet: bool,
 ) -> Result<(), CliError> {
@@ -254,7 +283,9 @@ pub fn validate_hidden(
     if !(snr_db.is_finite() && snr_db > 0.0) {
         return Err(CliError::Input(format!("--hidden: a signal-to-noise ratio in dB above 0, got {snr_db}")));
     }
-    let r = lash_estimate::hidden::validate_hidden(&estimator, cases, seed, snr_db, &progress(quiet)).map_err(cli)?;
+    let track = tracking(track_impacts)?;
+    let r = lash_estimate::hidden::validate_hidden(&estimator, (cases, seed, snr_db), track, &progress(quiet))
+        .map_err(cli)?;
     println!(
         "{}: hidden signals of {} held-out full-model cases at {} dB (seed {}, {} left out)",
         r.setup, r.cases, r.snr_db, r.seed, r.failed
@@ -292,6 +323,12 @@ pub fn validate_hidden(
         pct(r.impacts_found),
         pct(r.onsets_true)
     );
+    if let Some((particles, followed)) = r.tracking {
+        println!(
+            "  impact tracking ({particles} particles): followed the measurement in {followed} of {} cases (their onsets the filter's, the others' the draws')",
+            r.cases
+        );
+    }
     println!("  wall time per case (estimate, re-simulation, alignment): {:.2} s", r.seconds_per_case);
     if let Some(out) = out {
         let json = serde_json::to_string_pretty(&r).map_err(|e| CliError::Failure(e.to_string()))?;

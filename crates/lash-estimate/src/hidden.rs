@@ -56,6 +56,10 @@ pub struct Hidden {
     /// Full-model cases the bands were calibrated on (0: the draws' own spread, not calibrated).
     #[serde(default)]
     pub calibration_cases: usize,
+    /// Where the onsets come from the impact tracking filter: how it ran and how well it follows
+    /// the measurement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracking: Option<crate::track::TrackSummary>,
 }
 
 /// How the hidden signals' bands are widened to hold the converged full model's truth: split
@@ -166,7 +170,7 @@ pub fn calibrate_bands(
             let snr = setup.snr_db[0] + (setup.snr_db[1] - setup.snr_db[0]) * (i as f64 + 0.5) / cases as f64;
             let case = held_out(&frozen.setup, &r, seed, i, snr).and_then(|t| {
                 let (f0, features) = crate::prepare::measured_features(setup, band_hz, &t.measured)?;
-                let hidden = reconstruct(frozen, &features, f0, &t.measured[0]).ok()?;
+                let hidden = reconstruct(frozen, &features, f0, &t.measured[0], None).ok()?;
                 Some((t, hidden))
             });
             progress(
@@ -273,6 +277,19 @@ fn columns(runner: &dyn lash_run::Runner, channels: &[String]) -> Result<Vec<usi
         .collect()
 }
 
+/// The scenario of one posterior draw at crank frequency `f0` (its horizon the base's).
+fn draw_scenario(
+    estimator: &Estimator,
+    r: &Resolved,
+    base: &lash_scenario::paths::EditBase,
+    draw: &[f64],
+    f0: f64,
+) -> Result<lash_scenario::AnyScenario, EstimateError> {
+    let e = edits(estimator, r, draw, f0);
+    base.edited(e.iter().map(|(p, v)| (p.as_str(), *v)))
+        .map_err(|e| EstimateError::Failure(format!("a posterior draw's scenario: {e:?}")))
+}
+
 /// Simulates the draws with the reduced model (side by side in vector lanes), over the settle
 /// time, the window and two revolutions more (room for the alignment).
 fn simulate(
@@ -296,10 +313,7 @@ fn simulate(
     let mut indices = Vec::with_capacity(draws.len());
     let mut dt = 0.0;
     for draw in draws {
-        let e = edits(estimator, r, draw, f0);
-        let mut scenario = base
-            .edited(e.iter().map(|(p, v)| (p.as_str(), *v)))
-            .map_err(|e| EstimateError::Failure(format!("a posterior draw's scenario: {e:?}")))?;
+        let mut scenario = draw_scenario(estimator, r, &base, draw, f0)?;
         scenario.simulation_mut().horizon = horizon;
         let (sensor, mount) = sensors_of(&mut scenario, &[setup.channels[0].name.clone()]).remove(0);
         mounts.push(mount);
@@ -342,7 +356,7 @@ fn simulate(
 /// The fine-sample index where the measurement's first sample falls in `sim`: the lag, within
 /// one revolution after the settle time, whose samples correlate best with `measured` (each
 /// side's mean removed; the sensor's gain does not matter).
-fn align(sim: &Simulated, measured: &[f64], fs: f64, f0: f64, settle: f64) -> Option<usize> {
+fn align(sim: &Simulated, measured: &[f64], fs: f64, f0: f64, settle: f64) -> Option<(f64, usize)> {
     let every = (1.0 / (fs * sim.dt)).round() as usize;
     let first = (settle / sim.dt).round() as usize;
     let period = (1.0 / (f0 * sim.dt)).ceil() as usize;
@@ -366,7 +380,7 @@ fn align(sim: &Simulated, measured: &[f64], fs: f64, f0: f64, settle: f64) -> Op
             best = (score, lag);
         }
     }
-    Some(best.1)
+    Some(best)
 }
 
 /// The `q` quantile of `v` (sorted in place; [`crate::infer`]'s interpolation).
@@ -382,6 +396,21 @@ fn onsets(draws: &[Vec<f64>]) -> Vec<usize> {
     (1..n).filter(|&i| contact(i) && !contact(i - 1)).collect()
 }
 
+/// One signal's band over the draws (each a series of the same length): per sample the median
+/// and the 5 % and 95 % quantiles.
+fn band(name: String, unit: &str, draws: &[Vec<f64>]) -> Band {
+    let n = draws.first().map_or(0, Vec::len);
+    let (mut median, mut low, mut high) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    let mut column = vec![0.0; draws.len()];
+    for i in 0..n {
+        column.iter_mut().zip(draws).for_each(|(c, d)| *c = d[i]);
+        median.push(quantile(&mut column, 0.5));
+        low.push(quantile(&mut column, 0.05));
+        high.push(quantile(&mut column, 0.95));
+    }
+    Band { name, unit: unit.into(), median, low, high }
+}
+
 /// The hidden signals of a measurement whose reference channel is `measured` (the first channel,
 /// at the setup's sample rate), whose features are `features`, taken at crank frequency `f0`.
 pub fn reconstruct(
@@ -389,6 +418,7 @@ pub fn reconstruct(
     features: &[f64],
     f0: f64,
     measured: &[f64],
+    track: Option<crate::track::TrackOptions>,
 ) -> Result<Hidden, EstimateError> {
     let setup = &estimator.setup;
     let r = setup.resolve()?;
@@ -403,11 +433,16 @@ pub fn reconstruct(
     let joints = r.joints.len();
     let mut series: Vec<(Series, Series)> = vec![(Vec::new(), Vec::new()); joints];
     let mut failed = 0;
-    for sim in &simulated {
-        let Some(lag) = sim.as_ref().and_then(|s| align(s, &reference, fs, f0, setup.settle)) else {
+    // The draw that follows the measurement best: (score, draw, lag).
+    let mut best: Option<(f64, usize, usize)> = None;
+    for (d, sim) in simulated.iter().enumerate() {
+        let Some((score, lag)) = sim.as_ref().and_then(|s| align(s, &reference, fs, f0, setup.settle)) else {
             failed += 1;
             continue;
         };
+        if best.is_none_or(|b| score > b.0) {
+            best = Some((score, d, lag));
+        }
         let sim = sim.as_ref().expect("aligned");
         let every = (1.0 / (fs * sim.dt)).round() as usize;
         let at = |x: &[f64]| (0..measured.len()).map(|i| x[lag + i * every]).collect::<Vec<f64>>();
@@ -422,18 +457,6 @@ pub fn reconstruct(
             chosen.len()
         )));
     }
-    let band = |name: String, unit: &str, draws: &[Vec<f64>]| {
-        let n = measured.len();
-        let (mut median, mut low, mut high) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-        let mut column = vec![0.0; draws.len()];
-        for i in 0..n {
-            column.iter_mut().zip(draws).for_each(|(c, d)| *c = d[i]);
-            median.push(quantile(&mut column, 0.5));
-            low.push(quantile(&mut column, 0.05));
-            high.push(quantile(&mut column, 0.95));
-        }
-        Band { name, unit: unit.into(), median, low, high }
-    };
     // A summary of a signal (its RMS, its peak) is estimated from each draw's own: the median
     // series is smoother than any draw, and its peak lower than theirs.
     let summary = |draws: &[Vec<f64>], of: fn(&[f64]) -> f64| {
@@ -458,11 +481,67 @@ pub fn reconstruct(
         draws: chosen.len(),
         failed,
         calibration_cases: 0,
+        tracking: None,
     };
     if let Some(c) = &estimator.hidden_calibration {
         c.apply(&mut hidden);
     }
+    if let (Some(options), Some((_, d, lag))) = (track, best) {
+        let sim = simulated[d].as_ref().expect("aligned");
+        let tracked = track_impacts(estimator, &r, (&chosen[d], f0), (sim, lag), measured, options)?;
+        hidden.take_tracked(tracked);
+    }
     Ok(hidden)
+}
+
+impl Hidden {
+    /// The impact tracking's summary, and its onsets where its particles follow the measurement.
+    fn take_tracked(&mut self, tracked: Option<crate::track::Tracked>) {
+        if let Some(t) = tracked {
+            if t.summary.follows {
+                self.onsets = t.onsets;
+            }
+            self.tracking = Some(t.summary);
+        }
+    }
+}
+
+/// The impacts tracked through `measured` by a particle filter on the micro side of `draw`'s
+/// one-way run (`sim`, aligned at `lag`); `None` where the setup's sensor is not one the
+/// filter can predict (a mounted housing's, an envelope, a spatial mechanism).
+fn track_impacts(
+    estimator: &Estimator,
+    r: &Resolved,
+    (draw, f0): (&[f64], f64),
+    (sim, lag): (&Simulated, usize),
+    measured: &[f64],
+    options: crate::track::TrackOptions,
+) -> Result<Option<crate::track::Tracked>, EstimateError> {
+    let setup = &estimator.setup;
+    let every = (1.0 / (setup.sample_rate * sim.dt)).round() as usize;
+    let table = toml::Table::try_from(&r.scenario).map_err(|e| EstimateError::Failure(e.to_string()))?;
+    let base = lash_scenario::paths::EditBase::new(table);
+    let lash_scenario::AnyScenario::Planar(mut scenario) = draw_scenario(estimator, r, &base, draw, f0)? else {
+        return Ok(None);
+    };
+    let sensor = &setup.channels[0].name;
+    if setup.envelope || lash_sweep::plan::measured_axis(&scenario.output.measurements, sensor).is_some() {
+        return Ok(None);
+    }
+    let rows = lag + measured.len() * every + 1;
+    scenario.simulation.horizon = ((rows as f64 * sim.dt) / setup.macro_step).ceil() * setup.macro_step;
+    let options_run =
+        lash_run::ReducedOptions { macro_step: setup.macro_step, micro_step: setup.micro_step, ..Default::default() };
+    let replay = crate::track::Replay::record(&scenario, options_run, sensor)?;
+    // The sensor's gain: the measurement regressed on the aligned draw's sensor.
+    let x: Vec<f64> = (0..measured.len()).map(|k| sim.sensor[lag + k * every]).collect();
+    let (mx, my) = (x.iter().sum::<f64>() / x.len() as f64, measured.iter().sum::<f64>() / x.len() as f64);
+    let sxy: f64 = x.iter().zip(measured).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    let gain = if sxx > 0.0 { sxy / sxx } else { 1.0 };
+    let chain =
+        lash_measure::Acquisition { sample_rate: setup.sample_rate, cutoff: setup.anti_alias, order: 4, settle: 0.0 };
+    crate::track::track(&replay, chain, measured, (lag, every), gain, options).map(Some)
 }
 
 /// How well the hidden signals follow the converged full model's (one figure per case and joint).
@@ -502,6 +581,10 @@ pub struct HiddenReport {
     pub onsets_true: f64,
     /// Mean wall time of one case's hidden signals (estimate, re-simulation, alignment) \[s\].
     pub seconds_per_case: f64,
+    /// With impact tracking: its particles, and the cases where they followed the measurement
+    /// (whose onsets are the filter's; the others' are the draws').
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracking: Option<(usize, usize)>,
 }
 
 /// One held-out case: its emulated measurement, and per joint the true force and eccentricity
@@ -627,9 +710,8 @@ fn inside(band: &Band, truth: &[f64]) -> (usize, usize) {
 /// Scores the hidden signals on `cases` held-out full-model cases measured at `snr_db`.
 pub fn validate_hidden(
     estimator: &Estimator,
-    cases: u64,
-    seed: u64,
-    snr_db: f64,
+    (cases, seed, snr_db): (u64, u64, f64),
+    track: Option<crate::track::TrackOptions>,
     progress: crate::prepare::Progress<'_>,
 ) -> Result<HiddenReport, EstimateError> {
     use rayon::prelude::*;
@@ -644,7 +726,7 @@ pub fn validate_hidden(
             let clock = std::time::Instant::now();
             let hidden = truth.as_ref().and_then(|t| {
                 let (f0, features) = crate::prepare::measured_features(setup, band_hz, &t.measured)?;
-                reconstruct(estimator, &features, f0, &t.measured[0]).ok()
+                reconstruct(estimator, &features, f0, &t.measured[0], track).ok()
             });
             let seconds = clock.elapsed().as_secs_f64();
             progress("hidden signals", done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, cases);
@@ -702,6 +784,8 @@ pub fn validate_hidden(
         impacts_found: ratio(found, impacts),
         onsets_true: ratio(real, onsets),
         seconds_per_case: ok.iter().map(|c| c.2).sum::<f64>() / ok.len() as f64,
+        tracking: track
+            .map(|t| (t.particles, ok.iter().filter(|c| c.1.tracking.as_ref().is_some_and(|s| s.follows)).count())),
     })
 }
 
@@ -746,6 +830,7 @@ mod tests {
                     draws: DRAWS,
                     failed: 0,
                     calibration_cases: 0,
+                    tracking: None,
                 };
                 (Truth { measured: Vec::new(), joints: vec![(force, eccentricity)] }, hidden)
             })
@@ -780,7 +865,7 @@ mod tests {
         let sensor: Vec<f64> = (0..60_000).map(|i| signal(i as f64 * dt)).collect();
         let measured: Vec<f64> = (0..3000).map(|i| 0.7 * sensor[12_345 + 10 * i] + 3.0).collect();
         let sim = Simulated { sensor, joints: Vec::new(), dt };
-        assert_eq!(align(&sim, &measured, 1e4, f0, 0.115), Some(12_345));
+        assert_eq!(align(&sim, &measured, 1e4, f0, 0.115).map(|a| a.1), Some(12_345));
     }
 
     #[test]

@@ -389,13 +389,15 @@ pub fn estimate_file(estimator: &Estimator, path: &std::path::Path) -> Result<(E
 }
 
 /// As [`estimate_file`], with the hidden signals (each joint's contact force and eccentricity
-/// over the measured window, with bands: [`crate::hidden`]).
+/// over the measured window, with bands: [`crate::hidden`]), the impacts timed by the particle
+/// filter of [`crate::track`] when `track` is given.
 pub fn estimate_file_hidden(
     estimator: &Estimator,
     path: &std::path::Path,
+    track: Option<crate::track::TrackOptions>,
 ) -> Result<(Estimate, crate::Hidden, Vec<String>), EstimateError> {
     let (m, f0, features) = read_measured(estimator, path)?;
-    let hidden = crate::hidden::reconstruct(estimator, &features, f0, &m.channels[0])?;
+    let hidden = crate::hidden::reconstruct(estimator, &features, f0, &m.channels[0], track)?;
     Ok((estimator.estimate(&features, f0), hidden, m.notes))
 }
 

@@ -29,6 +29,7 @@ pub mod infer;
 pub mod measurement;
 pub mod prepare;
 pub mod setup;
+pub mod track;
 pub mod validate;
 
 pub use hidden::Hidden;

@@ -924,6 +924,23 @@ impl InterfaceSubsystem {
         each_core!(&self.core, m => m.joints.iter().map(|j| j.name().to_string()).collect())
     }
 
+    /// Adds `delta` (one number per interface coordinate) to the eccentricity rates while
+    /// stepping — the process noise of a filter that tracks the interface from a measurement.
+    pub fn perturb_rates(&mut self, delta: &[f64]) -> Result<(), SubsystemError> {
+        self.phase.require("perturb_rates", &[Phase::Stepping])?;
+        let n = each_core!(&self.core, m => m.eccentricity_rate.len());
+        if delta.len() != n || delta.iter().any(|d| !d.is_finite()) {
+            return Err(SubsystemError::BadArguments(format!(
+                "perturb_rates takes {n} finite numbers, got {} ({:?})",
+                delta.len(),
+                delta.iter().find(|d| !d.is_finite())
+            )));
+        }
+        let t = self.time.seconds();
+        each_core!(&mut self.core, m => m.add_to_rates(t, delta));
+        Ok(())
+    }
+
     /// Joint `j`'s radial clearance \[m\] (resolved after `initialize`).
     pub fn radial_clearance(&self, j: usize) -> f64 {
         each_core!(&self.core, m => m.joints[j].radial_clearance())

@@ -1008,6 +1008,17 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         }
     }
 
+    /// Adds `delta` to the eccentricity rates ẇ (a state estimator's process noise), at time
+    /// `t`: the cached step end no longer holds, and the joints' contact states are recomputed in
+    /// their current modes.
+    pub fn add_to_rates(&mut self, t: f64, delta: &[f64]) {
+        for (v, d) in self.eccentricity_rate.iter_mut().zip(delta) {
+            *v += d;
+        }
+        self.end = None;
+        self.refresh_states(t);
+    }
+
     /// Resets the discrete contact states (journals must be inside their clearances).
     pub fn reset_contacts(&mut self, t: f64) {
         for joint in &mut self.joints {

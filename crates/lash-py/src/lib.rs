@@ -754,10 +754,20 @@ fn prepare_estimator(
 /// The estimate of a measured file (CSV or Parquet) with a prepared estimator, as JSON text:
 /// every unknown's median and 90 % interval, the worn-joint probabilities, the posterior draws.
 #[pyfunction]
-fn estimate_json(py: Python<'_>, measurement: PathBuf, prepared: PathBuf) -> PyResult<String> {
+#[pyo3(signature = (measurement, prepared, track_impacts=None))]
+fn estimate_json(
+    py: Python<'_>,
+    measurement: PathBuf,
+    prepared: PathBuf,
+    track_impacts: Option<usize>,
+) -> PyResult<String> {
+    if track_impacts.is_some_and(|p| !(2..=100_000).contains(&p)) {
+        return Err(input_error(py, format!("track_impacts: 2 to 100000 particles, got {track_impacts:?}"), &[]));
+    }
+    let track = track_impacts.map(|particles| lash_estimate::track::TrackOptions { particles, ..Default::default() });
     let result = py.detach(|| {
         let estimator = lash_estimate::Estimator::load(&prepared)?;
-        let (estimate, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, &measurement)?;
+        let (estimate, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, &measurement, track)?;
         Ok::<_, lash_estimate::EstimateError>(
             serde_json::json!({ "estimate": estimate, "hidden": hidden, "notes": notes }),
         )

@@ -20,7 +20,7 @@ pub mod spatial;
 
 pub use build::{BuildOptions, build_model};
 pub use full_subsystem::FullSubsystem;
-pub use reduced::{ReducedOptions, ReducedRun};
+pub use reduced::{ReducedOptions, ReducedParts, ReducedRun};
 pub use run::{
     ChannelStats, ClearanceSummary, ContactSamples, FullRun, MACRO_STEP_ANGLE, RunError, Runner, Sink, Summary,
     macro_step_for_rotation, micro_step_for_unheld_contacts, micro_step_ladder, resolving_micro_step,

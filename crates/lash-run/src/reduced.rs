@@ -91,6 +91,18 @@ pub struct ReducedDetails {
     pub master: MasterStats,
 }
 
+/// The pieces of a prepared reduced-model run ([`ReducedRun::into_parts`]).
+pub struct ReducedParts {
+    /// The mechanism (macro subsystem).
+    pub macro_sub: MechanismSubsystem,
+    /// The clearance interface (micro subsystem).
+    pub micro_sub: InterfaceSubsystem,
+    /// The master's steps, time span, coupling and execution.
+    pub master: MasterOptions,
+    /// The recorded channels as the master's signals.
+    pub signals: Vec<Signal>,
+}
+
 /// A prepared reduced-model run.
 pub struct ReducedRun {
     scenario: Scenario,
@@ -276,6 +288,18 @@ impl ReducedRun {
     /// The two subsystems, unstarted (for export as FMUs or for another master).
     pub fn into_subsystems(self) -> (MechanismSubsystem, InterfaceSubsystem) {
         (self.macro_sub, self.micro_sub)
+    }
+
+    /// Everything a master needs to run this model itself: the two subsystems (unstarted), the
+    /// master's options and the signals of the recorded channels (in `header` order but for
+    /// the time column), for a caller that wraps a subsystem or observes other signals.
+    pub fn into_parts(self) -> ReducedParts {
+        ReducedParts {
+            macro_sub: self.macro_sub,
+            micro_sub: self.micro_sub,
+            master: self.master_options,
+            signals: self.signals,
+        }
     }
 
     /// The macro subsystem after a run.
