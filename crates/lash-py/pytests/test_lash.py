@@ -393,6 +393,13 @@ def test_estimate_in_python_equals_the_command_line_and_refuses_bad_files(tmp_pa
     assert (force["low"] <= force["median"]).all() and (force["median"] <= force["high"]).all()
     table = np.genfromtxt(out / "hidden.csv", delimiter=",", skip_header=1)
     assert np.array_equal(table[:, 1], force["median"])
+    # Impact tracking: the particle filter's summary beside the hidden signals.
+    tracked = lash.estimate(measured, prepared, track_impacts=16)
+    summary = tracked["hidden"]["tracking"]
+    assert summary["particles"] == 16 and summary["innovation"] > 0 and isinstance(summary["follows"], bool)
+    assert tracked["unknowns"] == answer["unknowns"]
+    with pytest.raises(lash.ScenarioError, match="track_impacts"):
+        lash.estimate(measured, prepared, track_impacts=1)
     with pytest.raises(FileNotFoundError):
         lash.estimate(tmp_path / "missing.csv", prepared)
     bad = tmp_path / "bad.csv"
