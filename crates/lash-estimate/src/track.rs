@@ -9,10 +9,12 @@
 //! micro subsystem (the particles) are stepped with those inputs; each predicts the sensor,
 //! free + gain · loads, through the logger's anti-alias filter, and is weighted at each measured
 //! sample by a Gaussian likelihood; when the weights degenerate the particles are resampled and
-//! their eccentricity rates nudged (the process noise: the velocity that a force of the size the
-//! sensor leaves unexplained gives over one sample). The contact history of the lineages that
-//! reach the end, weighted, is the estimate: a joint's contact begins at a sample where most of
-//! it is in contact after a sample where most of it was not.
+//! their eccentricity rates nudged (the process noise, a fraction of the rates' RMS in the
+//! replay). The contact history of the lineages that reach the end, weighted, is the estimate: a
+//! joint's contact begins at a sample where most of it is in contact after a sample where most of
+//! it was not. Its innovation (what the particles' predictions leave of the measurement) says
+//! whether it follows the measurement at all ([`TrackSummary::follows`]). The equations and the
+//! settings' origin: docs/theory.md §10.
 
 use crate::EstimateError;
 use lash_core::{BoxError, SavedState, StepOutcome, Steps, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
@@ -308,9 +310,9 @@ pub struct TrackSummary {
 }
 
 /// The share of the measurement's RMS the particles' innovation must stay under for their
-/// onsets to be reported: where the model cannot follow the measurement (the posterior's draw
-/// is not the machine — a worn joint taken for the other), their contacts are the model's, not
-/// the machine's. Chosen on development cases (C, seed 101), not on the validation's.
+/// onsets to be reported: where the model cannot follow the measurement (the replayed draw's pin
+/// stays seated where the machine's rattles, or the reverse), their contacts are the model's,
+/// not the machine's. Chosen on development cases (C, seed 101), not on the validation's.
 pub const FOLLOWS: f64 = 0.25;
 
 /// Systematic resampling: `weights` (summing to 1) → ancestor of each new particle.
