@@ -126,6 +126,8 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
         "4",
         "--track-impacts",
         "32",
+        "--track-draws",
+        "2",
         "--quiet",
         "--out",
         dir.join("hidden").to_str().unwrap(),
@@ -136,7 +138,8 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
     assert_eq!(report["cases"], 4);
     let rms_error = report["force_rms_error"][0].as_f64().unwrap();
     assert!(rms_error < 0.15, "the contact force's RMS within 15 % even from a small bank: {report}");
-    // The impact tracking ran on every case (its particles, and how many cases it followed).
+    // The impact tracking ran on every case, its particles spread over two draws (its particles,
+    // and how many cases it followed).
     assert_eq!(report["tracking"][0], 32, "{report}");
     assert!(report["tracking"][1].as_u64().is_some_and(|f| f <= 4), "{report}");
     // Bad input: exit 2 with the field named.
@@ -153,6 +156,11 @@ fn prepare_emulate_estimate_validate_and_refuse_bad_input() {
         ),
         (vec!["estimate", "validate", "--prepared", p, "--cases", "0"], "--cases"),
         (vec!["estimate", m, "--prepared", p, "--track-impacts", "1"], "--track-impacts: 2 to 100000 particles"),
+        (
+            vec!["estimate", m, "--prepared", p, "--track-impacts", "8", "--track-draws", "9"],
+            "--track-draws: 1 to 8 posterior draws",
+        ),
+        (vec!["estimate", m, "--prepared", p, "--track-draws", "2"], "--track-impacts"),
     ] {
         let o = lash(&args);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));

@@ -122,11 +122,11 @@ pub fn estimate(
     measurement: &Path,
     prepared: &Path,
     out: Option<&Path>,
-    track_impacts: Option<usize>,
+    track: (Option<usize>, Option<usize>),
 ) -> Result<(), CliError> {
     let estimator = load(prepared)?;
     let setup = &estimator.setup;
-    let track = tracking(track_impacts)?;
+    let track = tracking(track)?;
     let (e, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, measurement, track).map_err(cli)?;
     let f0 = e.crank_frequency;
     println!("{} (setup {}, crank at {:.2} Hz = {:.0} rpm):", measurement.display(), setup.name, f0, f0 * 60.0);
@@ -156,8 +156,17 @@ pub fn estimate(
         );
     }
     if let Some(t) = &hidden.tracking {
+        let pct = |x: f64| format!("{:.0} %", 100.0 * x / t.measured_rms);
+        let draws = match t.draw_innovations.len() {
+            0 | 1 => String::new(),
+            n => format!(
+                ", a filter on each of {n} draws, their innovations {}; draw {}'s kept",
+                t.draw_innovations.iter().map(|i| i.map_or("failed".into(), pct)).collect::<Vec<_>>().join(", "),
+                t.draw + 1
+            ),
+        };
         println!(
-            "  impact tracking ({} particles): innovation {:.0} % of the measurement's RMS (the draw alone {:.0} %): {}",
+            "  impact tracking ({} particles{draws}): innovation {:.0} % of the measurement's RMS (the best draw alone {:.0} %): {}",
             t.particles,
             100.0 * t.innovation / t.measured_rms,
             100.0 * t.replay_residual / t.measured_rms,
@@ -260,22 +269,26 @@ pub fn validate(
     Ok(())
 }
 
-/// The impact tracking's options for `--track-impacts PARTICLES`.
-fn tracking(particles: Option<usize>) -> Result<Option<lash_estimate::track::TrackOptions>, CliError> {
-    match particles {
-        Some(p) if !(2..=100_000).contains(&p) => {
-            Err(CliError::Input(format!("--track-impacts: 2 to 100000 particles, got {p}")))
-        }
-        Some(particles) => Ok(Some(lash_estimate::track::TrackOptions { particles, ..Default::default() })),
-        None => Ok(None),
-    }
+/// The impact tracking's options for `--track-impacts PARTICLES [--track-draws DRAWS]`.
+fn tracking(
+    (particles, draws): (Option<usize>, Option<usize>),
+) -> Result<Option<lash_estimate::track::TrackOptions>, CliError> {
+    use lash_estimate::track::{BadTrackOption, TrackOptions};
+    particles
+        .map(|p| {
+            TrackOptions::with(p, draws).map_err(|e| match e {
+                BadTrackOption::Particles(m) => CliError::Input(format!("--track-impacts: {m}")),
+                BadTrackOption::Draws(m) => CliError::Input(format!("--track-draws: {m}")),
+            })
+        })
+        .transpose()
 }
 
 /// `lash estimate validate --prepared FILE --hidden SNR_DB [--cases N] [--seed S] [--out DIR]`.
 pub fn validate_hidden(
     prepared: &Path,
     (cases, seed, snr_db): (u64, u64, f64),
-    track_impacts: Option<usize>,
+    track: (Option<usize>, Option<usize>),
     out: Option<&Path>,
     quiet: bool,
 ) -> Result<(), CliError> {
@@ -283,7 +296,7 @@ pub fn validate_hidden(
     if !(snr_db.is_finite() && snr_db > 0.0) {
         return Err(CliError::Input(format!("--hidden: a signal-to-noise ratio in dB above 0, got {snr_db}")));
     }
-    let track = tracking(track_impacts)?;
+    let track = tracking(track)?;
     let r = lash_estimate::hidden::validate_hidden(&estimator, (cases, seed, snr_db), track, &progress(quiet))
         .map_err(cli)?;
     println!(
@@ -317,12 +330,10 @@ pub fn validate_hidden(
         pct(r.force_band_coverage),
         pct(r.eccentricity_band_coverage)
     );
-    println!(
-        "  impact onsets: {} true, {} of them found within two samples; {} of the onsets found are true",
-        r.impacts,
-        pct(r.impacts_found),
-        pct(r.onsets_true)
-    );
+    let found =
+        r.impacts_found.map_or("none to find".into(), |v| format!("{} of them found within two samples", pct(v)));
+    let real = r.onsets_true.map_or(String::new(), |v| format!(", {} of them true", pct(v)));
+    println!("  impact onsets: {} true, {found}; {} reported{real}", r.impacts, r.onsets_reported);
     if let Some((particles, followed)) = r.tracking {
         println!(
             "  impact tracking ({particles} particles): followed the measurement in {followed} of {} cases (their onsets the filter's, the others' the draws')",

@@ -335,6 +335,11 @@ enum Command {
         /// onsets are where most re-simulated draws begin a contact.
         #[arg(long, value_name = "PARTICLES")]
         track_impacts: Option<usize>,
+        /// With --track-impacts: a filter on each of this many best-aligned posterior draws, the
+        /// particles shared among them, the one that follows the measurement best reported
+        /// (default 4).
+        #[arg(long, value_name = "DRAWS", requires = "track_impacts")]
+        track_draws: Option<usize>,
     },
 }
 
@@ -387,6 +392,9 @@ enum EstimateCommand {
         /// `lash estimate --track-impacts`).
         #[arg(long, value_name = "PARTICLES", requires = "hidden")]
         track_impacts: Option<usize>,
+        /// With --track-impacts: the draws filtered (as `lash estimate --track-draws`).
+        #[arg(long, value_name = "DRAWS", requires = "track_impacts")]
+        track_draws: Option<usize>,
         /// Folder for validation.json.
         #[arg(long)]
         out: Option<std::path::PathBuf>,
@@ -875,9 +883,16 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 reduced: _,
                 hidden: Some(snr),
                 track_impacts,
+                track_draws,
                 out,
                 quiet,
-            } => estimate::validate_hidden(&prepared, (cases, seed, snr), track_impacts, out.as_deref(), quiet),
+            } => estimate::validate_hidden(
+                &prepared,
+                (cases, seed, snr),
+                (track_impacts, track_draws),
+                out.as_deref(),
+                quiet,
+            ),
             EstimateCommand::Validate { prepared, cases, seed, reduced, hidden: None, out, quiet, .. } => {
                 estimate::validate(&prepared, (cases, reduced), seed, out.as_deref(), quiet)
             }
@@ -887,11 +902,12 @@ fn dispatch(command: Command) -> Result<(), CliError> {
                 estimate::emulate(&prepared, &case, &out)
             }
         },
-        Command::Estimate { command: None, measurement, prepared, out, track_impacts } => match (measurement, prepared)
-        {
-            (Some(m), Some(p)) => estimate::estimate(&m, &p, out.as_deref(), track_impacts),
-            _ => Err(CliError::Input("lash estimate: give a measured file and --prepared <file>".into())),
-        },
+        Command::Estimate { command: None, measurement, prepared, out, track_impacts, track_draws } => {
+            match (measurement, prepared) {
+                (Some(m), Some(p)) => estimate::estimate(&m, &p, out.as_deref(), (track_impacts, track_draws)),
+                _ => Err(CliError::Input("lash estimate: give a measured file and --prepared <file>".into())),
+            }
+        }
         Command::Fmu { command: FmuCommand::Pack { scenario, out } } => {
             let scenario = match scenario {
                 Some(arg) => lash_scenario::any_by_name_or_file(&arg).map_err(|e| CliError::Input(e.to_string()))?,

@@ -3,7 +3,7 @@
 //! The draws that [`crate::hidden`] simulates again reproduce the load over the revolution, not
 //! the instant of each impact of a rattling pin: that depends on the state's history below what
 //! the posterior pins down. A particle filter on the micro subsystem follows the measurement
-//! itself. The one-way run of the best-aligned draw is recorded ([`Replay`]): the micro inputs
+//! itself. The one-way runs of the best-aligned draws are recorded ([`Replay`]): the micro inputs
 //! the master set (M̃, f̃ and the rest, once per macro step) and, at every output instant, the
 //! sensor's value at zero load and its gain per load (its propagation terms). Copies of the
 //! micro subsystem (the particles) are stepped with those inputs; each predicts the sensor,
@@ -13,8 +13,9 @@
 //! replay). The contact history of the lineages that reach the end, weighted, is the estimate: a
 //! joint's contact begins at a sample where most of it is in contact after a sample where most of
 //! it was not. Its innovation (what the particles' predictions leave of the measurement) says
-//! whether it follows the measurement at all ([`TrackSummary::follows`]). The equations and the
-//! settings' origin: docs/theory.md §10.
+//! whether it follows the measurement at all ([`TrackSummary::follows`]); each draw gets a filter
+//! of its own, and the one with the least innovation is kept. The equations and the settings'
+//! origin: docs/theory.md §10.
 
 use crate::EstimateError;
 use lash_core::{BoxError, SavedState, StepOutcome, Steps, Subsystem, SubsystemError, Ticks, ValueReference, Variable};
@@ -38,13 +39,44 @@ pub struct TrackOptions {
     /// numbers of this fraction of their RMS over the window (the replay's own).
     pub nudge: f64,
     /// The likelihood's width as a fraction of the measurement's RMS (0: the RMS of what the
-    /// replayed draw alone leaves).
+    /// replayed draws alone leave, the smallest).
     pub width: f64,
+    /// Posterior draws replayed, the best-aligned first: each gets a filter of its own with an
+    /// equal share of the particles, and the one that follows the measurement best (the least
+    /// innovation) is reported.
+    pub draws: usize,
 }
 
 impl Default for TrackOptions {
     fn default() -> Self {
-        Self { particles: 128, seed: 1, lead: 0.01, nudge: 0.1, width: 0.05 }
+        Self { particles: 128, seed: 1, lead: 0.01, nudge: 0.1, width: 0.05, draws: 4 }
+    }
+}
+
+/// A [`TrackOptions`] a user cannot ask for: which option, and what is wrong with it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BadTrackOption {
+    /// The particle count.
+    Particles(String),
+    /// The draws replayed.
+    Draws(String),
+}
+
+impl TrackOptions {
+    /// The options with `particles` and, where given, `draws`, if a user may ask for them.
+    pub fn with(particles: usize, draws: Option<usize>) -> Result<Self, BadTrackOption> {
+        let draws = draws.unwrap_or(Self::default().draws);
+        if !(2..=100_000).contains(&particles) {
+            return Err(BadTrackOption::Particles(format!("2 to 100000 particles, got {particles}")));
+        }
+        let most = crate::hidden::DRAWS.min(particles);
+        if !(1..=most).contains(&draws) {
+            return Err(BadTrackOption::Draws(format!(
+                "1 to {most} posterior draws ({} re-simulated, {particles} particles), got {draws}",
+                crate::hidden::DRAWS
+            )));
+        }
+        Ok(Self { particles, draws, ..Self::default() })
     }
 }
 
@@ -300,13 +332,20 @@ pub struct TrackSummary {
     pub resamplings: usize,
     /// RMS of the measurement (its mean removed), in the sensor's unit.
     pub measured_rms: f64,
-    /// RMS of what the replayed draw alone leaves of the measurement.
+    /// RMS of what the replayed draws alone leave of the measurement (the smallest).
     pub replay_residual: f64,
     /// RMS of what the particles' predictions leave (weighted, before each sample's update).
     pub innovation: f64,
     /// Whether the particles follow the measurement (`innovation` at most [`FOLLOWS`] of
     /// `measured_rms`): only then are its onsets the estimate's.
     pub follows: bool,
+    /// The replayed draw whose filter is reported (0: the best-aligned).
+    #[serde(default)]
+    pub draw: usize,
+    /// Each replayed draw's filter's innovation, the best-aligned first (none: its particles
+    /// all failed).
+    #[serde(default)]
+    pub draw_innovations: Vec<Option<f64>>,
 }
 
 /// The share of the measurement's RMS the particles' innovation must stay under for their
@@ -331,17 +370,119 @@ fn systematic(weights: &[f64], u: f64) -> Vec<usize> {
     out
 }
 
-/// Tracks the impacts of `replay`'s joints through `measured` (the logger's samples, every
-/// `every` output rows from row `lag`; the sensor's gain `gain`).
+/// A recorded draw, where the measurement begins in it and the sensor's gain against it.
+pub struct Candidate<'a> {
+    /// The draw's micro side.
+    pub replay: &'a Replay,
+    /// The output row of the first measured sample.
+    pub lag: usize,
+    /// The measurement's gain against the draw's sensor.
+    pub gain: f64,
+}
+
+/// A candidate ready for the filter: its sensor at zero load through the logger, its state at
+/// the spread and its process noise.
+struct Draw<'a> {
+    replay: &'a Replay,
+    lag: usize,
+    gain: f64,
+    free: Vec<f64>,
+    lead: Particle,
+    nudge: Vec<f64>,
+    /// RMS of what the draw alone leaves of the measurement.
+    residual: f64,
+}
+
+impl Draw<'_> {
+    /// The output row of measured sample `k`.
+    fn row(&self, k: usize, every: usize) -> usize {
+        self.lag + k * every
+    }
+
+    /// The measurement's difference from `p`'s prediction at sample `k`.
+    fn residual(&self, y: f64, p: &Particle, k: usize, every: usize) -> f64 {
+        y - self.gain * (self.free[self.row(k, every)] + p.part)
+    }
+}
+
+/// Tracks the impacts of the candidates' joints through `measured` (the logger's samples,
+/// every `every` output rows from each candidate's `lag`). The candidates are draws of one
+/// setup (the same joints, steps and output interval).
 pub fn track(
-    replay: &Replay,
+    candidates: &[Candidate],
     chain: lash_measure::Acquisition,
     measured: &[f64],
-    (lag, every): (usize, usize),
-    gain: f64,
+    every: usize,
     options: TrackOptions,
 ) -> Result<Tracked, EstimateError> {
+    let samples = measured.len();
+    let Some(first) = candidates.first() else {
+        return Err(EstimateError::Failure("impact tracking: no draw to replay".into()));
+    };
+    let measured_rms = {
+        let mean = measured.iter().sum::<f64>() / samples.max(1) as f64;
+        (measured.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / samples.max(1) as f64).sqrt()
+    };
+    let draws = candidates.iter().map(|c| ready(c, chain, measured, every, options)).collect::<Result<Vec<_>, _>>()?;
+    let replay_residual = draws.iter().map(|d| d.residual).fold(f64::INFINITY, f64::min);
+    let sigma = if options.width > 0.0 { options.width * measured_rms } else { replay_residual };
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let particles = options.particles.max(2);
+    // One filter per draw: a draw's particles all share its clearance and laws (a filter over
+    // several draws at once let them collapse on one draw early, and lost the others for good).
+    let per = (particles / draws.len()).max(2);
+    let mut passes = Vec::with_capacity(draws.len());
+    let mut failure = None;
+    for draw in &draws {
+        match filter_pass(draw, measured, (sigma, every, per), &mut rng) {
+            Ok(pass) => passes.push(Some(pass)),
+            Err(e) => {
+                passes.push(None);
+                failure = Some(e);
+            }
+        }
+    }
+    let draw_innovations: Vec<Option<f64>> = passes.iter().map(|p| p.as_ref().map(|p| p.innovation)).collect();
+    let Some((draw, pass)) = passes
+        .into_iter()
+        .enumerate()
+        .filter_map(|(d, p)| p.map(|p| (d, p)))
+        .min_by(|a, b| a.1.innovation.total_cmp(&b.1.innovation))
+    else {
+        return Err(failure.unwrap_or_else(|| EstimateError::Failure("impact tracking: no filter ran".into())));
+    };
+    let onsets = pass
+        .contact
+        .iter()
+        .map(|share| (1..samples).filter(|&k| share[k] > 0.5 && share[k - 1] <= 0.5).collect())
+        .collect();
+    debug_assert_eq!(pass.contact.len(), first.replay.joints);
+    Ok(Tracked {
+        onsets,
+        contact: pass.contact,
+        summary: TrackSummary {
+            particles: per * draws.len(),
+            resamplings: pass.resamplings,
+            measured_rms,
+            replay_residual,
+            innovation: pass.innovation,
+            follows: pass.innovation <= FOLLOWS * measured_rms,
+            draw,
+            draw_innovations,
+        },
+    })
+}
+
+/// Candidate `c` made ready: stepped alone to the spread and over the measurement.
+fn ready<'a>(
+    c: &Candidate<'a>,
+    chain: lash_measure::Acquisition,
+    measured: &[f64],
+    every: usize,
+    options: TrackOptions,
+) -> Result<Draw<'a>, EstimateError> {
     let failed = |e: SubsystemError| EstimateError::Failure(format!("impact tracking: {e}"));
+    let (replay, lag) = (c.replay, c.lag);
     let samples = measured.len();
     if samples == 0 || lag + (samples - 1) * every >= replay.len() {
         return Err(EstimateError::Failure("impact tracking: the replay is shorter than the measurement".into()));
@@ -354,40 +495,9 @@ pub fn track(
     let mut lead = Particle::start(replay, filter).map_err(failed)?;
     let spread_row = lag.saturating_sub((options.lead / dt).round() as usize);
     lead.advance(replay, spread_row).map_err(failed)?;
-    let alone = replay_alone(replay, &lead, measured, (&free, gain), (lag, every)).map_err(failed)?;
-    let measured_rms = {
-        let mean = measured.iter().sum::<f64>() / samples as f64;
-        (measured.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / samples as f64).sqrt()
-    };
-    let sigma = if options.width > 0.0 { options.width * measured_rms } else { alone.residual };
+    let alone = replay_alone(replay, &lead, measured, (&free, c.gain), (lag, every)).map_err(failed)?;
     let nudge = process_noise(replay, &alone.rate_rms, options.nudge, (lag, every));
-    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    let pass = filter_pass(
-        replay,
-        &lead,
-        measured,
-        (&free, gain, sigma),
-        (lag, every),
-        (&nudge, options.particles.max(2)),
-        &mut rng,
-    )?;
-    let onsets = pass
-        .contact
-        .iter()
-        .map(|share| (1..samples).filter(|&k| share[k] > 0.5 && share[k - 1] <= 0.5).collect())
-        .collect();
-    Ok(Tracked {
-        onsets,
-        contact: pass.contact,
-        summary: TrackSummary {
-            particles: options.particles.max(2),
-            resamplings: pass.resamplings,
-            measured_rms,
-            replay_residual: alone.residual,
-            innovation: pass.innovation,
-            follows: pass.innovation <= FOLLOWS * measured_rms,
-        },
-    })
+    Ok(Draw { replay, lag, gain: c.gain, free, lead, nudge, residual: alone.residual })
 }
 
 /// One run of the filter.
@@ -400,37 +510,34 @@ struct Pass {
     innovation: f64,
 }
 
-/// The particle filter over `measured` from `lead`'s state, with likelihood width `sigma` and
-/// `nudge` per interface coordinate for `n` particles.
+/// The particle filter over `measured` from `draw`'s state at the spread, with likelihood width
+/// `sigma`, the measured samples `every` output rows apart, `n` particles.
 fn filter_pass(
-    replay: &Replay,
-    lead: &Particle,
+    draw: &Draw,
     measured: &[f64],
-    (free, gain, sigma): (&[f64], f64, f64),
-    (lag, every): (usize, usize),
-    (nudge, n): (&[f64], usize),
+    (sigma, every, n): (f64, usize, usize),
     rng: &mut ChaCha8Rng,
 ) -> Result<Pass, EstimateError> {
     use rayon::prelude::*;
     let failed = |e: SubsystemError| EstimateError::Failure(format!("impact tracking: {e}"));
     let samples = measured.len();
-    let mut particles = vec![lead.clone(); n];
-    jitter(&mut particles, nudge, rng).map_err(failed)?;
+    let mut particles = vec![draw.lead.clone(); n];
+    jitter(&mut particles, &draw.nudge, rng).map_err(failed)?;
     let mut log_w = vec![0.0; n];
     let mut flags = vec![0u64; samples * n];
     let mut parents: Vec<u32> = Vec::with_capacity(samples * n);
     let (mut resamplings, mut innovation) = (0, 0.0);
     for (k, y) in measured.iter().enumerate() {
-        let row = lag + k * every;
+        let row = draw.row(k, every);
         // A particle whose micro model fails (a state the nudges made impossible) weighs nothing
         // and is replaced at the next resampling.
-        let alive: Vec<bool> = particles.par_iter_mut().map(|p| p.advance(replay, row).is_ok()).collect();
+        let alive: Vec<bool> = particles.par_iter_mut().map(|p| p.advance(draw.replay, row).is_ok()).collect();
         if !alive.iter().any(|&a| a) {
             return Err(EstimateError::Failure(format!("impact tracking: every particle failed by sample {k}")));
         }
         let before = normalised(&log_w);
         for (i, p) in particles.iter().enumerate() {
-            let r = y - gain * (free[row] + p.part);
+            let r = draw.residual(*y, p, k, every);
             if alive[i] {
                 innovation += before[i] * r * r;
             }
@@ -443,7 +550,7 @@ fn filter_pass(
         if ess < 0.5 * n as f64 && k + 1 < samples {
             let ancestors = systematic(&w, rand::Rng::random::<f64>(rng));
             resample(&mut particles, &ancestors).map_err(failed)?;
-            jitter(&mut particles, nudge, rng).map_err(failed)?;
+            jitter(&mut particles, &draw.nudge, rng).map_err(failed)?;
             log_w.fill(0.0);
             parents.extend(ancestors.iter().map(|&a| a as u32));
             resamplings += 1;
@@ -451,7 +558,7 @@ fn filter_pass(
             parents.extend(0..n as u32);
         }
     }
-    let contact = lineages(&normalised(&log_w), &flags, &parents, (samples, n), replay.joints);
+    let contact = lineages(&normalised(&log_w), &flags, &parents, (samples, n), draw.replay.joints);
     Ok(Pass { contact, resamplings, innovation: (innovation / samples as f64).sqrt().max(1e-12) })
 }
 
@@ -660,17 +767,17 @@ mod tests {
         follows: usize,
     }
 
-    /// The twin of `replay` nudged by `delta` at the spread, measured by `chain` from row `lag`
-    /// every `every` rows (`samples` of them, 1 % noise), tracked.
-    fn twin(
+    /// A measurement of `replay`'s state nudged by `delta` at the spread (`lead` before row
+    /// `lag`), by `chain` every `every` rows (`samples` of them, 1 % noise): the samples, the
+    /// nudged state's contact and the replay's own at each.
+    fn measure(
         replay: &Replay,
         chain: lash_measure::Acquisition,
-        (lag, every, samples): (usize, usize, usize),
+        (lag, every, samples, lead): (usize, usize, usize, f64),
         delta: [f64; 2],
-    ) -> Twin {
-        let track_options = TrackOptions { particles: 128, seed: 3, lead: 5e-5, ..Default::default() };
+    ) -> (Vec<f64>, Vec<bool>, Vec<bool>) {
         let dt = replay.dt.seconds();
-        let spread = lag - (track_options.lead / dt).round() as usize;
+        let spread = lag - (lead / dt).round() as usize;
         let logger = lash_measure::Acquisition { sample_rate: 1.0 / dt, ..chain }.logger(dt).expect("logger");
         let mut free_filter = logger.clone();
         let free: Vec<f64> = replay.free().map(|x| free_filter.push(x).unwrap_or(0.0)).collect();
@@ -690,15 +797,30 @@ mod tests {
             alone_contact.push(alone.contact & 1 == 1);
         }
         let rms = (clean.iter().map(|y| y * y).sum::<f64>() / samples as f64).sqrt();
-        let measured: Vec<f64> = clean
+        let measured = clean
             .iter()
             .map(|y| {
                 let z: f64 = StandardNormal.sample(&mut rng);
                 y + 0.01 * rms * z
             })
             .collect();
+        (measured, twin_contact, alone_contact)
+    }
+
+    /// The twin of `replay` nudged by `delta` at the spread, measured by `chain` from row `lag`
+    /// every `every` rows (`samples` of them, 1 % noise), tracked.
+    fn twin(
+        replay: &Replay,
+        chain: lash_measure::Acquisition,
+        (lag, every, samples): (usize, usize, usize),
+        delta: [f64; 2],
+    ) -> Twin {
+        let track_options = TrackOptions { particles: 128, seed: 3, lead: 5e-5, ..Default::default() };
+        let (measured, twin_contact, alone_contact) =
+            measure(replay, chain, (lag, every, samples, track_options.lead), delta);
         let truth = onsets_of(&twin_contact);
-        let tracked = track(replay, chain, &measured, (lag, every), 1.0, track_options).expect("tracked");
+        let candidate = Candidate { replay, lag, gain: 1.0 };
+        let tracked = track(&[candidate], chain, &measured, every, track_options).expect("tracked");
         Twin {
             truth: truth.len(),
             found: near(&tracked.onsets[0], &truth),
@@ -707,6 +829,32 @@ mod tests {
             by_replay: near(&onsets_of(&alone_contact), &truth),
             follows: usize::from(tracked.summary.follows),
         }
+    }
+
+    /// Two draws — the measurement's own machine and one whose clearance is twice as large —
+    /// each get a filter of 128 particles (as the twin experiments'); the one kept is the
+    /// measurement's own.
+    #[test]
+    fn the_filter_keeps_the_draw_the_measurement_came_from() {
+        let mut scenario = scenario_a(0.004);
+        scenario.simulation.output_interval = 1e-5;
+        let options = lash_run::ReducedOptions { macro_step: 2e-4, micro_step: 1e-5, ..Default::default() };
+        let own = Replay::record(&scenario, options, "slider.ax").expect("recorded");
+        let c = &mut scenario.clearances[0];
+        c.bearing_radius = c.journal_radius + 2.0 * (c.bearing_radius - c.journal_radius);
+        let wider = Replay::record(&scenario, options, "slider.ax").expect("recorded");
+        let chain = lash_measure::Acquisition { sample_rate: 5e4, cutoff: 2e4, order: 4, settle: 0.0 };
+        let track_options = TrackOptions { particles: 256, seed: 3, lead: 5e-5, draws: 2, ..Default::default() };
+        let (lag, every) = (8, 2);
+        let (measured, contact, _) = measure(&own, chain, (lag, every, 150, track_options.lead), [0.0, 0.0]);
+        let truth = onsets_of(&contact);
+        let candidates = [Candidate { replay: &wider, lag, gain: 1.0 }, Candidate { replay: &own, lag, gain: 1.0 }];
+        let tracked = track(&candidates, chain, &measured, every, track_options).expect("tracked");
+        // The wider joint is a different machine: its filter leaves more of the measurement.
+        let summary = &tracked.summary;
+        let innovations: Vec<f64> = summary.draw_innovations.iter().map(|i| i.expect("ran")).collect();
+        assert!(summary.draw == 1 && innovations[0] > 2.0 * innovations[1], "{summary:?}");
+        assert!(truth.len() >= 3, "the journal bounces: {truth:?}");
     }
 
     /// Twin experiments on the filter's mechanics: each measurement is the reduced model's own,

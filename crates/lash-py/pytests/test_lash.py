@@ -400,6 +400,14 @@ def test_estimate_in_python_equals_the_command_line_and_refuses_bad_files(tmp_pa
     assert tracked["unknowns"] == answer["unknowns"]
     with pytest.raises(lash.ScenarioError, match="track_impacts"):
         lash.estimate(measured, prepared, track_impacts=1)
+    spread = lash.estimate(measured, prepared, track_impacts=16, track_draws=2)["hidden"]["tracking"]
+    assert len(spread["draw_innovations"]) == 2 and spread["draw"] in (0, 1)
+    kept = spread["draw_innovations"][spread["draw"]]
+    assert kept == spread["innovation"] and all(i is None or i >= kept for i in spread["draw_innovations"])
+    with pytest.raises(lash.ScenarioError, match="track_draws"):
+        lash.estimate(measured, prepared, track_impacts=16, track_draws=17)
+    with pytest.raises(lash.ScenarioError, match="track_draws"):
+        lash.estimate(measured, prepared, track_draws=2)
     with pytest.raises(FileNotFoundError):
         lash.estimate(tmp_path / "missing.csv", prepared)
     bad = tmp_path / "bad.csv"

@@ -754,17 +754,27 @@ fn prepare_estimator(
 /// The estimate of a measured file (CSV or Parquet) with a prepared estimator, as JSON text:
 /// every unknown's median and 90 % interval, the worn-joint probabilities, the posterior draws.
 #[pyfunction]
-#[pyo3(signature = (measurement, prepared, track_impacts=None))]
+#[pyo3(signature = (measurement, prepared, track_impacts=None, track_draws=None))]
 fn estimate_json(
     py: Python<'_>,
     measurement: PathBuf,
     prepared: PathBuf,
     track_impacts: Option<usize>,
+    track_draws: Option<usize>,
 ) -> PyResult<String> {
-    if track_impacts.is_some_and(|p| !(2..=100_000).contains(&p)) {
-        return Err(input_error(py, format!("track_impacts: 2 to 100000 particles, got {track_impacts:?}"), &[]));
-    }
-    let track = track_impacts.map(|particles| lash_estimate::track::TrackOptions { particles, ..Default::default() });
+    use lash_estimate::track::{BadTrackOption, TrackOptions};
+    let track = match track_impacts.map(|p| TrackOptions::with(p, track_draws)).transpose() {
+        Ok(_) if track_draws.is_some() && track_impacts.is_none() => {
+            return Err(input_error(
+                py,
+                "track_draws: give track_impacts too (the draws are the filter's)".into(),
+                &[],
+            ));
+        }
+        Ok(track) => track,
+        Err(BadTrackOption::Particles(m)) => return Err(input_error(py, format!("track_impacts: {m}"), &[])),
+        Err(BadTrackOption::Draws(m)) => return Err(input_error(py, format!("track_draws: {m}"), &[])),
+    };
     let result = py.detach(|| {
         let estimator = lash_estimate::Estimator::load(&prepared)?;
         let (estimate, hidden, notes) = lash_estimate::infer::estimate_file_hidden(&estimator, &measurement, track)?;

@@ -596,7 +596,13 @@ def prepare_estimator(
     _lash.prepare_estimator(str(setup), os.fspath(out), bank_runs, calibration_runs, quiet, hidden_runs)
 
 
-def estimate(measurement: PathLike, prepared: PathLike, *, track_impacts: Optional[int] = None) -> Dict[str, Any]:
+def estimate(
+    measurement: PathLike,
+    prepared: PathLike,
+    *,
+    track_impacts: Optional[int] = None,
+    track_draws: Optional[int] = None,
+) -> Dict[str, Any]:
     """Diagnoses a machine from a measured file (CSV or Parquet: ``time [s]`` and the setup's
     channels with units) with an estimator made by :func:`prepare_estimator`.
 
@@ -610,12 +616,14 @@ def estimate(measurement: PathLike, prepared: PathLike, *, track_impacts: Option
     onsets), ``force_rms`` and ``force_peak`` as [median, low, high]) and ``notes`` (what was done
     to the data). With ``track_impacts`` (a number of particles) the onsets are timed sample by
     sample by a particle filter on the micro model (``hidden["tracking"]`` says how well it followed
-    the measurement; where it did not, the onsets are the draws'). A bad file raises ScenarioError
-    naming the column and the problem; a missing one FileNotFoundError."""
+    the measurement; where it did not, the onsets are the draws'); ``track_draws`` runs one filter
+    on each of that many best-aligned posterior draws (default 4) and keeps the one that follows
+    best. A bad file raises ScenarioError naming the column and the problem; a missing one
+    FileNotFoundError."""
     path = os.fspath(measurement)
     if not os.path.exists(path):
         raise FileNotFoundError(path)
-    result = json.loads(_lash.estimate_json(path, os.fspath(prepared), track_impacts))
+    result = json.loads(_lash.estimate_json(path, os.fspath(prepared), track_impacts, track_draws))
     answer = result["estimate"]
     hidden = result["hidden"]
     for signal in hidden["signals"]:

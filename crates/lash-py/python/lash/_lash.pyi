@@ -97,7 +97,10 @@ def prepare_estimator(
     hidden_runs: Optional[int] = None,
 ) -> None: ...
 def estimate_json(
-    measurement: Union[str, PathLike[str]], prepared: Union[str, PathLike[str]], track_impacts: Optional[int] = ...
+    measurement: Union[str, PathLike[str]],
+    prepared: Union[str, PathLike[str]],
+    track_impacts: Optional[int] = ...,
+    track_draws: Optional[int] = ...,
 ) -> str: ...
 def emulate_measurement(
     prepared: Union[str, PathLike[str]],
