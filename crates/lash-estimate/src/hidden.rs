@@ -526,7 +526,9 @@ fn track_impacts(
     let table = toml::Table::try_from(&r.scenario).map_err(|e| EstimateError::Failure(e.to_string()))?;
     let base = lash_scenario::paths::EditBase::new(table);
     let mut replays = Vec::with_capacity(draws.len());
-    let (mut every, mut lost) = (1, None);
+    let mut lost = None;
+    // The draws share the setup's output interval.
+    let every = draws.first().map_or(1, |d| (1.0 / (setup.sample_rate * d.1.dt)).round() as usize);
     for &(draw, sim, lag) in draws {
         let lash_scenario::AnyScenario::Planar(mut scenario) = draw_scenario(estimator, r, &base, draw, f0)? else {
             return Ok(None);
@@ -535,7 +537,6 @@ fn track_impacts(
         if setup.envelope || lash_sweep::plan::measured_axis(&scenario.output.measurements, sensor).is_some() {
             return Ok(None);
         }
-        every = (1.0 / (setup.sample_rate * sim.dt)).round() as usize;
         let rows = lag + measured.len() * every + 1;
         scenario.simulation.horizon = ((rows as f64 * sim.dt) / setup.macro_step).ceil() * setup.macro_step;
         let options_run = lash_run::ReducedOptions {
