@@ -177,6 +177,9 @@ pub fn estimate(
             }
         );
     }
+    if let Some(why) = &hidden.tracking_failure {
+        println!("  impact tracking failed ({why}): the onsets are the draws'");
+    }
     for (j, onsets) in hidden.onsets.iter().enumerate() {
         let ([rms, rms_lo, rms_hi], [peak, peak_lo, peak_hi]) = (hidden.force_rms[j], hidden.force_peak[j]);
         println!(

@@ -60,6 +60,10 @@ pub struct Hidden {
     /// the measurement.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tracking: Option<crate::track::TrackSummary>,
+    /// Why the impact tracking asked for gave no filter (every replayed draw's run or every
+    /// filter's particles failed): the onsets are the draws'.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracking_failure: Option<String>,
 }
 
 /// How the hidden signals' bands are widened to hold the converged full model's truth: split
@@ -480,6 +484,7 @@ pub fn reconstruct(
         failed,
         calibration_cases: 0,
         tracking: None,
+        tracking_failure: None,
     };
     if let Some(c) = &estimator.hidden_calibration {
         c.apply(&mut hidden);
@@ -492,21 +497,33 @@ pub fn reconstruct(
             .take(options.draws.max(1))
             .map(|&(_, d, lag)| (chosen[d].as_slice(), simulated[d].as_ref().expect("aligned"), lag))
             .collect();
-        let tracked = track_impacts(estimator, &r, f0, &best, measured, options)?;
-        hidden.take_tracked(tracked);
+        hidden.take_tracked(track_impacts(estimator, &r, f0, &best, measured, options))?;
     }
     Ok(hidden)
 }
 
 impl Hidden {
     /// The impact tracking's summary, and its onsets where its particles follow the measurement.
-    fn take_tracked(&mut self, tracked: Option<crate::track::Tracked>) {
-        if let Some(t) = tracked {
-            if t.summary.follows {
-                self.onsets = t.onsets;
+    /// A tracking whose simulations failed (the replays, or every particle of every filter)
+    /// leaves the draws' onsets and says why; an input error is the estimate's.
+    fn take_tracked(
+        &mut self,
+        tracked: Result<Option<crate::track::Tracked>, EstimateError>,
+    ) -> Result<(), EstimateError> {
+        match tracked {
+            Ok(Some(t)) => {
+                if t.summary.follows {
+                    self.onsets = t.onsets;
+                }
+                self.tracking = Some(t.summary);
             }
-            self.tracking = Some(t.summary);
+            Ok(None) => {}
+            Err(e @ (EstimateError::Failure(_) | EstimateError::Run(_))) => {
+                self.tracking_failure = Some(lash_core::error_chain(&e));
+            }
+            Err(e) => return Err(e),
         }
+        Ok(())
     }
 }
 
@@ -863,6 +880,7 @@ mod tests {
                     failed: 0,
                     calibration_cases: 0,
                     tracking: None,
+                    tracking_failure: None,
                 };
                 (Truth { measured: Vec::new(), joints: vec![(force, eccentricity)] }, hidden)
             })
@@ -908,5 +926,34 @@ mod tests {
             vec![0.0, 0.0, 3.0, 0.0, 0.0, 1.0],
         ];
         assert_eq!(onsets(&draws), vec![2, 5]);
+    }
+
+    /// A tracking whose simulations failed leaves the draws' onsets and says why (the estimate
+    /// goes on); a tracking that follows replaces them; an input error stays the estimate's.
+    #[test]
+    fn a_failed_tracking_keeps_the_draws_onsets() {
+        let (_, mut hidden) = gaussian_cases(1, 1.0, 0).remove(0);
+        hidden.onsets = vec![vec![3, 9]];
+        let failure = EstimateError::Failure("impact tracking: every particle failed by sample 51".into());
+        hidden.take_tracked(Err(failure)).expect("the estimate goes on");
+        assert_eq!(hidden.onsets, vec![vec![3, 9]]);
+        assert!(hidden.tracking.is_none());
+        assert!(hidden.tracking_failure.as_deref().is_some_and(|w| w.contains("every particle failed")));
+        let input = EstimateError::Input("--track-draws: must be at least 1".into());
+        assert!(matches!(hidden.take_tracked(Err(input)), Err(EstimateError::Input(_))));
+        let summary = crate::track::TrackSummary {
+            particles: 8,
+            resamplings: 1,
+            measured_rms: 1.0,
+            replay_residual: 0.3,
+            innovation: 0.1,
+            follows: true,
+            draw: 0,
+            draw_innovations: vec![Some(0.1)],
+        };
+        let tracked = crate::track::Tracked { onsets: vec![vec![4]], contact: vec![Vec::new()], summary };
+        hidden.take_tracked(Ok(Some(tracked))).expect("taken");
+        assert_eq!(hidden.onsets, vec![vec![4]]);
+        assert!(hidden.tracking.as_ref().is_some_and(|t| t.follows));
     }
 }

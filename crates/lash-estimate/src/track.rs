@@ -807,25 +807,29 @@ mod tests {
     }
 
     /// The twin of `replay` nudged by `delta` at the spread, measured by `chain` from row `lag`
-    /// every `every` rows (`samples` of them, 1 % noise), tracked.
+    /// every `every` rows (`samples` of them, 1 % noise), tracked by a filter of `seed`. A filter
+    /// whose particles all fail finds nothing.
     fn twin(
         replay: &Replay,
         chain: lash_measure::Acquisition,
         (lag, every, samples): (usize, usize, usize),
-        delta: [f64; 2],
+        (delta, seed): ([f64; 2], u64),
     ) -> Twin {
-        let track_options = TrackOptions { particles: 128, seed: 3, lead: 5e-5, ..Default::default() };
+        let track_options = TrackOptions { particles: 128, seed, lead: 5e-5, ..Default::default() };
         let (measured, twin_contact, alone_contact) =
             measure(replay, chain, (lag, every, samples, track_options.lead), delta);
         let truth = onsets_of(&twin_contact);
+        let by_replay = near(&onsets_of(&alone_contact), &truth);
         let candidate = Candidate { replay, lag, gain: 1.0 };
-        let tracked = track(&[candidate], chain, &measured, every, track_options).expect("tracked");
+        let Ok(tracked) = track(&[candidate], chain, &measured, every, track_options) else {
+            return Twin { truth: truth.len(), by_replay, ..Default::default() };
+        };
         Twin {
             truth: truth.len(),
             found: near(&tracked.onsets[0], &truth),
             reported: tracked.onsets[0].len(),
             real: near(&truth, &tracked.onsets[0]),
-            by_replay: near(&onsets_of(&alone_contact), &truth),
+            by_replay,
             follows: usize::from(tracked.summary.follows),
         }
     }
@@ -869,26 +873,32 @@ mod tests {
     /// Twin experiments on the filter's mechanics: each measurement is the reduced model's own,
     /// from a state nudged away from the replay's at the spread (and 1 % noise), so the replay
     /// alone times its impacts wrongly; the filter, weighing the particles by the measurement,
-    /// times most of them within two samples, and reports few that are not.
+    /// times most of them within two samples, and reports few that are not. Over eight filter
+    /// seeds (one filter's luck is not the method's): at the default settings they found 83 % of
+    /// 224 onsets, 80 % of theirs true, the replay alone 54 % (nudges of 0.05 found 54 %, 60 %
+    /// true: this test fails with them).
     #[test]
     fn the_filter_follows_nudged_twins() {
         let replay = bouncing_replay(&mut scenario_a(0.004));
         let chain = BOUNCING_CHAIN;
         let mut sum = Twin::default();
-        for delta in [[0.05, -0.05], [0.1, -0.1], [-0.1, 0.05], [0.03, 0.08]] {
-            let t = twin(&replay, chain, (8, 2, 150), delta);
-            assert!(t.truth >= 3, "the twin's journal bounces: {t:?}");
-            sum = Twin {
-                truth: sum.truth + t.truth,
-                found: sum.found + t.found,
-                reported: sum.reported + t.reported,
-                real: sum.real + t.real,
-                by_replay: sum.by_replay + t.by_replay,
-                follows: sum.follows + t.follows,
-            };
+        for seed in 3..=10 {
+            for delta in [[0.05, -0.05], [0.1, -0.1], [-0.1, 0.05], [0.03, 0.08]] {
+                let t = twin(&replay, chain, (8, 2, 150), (delta, seed));
+                assert!(t.truth >= 3, "the twin's journal bounces: {t:?}");
+                sum = Twin {
+                    truth: sum.truth + t.truth,
+                    found: sum.found + t.found,
+                    reported: sum.reported + t.reported,
+                    real: sum.real + t.real,
+                    by_replay: sum.by_replay + t.by_replay,
+                    follows: sum.follows + t.follows,
+                };
+            }
         }
-        assert!(sum.found as f64 >= 0.8 * sum.truth as f64 && sum.real as f64 >= 0.8 * sum.reported as f64, "{sum:?}");
-        assert!(sum.by_replay + 5 <= sum.found && sum.follows >= 3, "{sum:?}");
+        let share = |a: usize, b: usize| a as f64 / b as f64;
+        assert!(share(sum.found, sum.truth) >= 0.75 && share(sum.real, sum.reported) >= 0.7, "{sum:?}");
+        assert!(share(sum.found - sum.by_replay.min(sum.found), sum.truth) >= 0.2 && sum.follows >= 8, "{sum:?}");
     }
 
     #[test]

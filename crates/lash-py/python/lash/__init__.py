@@ -616,7 +616,8 @@ def estimate(
     onsets), ``force_rms`` and ``force_peak`` as [median, low, high]) and ``notes`` (what was done
     to the data). With ``track_impacts`` (a number of particles) the onsets are timed sample by
     sample by a particle filter on the micro model (``hidden["tracking"]`` says how well it followed
-    the measurement; where it did not, the onsets are the draws'); ``track_draws`` runs one filter
+    the measurement; where it did not, the onsets are the draws'; where its simulations failed,
+    ``hidden["tracking_failure"]`` says why and the onsets are the draws'); ``track_draws`` runs one filter
     on each of that many best-aligned posterior draws (default 4) and keeps the one that follows
     best. A bad file raises ScenarioError naming the column and the problem; a missing one
     FileNotFoundError."""
