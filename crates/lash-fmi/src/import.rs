@@ -56,7 +56,7 @@ pub enum ImportError {
 
 /// What lash reads of a `modelDescription.xml` (leniently: unknown elements and attributes are
 /// skipped, numbers in any float syntax, missing optional attributes defaulted).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Description {
     /// `fmiVersion`.
     pub fmi_version: String,
@@ -127,80 +127,48 @@ impl From<&str> for DescriptionError {
 pub fn parse_description(xml: &str) -> Result<Description, DescriptionError> {
     use quick_xml::events::Event;
     let mut reader = quick_xml::Reader::from_str(xml);
-    let mut d = Description {
-        fmi_version: String::new(),
-        model_name: String::new(),
-        token: String::new(),
-        model_identifier: String::new(),
-        generation_tool: String::new(),
-        default_step_size: None,
-        variables: Vec::new(),
-        dimension_refs: Vec::new(),
-    };
-    let mut dims: Vec<Option<u32>> = Vec::new();
-    // The variable being read (FMI 3.0: a type element; FMI 2.0: a ScalarVariable, whose type
-    // comes from its child element), its aliases, and whether it came from a ScalarVariable.
-    let mut current: Option<Variable> = None;
-    let mut aliases: Vec<(String, Option<String>)> = Vec::new();
-    let mut scalar = false;
-    let mut in_variables = false;
-    // Inside an FMI 2.0 ScalarVariable element (its children are type elements, not variables).
-    let mut in_scalar = false;
-    let number_list = |s: &str, kind: ValueKind| -> Vec<f64> {
-        s.split_whitespace()
-            .filter_map(|x| match (kind, x) {
-                (ValueKind::Boolean, "true") => Some(1.0),
-                (ValueKind::Boolean, "false") => Some(0.0),
-                _ => x.parse().ok(),
-            })
-            .collect()
-    };
+    let mut r = DescriptionReader::default();
     loop {
         let event = reader
             .read_event()
             .map_err(|source| DescriptionError::Xml { position: reader.buffer_position(), source })?;
-        let (e, empty) = match &event {
-            Event::Start(e) => (e, false),
-            Event::Empty(e) => (e, true),
+        match &event {
+            Event::Start(e) => r.element(e, false)?,
+            Event::Empty(e) => r.element(e, true)?,
             Event::End(e) => {
                 let name = e.name();
-                let name: &str = name.as_ref();
-                let closes =
-                    if scalar { name == "ScalarVariable" } else { ValueKind::from_element(name, false).is_some() };
-                if name == "ModelVariables" {
-                    in_variables = false;
-                }
-                if name == "ScalarVariable" {
-                    in_scalar = false;
-                }
-                if closes && let Some(v) = current.take() {
-                    // FMI 3.0 aliases: further names of the same variable (same value reference).
-                    let named: Vec<Variable> = aliases
-                        .drain(..)
-                        .map(|(name, description)| Variable {
-                            name,
-                            description: description.unwrap_or_else(|| v.description.clone()),
-                            ..v.clone()
-                        })
-                        .collect();
-                    for _ in 0..=named.len() {
-                        d.dimension_refs.push(dims.clone());
-                    }
-                    d.variables.push(v);
-                    d.variables.extend(named);
-                    aliases.clear();
-                }
-                continue;
+                r.end(name.as_ref());
             }
             Event::Eof => break,
-            _ => continue,
-        };
-        let element: String = {
-            let name = e.name();
-            let name: &str = name.as_ref();
-            name.to_string()
-        };
-        match element.as_str() {
+            _ => {}
+        }
+    }
+    r.finish()
+}
+
+/// The state of [`parse_description`] between XML events.
+#[derive(Default)]
+struct DescriptionReader {
+    d: Description,
+    /// The structural parameters sizing the axes of the variable being read.
+    dims: Vec<Option<u32>>,
+    /// The variable being read (FMI 3.0: a type element; FMI 2.0: a ScalarVariable, whose type
+    /// comes from its child element), its aliases, and whether it came from a ScalarVariable.
+    current: Option<Variable>,
+    aliases: Vec<(String, Option<String>)>,
+    scalar: bool,
+    in_variables: bool,
+    /// Inside an FMI 2.0 ScalarVariable element (its children are type elements, not variables).
+    in_scalar: bool,
+}
+
+impl DescriptionReader {
+    /// An element opens (`empty`: and closes at once).
+    fn element(&mut self, e: &quick_xml::events::BytesStart<'_>, empty: bool) -> Result<(), DescriptionError> {
+        let name = e.name();
+        let element: &str = name.as_ref();
+        let d = &mut self.d;
+        match element {
             "fmiModelDescription" => {
                 d.fmi_version = attr(e, "fmiVersion").unwrap_or_default();
                 d.model_name = attr(e, "modelName").unwrap_or_default();
@@ -213,41 +181,15 @@ pub fn parse_description(xml: &str) -> Result<Description, DescriptionError> {
                     .and_then(|s| s.trim().parse::<f64>().ok())
                     .filter(|h| h.is_finite() && *h > 0.0);
             }
-            "ModelVariables" => in_variables = !empty,
-            "Dimension" => {
-                if let Some(v) = current.as_mut() {
-                    // A literal size, or the value reference of the structural parameter that
-                    // sizes this axis (resolved from its start value below).
-                    let literal = attr(e, "start").and_then(|s| s.trim().parse::<usize>().ok());
-                    let sized_by = attr(e, "valueReference").and_then(|s| s.trim().parse::<u32>().ok());
-                    let n = match (literal, sized_by) {
-                        (Some(n), _) => n,
-                        (None, Some(_)) => 0,
-                        (None, None) => {
-                            return Err(format!(
-                                "variable {:?}: a Dimension needs a start or a valueReference",
-                                v.name
-                            )
-                            .into());
-                        }
-                    };
-                    let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
-                    if total.is_none_or(|t| t > MAX_ELEMENTS) {
-                        return Err(
-                            format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name).into()
-                        );
-                    }
-                    v.shape.push(n);
-                    dims.push(if literal.is_some() { None } else { sized_by });
-                }
-            }
-            "Alias" if current.is_some() => {
+            "ModelVariables" => self.in_variables = !empty,
+            "Dimension" => self.dimension(e)?,
+            "Alias" if self.current.is_some() => {
                 let name = attr(e, "name").ok_or("an Alias without a name")?;
-                aliases.push((name, attr(e, "description")));
+                self.aliases.push((name, attr(e, "description")));
             }
             // FMI 2.0: the type element inside a ScalarVariable gives its kind, unit and start.
-            other if scalar && current.is_some() && ValueKind::from_element(other, true).is_some() => {
-                if let (Some(v), Some(kind)) = (current.as_mut(), ValueKind::from_element(other, true)) {
+            other if self.scalar && self.current.is_some() && ValueKind::from_element(other, true).is_some() => {
+                if let (Some(v), Some(kind)) = (self.current.as_mut(), ValueKind::from_element(other, true)) {
                     v.kind = kind;
                     v.unit = attr(e, "unit").unwrap_or_default();
                     if let Some(start) = attr(e, "start") {
@@ -256,76 +198,155 @@ pub fn parse_description(xml: &str) -> Result<Description, DescriptionError> {
                 }
             }
             other
-                if in_variables
-                    && !in_scalar
+                if self.in_variables
+                    && !self.in_scalar
                     && (other == "ScalarVariable" || ValueKind::from_element(other, false).is_some()) =>
             {
-                scalar = other == "ScalarVariable";
-                in_scalar = scalar && !empty;
-                let kind = ValueKind::from_element(other, false).unwrap_or(ValueKind::Float64);
-                let causality = match attr(e, "causality").as_deref() {
-                    Some("independent") => None,
-                    Some("parameter") => Some(Causality::Parameter),
-                    Some("structuralParameter") => Some(Causality::StructuralParameter),
-                    Some("input") => Some(Causality::Input),
-                    Some("output") => Some(Causality::Output),
-                    _ => Some(Causality::Local),
-                };
-                let Some(causality) = causality else { continue };
-                let Some(vr) = attr(e, "valueReference").and_then(|v| v.trim().parse::<u32>().ok()) else {
-                    return Err(format!("variable {:?} has no valid valueReference", attr(e, "name")).into());
-                };
-                let variable = Variable {
-                    name: attr(e, "name").ok_or("a variable without a name")?,
-                    value_reference: vr,
-                    causality,
-                    variability: match attr(e, "variability").as_deref() {
-                        Some("constant" | "fixed" | "tunable") => Variability::Fixed,
-                        Some("discrete") => Variability::Discrete,
-                        _ => Variability::Continuous,
-                    },
-                    unit: attr(e, "unit").unwrap_or_default(),
-                    description: attr(e, "description").unwrap_or_default(),
-                    shape: Vec::new(),
-                    start: attr(e, "start").map(|s| number_list(&s, kind)).unwrap_or_default(),
-                    kind,
-                };
-                dims.clear();
-                if empty {
-                    d.variables.push(variable);
-                    d.dimension_refs.push(Vec::new());
-                } else {
-                    current = Some(variable);
-                    aliases.clear();
-                }
+                self.variable(e, other, empty)?
             }
             _ => {}
         }
+        Ok(())
     }
-    let start_values: Vec<(u32, Option<f64>)> =
-        d.variables.iter().map(|v| (v.value_reference, v.start.first().copied())).collect();
-    resize(&mut d.variables, &d.dimension_refs, |vr| {
-        start_values.iter().find(|(r, _)| *r == vr).and_then(|(_, s)| *s)
-    })?;
-    if d.fmi_version.is_empty() {
-        return Err("no fmiModelDescription element with an fmiVersion".into());
+
+    /// A Dimension of the variable being read: a literal size, or the value reference of the
+    /// structural parameter that sizes this axis (resolved from its start value at the end).
+    fn dimension(&mut self, e: &quick_xml::events::BytesStart<'_>) -> Result<(), DescriptionError> {
+        let Some(v) = self.current.as_mut() else { return Ok(()) };
+        let literal = attr(e, "start").and_then(|s| s.trim().parse::<usize>().ok());
+        let sized_by = attr(e, "valueReference").and_then(|s| s.trim().parse::<u32>().ok());
+        let n = match (literal, sized_by) {
+            (Some(n), _) => n,
+            (None, Some(_)) => 0,
+            (None, None) => {
+                return Err(format!("variable {:?}: a Dimension needs a start or a valueReference", v.name).into());
+            }
+        };
+        let total = v.shape.iter().try_fold(n, |a, &b| a.checked_mul(b));
+        if total.is_none_or(|t| t > MAX_ELEMENTS) {
+            return Err(format!("variable {:?}: its dimensions exceed {MAX_ELEMENTS} elements", v.name).into());
+        }
+        v.shape.push(n);
+        self.dims.push(if literal.is_some() { None } else { sized_by });
+        Ok(())
     }
-    if d.model_identifier.is_empty() {
-        return Err("no CoSimulation element with a modelIdentifier (only co-simulation FMUs are imported)".into());
+
+    /// A variable's element (`element`: its name, a type or ScalarVariable) opens.
+    fn variable(
+        &mut self,
+        e: &quick_xml::events::BytesStart<'_>,
+        element: &str,
+        empty: bool,
+    ) -> Result<(), DescriptionError> {
+        self.scalar = element == "ScalarVariable";
+        self.in_scalar = self.scalar && !empty;
+        let kind = ValueKind::from_element(element, false).unwrap_or(ValueKind::Float64);
+        let causality = match attr(e, "causality").as_deref() {
+            Some("independent") => return Ok(()),
+            Some("parameter") => Causality::Parameter,
+            Some("structuralParameter") => Causality::StructuralParameter,
+            Some("input") => Causality::Input,
+            Some("output") => Causality::Output,
+            _ => Causality::Local,
+        };
+        let Some(vr) = attr(e, "valueReference").and_then(|v| v.trim().parse::<u32>().ok()) else {
+            return Err(format!("variable {:?} has no valid valueReference", attr(e, "name")).into());
+        };
+        let variable = Variable {
+            name: attr(e, "name").ok_or("a variable without a name")?,
+            value_reference: vr,
+            causality,
+            variability: match attr(e, "variability").as_deref() {
+                Some("constant" | "fixed" | "tunable") => Variability::Fixed,
+                Some("discrete") => Variability::Discrete,
+                _ => Variability::Continuous,
+            },
+            unit: attr(e, "unit").unwrap_or_default(),
+            description: attr(e, "description").unwrap_or_default(),
+            shape: Vec::new(),
+            start: attr(e, "start").map(|s| number_list(&s, kind)).unwrap_or_default(),
+            kind,
+        };
+        self.dims.clear();
+        if empty {
+            self.d.variables.push(variable);
+            self.d.dimension_refs.push(Vec::new());
+        } else {
+            self.current = Some(variable);
+            self.aliases.clear();
+        }
+        Ok(())
     }
-    // The identifier names the binary inside the archive: a C identifier (as the standard asks),
-    // so that it can never be a path that leaves `binaries/<platform>/`.
-    let mut chars = d.model_identifier.chars();
-    let c_identifier = chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
-    if !c_identifier {
-        return Err(format!(
-            "modelIdentifier {:?} is not a C identifier (letters, digits and '_', not starting with a digit)",
-            d.model_identifier
-        )
-        .into());
+
+    /// An element closes: a variable read is complete with its FMI 3.0 aliases (further names
+    /// of the same value reference).
+    fn end(&mut self, name: &str) {
+        let closes =
+            if self.scalar { name == "ScalarVariable" } else { ValueKind::from_element(name, false).is_some() };
+        if name == "ModelVariables" {
+            self.in_variables = false;
+        }
+        if name == "ScalarVariable" {
+            self.in_scalar = false;
+        }
+        if closes && let Some(v) = self.current.take() {
+            let named: Vec<Variable> = self
+                .aliases
+                .drain(..)
+                .map(|(name, description)| Variable {
+                    name,
+                    description: description.unwrap_or_else(|| v.description.clone()),
+                    ..v.clone()
+                })
+                .collect();
+            for _ in 0..=named.len() {
+                self.d.dimension_refs.push(self.dims.clone());
+            }
+            self.d.variables.push(v);
+            self.d.variables.extend(named);
+        }
     }
-    Ok(d)
+
+    /// The description read: arrays sized by their structural parameters' start values, the
+    /// version and a model identifier that is a C identifier checked.
+    fn finish(self) -> Result<Description, DescriptionError> {
+        let mut d = self.d;
+        let start_values: Vec<(u32, Option<f64>)> =
+            d.variables.iter().map(|v| (v.value_reference, v.start.first().copied())).collect();
+        resize(&mut d.variables, &d.dimension_refs, |vr| {
+            start_values.iter().find(|(r, _)| *r == vr).and_then(|(_, s)| *s)
+        })?;
+        if d.fmi_version.is_empty() {
+            return Err("no fmiModelDescription element with an fmiVersion".into());
+        }
+        if d.model_identifier.is_empty() {
+            return Err("no CoSimulation element with a modelIdentifier (only co-simulation FMUs are imported)".into());
+        }
+        // The identifier names the binary inside the archive: a C identifier (as the standard
+        // asks), so that it can never be a path that leaves `binaries/<platform>/`.
+        let mut chars = d.model_identifier.chars();
+        let c_identifier = chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !c_identifier {
+            return Err(format!(
+                "modelIdentifier {:?} is not a C identifier (letters, digits and '_', not starting with a digit)",
+                d.model_identifier
+            )
+            .into());
+        }
+        Ok(d)
+    }
+}
+
+/// A start value's numbers (`true`/`false` for a Boolean; what does not parse is left out).
+fn number_list(s: &str, kind: ValueKind) -> Vec<f64> {
+    s.split_whitespace()
+        .filter_map(|x| match (kind, x) {
+            (ValueKind::Boolean, "true") => Some(1.0),
+            (ValueKind::Boolean, "false") => Some(0.0),
+            _ => x.parse().ok(),
+        })
+        .collect()
 }
 
 /// Where lash keeps unpacked FMUs between runs: `$LASH_CACHE`, else `$XDG_CACHE_HOME/lash`, else

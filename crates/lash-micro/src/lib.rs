@@ -640,55 +640,7 @@ impl InterfaceSubsystem {
         integrator: MicroIntegrator,
         definitions: Vec<ClearanceDefinition>,
     ) -> Result<Self, SubsystemError> {
-        let micro_step = match integrator {
-            MicroIntegrator::Rk4 { step } => Ticks::from_seconds(step)
-                .map_err(|e| SubsystemError::BadValue { name: "micro_step".into(), problem: e.to_string() })?,
-            MicroIntegrator::Dopri5(_) => Ticks(0),
-        };
-        if matches!(integrator, MicroIntegrator::Rk4 { .. }) && micro_step.0 <= 0 {
-            return Err(SubsystemError::BadValue { name: "micro_step".into(), problem: "must be > 0".into() });
-        }
-        // A bush damped in series is a state integrated by the micro RK4 with the eccentricities:
-        // its relaxation time c/k must not be shorter than the step (RK4 is stable for steps up
-        // to 2.8 times the fastest time constant, (c + D)/(k + k_c) ≥ c/(k + k_c); with a contact
-        // as stiff as the bush, c/k ≥ h keeps h under 2 of them).
-        if let Some(j) = joints.iter().find(|j| j.damped_in_series()) {
-            let tau = j.relaxation_time();
-            match integrator {
-                MicroIntegrator::Dopri5(_) => {
-                    return Err(SubsystemError::BadValue {
-                        name: "micro integrator".into(),
-                        problem: format!(
-                            "clearance joint {:?} has a bush damped in series (c/k = {tau:.2e} s), a state the DOPRI5 \
-                             micro integrator does not carry yet; use RK4",
-                            j.name()
-                        ),
-                    });
-                }
-                MicroIntegrator::Rk4 { step } if step > tau => {
-                    return Err(SubsystemError::BadValue {
-                        name: "micro_step".into(),
-                        problem: format!(
-                            "{step:e} s is longer than the relaxation time c/k = {tau:.2e} s of the bush damped in series \
-                             of clearance joint {:?}: RK4 would not be stable; give a micro step of at most {tau:.2e} s",
-                            j.name()
-                        ),
-                    });
-                }
-                MicroIntegrator::Rk4 { .. } => {}
-            }
-        }
-        if J::CONTACTS > 1 && matches!(integrator, MicroIntegrator::Dopri5(_)) {
-            return Err(SubsystemError::BadValue {
-                name: "micro integrator".into(),
-                problem: format!(
-                    "{} {:?} has {} contacts, whose events the DOPRI5 micro integrator does not locate yet; use RK4",
-                    J::KIND,
-                    joints[0].name(),
-                    J::CONTACTS
-                ),
-            });
-        }
+        let micro_step = checked_micro_step(&joints, integrator)?;
         if !definitions.is_empty() && definitions.len() != joints.len() {
             return Err(SubsystemError::BadArguments(format!(
                 "{} definitions for {} clearance joints",
@@ -697,7 +649,6 @@ impl InterfaceSubsystem {
             )));
         }
         let k = joints.len();
-        let (n, loads, rotations) = (k * J::COORDINATES, k * J::FRICTION_LOADS, k * J::ROTATIONS);
         let core = J::core(joints.clone())
             .ok_or_else(|| SubsystemError::BadValue {
                 name: "clearance joints".into(),
@@ -708,190 +659,10 @@ impl InterfaceSubsystem {
                 ),
             })?
             .0;
-        use Causality::{Input, Local, Output};
-        use Variability::{Continuous as C, Discrete as D, Fixed};
         let mut t = VariableTable::new();
-        let eye: Vec<f64> = (0..n * n).map(|i| if i / n == i % n { 1.0 } else { 0.0 }).collect();
-        let pj = per_joint_shape(k, &[]);
-        let map = per_joint_shape(loads, &[n]);
-        let per_load = per_joint_shape(loads, &[]);
-        let per_rotation = per_joint_shape(rotations, &[]);
-        if J::MOBILITY_FORM {
-            // The same slots, the terms in mobility form (see `model::Mobility`).
-            t.add_at(
-                vr::EFFECTIVE_MASS,
-                "mobility",
-                Input,
-                C,
-                "1/kg",
-                "interface mobility W = inverse of M~",
-                &[n, n],
-                &eye,
-            );
-            t.add_at(vr::EFFECTIVE_MASS_RATE, "mobility_rate", Input, C, "1/(kg.s)", "dW/dt", &[n, n], &[0.0]);
-            t.add_at(
-                vr::EFFECTIVE_FORCE,
-                "free_acceleration",
-                Input,
-                C,
-                "m/s^2",
-                "interface acceleration with f_c = 0 (W f~)",
-                &[n],
-                &[0.0],
-            );
-            t.add_at(vr::EFFECTIVE_FORCE_RATE, "free_acceleration_rate", Input, C, "m/s^3", "its rate", &[n], &[0.0]);
-            t.add_at(
-                vr::FRICTION_MOMENT_FORCE,
-                "friction_mobility",
-                Input,
-                C,
-                "1/kg",
-                "interface acceleration per unit friction load (W H)",
-                &map,
-                &[0.0],
-            );
-            t.add_at(
-                vr::FRICTION_MOMENT_FORCE_RATE,
-                "friction_mobility_rate",
-                Input,
-                C,
-                "1/(kg.s)",
-                "its rate",
-                &map,
-                &[0.0],
-            );
-        } else {
-            t.add_at(
-                vr::EFFECTIVE_MASS,
-                "effective_mass",
-                Input,
-                C,
-                "kg",
-                "effective mass M~ of the interface",
-                &[n, n],
-                &eye,
-            );
-            t.add_at(vr::EFFECTIVE_MASS_RATE, "effective_mass_rate", Input, C, "kg/s", "dM~/dt", &[n, n], &[0.0]);
-            t.add_at(
-                vr::EFFECTIVE_FORCE,
-                "effective_force",
-                Input,
-                C,
-                "N",
-                "effective force f~ on the journals",
-                &[n],
-                &[0.0],
-            );
-            t.add_at(vr::EFFECTIVE_FORCE_RATE, "effective_force_rate", Input, C, "N/s", "df~/dt", &[n], &[0.0]);
-            t.add_at(
-                vr::FRICTION_MOMENT_FORCE,
-                "friction_moment_force",
-                Input,
-                C,
-                "1",
-                "force on the journals equivalent to each friction load's moments, per unit load (M~ W_T)",
-                &map,
-                &[0.0],
-            );
-            t.add_at(
-                vr::FRICTION_MOMENT_FORCE_RATE,
-                "friction_moment_force_rate",
-                Input,
-                C,
-                "1/s",
-                "its rate",
-                &map,
-                &[0.0],
-            );
-        }
-        lash_mech::subsystem::add_body_rates(
-            &mut t,
-            [
-                vr::JOURNAL_ANGULAR_VELOCITY,
-                vr::JOURNAL_ANGULAR_ACCELERATION,
-                vr::BEARING_ANGULAR_VELOCITY,
-                vr::BEARING_ANGULAR_ACCELERATION,
-            ],
-            Input,
-            &per_rotation,
-        );
-        t.add_at(vr::CONTACT_FORCE, "contact_force", Output, C, "N", "contact force f_c on the journal", &[n], &[0.0]);
-        t.add_at(
-            vr::CONTACT_IMPULSE,
-            "contact_impulse",
-            Output,
-            C,
-            "N.s",
-            "integral of f_c since the start",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(vr::NORMAL_FORCE, "normal_force", Output, C, "N", "normal contact force F_N", &pj, &[0.0]);
-        t.add_at(vr::FRICTION_FORCE, "friction_force", Output, C, "N", "friction force F_T", &pj, &[0.0]);
-        let load_description = if J::FRICTION_LOADS == 1 {
-            "friction loads: each joint's friction force F_T"
-        } else {
-            "friction loads: each joint's n x F_T (world; the torques are R_J n x F_T on the journal's body and \
-             -R_B n x F_T on the bearing's)"
-        };
-        t.add_at(vr::FRICTION_LOAD, "friction_load", Output, C, "N", load_description, &per_load, &[0.0]);
-        t.add_at(
-            vr::FRICTION_IMPULSE,
-            "friction_impulse",
-            Output,
-            C,
-            "N.s",
-            "integral of the friction loads since the start",
-            &per_load,
-            &[0.0],
-        );
-        t.add_at(vr::ECCENTRICITY, "eccentricity", Output, C, "m", "journal centre minus bearing centre", &[n], &[0.0]);
-        t.add_at(vr::ECCENTRICITY_RATE, "eccentricity_rate", Output, C, "m/s", "its rate", &[n], &[0.0]);
-        t.add_at(vr::ECCENTRICITY_NORM, "eccentricity_norm", Output, C, "m", "|e|", &pj, &[0.0]);
-        let clearances: Vec<f64> = joints.iter().map(|j| j.radial_clearance()).collect();
-        let minus: Vec<f64> = clearances.iter().map(|c| -c).collect();
-        t.add_at(vr::PENETRATION, "penetration", Output, C, "m", "|e| - c", &pj, &minus);
-        t.add_at(vr::PENETRATION_RATE, "penetration_rate", Output, C, "m/s", "d(penetration)/dt", &pj, &[0.0]);
-        t.add_at(vr::SLIP_VELOCITY, "slip_velocity", Output, C, "m/s", "relative tangential velocity", &pj, &[0.0]);
-        t.add_at(vr::IMPACTS, "impacts", Output, D, "1", "completed impacts", &pj, &[0.0]);
-        t.add_at(vr::IN_CONTACT, "in_contact", Output, D, "1", "1 in contact, 0 in free flight", &pj, &[0.0]);
-        t.add_at(vr::RADIAL_CLEARANCE, "radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &pj, &clearances);
-        t.add_at(vr::CONTACT_FORCE_MAGNITUDE, "contact_force_magnitude", Output, C, "N", "|f_c|", &pj, &[0.0]);
-        t.add_at(
-            vr::MICRO_STEPS,
-            "micro_steps",
-            Output,
-            D,
-            "1",
-            "micro steps taken since initialization (RK4: h / h_r per step; DOPRI5: accepted steps)",
-            &[],
-            &[0.0],
-        );
-        let per_contact = per_joint_shape(k * J::CONTACTS, &[]);
-        let (force, penetration) = (vr::CONTACT_NORMAL_FORCE, vr::CONTACT_PENETRATION);
-        t.add_at(force, "contact_normal_force", Output, C, "N", "each contact's F_N", &per_contact, &[0.0]);
-        let minus_per_contact: Vec<f64> = minus.iter().flat_map(|&m| std::iter::repeat_n(m, J::CONTACTS)).collect();
-        let description = "each contact's penetration";
-        t.add_at(penetration, "contact_penetration", Output, C, "m", description, &per_contact, &minus_per_contact);
-        let mut parameter_values = Vec::new();
-        let mut ranges = Vec::with_capacity(definitions.len());
-        for (joint, definition) in joints.iter().zip(definitions) {
-            let from = parameter_values.len();
-            for p in definition.parameters() {
-                let name = if k > 1 { format!("{}.{}", joint.name(), p.name) } else { p.name.clone() };
-                t.add(
-                    &name,
-                    Causality::Parameter,
-                    Fixed,
-                    p.unit,
-                    "clearance joint parameter (as in the scenario file)",
-                    &[],
-                    &[p.value],
-                );
-                parameter_values.push(p.value);
-            }
-            ranges.push((definition, from..parameter_values.len()));
-        }
+        add_coupled_terms::<J>(&mut t, k);
+        add_outputs(&mut t, &joints);
+        let (definitions, parameter_values) = add_parameters(&mut t, &joints, definitions);
         let variables = t.into_checked_variables().map_err(|m| SubsystemError::Other(format!("internal: {m}")))?;
         let names: Vec<&str> = joints.iter().map(|j| j.name()).collect();
         Ok(Self {
@@ -903,7 +674,7 @@ impl InterfaceSubsystem {
             micro_step,
             time: Ticks::ZERO,
             phase: Phase::Instantiated,
-            definitions: ranges,
+            definitions,
             parameter_values,
             micro_steps: 0,
         })
@@ -995,6 +766,210 @@ impl InterfaceSubsystem {
     pub fn eccentricity(&self) -> &[f64] {
         each_core!(&self.core, m => m.eccentricity.as_slice())
     }
+}
+
+/// The micro step of `integrator` in ticks (0 for DOPRI5), checked against what the joints need:
+/// a bush damped in series needs RK4 at a step within its relaxation time, several contacts per
+/// joint need RK4.
+fn checked_micro_step<J: CoreJoint>(joints: &[J], integrator: MicroIntegrator) -> Result<Ticks, SubsystemError> {
+    let micro_step = match integrator {
+        MicroIntegrator::Rk4 { step } => Ticks::from_seconds(step)
+            .map_err(|e| SubsystemError::BadValue { name: "micro_step".into(), problem: e.to_string() })?,
+        MicroIntegrator::Dopri5(_) => Ticks(0),
+    };
+    if matches!(integrator, MicroIntegrator::Rk4 { .. }) && micro_step.0 <= 0 {
+        return Err(SubsystemError::BadValue { name: "micro_step".into(), problem: "must be > 0".into() });
+    }
+    // A bush damped in series is a state integrated by the micro RK4 with the eccentricities:
+    // its relaxation time c/k must not be shorter than the step (RK4 is stable for steps up
+    // to 2.8 times the fastest time constant, (c + D)/(k + k_c) ≥ c/(k + k_c); with a contact
+    // as stiff as the bush, c/k ≥ h keeps h under 2 of them).
+    if let Some(j) = joints.iter().find(|j| j.damped_in_series()) {
+        let tau = j.relaxation_time();
+        match integrator {
+            MicroIntegrator::Dopri5(_) => {
+                return Err(SubsystemError::BadValue {
+                    name: "micro integrator".into(),
+                    problem: format!(
+                        "clearance joint {:?} has a bush damped in series (c/k = {tau:.2e} s), a state the DOPRI5 \
+                         micro integrator does not carry yet; use RK4",
+                        j.name()
+                    ),
+                });
+            }
+            MicroIntegrator::Rk4 { step } if step > tau => {
+                return Err(SubsystemError::BadValue {
+                    name: "micro_step".into(),
+                    problem: format!(
+                        "{step:e} s is longer than the relaxation time c/k = {tau:.2e} s of the bush damped in series \
+                         of clearance joint {:?}: RK4 would not be stable; give a micro step of at most {tau:.2e} s",
+                        j.name()
+                    ),
+                });
+            }
+            MicroIntegrator::Rk4 { .. } => {}
+        }
+    }
+    if J::CONTACTS > 1 && matches!(integrator, MicroIntegrator::Dopri5(_)) {
+        return Err(SubsystemError::BadValue {
+            name: "micro integrator".into(),
+            problem: format!(
+                "{} {:?} has {} contacts, whose events the DOPRI5 micro integrator does not locate yet; use RK4",
+                J::KIND,
+                joints[0].name(),
+                J::CONTACTS
+            ),
+        });
+    }
+    Ok(micro_step)
+}
+
+/// The coupled terms the macro subsystem sets (inputs): M̃, f̃ and the friction loads' columns
+/// with their rates (in mobility form where the joint asks for it), and the bodies' rates.
+fn add_coupled_terms<J: CoreJoint>(t: &mut VariableTable, k: usize) {
+    use Causality::Input;
+    use Variability::Continuous as C;
+    let (n, loads, rotations) = (k * J::COORDINATES, k * J::FRICTION_LOADS, k * J::ROTATIONS);
+    let eye: Vec<f64> = (0..n * n).map(|i| if i / n == i % n { 1.0 } else { 0.0 }).collect();
+    let map = per_joint_shape(loads, &[n]);
+    let per_rotation = per_joint_shape(rotations, &[]);
+    // The same slots in either form; the mobility form's terms are those of `model::Mobility`.
+    let named: [(&str, &str, &str); 6] = if J::MOBILITY_FORM {
+        [
+            ("mobility", "1/kg", "interface mobility W = inverse of M~"),
+            ("mobility_rate", "1/(kg.s)", "dW/dt"),
+            ("free_acceleration", "m/s^2", "interface acceleration with f_c = 0 (W f~)"),
+            ("free_acceleration_rate", "m/s^3", "its rate"),
+            ("friction_mobility", "1/kg", "interface acceleration per unit friction load (W H)"),
+            ("friction_mobility_rate", "1/(kg.s)", "its rate"),
+        ]
+    } else {
+        [
+            ("effective_mass", "kg", "effective mass M~ of the interface"),
+            ("effective_mass_rate", "kg/s", "dM~/dt"),
+            ("effective_force", "N", "effective force f~ on the journals"),
+            ("effective_force_rate", "N/s", "df~/dt"),
+            (
+                "friction_moment_force",
+                "1",
+                "force on the journals equivalent to each friction load's moments, per unit load (M~ W_T)",
+            ),
+            ("friction_moment_force_rate", "1/s", "its rate"),
+        ]
+    };
+    let slots: [(ValueReference, &[usize], &[f64]); 6] = [
+        (vr::EFFECTIVE_MASS, &[n, n], &eye),
+        (vr::EFFECTIVE_MASS_RATE, &[n, n], &[0.0]),
+        (vr::EFFECTIVE_FORCE, &[n], &[0.0]),
+        (vr::EFFECTIVE_FORCE_RATE, &[n], &[0.0]),
+        (vr::FRICTION_MOMENT_FORCE, &map, &[0.0]),
+        (vr::FRICTION_MOMENT_FORCE_RATE, &map, &[0.0]),
+    ];
+    for ((vr, shape, start), (name, unit, description)) in slots.into_iter().zip(named) {
+        t.add_at(vr, name, Input, C, unit, description, shape, start);
+    }
+    lash_mech::subsystem::add_body_rates(
+        t,
+        [
+            vr::JOURNAL_ANGULAR_VELOCITY,
+            vr::JOURNAL_ANGULAR_ACCELERATION,
+            vr::BEARING_ANGULAR_VELOCITY,
+            vr::BEARING_ANGULAR_ACCELERATION,
+        ],
+        Input,
+        &per_rotation,
+    );
+}
+
+/// The micro subsystem's outputs: contact and friction loads, the eccentricities, each contact's
+/// force and penetration, the counts.
+fn add_outputs<J: CoreJoint>(t: &mut VariableTable, joints: &[J]) {
+    use Causality::{Local, Output};
+    use Variability::{Continuous as C, Discrete as D, Fixed};
+    let k = joints.len();
+    let (n, loads) = (k * J::COORDINATES, k * J::FRICTION_LOADS);
+    let pj = per_joint_shape(k, &[]);
+    let per_load = per_joint_shape(loads, &[]);
+    t.add_at(vr::CONTACT_FORCE, "contact_force", Output, C, "N", "contact force f_c on the journal", &[n], &[0.0]);
+    t.add_at(vr::CONTACT_IMPULSE, "contact_impulse", Output, C, "N.s", "integral of f_c since the start", &[n], &[0.0]);
+    t.add_at(vr::NORMAL_FORCE, "normal_force", Output, C, "N", "normal contact force F_N", &pj, &[0.0]);
+    t.add_at(vr::FRICTION_FORCE, "friction_force", Output, C, "N", "friction force F_T", &pj, &[0.0]);
+    let load_description = if J::FRICTION_LOADS == 1 {
+        "friction loads: each joint's friction force F_T"
+    } else {
+        "friction loads: each joint's n x F_T (world; the torques are R_J n x F_T on the journal's body and \
+         -R_B n x F_T on the bearing's)"
+    };
+    t.add_at(vr::FRICTION_LOAD, "friction_load", Output, C, "N", load_description, &per_load, &[0.0]);
+    t.add_at(
+        vr::FRICTION_IMPULSE,
+        "friction_impulse",
+        Output,
+        C,
+        "N.s",
+        "integral of the friction loads since the start",
+        &per_load,
+        &[0.0],
+    );
+    t.add_at(vr::ECCENTRICITY, "eccentricity", Output, C, "m", "journal centre minus bearing centre", &[n], &[0.0]);
+    t.add_at(vr::ECCENTRICITY_RATE, "eccentricity_rate", Output, C, "m/s", "its rate", &[n], &[0.0]);
+    t.add_at(vr::ECCENTRICITY_NORM, "eccentricity_norm", Output, C, "m", "|e|", &pj, &[0.0]);
+    let clearances: Vec<f64> = joints.iter().map(|j| j.radial_clearance()).collect();
+    let minus: Vec<f64> = clearances.iter().map(|c| -c).collect();
+    t.add_at(vr::PENETRATION, "penetration", Output, C, "m", "|e| - c", &pj, &minus);
+    t.add_at(vr::PENETRATION_RATE, "penetration_rate", Output, C, "m/s", "d(penetration)/dt", &pj, &[0.0]);
+    t.add_at(vr::SLIP_VELOCITY, "slip_velocity", Output, C, "m/s", "relative tangential velocity", &pj, &[0.0]);
+    t.add_at(vr::IMPACTS, "impacts", Output, D, "1", "completed impacts", &pj, &[0.0]);
+    t.add_at(vr::IN_CONTACT, "in_contact", Output, D, "1", "1 in contact, 0 in free flight", &pj, &[0.0]);
+    t.add_at(vr::RADIAL_CLEARANCE, "radial_clearance", Local, Fixed, "m", "c = R_B - R_J", &pj, &clearances);
+    t.add_at(vr::CONTACT_FORCE_MAGNITUDE, "contact_force_magnitude", Output, C, "N", "|f_c|", &pj, &[0.0]);
+    t.add_at(
+        vr::MICRO_STEPS,
+        "micro_steps",
+        Output,
+        D,
+        "1",
+        "micro steps taken since initialization (RK4: h / h_r per step; DOPRI5: accepted steps)",
+        &[],
+        &[0.0],
+    );
+    let per_contact = per_joint_shape(k * J::CONTACTS, &[]);
+    let (force, penetration) = (vr::CONTACT_NORMAL_FORCE, vr::CONTACT_PENETRATION);
+    t.add_at(force, "contact_normal_force", Output, C, "N", "each contact's F_N", &per_contact, &[0.0]);
+    let minus_per_contact: Vec<f64> = minus.iter().flat_map(|&m| std::iter::repeat_n(m, J::CONTACTS)).collect();
+    let description = "each contact's penetration";
+    t.add_at(penetration, "contact_penetration", Output, C, "m", description, &per_contact, &minus_per_contact);
+}
+
+/// Each joint's definition's parameters as variables (named `joint.parameter` where there are
+/// several joints): the definitions with the range of their values, and the values.
+#[allow(clippy::type_complexity)]
+fn add_parameters<J: CoreJoint>(
+    t: &mut VariableTable,
+    joints: &[J],
+    definitions: Vec<ClearanceDefinition>,
+) -> (Vec<(ClearanceDefinition, std::ops::Range<usize>)>, Vec<f64>) {
+    let k = joints.len();
+    let mut parameter_values = Vec::new();
+    let mut ranges = Vec::with_capacity(definitions.len());
+    for (joint, definition) in joints.iter().zip(definitions) {
+        let from = parameter_values.len();
+        for p in definition.parameters() {
+            let name = if k > 1 { format!("{}.{}", joint.name(), p.name) } else { p.name.clone() };
+            t.add(
+                &name,
+                Causality::Parameter,
+                Variability::Fixed,
+                p.unit,
+                "clearance joint parameter (as in the scenario file)",
+                &[],
+                &[p.value],
+            );
+            parameter_values.push(p.value);
+        }
+        ranges.push((definition, from..parameter_values.len()));
+    }
+    (ranges, parameter_values)
 }
 
 impl Subsystem for InterfaceSubsystem {

@@ -590,6 +590,34 @@ pub(crate) fn validate_simulation(s: &SimulationSpec) -> Problems {
 /// Names, references and counts across the file.
 fn cross_check(s: &Scenario) -> Problems {
     let mut p = Problems::new();
+    check_references(s, &mut p);
+    let clearance_joints = check_clearances(s, &mut p);
+    check_guides(s, &mut p);
+    check_bushings(s, &clearance_joints, &mut p);
+    let coords = 3 * s.bodies.len();
+    let equations = 2 * s.joints.len().saturating_sub(s.bushings.len()) + s.drivers.len();
+    if equations > coords {
+        p.push("joints", format!("{equations} constraint equations for {coords} coordinates: over-constrained"));
+    }
+    let channels: Vec<(String, &str)> =
+        crate::channels::channels(s, false).into_iter().map(|c| (c.name, c.unit)).collect();
+    p.0.extend(validate_measurements(&s.output, &channels, s.simulation.output_interval).0);
+    if !s.output.channels.is_empty() {
+        let names = crate::channels::channel_names(s, false);
+        for (k, c) in s.output.channels.iter().enumerate() {
+            if !names.iter().any(|n| n == c) {
+                p.push(
+                    format!("output.channels[{k}]"),
+                    format!("no channel called {c:?}; see `lash channels <scenario>`"),
+                );
+            }
+        }
+    }
+    p
+}
+
+/// Unique names of bodies, joints and sensors; the bodies that joints, drivers, loads and sensors name.
+fn check_references(s: &Scenario, p: &mut Problems) {
     let bodies: HashSet<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
     let body_ok = |name: &str| name == "ground" || bodies.contains(name);
     let mut seen = HashSet::new();
@@ -634,6 +662,10 @@ fn cross_check(s: &Scenario) -> Problems {
             p.push(format!("sensors[{k}].name"), format!("{:?} is used by another sensor", sen.name));
         }
     }
+}
+
+/// Each clearance on a revolute joint of the file, one per joint, with its bush and materials: the joints that have one.
+fn check_clearances<'a>(s: &'a Scenario, p: &mut Problems) -> HashSet<&'a str> {
     let mut clearance_joints = HashSet::new();
     for (k, c) in s.clearances.iter().enumerate() {
         let f = |x: &str| format!("clearances[{k}].{x}");
@@ -701,7 +733,11 @@ fn cross_check(s: &Scenario) -> Problems {
             }
         }
     }
-    check_guides(s, &mut p);
+    clearance_joints
+}
+
+/// Each bushing on a revolute joint without a clearance, one per joint, with one stiffness source.
+fn check_bushings(s: &Scenario, clearance_joints: &HashSet<&str>, p: &mut Problems) {
     let mut bushing_joints = HashSet::new();
     for (k, b) in s.bushings.iter().enumerate() {
         let f = |x: &str| format!("bushings[{k}].{x}");
@@ -769,26 +805,6 @@ fn cross_check(s: &Scenario) -> Problems {
             p.push(f("damping"), format!("must be ≥ 0 N s/m, got {c}"));
         }
     }
-    let coords = 3 * s.bodies.len();
-    let equations = 2 * s.joints.len().saturating_sub(s.bushings.len()) + s.drivers.len();
-    if equations > coords {
-        p.push("joints", format!("{equations} constraint equations for {coords} coordinates: over-constrained"));
-    }
-    let channels: Vec<(String, &str)> =
-        crate::channels::channels(s, false).into_iter().map(|c| (c.name, c.unit)).collect();
-    p.0.extend(validate_measurements(&s.output, &channels, s.simulation.output_interval).0);
-    if !s.output.channels.is_empty() {
-        let names = crate::channels::channel_names(s, false);
-        for (k, c) in s.output.channels.iter().enumerate() {
-            if !names.iter().any(|n| n == c) {
-                p.push(
-                    format!("output.channels[{k}]"),
-                    format!("no channel called {c:?}; see `lash channels <scenario>`"),
-                );
-            }
-        }
-    }
-    p
 }
 
 /// The measurements of `output` against the scenario's channels (name, unit) and output interval.

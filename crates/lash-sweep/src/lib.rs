@@ -435,44 +435,11 @@ fn read_journal(out: &Path) -> BTreeMap<u64, RunRecord> {
 pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) + Sync)) -> Result<Report, SweepError> {
     let start = Instant::now();
     let out = &options.out;
-    let io = SweepError::Output;
-    // The folder: new, empty, or holding this very sweep (and shard).
-    if let Some(m) = Manifest::read(out)? {
-        if m.sweep_hash != plan.sweep_hash {
-            return Err(SweepError::Input(format!(
-                "--out {}: the folder holds another sweep's data (sweep hash {}…, this sweep {}…); choose another folder",
-                out.display(),
-                &m.sweep_hash[..12],
-                &plan.sweep_hash[..12]
-            )));
-        }
-        if m.shard != options.shard {
-            return Err(SweepError::Input(format!(
-                "--out {}: the folder holds shard {:?} of this sweep, not {:?}",
-                out.display(),
-                m.shard,
-                options.shard
-            )));
-        }
-        if m.status == "complete" {
-            let runs = m.runs.len() as u64;
-            on_event(Event::Start { total: runs, done: runs });
-            let failed = m.runs.iter().filter(|r| r.status != "ok").count() as u64;
-            return Ok(Report {
-                runs,
-                skipped: runs,
-                failed,
-                wall_s: start.elapsed().as_secs_f64(),
-                ..Default::default()
-            });
-        }
-    } else if out.exists() && std::fs::read_dir(out).map(|mut d| d.next().is_some()).unwrap_or(false) {
-        return Err(SweepError::Input(format!(
-            "--out {}: the folder is not empty and holds no lash sweep manifest; choose a new or empty folder",
-            out.display()
-        )));
+    if let Some(complete) = check_folder(plan, options, on_event, start)? {
+        return Ok(complete);
     }
-    std::fs::create_dir_all(out.join("parts")).map_err(|e| io(format!("cannot create {}: {e}", out.display())))?;
+    std::fs::create_dir_all(out.join("parts"))
+        .map_err(|e| SweepError::Output(format!("cannot create {}: {e}", out.display())))?;
     let manifest = new_manifest(plan, options.shard);
     manifest.write(out)?;
 
@@ -494,10 +461,12 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
         .append(true)
         .open(&journal_path)
         .map_err(|source| DatasetError::Io { action: "open", path: journal_path.clone(), source })?;
+    // Runs finished by an earlier execution: where their rows are (None: failed).
+    let earlier: BTreeMap<u64, Option<RunSource>> =
+        done.iter().map(|(id, r)| (*id, (r.status == "ok").then(|| part_source(out, r)))).collect();
     let shared = Mutex::new(Shared { journal, journal_path, records: done, simulated_s: 0.0 });
-    let stop: AtomicBool = AtomicBool::new(false);
+    let halt = Halt { stop: AtomicBool::new(false), error: Mutex::new(None) };
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
-    let write_error: Mutex<Option<DatasetError>> = Mutex::new(None);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -508,139 +477,45 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     // assembling the dataset overlaps with the simulations instead of following them, and a
     // worker never waits on a file.
     let (sender, receiver) = std::sync::mpsc::channel::<Finished>();
-    let mut writer = dataset::DataWriter::create(out, &schema, plan.spec.output.csv)?;
-    // Runs finished by an earlier execution: where their rows are (None: failed).
-    let earlier: BTreeMap<u64, Option<RunSource>> = shared
-        .lock()
-        .expect("lock")
-        .records
-        .iter()
-        .map(|(id, r)| (*id, (r.status == "ok").then(|| part_source(out, r))))
-        .collect();
-    let mut assemble_s = 0.0;
+    let mut assembler = Assembler {
+        out,
+        schema: &schema,
+        shared: &shared,
+        writer: dataset::DataWriter::create(out, &schema, plan.spec.output.csv)?,
+        part: None,
+        order: &shard_runs,
+        earlier,
+        waiting: BTreeMap::new(),
+        cursor: 0,
+        assemble_s: 0.0,
+    };
     let assembled: Result<(), DatasetError> = std::thread::scope(|scope| {
-        let pending = &pending;
-        let (shared, stop, write_error, channels, schema) = (&shared, &stop, &write_error, &channels, &schema);
+        let (pending, halt, channels, schema) = (&pending, &halt, &channels, &schema);
         scope.spawn(move || {
             pool.install(|| {
                 pending.par_chunks(group).for_each_with(sender, |sender, runs| {
-                    if stop.load(Ordering::Relaxed) || cancelled() {
-                        return;
-                    }
-                    let t0 = Instant::now();
-                    let results = simulate(plan, runs, channels);
-                    // The group's time, shared by its runs.
-                    let simulate_s = t0.elapsed().as_secs_f64() / runs.len() as f64;
-                    for (run, result) in runs.iter().zip(results) {
-                        let record = |status: &str, error, rows| RunRecord {
-                            run_id: run.id,
-                            seed: run.seed,
-                            status: status.into(),
-                            error,
-                            rows,
-                            simulate_s,
-                            write_s: 0.0,
-                            part: None,
-                            row_group: None,
-                        };
-                        let finished = match result {
-                            Ok((data, horizon)) => {
-                                let rows = data.time.len() as u64;
-                                match data.into_batch(schema) {
-                                    Ok(batch) => Finished {
-                                        record: record("ok", None, rows),
-                                        simulated: horizon,
-                                        batch: Some(batch),
-                                    },
-                                    Err(e) => {
-                                        *write_error.lock().expect("lock") = Some(e);
-                                        stop.store(true, Ordering::Relaxed);
-                                        return;
-                                    }
-                                }
-                            }
-                            Err(e) => Finished { record: record("failed", Some(e), 0), simulated: 0.0, batch: None },
-                        };
-                        let ok = finished.batch.is_some();
-                        // (The assembler is gone only after a write error, which stops the sweep.)
-                        if sender.send(finished).is_err() {
-                            return;
-                        }
-                        on_event(Event::Finished { ok });
+                    if !halt.stop.load(Ordering::Relaxed) && !cancelled() {
+                        simulate_group(plan, runs, (channels, schema), sender, halt, on_event);
                     }
                 });
             })
         });
-        // The assembler: keeps each finished run in the open part and walks the shard's runs in
-        // order into the dataset.
-        let mut part: Option<dataset::PartWriter> = None;
-        let mut waiting: BTreeMap<u64, Option<RecordBatch>> = BTreeMap::new();
-        let mut cursor = 0;
-        let mut advance = |waiting: &mut BTreeMap<u64, Option<RecordBatch>>,
-                           writer: &mut dataset::DataWriter|
-         -> Result<(), DatasetError> {
-            while cursor < shard_runs.len() {
-                let id = shard_runs[cursor].id;
-                if let Some(source) = earlier.get(&id) {
-                    if let Some(source) = source {
-                        writer.append_file(source)?;
-                    }
-                } else if let Some(data) = waiting.remove(&id) {
-                    if let Some(d) = data {
-                        writer.append(&d)?;
-                    }
-                } else {
-                    break;
-                }
-                cursor += 1;
-            }
-            Ok(())
-        };
-        let mut assemble = || -> Result<(), DatasetError> {
-            advance(&mut waiting, &mut writer)?;
-            for Finished { record, simulated, batch } in &receiver {
-                let id = record.run_id;
-                match &batch {
-                    Some(batch) => {
-                        // Into the open part; the part is closed and its runs journaled when it is full.
-                        let simulate_s = record.simulate_s;
-                        let p = match part.as_mut() {
-                            Some(p) => p,
-                            None => part.insert(dataset::PartWriter::create(&out.join("parts"), id, schema)?),
-                        };
-                        p.append(batch, record)?;
-                        if p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS {
-                            append_journal(shared, part.take().expect("open part").close()?)?;
-                        }
-                    }
-                    // Nothing to keep but the line.
-                    None => append_journal(shared, vec![record])?,
-                }
-                shared.lock().expect("lock").simulated_s += simulated;
-                waiting.insert(id, batch);
-                let t = Instant::now();
-                advance(&mut waiting, &mut writer)?;
-                assemble_s += t.elapsed().as_secs_f64();
-            }
-            Ok(())
-        };
-        let assembled = assemble();
+        let assembled = assembler.assemble(&receiver);
         if assembled.is_err() {
-            stop.store(true, Ordering::Relaxed);
+            halt.stop.store(true, Ordering::Relaxed);
         }
         // The part still open (the last runs, or those finished before a stop or a write
         // error) is closed and journaled.
-        if let Some(p) = part.take()
-            && let Err(e) = p.close().and_then(|records| append_journal(shared, records))
-        {
-            *write_error.lock().expect("lock") = Some(e);
+        if let Err(e) = assembler.close_part() {
+            *halt.error.lock().expect("lock") = Some(e);
         }
         assembled
     });
-    if let Some(e) = write_error.into_inner().expect("lock") {
+    if let Some(e) = halt.error.into_inner().expect("lock") {
         return Err(e.into());
     }
     assembled?;
+    let (writer, assemble_s) = (assembler.writer, assembler.assemble_s);
     let shared = shared.into_inner().expect("lock");
     if cancelled() {
         let finished = shared.records.len();
@@ -651,22 +526,227 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
             out.display()
         )));
     }
+    let ran = Ran { pending: &pending, threads, assemble_s, start };
+    complete(out, manifest, &shard_runs, shared, writer, ran)
+}
+
+/// The output folder checked before a sweep runs into it: new, empty, or holding this very
+/// sweep (and shard). `Some` where it holds this sweep complete (nothing to run: its report).
+fn check_folder(
+    plan: &Plan,
+    options: &ExecuteOptions,
+    on_event: &(dyn Fn(Event) + Sync),
+    start: Instant,
+) -> Result<Option<Report>, SweepError> {
+    let out = &options.out;
+    if let Some(m) = Manifest::read(out)? {
+        if m.sweep_hash != plan.sweep_hash {
+            return Err(SweepError::Input(format!(
+                "--out {}: the folder holds another sweep's data (sweep hash {}…, this sweep {}…); choose another folder",
+                out.display(),
+                &m.sweep_hash[..12],
+                &plan.sweep_hash[..12]
+            )));
+        }
+        if m.shard != options.shard {
+            return Err(SweepError::Input(format!(
+                "--out {}: the folder holds shard {:?} of this sweep, not {:?}",
+                out.display(),
+                m.shard,
+                options.shard
+            )));
+        }
+        if m.status == "complete" {
+            let runs = m.runs.len() as u64;
+            on_event(Event::Start { total: runs, done: runs });
+            let failed = m.runs.iter().filter(|r| r.status != "ok").count() as u64;
+            let wall_s = start.elapsed().as_secs_f64();
+            return Ok(Some(Report { runs, skipped: runs, failed, wall_s, ..Default::default() }));
+        }
+    } else if out.exists() && std::fs::read_dir(out).map(|mut d| d.next().is_some()).unwrap_or(false) {
+        return Err(SweepError::Input(format!(
+            "--out {}: the folder is not empty and holds no lash sweep manifest; choose a new or empty folder",
+            out.display()
+        )));
+    }
+    Ok(None)
+}
+
+/// What stops the workers: a stop asked (after a write error), and the first write error.
+struct Halt {
+    stop: AtomicBool,
+    error: Mutex<Option<DatasetError>>,
+}
+
+/// A worker's share: `runs` simulated side by side, each handed to the assembler as it
+/// finished (its rows as a batch of `schema`, or its error); a batch that cannot be made stops
+/// the sweep.
+fn simulate_group(
+    plan: &Plan,
+    runs: &[&RunSpec],
+    (channels, schema): (&[ChannelInfo], &arrow_schema::SchemaRef),
+    sender: &mut std::sync::mpsc::Sender<Finished>,
+    halt: &Halt,
+    on_event: &(dyn Fn(Event) + Sync),
+) {
+    let t0 = Instant::now();
+    let results = simulate(plan, runs, channels);
+    // The group's time, shared by its runs.
+    let simulate_s = t0.elapsed().as_secs_f64() / runs.len() as f64;
+    for (run, result) in runs.iter().zip(results) {
+        let record = |status: &str, error, rows| RunRecord {
+            run_id: run.id,
+            seed: run.seed,
+            status: status.into(),
+            error,
+            rows,
+            simulate_s,
+            write_s: 0.0,
+            part: None,
+            row_group: None,
+        };
+        let finished = match result {
+            Ok((data, horizon)) => {
+                let rows = data.time.len() as u64;
+                match data.into_batch(schema) {
+                    Ok(batch) => Finished { record: record("ok", None, rows), simulated: horizon, batch: Some(batch) },
+                    Err(e) => {
+                        *halt.error.lock().expect("lock") = Some(e);
+                        halt.stop.store(true, Ordering::Relaxed);
+                        return;
+                    }
+                }
+            }
+            Err(e) => Finished { record: record("failed", Some(e), 0), simulated: 0.0, batch: None },
+        };
+        let ok = finished.batch.is_some();
+        // (The assembler is gone only after a write error, which stops the sweep.)
+        if sender.send(finished).is_err() {
+            return;
+        }
+        on_event(Event::Finished { ok });
+    }
+}
+
+/// The thread that writes: keeps each finished run in the open part and walks the shard's runs
+/// in order into the dataset.
+struct Assembler<'a> {
+    out: &'a Path,
+    schema: &'a arrow_schema::SchemaRef,
+    shared: &'a Mutex<Shared>,
+    writer: dataset::DataWriter,
+    /// The part being filled (closed and journaled when full).
+    part: Option<dataset::PartWriter>,
+    /// The shard's runs in dataset order.
+    order: &'a [&'a RunSpec],
+    /// Runs finished by an earlier execution: where their rows are (None: failed).
+    earlier: BTreeMap<u64, Option<RunSource>>,
+    /// Runs finished and not yet in the dataset (None: failed).
+    waiting: BTreeMap<u64, Option<RecordBatch>>,
+    /// The next run of `order` to go into the dataset.
+    cursor: usize,
+    /// Time spent appending to the dataset.
+    assemble_s: f64,
+}
+
+impl Assembler<'_> {
+    /// Takes every finished run until the workers are done.
+    fn assemble(&mut self, receiver: &std::sync::mpsc::Receiver<Finished>) -> Result<(), DatasetError> {
+        self.advance()?;
+        for Finished { record, simulated, batch } in receiver {
+            let id = record.run_id;
+            match &batch {
+                Some(batch) => {
+                    // Into the open part; the part is closed and its runs journaled when it is full.
+                    let simulate_s = record.simulate_s;
+                    let p = match self.part.as_mut() {
+                        Some(p) => p,
+                        None => {
+                            self.part.insert(dataset::PartWriter::create(&self.out.join("parts"), id, self.schema)?)
+                        }
+                    };
+                    p.append(batch, record)?;
+                    if p.age() + simulate_s >= PART_SECONDS || p.len() >= PART_RUNS {
+                        self.close_part()?;
+                    }
+                }
+                // Nothing to keep but the line.
+                None => append_journal(self.shared, vec![record])?,
+            }
+            self.shared.lock().expect("lock").simulated_s += simulated;
+            self.waiting.insert(id, batch);
+            let t = Instant::now();
+            self.advance()?;
+            self.assemble_s += t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+
+    /// Appends to the dataset the runs that are next in order and finished.
+    fn advance(&mut self) -> Result<(), DatasetError> {
+        while self.cursor < self.order.len() {
+            let id = self.order[self.cursor].id;
+            if let Some(source) = self.earlier.get(&id) {
+                if let Some(source) = source {
+                    self.writer.append_file(source)?;
+                }
+            } else if let Some(data) = self.waiting.remove(&id) {
+                if let Some(d) = data {
+                    self.writer.append(&d)?;
+                }
+            } else {
+                break;
+            }
+            self.cursor += 1;
+        }
+        Ok(())
+    }
+
+    /// Closes the open part, if any, and journals its runs.
+    fn close_part(&mut self) -> Result<(), DatasetError> {
+        match self.part.take() {
+            Some(p) => append_journal(self.shared, p.close()?),
+            None => Ok(()),
+        }
+    }
+}
+
+/// What an execution ran, for its report.
+struct Ran<'a> {
+    pending: &'a [&'a RunSpec],
+    threads: usize,
+    assemble_s: f64,
+    start: Instant,
+}
+
+/// Every run of the shard finished: the dataset, params.parquet and the manifest written
+/// complete, the parts and the journal removed; the report.
+fn complete(
+    out: &Path,
+    manifest: Manifest,
+    shard_runs: &[&RunSpec],
+    shared: Shared,
+    writer: dataset::DataWriter,
+    ran: Ran<'_>,
+) -> Result<Report, SweepError> {
+    let io = SweepError::Output;
     let t_assemble = Instant::now();
     let records: Vec<RunRecord> = shard_runs.iter().filter_map(|r| shared.records.get(&r.id).cloned()).collect();
     if records.len() != shard_runs.len() {
         return Err(io(format!("{} runs of the shard did not finish", shard_runs.len() - records.len())));
     }
     writer.finish()?;
-    let ran_ids: std::collections::HashSet<u64> = pending.iter().map(|r| r.id).collect();
+    let ran_ids: std::collections::HashSet<u64> = ran.pending.iter().map(|r| r.id).collect();
+    let ran_sum = |f: fn(&RunRecord) -> f64| records.iter().filter(|r| ran_ids.contains(&r.run_id)).map(f).sum();
     let mut report = Report {
         runs: shard_runs.len() as u64,
-        skipped: shard_runs.len() as u64 - pending.len() as u64,
-        ran: pending.len() as u64,
+        skipped: shard_runs.len() as u64 - ran.pending.len() as u64,
+        ran: ran.pending.len() as u64,
         failed: records.iter().filter(|r| r.status != "ok").count() as u64,
-        simulate_s: records.iter().filter(|r| ran_ids.contains(&r.run_id)).map(|r| r.simulate_s).sum(),
-        write_s: records.iter().filter(|r| ran_ids.contains(&r.run_id)).map(|r| r.write_s).sum(),
+        simulate_s: ran_sum(|r| r.simulate_s),
+        write_s: ran_sum(|r| r.write_s),
         simulated_s: shared.simulated_s,
-        threads,
+        threads: ran.threads,
         ..Default::default()
     };
     let params: Vec<ParamsRow> = shard_runs
@@ -686,8 +766,8 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     manifest.write(out)?;
     std::fs::remove_dir_all(out.join("parts")).map_err(|e| io(format!("cannot remove the parts folder: {e}")))?;
     std::fs::remove_file(out.join("runs.jsonl")).map_err(|e| io(format!("cannot remove the run journal: {e}")))?;
-    report.assemble_s = assemble_s + t_assemble.elapsed().as_secs_f64();
-    report.wall_s = start.elapsed().as_secs_f64();
+    report.assemble_s = ran.assemble_s + t_assemble.elapsed().as_secs_f64();
+    report.wall_s = ran.start.elapsed().as_secs_f64();
     Ok(report)
 }
 
