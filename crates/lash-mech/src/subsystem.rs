@@ -165,6 +165,50 @@ pub mod vr {
     }
 }
 
+/// A probe's quantity that is linear in the cut mechanism's multipliers λ (a joint's reaction, a
+/// driver's torque), `at(λ)`: its value at no interface load (λ = `free_lambda`), its gain per
+/// unit load (λ = each column of `lambda_gain`, handed to `gain` with its index), and its value
+/// at the macro's own loads `own`, free + Σ gain·own. Returns (own value, free value).
+pub fn linear_in_loads<V>(
+    (free_lambda, lambda_gain): (&[f64], &[Vec<f64>]),
+    own: &[f64],
+    mut at: impl FnMut(&[f64]) -> V,
+    mut gain: impl FnMut(usize, V),
+) -> (V, V)
+where
+    V: Copy + std::ops::AddAssign + std::ops::Mul<f64, Output = V>,
+{
+    let free = at(free_lambda);
+    let mut total = free;
+    for (c, column) in lambda_gain.iter().enumerate() {
+        let r = at(column);
+        gain(c, r);
+        total += r * own[c];
+    }
+    (total, free)
+}
+
+/// Adds a probe's quantity that the interface loads move, as three outputs: `name.quantity`
+/// (the macro's own value), `name.quantity_free` (at no interface load) and
+/// `name.quantity_gain` (per unit load: the `loads` columns are the contact forces, then the
+/// friction loads — `gain_description` says which). `unit` is the quantity's, `gain_unit` its
+/// gain's; `shape` the quantity's (the gain's adds the loads' axis). The planar and the spatial
+/// macro subsystems declare their probes here.
+pub fn add_propagated(
+    t: &mut VariableTable,
+    (name, quantity): (&str, &str),
+    (unit, gain_unit): (&str, &str),
+    shape: &[usize],
+    (loads, gain_description): (usize, &str),
+) {
+    use Causality::Output;
+    use Variability::Continuous as C;
+    let gain_shape: Vec<usize> = shape.iter().copied().chain([loads]).collect();
+    t.add(format!("{name}.{quantity}"), Output, C, unit, "macro's own", shape, &[0.0]);
+    t.add(format!("{name}.{quantity}_free"), Output, C, unit, "at no interface load", shape, &[0.0]);
+    t.add(format!("{name}.{quantity}_gain"), Output, C, gain_unit, gain_description, &gain_shape, &[0.0]);
+}
+
 /// Adds, at the value references `at` (journal ω, journal α, bearing ω, bearing α), the angular
 /// velocities and accelerations of each clearance joint's journal and bearing bodies: the macro
 /// subsystem's outputs and the micro subsystem's inputs, declared in one place.
@@ -192,6 +236,121 @@ pub fn add_body_rates(t: &mut VariableTable, at: [ValueReference; 4], causality:
         &[0.0],
     );
     t.add_at(at[3], "bearing_angular_acceleration", causality, C, "rad/s^2", "its rate", shape, &[0.0]);
+}
+
+/// The planar macro subsystem's variables for `k` clearance joints and `probes`: the interface
+/// terms, the bodies' rates and the constraint error (outputs), the two-way inputs, then each
+/// probe's outputs.
+fn mechanism_variables(k: usize, probes: &[Probe]) -> Vec<Variable> {
+    use Causality::{Input, Output};
+    use Variability::Continuous as C;
+    let n = 2 * k;
+    let g = n + k;
+    let pj = per_joint_shape(k, &[]);
+    let mut t = VariableTable::new();
+    t.add_at(
+        vr::EFFECTIVE_MASS,
+        "effective_mass",
+        Output,
+        C,
+        "kg",
+        "effective mass M~ of the interface",
+        &[n, n],
+        &[0.0],
+    );
+    t.add_at(
+        vr::EFFECTIVE_FORCE,
+        "effective_force",
+        Output,
+        C,
+        "N",
+        "effective force f~ (M~ w'' = f~ + f_c + H F_T)",
+        &[n],
+        &[0.0],
+    );
+    t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
+    t.add_at(
+        vr::FREE_ACCELERATION,
+        "free_acceleration",
+        Output,
+        C,
+        "m/s^2",
+        "interface acceleration with f_c = 0",
+        &[n],
+        &[0.0],
+    );
+    t.add_at(
+        vr::FRICTION_MOMENT_FORCE,
+        "friction_moment_force",
+        Output,
+        C,
+        "1",
+        "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)",
+        &per_joint_shape(k, &[n]),
+        &[0.0],
+    );
+    add_body_rates(
+        &mut t,
+        [
+            vr::JOURNAL_ANGULAR_VELOCITY,
+            vr::JOURNAL_ANGULAR_ACCELERATION,
+            vr::BEARING_ANGULAR_VELOCITY,
+            vr::BEARING_ANGULAR_ACCELERATION,
+        ],
+        Output,
+        &pj,
+    );
+    t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
+    t.add_at(
+        vr::ECCENTRICITY,
+        "eccentricity",
+        Input,
+        C,
+        "m",
+        "journal minus bearing centres at the step end (two-way)",
+        &[n],
+        &[0.0],
+    );
+    t.add_at(
+        vr::ECCENTRICITY_RATE,
+        "eccentricity_rate",
+        Input,
+        C,
+        "m/s",
+        "their rates at the step end (two-way)",
+        &[n],
+        &[0.0],
+    );
+    t.add_at(
+        vr::FRICTION_FORCE,
+        "friction_force",
+        Input,
+        C,
+        "N",
+        "mean friction force over the next step (two-way)",
+        &pj,
+        &[0.0],
+    );
+    // Gains per unit load: the contact forces (n), then the friction forces (k).
+    let gains = (g, "per unit contact force (f_c), then per unit friction force (F_T)");
+    for p in probes {
+        match p {
+            Probe::Point { name, .. } => {
+                t.add(format!("{name}.position"), Output, C, "m", "point position", &[2], &[0.0]);
+                t.add(format!("{name}.velocity"), Output, C, "m/s", "point velocity", &[2], &[0.0]);
+                add_propagated(&mut t, (name, "acceleration"), ("m/s^2", "m/s^2/N"), &[2], gains);
+            }
+            Probe::JointReaction { name, .. } => add_propagated(&mut t, (name, "reaction"), ("N", "1"), &[2], gains),
+            Probe::Body { name, .. } => {
+                t.add(format!("{name}.pose"), Output, C, "m, m, rad", "centroid x, y and angle", &[3], &[0.0]);
+                t.add(format!("{name}.pose_rate"), Output, C, "m/s, m/s, rad/s", "their rates", &[3], &[0.0]);
+            }
+            Probe::DriverTorque { name, .. } => add_propagated(&mut t, (name, "torque"), ("N.m", "m"), &[], gains),
+        }
+    }
+    // The fixed variables are added in the order of `vr` (checked; every construction in the
+    // tests would fail on a misplaced one).
+    t.into_checked_variables().expect("the mechanism subsystem's variables follow `vr`")
 }
 
 /// Work vectors of [`MechanismSubsystem`]'s refresh at each communication point.
@@ -257,148 +416,8 @@ impl MechanismSubsystem {
         probes: Vec<Probe>,
         coupling: Coupling,
     ) -> Self {
-        use Causality::{Input, Output};
-        use Variability::Continuous as C;
         let (k, n) = (joints.len(), 2 * joints.len());
-        let g = n + k;
-        let pj = per_joint_shape(k, &[]);
-        let mut t = VariableTable::new();
-        t.add_at(
-            vr::EFFECTIVE_MASS,
-            "effective_mass",
-            Output,
-            C,
-            "kg",
-            "effective mass M~ of the interface",
-            &[n, n],
-            &[0.0],
-        );
-        t.add_at(
-            vr::EFFECTIVE_FORCE,
-            "effective_force",
-            Output,
-            C,
-            "N",
-            "effective force f~ (M~ w'' = f~ + f_c + H F_T)",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
-        t.add_at(
-            vr::FREE_ACCELERATION,
-            "free_acceleration",
-            Output,
-            C,
-            "m/s^2",
-            "interface acceleration with f_c = 0",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(
-            vr::FRICTION_MOMENT_FORCE,
-            "friction_moment_force",
-            Output,
-            C,
-            "1",
-            "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)",
-            &per_joint_shape(k, &[n]),
-            &[0.0],
-        );
-        add_body_rates(
-            &mut t,
-            [
-                vr::JOURNAL_ANGULAR_VELOCITY,
-                vr::JOURNAL_ANGULAR_ACCELERATION,
-                vr::BEARING_ANGULAR_VELOCITY,
-                vr::BEARING_ANGULAR_ACCELERATION,
-            ],
-            Output,
-            &pj,
-        );
-        t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
-        t.add_at(
-            vr::ECCENTRICITY,
-            "eccentricity",
-            Input,
-            C,
-            "m",
-            "journal minus bearing centres at the step end (two-way)",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(
-            vr::ECCENTRICITY_RATE,
-            "eccentricity_rate",
-            Input,
-            C,
-            "m/s",
-            "their rates at the step end (two-way)",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(
-            vr::FRICTION_FORCE,
-            "friction_force",
-            Input,
-            C,
-            "N",
-            "mean friction force over the next step (two-way)",
-            &pj,
-            &[0.0],
-        );
-        // Gains per unit load: the contact forces (n), then the friction forces (k).
-        for p in &probes {
-            match p {
-                Probe::Point { name, .. } => {
-                    t.add(format!("{name}.position"), Output, C, "m", "point position", &[2], &[0.0]);
-                    t.add(format!("{name}.velocity"), Output, C, "m/s", "point velocity", &[2], &[0.0]);
-                    t.add(format!("{name}.acceleration"), Output, C, "m/s^2", "macro's own", &[2], &[0.0]);
-                    t.add(format!("{name}.acceleration_free"), Output, C, "m/s^2", "at f_c = 0", &[2], &[0.0]);
-                    t.add(
-                        format!("{name}.acceleration_gain"),
-                        Output,
-                        C,
-                        "m/s^2/N",
-                        "per unit contact force (f_c), then per unit friction force (F_T)",
-                        &[2, g],
-                        &[0.0],
-                    );
-                }
-                Probe::JointReaction { name, .. } => {
-                    t.add(format!("{name}.reaction"), Output, C, "N", "macro's own", &[2], &[0.0]);
-                    t.add(format!("{name}.reaction_free"), Output, C, "N", "at f_c = 0", &[2], &[0.0]);
-                    t.add(
-                        format!("{name}.reaction_gain"),
-                        Output,
-                        C,
-                        "1",
-                        "per unit contact force (f_c), then per unit friction force (F_T)",
-                        &[2, g],
-                        &[0.0],
-                    );
-                }
-                Probe::Body { name, .. } => {
-                    t.add(format!("{name}.pose"), Output, C, "m, m, rad", "centroid x, y and angle", &[3], &[0.0]);
-                    t.add(format!("{name}.pose_rate"), Output, C, "m/s, m/s, rad/s", "their rates", &[3], &[0.0]);
-                }
-                Probe::DriverTorque { name, .. } => {
-                    t.add(format!("{name}.torque"), Output, C, "N.m", "macro's own", &[], &[0.0]);
-                    t.add(format!("{name}.torque_free"), Output, C, "N.m", "at f_c = 0", &[], &[0.0]);
-                    t.add(
-                        format!("{name}.torque_gain"),
-                        Output,
-                        C,
-                        "m",
-                        "per unit contact force (f_c), then per unit friction force (F_T)",
-                        &[g],
-                        &[0.0],
-                    );
-                }
-            }
-        }
-        // The fixed variables are added in the order of `vr` (checked; every construction in the
-        // tests would fail on a misplaced one).
-        let variables = t.into_checked_variables().expect("the mechanism subsystem's variables follow `vr`");
+        let variables = mechanism_variables(k, &probes);
         let kinematic = coupling == Coupling::OneWay && ideal.constraint_count() == ideal.coordinate_count();
         // The closed clearance joints are the ideal mechanism's last joints.
         let first = ideal.joints.len() - k;
@@ -480,29 +499,7 @@ impl MechanismSubsystem {
     fn refresh(&mut self, assembled_error: Option<f64>, solved: bool) -> Result<(), String> {
         let t = self.ports.time.seconds();
         let (k, n) = (self.joints.len(), 2 * self.joints.len());
-        let mut terms =
-            self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
-        if solved {
-            crate::interface::coupled_rates_into(&self.cut_solver, &self.joints, &mut terms);
-        } else {
-            // (The ideal mechanism's solver was last set at this position: its sines and cosines
-            // serve.)
-            self.cut_solver.share_rotations(&self.ideal_solver);
-            if self.cut_factor_shared {
-                // (And its factor, where the ideal one's was formed at this position.)
-                self.cut_solver.share_factor(&self.ideal_solver);
-            }
-            coupled_effective_terms_into(
-                &self.cut,
-                &mut self.cut_solver,
-                &self.joints,
-                t,
-                &self.q,
-                &self.qd,
-                &mut terms,
-            )
-            .map_err(|e| e.to_string())?;
-        }
+        let terms = self.solve_terms(solved)?;
         let Some(mass) = terms.effective_mass.as_ref() else {
             return Err(format!(
                 "the interface mobility W = {} is singular: the cut mechanism cannot move the journals freely in \
@@ -593,74 +590,46 @@ impl MechanismSubsystem {
             }
         };
         put(vr::CONSTRAINT_ERROR, &[phi]);
-        let mut next = vr::FRICTION_FORCE + 1;
-        let g = n + k;
         work.gains.clear();
-        work.gains.resize(2 * g, 0.0);
-        let gains = &mut work.gains;
-        for p in &self.probes {
-            match *p {
-                Probe::Point { body, point, .. } => {
-                    // (One pose, one sine and cosine, for the five: at q̇ and at rest.)
-                    let pose = Pose::of(body, &self.q, &self.qd);
-                    let at_rest = Pose { velocity: Vec2::zeros(), angular_velocity: 0.0, ..pose };
-                    let own_kin = point_kinematics_at(&pose, &self.qdd, body, point);
-                    let free = point_kinematics_at(&pose, &terms.free_accelerations, body, point);
-                    for (c, column) in terms.gain.iter().enumerate() {
-                        let a = point_kinematics_at(&at_rest, column, body, point).acceleration;
-                        gains[c] = a.x;
-                        gains[g + c] = a.y;
-                    }
-                    put(next, own_kin.position.as_slice());
-                    put(next + 1, own_kin.velocity.as_slice());
-                    put(next + 2, own_kin.acceleration.as_slice());
-                    put(next + 3, free.acceleration.as_slice());
-                    put(next + 4, gains);
-                    next += 5;
-                }
-                Probe::JointReaction { joint, .. } => {
-                    let solver = &mut self.cut_solver;
-                    solver.lambda.copy_from_slice(&terms.free_lambda);
-                    let free = joint_reaction(&self.cut, solver, joint);
-                    let mut total = free;
-                    for (c, column) in terms.lambda_gain.iter().enumerate() {
-                        solver.lambda.copy_from_slice(column);
-                        let r = joint_reaction(&self.cut, solver, joint);
-                        gains[c] = r.x;
-                        gains[g + c] = r.y;
-                        total += r * own[c];
-                    }
-                    put(next, total.as_slice());
-                    put(next + 1, free.as_slice());
-                    put(next + 2, gains);
-                    next += 3;
-                }
-                Probe::Body { body, .. } => {
-                    let pose = Pose::of(body, &self.q, &self.qd);
-                    put(next, &[pose.position.x, pose.position.y, pose.angle]);
-                    put(next + 1, &[pose.velocity.x, pose.velocity.y, pose.angular_velocity]);
-                    next += 2;
-                }
-                Probe::DriverTorque { driver, .. } => {
-                    let solver = &mut self.cut_solver;
-                    solver.lambda.copy_from_slice(&terms.free_lambda);
-                    let free = driver_torque(&self.cut, solver, driver);
-                    let mut total = free;
-                    for (c, column) in terms.lambda_gain.iter().enumerate() {
-                        solver.lambda.copy_from_slice(column);
-                        gains[c] = driver_torque(&self.cut, solver, driver);
-                        total += gains[c] * own[c];
-                    }
-                    put(next, &[total]);
-                    put(next + 1, &[free]);
-                    put(next + 2, &gains[..g]);
-                    next += 3;
-                }
-            }
-        }
+        work.gains.resize(2 * (n + k), 0.0);
+        let state =
+            ProbeState { q: &self.q, qd: &self.qd, qdd: &self.qdd, cut: &self.cut, solver: &mut self.cut_solver };
+        write_probes(&self.probes, state, (&terms, own), &mut work.gains, &mut put);
         self.ports.check_finite().map_err(|e| e.to_string())?;
         self.terms = Some(terms);
         Ok(())
+    }
+
+    /// The effective terms at the current state (`solved`: their solves were done ahead, the
+    /// cut solver holds them; else solved here, from the ideal solver's rotations and factor
+    /// where it has them).
+    fn solve_terms(&mut self, solved: bool) -> Result<CoupledTerms, String> {
+        let t = self.ports.time.seconds();
+        let k = self.joints.len();
+        let mut terms =
+            self.terms.take().unwrap_or_else(|| CoupledTerms::zeros(self.q.len(), self.cut.constraint_count(), k));
+        if solved {
+            crate::interface::coupled_rates_into(&self.cut_solver, &self.joints, &mut terms);
+        } else {
+            // (The ideal mechanism's solver was last set at this position: its sines and cosines
+            // serve.)
+            self.cut_solver.share_rotations(&self.ideal_solver);
+            if self.cut_factor_shared {
+                // (And its factor, where the ideal one's was formed at this position.)
+                self.cut_solver.share_factor(&self.ideal_solver);
+            }
+            coupled_effective_terms_into(
+                &self.cut,
+                &mut self.cut_solver,
+                &self.joints,
+                t,
+                &self.q,
+                &self.qd,
+                &mut terms,
+            )
+            .map_err(|e| e.to_string())?;
+        }
+        Ok(terms)
     }
 }
 
@@ -787,6 +756,87 @@ impl Subsystem for MechanismSubsystem {
             self.refresh(None, false).map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
         }
         Ok(())
+    }
+}
+
+/// What a probe reads: the macro's coordinates, velocities and accelerations, and the cut
+/// mechanism with its solver at that state.
+struct ProbeState<'a> {
+    q: &'a [f64],
+    qd: &'a [f64],
+    qdd: &'a [f64],
+    cut: &'a Mechanism,
+    solver: &'a mut Solver,
+}
+
+/// Every probe's outputs, in the order of `probes`, through `put` from the first value
+/// reference after the fixed ones; `terms` and `own` (the macro's own interface loads) give the
+/// free values and the gains, written through `gains` (two rows of one gain per load).
+fn write_probes(
+    probes: &[Probe],
+    s: ProbeState<'_>,
+    (terms, own): (&CoupledTerms, &[f64]),
+    gains: &mut [f64],
+    put: &mut dyn FnMut(ValueReference, &[f64]),
+) {
+    let mut next = vr::FRICTION_FORCE + 1;
+    let g = gains.len() / 2;
+    for p in probes {
+        match *p {
+            Probe::Point { body, point, .. } => {
+                // (One pose, one sine and cosine, for the five: at q̇ and at rest.)
+                let pose = Pose::of(body, s.q, s.qd);
+                let at_rest = Pose { velocity: Vec2::zeros(), angular_velocity: 0.0, ..pose };
+                let own_kin = point_kinematics_at(&pose, s.qdd, body, point);
+                let free = point_kinematics_at(&pose, &terms.free_accelerations, body, point);
+                for (c, column) in terms.gain.iter().enumerate() {
+                    let a = point_kinematics_at(&at_rest, column, body, point).acceleration;
+                    gains[c] = a.x;
+                    gains[g + c] = a.y;
+                }
+                put(next, own_kin.position.as_slice());
+                put(next + 1, own_kin.velocity.as_slice());
+                put(next + 2, own_kin.acceleration.as_slice());
+                put(next + 3, free.acceleration.as_slice());
+                put(next + 4, gains);
+                next += 5;
+            }
+            Probe::JointReaction { joint, .. } => {
+                let (cut, solver) = (s.cut, &mut *s.solver);
+                let at = |lambda: &[f64]| {
+                    solver.lambda.copy_from_slice(lambda);
+                    joint_reaction(cut, solver, joint)
+                };
+                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
+                let (total, free) = linear_in_loads(multipliers, own, at, |c, r: Vec2| {
+                    gains[c] = r.x;
+                    gains[g + c] = r.y;
+                });
+                put(next, total.as_slice());
+                put(next + 1, free.as_slice());
+                put(next + 2, gains);
+                next += 3;
+            }
+            Probe::Body { body, .. } => {
+                let pose = Pose::of(body, s.q, s.qd);
+                put(next, &[pose.position.x, pose.position.y, pose.angle]);
+                put(next + 1, &[pose.velocity.x, pose.velocity.y, pose.angular_velocity]);
+                next += 2;
+            }
+            Probe::DriverTorque { driver, .. } => {
+                let (cut, solver) = (s.cut, &mut *s.solver);
+                let at = |lambda: &[f64]| {
+                    solver.lambda.copy_from_slice(lambda);
+                    driver_torque(cut, solver, driver)
+                };
+                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
+                let (total, free) = linear_in_loads(multipliers, own, at, |c, torque| gains[c] = torque);
+                put(next, &[total]);
+                put(next + 1, &[free]);
+                put(next + 2, &gains[..g]);
+                next += 3;
+            }
+        }
     }
 }
 

@@ -26,6 +26,7 @@ use lash_core::{
     Variable,
 };
 use lash_mech::BodyId;
+use lash_mech::subsystem::{add_propagated, linear_in_loads};
 use lash_ode::{AdaptiveOptions, Method};
 
 /// A quantity of the spatial mechanism exported with its propagation map.
@@ -154,6 +155,114 @@ fn body_index(id: BodyId) -> Option<usize> {
     }
 }
 
+/// The spatial macro subsystem's variables for `k` spherical clearance joints and `probes`: the
+/// interface terms, the bodies' rates and the constraint error (outputs), the two-way inputs,
+/// then each probe's outputs.
+fn spatial_variables(k: usize, probes: &[SpatialProbe]) -> Vec<Variable> {
+    use Causality::{Input, Output};
+    use Variability::Continuous as C;
+    let (n, m) = (3 * k, 3 * k);
+    let g = n + m;
+    let rotations = per_joint_shape(3 * k, &[]);
+    let mut t = VariableTable::new();
+    t.add_at(
+        vr::EFFECTIVE_MASS,
+        "effective_mass",
+        Output,
+        C,
+        "kg",
+        "effective mass M~ of the interface",
+        &[n, n],
+        &[0.0],
+    );
+    t.add_at(
+        vr::EFFECTIVE_FORCE,
+        "effective_force",
+        Output,
+        C,
+        "N",
+        "effective force f~ (M~ w'' = f~ + f_c + H L)",
+        &[n],
+        &[0.0],
+    );
+    t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
+    t.add_at(
+        vr::FREE_ACCELERATION,
+        "free_acceleration",
+        Output,
+        C,
+        "m/s^2",
+        "interface acceleration with f_c = 0",
+        &[n],
+        &[0.0],
+    );
+    t.add_at(
+        vr::FRICTION_MOMENT_FORCE,
+        "friction_moment_force",
+        Output,
+        C,
+        "1",
+        "force on the balls equivalent to a unit friction load n x F_T of each joint (M~ W_tau)",
+        &[n, m],
+        &[0.0],
+    );
+    t.add_at(
+        vr::FRICTION_MOBILITY,
+        "friction_mobility",
+        Output,
+        C,
+        "1/kg",
+        "interface acceleration per unit friction load n x F_T of each joint (W_tau = W H)",
+        &[n, m],
+        &[0.0],
+    );
+    lash_mech::subsystem::add_body_rates(
+        &mut t,
+        [
+            vr::JOURNAL_ANGULAR_VELOCITY,
+            vr::JOURNAL_ANGULAR_ACCELERATION,
+            vr::BEARING_ANGULAR_VELOCITY,
+            vr::BEARING_ANGULAR_ACCELERATION,
+        ],
+        Output,
+        &rotations,
+    );
+    t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
+    let two_way = [
+        (vr::ECCENTRICITY, "eccentricity", "m", "ball minus socket centres at the step end (two-way)"),
+        (vr::ECCENTRICITY_RATE, "eccentricity_rate", "m/s", "their rates at the step end (two-way)"),
+        (vr::FRICTION_FORCE, "friction_force", "N", "mean friction load n x F_T over the next step (two-way)"),
+    ];
+    for (at, name, unit, description) in two_way {
+        t.add_at(at, name, Input, C, unit, description, &[n], &[0.0]);
+    }
+    let gains = (g, "per unit contact force (f_c), then per unit friction load (n x F_T)");
+    for p in probes {
+        match p {
+            SpatialProbe::Point { name, .. } => {
+                t.add(format!("{name}.position"), Output, C, "m", "point position", &[3], &[0.0]);
+                t.add(format!("{name}.velocity"), Output, C, "m/s", "point velocity", &[3], &[0.0]);
+                add_propagated(&mut t, (name, "acceleration"), ("m/s^2", "m/s^2/N"), &[3], gains);
+            }
+            SpatialProbe::JointReaction { name, .. } => {
+                add_propagated(&mut t, (name, "reaction"), ("N", "1"), &[3], gains);
+            }
+            SpatialProbe::DriverTorque { name, .. } => {
+                add_propagated(&mut t, (name, "torque"), ("N.m", "m"), &[], gains);
+            }
+            SpatialProbe::BodyRates { name, .. } => {
+                t.add(format!("{name}.angular_velocity"), Output, C, "rad/s", "in the body frame", &[3], &[0.0]);
+                t.add(format!("{name}.angular_acceleration"), Output, C, "rad/s^2", "its rate", &[3], &[0.0]);
+            }
+            SpatialProbe::Body { name, .. } => {
+                t.add(format!("{name}.pose"), Output, C, "m, 1", "centroid, orientation quaternion", &[7], &[0.0]);
+                t.add(format!("{name}.centroid_velocity"), Output, C, "m/s", "the centroid's rate", &[3], &[0.0]);
+            }
+        }
+    }
+    t.into_checked_variables().expect("the spatial mechanism subsystem's variables follow `vr`")
+}
+
 impl SpatialMechanismSubsystem {
     /// A macro subsystem for the cut mechanism `cut` (every spherical clearance joint removed) and
     /// the ideal one `ideal` (with them, as its last joints, in the same order), the interfaces,
@@ -166,123 +275,9 @@ impl SpatialMechanismSubsystem {
         probes: Vec<SpatialProbe>,
         coupling: Coupling,
     ) -> Self {
-        use Causality::{Input, Output};
-        use Variability::Continuous as C;
         let k = joints.len();
         let (n, m) = (3 * k, 3 * k);
-        let g = n + m;
-        let rotations = per_joint_shape(3 * k, &[]);
-        let mut t = VariableTable::new();
-        t.add_at(
-            vr::EFFECTIVE_MASS,
-            "effective_mass",
-            Output,
-            C,
-            "kg",
-            "effective mass M~ of the interface",
-            &[n, n],
-            &[0.0],
-        );
-        t.add_at(
-            vr::EFFECTIVE_FORCE,
-            "effective_force",
-            Output,
-            C,
-            "N",
-            "effective force f~ (M~ w'' = f~ + f_c + H L)",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
-        t.add_at(
-            vr::FREE_ACCELERATION,
-            "free_acceleration",
-            Output,
-            C,
-            "m/s^2",
-            "interface acceleration with f_c = 0",
-            &[n],
-            &[0.0],
-        );
-        t.add_at(
-            vr::FRICTION_MOMENT_FORCE,
-            "friction_moment_force",
-            Output,
-            C,
-            "1",
-            "force on the balls equivalent to a unit friction load n x F_T of each joint (M~ W_tau)",
-            &[n, m],
-            &[0.0],
-        );
-        t.add_at(
-            vr::FRICTION_MOBILITY,
-            "friction_mobility",
-            Output,
-            C,
-            "1/kg",
-            "interface acceleration per unit friction load n x F_T of each joint (W_tau = W H)",
-            &[n, m],
-            &[0.0],
-        );
-        lash_mech::subsystem::add_body_rates(
-            &mut t,
-            [
-                vr::JOURNAL_ANGULAR_VELOCITY,
-                vr::JOURNAL_ANGULAR_ACCELERATION,
-                vr::BEARING_ANGULAR_VELOCITY,
-                vr::BEARING_ANGULAR_ACCELERATION,
-            ],
-            Output,
-            &rotations,
-        );
-        t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
-        let two_way = [
-            (vr::ECCENTRICITY, "eccentricity", "m", "ball minus socket centres at the step end (two-way)"),
-            (vr::ECCENTRICITY_RATE, "eccentricity_rate", "m/s", "their rates at the step end (two-way)"),
-            (vr::FRICTION_FORCE, "friction_force", "N", "mean friction load n x F_T over the next step (two-way)"),
-        ];
-        for (at, name, unit, description) in two_way {
-            t.add_at(at, name, Input, C, unit, description, &[n], &[0.0]);
-        }
-        let gain = "per unit contact force (f_c), then per unit friction load (n x F_T)";
-        for p in &probes {
-            match p {
-                SpatialProbe::Point { name, .. } => {
-                    t.add(format!("{name}.position"), Output, C, "m", "point position", &[3], &[0.0]);
-                    t.add(format!("{name}.velocity"), Output, C, "m/s", "point velocity", &[3], &[0.0]);
-                    t.add(format!("{name}.acceleration"), Output, C, "m/s^2", "macro's own", &[3], &[0.0]);
-                    t.add(
-                        format!("{name}.acceleration_free"),
-                        Output,
-                        C,
-                        "m/s^2",
-                        "at no interface load",
-                        &[3],
-                        &[0.0],
-                    );
-                    t.add(format!("{name}.acceleration_gain"), Output, C, "1", gain, &[3, g], &[0.0]);
-                }
-                SpatialProbe::JointReaction { name, .. } => {
-                    t.add(format!("{name}.reaction"), Output, C, "N", "macro's own", &[3], &[0.0]);
-                    t.add(format!("{name}.reaction_free"), Output, C, "N", "at no interface load", &[3], &[0.0]);
-                    t.add(format!("{name}.reaction_gain"), Output, C, "1", gain, &[3, g], &[0.0]);
-                }
-                SpatialProbe::DriverTorque { name, .. } => {
-                    t.add(format!("{name}.torque"), Output, C, "N.m", "macro's own", &[], &[0.0]);
-                    t.add(format!("{name}.torque_free"), Output, C, "N.m", "at no interface load", &[], &[0.0]);
-                    t.add(format!("{name}.torque_gain"), Output, C, "1", gain, &[g], &[0.0]);
-                }
-                SpatialProbe::BodyRates { name, .. } => {
-                    t.add(format!("{name}.angular_velocity"), Output, C, "rad/s", "in the body frame", &[3], &[0.0]);
-                    t.add(format!("{name}.angular_acceleration"), Output, C, "rad/s^2", "its rate", &[3], &[0.0]);
-                }
-                SpatialProbe::Body { name, .. } => {
-                    t.add(format!("{name}.pose"), Output, C, "m, 1", "centroid, orientation quaternion", &[7], &[0.0]);
-                    t.add(format!("{name}.centroid_velocity"), Output, C, "m/s", "the centroid's rate", &[3], &[0.0]);
-                }
-            }
-        }
-        let variables = t.into_checked_variables().expect("the spatial mechanism subsystem's variables follow `vr`");
+        let variables = spatial_variables(k, &probes);
         let dim = ideal.coordinate_count() + ideal.velocity_count();
         // The ideal motion is smooth: integrated with steps up to the communication step, it
         // needs no stiffer stabilisation than a 10 ms time constant. (E's α = β = 1000 1/s, chosen
@@ -459,7 +454,7 @@ impl SpatialMechanismSubsystem {
                 SpatialProbe::JointReaction { joint, .. } => {
                     let jt = &self.cut.joints[*joint];
                     let solver = &mut self.cut_solver;
-                    let mut reaction = |lambda: &[f64]| -> Vec3 {
+                    let reaction = |lambda: &[f64]| -> Vec3 {
                         solver.lambda.copy_from_slice(lambda);
                         match (body_index(jt.i.body), body_index(jt.j.body)) {
                             (Some(b), _) => solver.reaction(ranges[*joint].clone(), b).0,
@@ -467,15 +462,12 @@ impl SpatialMechanismSubsystem {
                             (None, None) => Vec3::zeros(),
                         }
                     };
-                    let free = reaction(&terms.free_lambda);
-                    let mut total = free;
-                    for (c, column) in terms.lambda_gain.iter().enumerate() {
-                        let r = reaction(column);
+                    let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
+                    let (total, free) = linear_in_loads(multipliers, own_load, reaction, |c, r: Vec3| {
                         for i in 0..3 {
                             gains[i * g + c] = r[i];
                         }
-                        total += r * own_load[c];
-                    }
+                    });
                     put(next, total.as_slice());
                     put(next + 1, free.as_slice());
                     put(next + 2, gains);
@@ -486,17 +478,13 @@ impl SpatialMechanismSubsystem {
                     let axis = crate::constraints::marker_world(&jt.i, frames).2;
                     let driver_row = row + driver;
                     let solver = &mut self.cut_solver;
-                    let mut torque = |lambda: &[f64]| -> f64 {
+                    let torque = |lambda: &[f64]| -> f64 {
                         solver.lambda.copy_from_slice(lambda);
                         body_index(jt.j.body)
                             .map_or(0.0, |b| solver.reaction(driver_row..driver_row + 1, b).1.dot(&axis))
                     };
-                    let free = torque(&terms.free_lambda);
-                    let mut total = free;
-                    for (c, column) in terms.lambda_gain.iter().enumerate() {
-                        gains[c] = torque(column);
-                        total += gains[c] * own_load[c];
-                    }
+                    let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
+                    let (total, free) = linear_in_loads(multipliers, own_load, torque, |c, torque| gains[c] = torque);
                     put(next, &[total]);
                     put(next + 1, &[free]);
                     put(next + 2, &gains[..g]);
