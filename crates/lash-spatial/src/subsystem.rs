@@ -414,98 +414,122 @@ impl SpatialMechanismSubsystem {
         put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
         self.ideal.set_state(t, q, v);
         put(vr::CONSTRAINT_ERROR, &[self.ideal.solver.constraint_error()]);
-        let mut next = vr::FRICTION_FORCE + 1;
         work.gains.clear();
         work.gains.resize(3 * g, 0.0);
-        let gains = &mut work.gains;
-        // Rows of each cut joint and the first driver row.
-        work.ranges.clear();
-        let ranges = &mut work.ranges;
-        let mut row = 0;
-        for j in &self.cut.joints {
-            ranges.push(row..row + j.kind.equations());
-            row += j.kind.equations();
-        }
-        let ranges = &*ranges;
-        for p in &self.probes {
-            match p {
-                SpatialProbe::Point { body, point, .. } => {
-                    let f = &frames[*body];
-                    let s = f.rotation * point;
-                    let w = f.angular_velocity;
-                    let accel = |x: &[f64], centripetal: bool| -> Vec3 {
-                        let linear = Vec3::new(x[6 * body], x[6 * body + 1], x[6 * body + 2]);
-                        let alpha = f.rotation * Vec3::new(x[6 * body + 3], x[6 * body + 4], x[6 * body + 5]);
-                        linear + alpha.cross(&s) + if centripetal { w.cross(&w.cross(&s)) } else { Vec3::zeros() }
-                    };
-                    for (c, column) in terms.gain.iter().enumerate() {
-                        let a = accel(column, false);
-                        for i in 0..3 {
-                            gains[i * g + c] = a[i];
-                        }
-                    }
-                    put(next, (f.position + s).as_slice());
-                    put(next + 1, (f.velocity + w.cross(&s)).as_slice());
-                    put(next + 2, accel(own, true).as_slice());
-                    put(next + 3, accel(&terms.free_accelerations, true).as_slice());
-                    put(next + 4, gains);
-                    next += 5;
-                }
-                SpatialProbe::JointReaction { joint, .. } => {
-                    let jt = &self.cut.joints[*joint];
-                    let solver = &mut self.cut_solver;
-                    let reaction = |lambda: &[f64]| -> Vec3 {
-                        solver.lambda.copy_from_slice(lambda);
-                        match (body_index(jt.i.body), body_index(jt.j.body)) {
-                            (Some(b), _) => solver.reaction(ranges[*joint].clone(), b).0,
-                            (None, Some(b)) => -solver.reaction(ranges[*joint].clone(), b).0,
-                            (None, None) => Vec3::zeros(),
-                        }
-                    };
-                    let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
-                    let (total, free) = linear_in_loads(multipliers, own_load, reaction, |c, r: Vec3| {
-                        for i in 0..3 {
-                            gains[i * g + c] = r[i];
-                        }
-                    });
-                    put(next, total.as_slice());
-                    put(next + 1, free.as_slice());
-                    put(next + 2, gains);
-                    next += 3;
-                }
-                SpatialProbe::DriverTorque { driver, .. } => {
-                    let jt = &self.cut.joints[self.cut.drivers[*driver].joint];
-                    let axis = crate::constraints::marker_world(&jt.i, frames).2;
-                    let driver_row = row + driver;
-                    let solver = &mut self.cut_solver;
-                    let torque = |lambda: &[f64]| -> f64 {
-                        solver.lambda.copy_from_slice(lambda);
-                        body_index(jt.j.body)
-                            .map_or(0.0, |b| solver.reaction(driver_row..driver_row + 1, b).1.dot(&axis))
-                    };
-                    let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
-                    let (total, free) = linear_in_loads(multipliers, own_load, torque, |c, torque| gains[c] = torque);
-                    put(next, &[total]);
-                    put(next + 1, &[free]);
-                    put(next + 2, &gains[..g]);
-                    next += 3;
-                }
-                SpatialProbe::BodyRates { body, .. } => {
-                    let b = *body;
-                    put(next, &v[6 * b + 3..6 * b + 6]);
-                    put(next + 1, &own[6 * b + 3..6 * b + 6]);
-                    next += 2;
-                }
-                SpatialProbe::Body { body, .. } => {
-                    put(next, &frames[*body].pose());
-                    put(next + 1, frames[*body].velocity.as_slice());
-                    next += 2;
-                }
-            }
-        }
+        let state = ProbeState { v, own, own_load, frames, cut: &self.cut, solver: &mut self.cut_solver };
+        write_probes(&self.probes, state, &terms, (&mut work.gains, &mut work.ranges), &mut put);
         self.ports.check_finite().map_err(|e| e.to_string())?;
         self.terms = Some(terms);
         Ok(())
+    }
+}
+
+/// What a probe reads: the macro's velocities `v`, its own accelerations and interface loads, the
+/// bodies' frames, and the cut mechanism with its solver at that state.
+struct ProbeState<'a> {
+    v: &'a [f64],
+    own: &'a [f64],
+    own_load: &'a [f64],
+    frames: &'a [crate::constraints::BodyFrame],
+    cut: &'a SpatialMechanism,
+    solver: &'a mut SpatialSolver,
+}
+
+/// Every probe's outputs, in the order of `probes`, through `put` from the first value
+/// reference after the fixed ones; `terms` give the free values and the gains, written through
+/// `gains` (three rows of one gain per load); `ranges` holds each cut joint's rows.
+fn write_probes(
+    probes: &[SpatialProbe],
+    s: ProbeState<'_>,
+    terms: &SpatialCoupledTerms,
+    (gains, ranges): (&mut [f64], &mut Vec<std::ops::Range<usize>>),
+    put: &mut dyn FnMut(ValueReference, &[f64]),
+) {
+    let mut next = vr::FRICTION_FORCE + 1;
+    let g = gains.len() / 3;
+    let (v, own, own_load, frames) = (s.v, s.own, s.own_load, s.frames);
+    // Rows of each cut joint and the first driver row.
+    ranges.clear();
+    let mut row = 0;
+    for j in &s.cut.joints {
+        ranges.push(row..row + j.kind.equations());
+        row += j.kind.equations();
+    }
+    let ranges = &*ranges;
+    for p in probes {
+        match p {
+            SpatialProbe::Point { body, point, .. } => {
+                let f = &frames[*body];
+                let s = f.rotation * point;
+                let w = f.angular_velocity;
+                let accel = |x: &[f64], centripetal: bool| -> Vec3 {
+                    let linear = Vec3::new(x[6 * body], x[6 * body + 1], x[6 * body + 2]);
+                    let alpha = f.rotation * Vec3::new(x[6 * body + 3], x[6 * body + 4], x[6 * body + 5]);
+                    linear + alpha.cross(&s) + if centripetal { w.cross(&w.cross(&s)) } else { Vec3::zeros() }
+                };
+                for (c, column) in terms.gain.iter().enumerate() {
+                    let a = accel(column, false);
+                    for i in 0..3 {
+                        gains[i * g + c] = a[i];
+                    }
+                }
+                put(next, (f.position + s).as_slice());
+                put(next + 1, (f.velocity + w.cross(&s)).as_slice());
+                put(next + 2, accel(own, true).as_slice());
+                put(next + 3, accel(&terms.free_accelerations, true).as_slice());
+                put(next + 4, gains);
+                next += 5;
+            }
+            SpatialProbe::JointReaction { joint, .. } => {
+                let jt = &s.cut.joints[*joint];
+                let solver = &mut *s.solver;
+                let reaction = |lambda: &[f64]| -> Vec3 {
+                    solver.lambda.copy_from_slice(lambda);
+                    match (body_index(jt.i.body), body_index(jt.j.body)) {
+                        (Some(b), _) => solver.reaction(ranges[*joint].clone(), b).0,
+                        (None, Some(b)) => -solver.reaction(ranges[*joint].clone(), b).0,
+                        (None, None) => Vec3::zeros(),
+                    }
+                };
+                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
+                let (total, free) = linear_in_loads(multipliers, own_load, reaction, |c, r: Vec3| {
+                    for i in 0..3 {
+                        gains[i * g + c] = r[i];
+                    }
+                });
+                put(next, total.as_slice());
+                put(next + 1, free.as_slice());
+                put(next + 2, gains);
+                next += 3;
+            }
+            SpatialProbe::DriverTorque { driver, .. } => {
+                let jt = &s.cut.joints[s.cut.drivers[*driver].joint];
+                let axis = crate::constraints::marker_world(&jt.i, frames).2;
+                let driver_row = row + driver;
+                let solver = &mut *s.solver;
+                let torque = |lambda: &[f64]| -> f64 {
+                    solver.lambda.copy_from_slice(lambda);
+                    body_index(jt.j.body).map_or(0.0, |b| solver.reaction(driver_row..driver_row + 1, b).1.dot(&axis))
+                };
+                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
+                let (total, free) = linear_in_loads(multipliers, own_load, torque, |c, torque| gains[c] = torque);
+                put(next, &[total]);
+                put(next + 1, &[free]);
+                put(next + 2, &gains[..g]);
+                next += 3;
+            }
+            SpatialProbe::BodyRates { body, .. } => {
+                let b = *body;
+                put(next, &v[6 * b + 3..6 * b + 6]);
+                put(next + 1, &own[6 * b + 3..6 * b + 6]);
+                next += 2;
+            }
+            SpatialProbe::Body { body, .. } => {
+                put(next, &frames[*body].pose());
+                put(next + 1, frames[*body].velocity.as_slice());
+                next += 2;
+            }
+        }
     }
 }
 
