@@ -80,17 +80,7 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     observer: &mut O,
     first_step: Option<f64>,
 ) -> Result<Stats, OdeError> {
-    for (name, v) in [("rtol", opt.rtol), ("atol", opt.atol), ("initial_step", opt.initial_step)] {
-        if !(v > 0.0 && v.is_finite()) {
-            return Err(OdeError::Settings(format!("{name} must be > 0, got {v}")));
-        }
-    }
-    if !(opt.max_step > 0.0) || !(opt.min_step > 0.0) || opt.min_step > opt.max_step {
-        return Err(OdeError::Settings(format!(
-            "need 0 < min_step ≤ max_step, got min_step {} and max_step {}",
-            opt.min_step, opt.max_step
-        )));
-    }
+    check_options(opt)?;
     let ctl = P::CONTROL;
     let n = system.dim();
     let m = system.event_count();
@@ -174,48 +164,8 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
         err_old = err.max(1e-4);
 
         if first_event.is_some() {
-            stats.rhs_evaluations += w.pair.finish(system, t, h);
-            stats.rhs_evaluations += w.pair.build_dense(system, t, y, h);
-            // Locate the earliest crossing among all events that fired.
-            let (theta_event, k_event) = locate(system, t, h, &mut w, m);
-            let h_event = theta_event * h;
-            let t_event = t + h_event;
-            w.interpolate(theta_event);
-            w.y_event.copy_from_slice(&w.y_dense);
-            // Step again, exactly to the event: none of the new stages lies beyond the switching
-            // surface, so a right side that jumps there (Kelvin–Voigt onset, say) cannot leak
-            // into the state at the event or the outputs before it.
-            if h_event > 0.0 {
-                w.pair.step(system, t, y, h_event);
-                stats.rhs_evaluations += P::STAGE_EVALUATIONS;
-                system.take_mode_violation();
-                system.events(t_event, w.pair.new_state(), &mut w.g_probe);
-                if w.g_probe[k_event] > 0.0 && w.pair.new_state().iter().all(|v| v.is_finite()) {
-                    w.y_event.copy_from_slice(w.pair.new_state());
-                }
-                stats.rhs_evaluations += w.pair.finish(system, t, h_event);
-                stats.rhs_evaluations += w.pair.build_dense(system, t, y, h_event);
-                system.take_mode_violation();
-                emit_outputs(system, observer, &mut w, t, h_event, t_event, &mut next_out, n_out, &out_time)?;
-                if system.wants_dense() {
-                    system.accept_dense(t, h_event, &Dense { coefficients: w.pair.dense_coefficients() });
-                }
-            }
-            y.copy_from_slice(&w.y_event);
-            t = t_event;
-            check_finite(t, y)?;
-            system.on_event(k_event, t, y);
-            stats.events += 1;
-            // Events that fire at the same instant (a block landing flat on two corners): every
-            // function already past its root at the event switches there too, or its mode would
-            // be left from the next step's first stage on.
-            system.events(t, y, &mut w.g_start);
-            for k in (0..m).filter(|&k| k != k_event) {
-                if w.g_start[k] > 0.0 {
-                    system.on_event(k, t, y);
-                    stats.events += 1;
-                }
-            }
+            let outputs = (&mut next_out, n_out, &out_time as &dyn Fn(u64) -> f64);
+            t = step_to_event(system, observer, &mut w, &mut stats, (t, h), y, outputs)?;
             stats.steps += 1;
             system.accept_step(t, y).map_err(|source| OdeError::System { t, source })?;
             system.events(t, y, &mut w.g_start);
@@ -250,6 +200,81 @@ pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
         h = h_next;
     }
     Ok(stats)
+}
+
+/// The step from `t` over `h` in which an event fired, made again up to the earliest crossing
+/// (located on its dense output): the outputs before it emitted, the state at the event in `y`,
+/// the system switched there (with every other function already past its root). Returns the
+/// event's time.
+#[allow(clippy::type_complexity)]
+fn step_to_event<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
+    system: &mut S,
+    observer: &mut O,
+    w: &mut Work<P>,
+    stats: &mut Stats,
+    (t, h): (f64, f64),
+    y: &mut [f64],
+    (next_out, n_out, out_time): (&mut u64, u64, &dyn Fn(u64) -> f64),
+) -> Result<f64, OdeError> {
+    let m = w.g_start.len();
+    stats.rhs_evaluations += w.pair.finish(system, t, h);
+    stats.rhs_evaluations += w.pair.build_dense(system, t, y, h);
+    // Locate the earliest crossing among all events that fired.
+    let (theta_event, k_event) = locate(system, t, h, w, m);
+    let h_event = theta_event * h;
+    let t_event = t + h_event;
+    w.interpolate(theta_event);
+    w.y_event.copy_from_slice(&w.y_dense);
+    // Step again, exactly to the event: none of the new stages lies beyond the switching
+    // surface, so a right side that jumps there (Kelvin–Voigt onset, say) cannot leak
+    // into the state at the event or the outputs before it.
+    if h_event > 0.0 {
+        w.pair.step(system, t, y, h_event);
+        stats.rhs_evaluations += P::STAGE_EVALUATIONS;
+        system.take_mode_violation();
+        system.events(t_event, w.pair.new_state(), &mut w.g_probe);
+        if w.g_probe[k_event] > 0.0 && w.pair.new_state().iter().all(|v| v.is_finite()) {
+            w.y_event.copy_from_slice(w.pair.new_state());
+        }
+        stats.rhs_evaluations += w.pair.finish(system, t, h_event);
+        stats.rhs_evaluations += w.pair.build_dense(system, t, y, h_event);
+        system.take_mode_violation();
+        emit_outputs(system, observer, w, t, h_event, t_event, next_out, n_out, out_time)?;
+        if system.wants_dense() {
+            system.accept_dense(t, h_event, &Dense { coefficients: w.pair.dense_coefficients() });
+        }
+    }
+    y.copy_from_slice(&w.y_event);
+    check_finite(t_event, y)?;
+    system.on_event(k_event, t_event, y);
+    stats.events += 1;
+    // Events that fire at the same instant (a block landing flat on two corners): every
+    // function already past its root at the event switches there too, or its mode would
+    // be left from the next step's first stage on.
+    system.events(t_event, y, &mut w.g_start);
+    for k in (0..m).filter(|&k| k != k_event) {
+        if w.g_start[k] > 0.0 {
+            system.on_event(k, t_event, y);
+            stats.events += 1;
+        }
+    }
+    Ok(t_event)
+}
+
+/// The options' checks: tolerances and the initial step positive, 0 < min_step ≤ max_step.
+fn check_options(opt: &AdaptiveOptions) -> Result<(), OdeError> {
+    for (name, v) in [("rtol", opt.rtol), ("atol", opt.atol), ("initial_step", opt.initial_step)] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(OdeError::Settings(format!("{name} must be > 0, got {v}")));
+        }
+    }
+    if !(opt.max_step > 0.0) || !(opt.min_step > 0.0) || opt.min_step > opt.max_step {
+        return Err(OdeError::Settings(format!(
+            "need 0 < min_step ≤ max_step, got min_step {} and max_step {}",
+            opt.min_step, opt.max_step
+        )));
+    }
+    Ok(())
 }
 
 /// Finds the earliest event crossing inside the step on the dense output. Returns the step
