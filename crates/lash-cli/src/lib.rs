@@ -759,6 +759,98 @@ fn load_with_horizon(arg: &str, horizon: Option<f64>) -> Result<lash_scenario::A
     Ok(s)
 }
 
+/// `lash validate` of a scenario (a built-in's name or a file): its kind and its counts.
+fn validate_scenario(scenario: &str) -> Result<(), CliError> {
+    let (kind, bodies, joints, clearances) =
+        match lash_scenario::any_by_name_or_file(scenario).map_err(|e| CliError::Input(e.to_string()))? {
+            lash_scenario::AnyScenario::Planar(s) => ("planar", s.bodies.len(), s.joints.len(), s.clearances.len()),
+            lash_scenario::AnyScenario::Spatial(s) => ("spatial", s.bodies.len(), s.joints.len(), s.clearances.len()),
+        };
+    println!("{scenario}: valid ({kind}; {bodies} bodies, {joints} joints, {clearances} clearance joints)");
+    Ok(())
+}
+
+/// `lash scenarios`: each built-in's name and the first words of its description.
+fn list_builtins() {
+    for name in lash_scenario::builtin::NAMES {
+        let s = lash_scenario::builtin::by_name(name).expect("listed");
+        let first = s.description.split(':').next().unwrap_or("");
+        println!("{name:30} {first}");
+    }
+    for name in lash_scenario::builtin_spatial::SPATIAL_NAMES {
+        let s = lash_scenario::builtin_spatial::spatial_by_name(name).expect("listed");
+        let first = s.description.split(". ").next().unwrap_or("");
+        println!("{name:30} {first}");
+    }
+}
+
+/// `lash show`: a built-in scenario as a TOML file.
+fn show_builtin(name: &str) -> Result<(), CliError> {
+    let (description, text) =
+        match (lash_scenario::builtin::by_name(name), lash_scenario::builtin_spatial::spatial_by_name(name)) {
+            (Some(s), _) => (s.description.split(':').next().unwrap_or("").to_string(), toml::to_string(&s)),
+            (None, Some(s)) => (s.description.split(". ").next().unwrap_or("").to_string(), toml::to_string(&s)),
+            (None, None) => {
+                return Err(CliError::Input(format!(
+                    "no built-in scenario {name:?} (built-ins: {}, {})",
+                    lash_scenario::builtin::NAMES.join(", "),
+                    lash_scenario::builtin_spatial::SPATIAL_NAMES.join(", ")
+                )));
+            }
+        };
+    println!("# lash scenario {name}: {description}");
+    println!("# SI units throughout (m, kg, kg m^2, s, rad, N, Pa). Written by `lash show {name}`.");
+    print!("{}", text.map_err(|e| CliError::Failure(e.to_string()))?);
+    Ok(())
+}
+
+/// `lash channels`: a scenario's output channels with their units.
+fn print_channels(scenario: &str, ideal: bool) -> Result<(), CliError> {
+    let channels = match lash_scenario::any_by_name_or_file(scenario).map_err(|e| CliError::Input(e.to_string()))? {
+        lash_scenario::AnyScenario::Planar(s) => lash_scenario::channels(&s, ideal),
+        lash_scenario::AnyScenario::Spatial(s) => {
+            lash_scenario::spatial::spatial_channels(&s, ideal).into_iter().map(|(c, _)| c).collect()
+        }
+    };
+    for c in channels {
+        println!("{} [{}]", c.name, c.unit);
+    }
+    Ok(())
+}
+
+/// `lash estimate prepare | validate | emulate`.
+fn estimate_command(command: EstimateCommand) -> Result<(), CliError> {
+    match command {
+        EstimateCommand::Prepare { setup, out, bank_runs, calibration_runs, hidden_runs, quiet } => {
+            estimate::prepare(&setup, &out, estimate::Sizes { bank_runs, calibration_runs, hidden_runs }, quiet)
+        }
+        EstimateCommand::Validate {
+            prepared,
+            cases,
+            seed,
+            reduced: _,
+            hidden: Some(snr),
+            track_impacts,
+            track_draws,
+            out,
+            quiet,
+        } => estimate::validate_hidden(
+            &prepared,
+            (cases, seed, snr),
+            (track_impacts, track_draws),
+            out.as_deref(),
+            quiet,
+        ),
+        EstimateCommand::Validate { prepared, cases, seed, reduced, hidden: None, out, quiet, .. } => {
+            estimate::validate(&prepared, (cases, reduced), seed, out.as_deref(), quiet)
+        }
+        EstimateCommand::Emulate { prepared, clearance, speed, angle, gain, snr, seed, out } => {
+            let case = lash_estimate::prepare::Case { clearances: clearance, speed, angle0: angle, gain, snr, seed };
+            estimate::emulate(&prepared, &case, &out)
+        }
+    }
+}
+
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
         Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, probe, quiet } => {
@@ -801,65 +893,14 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             println!("{}", sweep::validate(std::path::Path::new(&scenario))?);
             Ok(())
         }
-        Command::Validate { scenario } => {
-            let (kind, bodies, joints, clearances) = match lash_scenario::any_by_name_or_file(&scenario)
-                .map_err(|e| CliError::Input(e.to_string()))?
-            {
-                lash_scenario::AnyScenario::Planar(s) => ("planar", s.bodies.len(), s.joints.len(), s.clearances.len()),
-                lash_scenario::AnyScenario::Spatial(s) => {
-                    ("spatial", s.bodies.len(), s.joints.len(), s.clearances.len())
-                }
-            };
-            println!("{scenario}: valid ({kind}; {bodies} bodies, {joints} joints, {clearances} clearance joints)");
-            Ok(())
-        }
+        Command::Validate { scenario } => validate_scenario(&scenario),
         Command::Bush { file, json } => bush::run(file.as_deref(), json),
         Command::Scenarios => {
-            for name in lash_scenario::builtin::NAMES {
-                let s = lash_scenario::builtin::by_name(name).expect("listed");
-                let first = s.description.split(':').next().unwrap_or("");
-                println!("{name:30} {first}");
-            }
-            for name in lash_scenario::builtin_spatial::SPATIAL_NAMES {
-                let s = lash_scenario::builtin_spatial::spatial_by_name(name).expect("listed");
-                let first = s.description.split(". ").next().unwrap_or("");
-                println!("{name:30} {first}");
-            }
+            list_builtins();
             Ok(())
         }
-        Command::Show { name } => {
-            let (description, text) = match (
-                lash_scenario::builtin::by_name(&name),
-                lash_scenario::builtin_spatial::spatial_by_name(&name),
-            ) {
-                (Some(s), _) => (s.description.split(':').next().unwrap_or("").to_string(), toml::to_string(&s)),
-                (None, Some(s)) => (s.description.split(". ").next().unwrap_or("").to_string(), toml::to_string(&s)),
-                (None, None) => {
-                    return Err(CliError::Input(format!(
-                        "no built-in scenario {name:?} (built-ins: {}, {})",
-                        lash_scenario::builtin::NAMES.join(", "),
-                        lash_scenario::builtin_spatial::SPATIAL_NAMES.join(", ")
-                    )));
-                }
-            };
-            println!("# lash scenario {name}: {description}");
-            println!("# SI units throughout (m, kg, kg m^2, s, rad, N, Pa). Written by `lash show {name}`.");
-            print!("{}", text.map_err(|e| CliError::Failure(e.to_string()))?);
-            Ok(())
-        }
-        Command::Channels { scenario, ideal } => {
-            let channels =
-                match lash_scenario::any_by_name_or_file(&scenario).map_err(|e| CliError::Input(e.to_string()))? {
-                    lash_scenario::AnyScenario::Planar(s) => lash_scenario::channels(&s, ideal),
-                    lash_scenario::AnyScenario::Spatial(s) => {
-                        lash_scenario::spatial::spatial_channels(&s, ideal).into_iter().map(|(c, _)| c).collect()
-                    }
-                };
-            for c in channels {
-                println!("{} [{}]", c.name, c.unit);
-            }
-            Ok(())
-        }
+        Command::Show { name } => show_builtin(&name),
+        Command::Channels { scenario, ideal } => print_channels(&scenario, ideal),
         Command::Bench { quick, what, file, isolate } => match (what.as_deref(), file) {
             (Some("sweep"), None) => bench::sweep(quick),
             (Some("fmu"), Some(file)) => bench::fmu(&file, quick, isolate),
@@ -872,36 +913,7 @@ fn dispatch(command: Command) -> Result<(), CliError> {
             (Some(file), Some(out)) => sweep::run(&file, &out, (shard.as_deref(), threads, side_by_side), quiet),
             _ => Err(CliError::Input("lash sweep: give a sweep file and --out <dir>".into())),
         },
-        Command::Estimate { command: Some(command), .. } => match command {
-            EstimateCommand::Prepare { setup, out, bank_runs, calibration_runs, hidden_runs, quiet } => {
-                estimate::prepare(&setup, &out, estimate::Sizes { bank_runs, calibration_runs, hidden_runs }, quiet)
-            }
-            EstimateCommand::Validate {
-                prepared,
-                cases,
-                seed,
-                reduced: _,
-                hidden: Some(snr),
-                track_impacts,
-                track_draws,
-                out,
-                quiet,
-            } => estimate::validate_hidden(
-                &prepared,
-                (cases, seed, snr),
-                (track_impacts, track_draws),
-                out.as_deref(),
-                quiet,
-            ),
-            EstimateCommand::Validate { prepared, cases, seed, reduced, hidden: None, out, quiet, .. } => {
-                estimate::validate(&prepared, (cases, reduced), seed, out.as_deref(), quiet)
-            }
-            EstimateCommand::Emulate { prepared, clearance, speed, angle, gain, snr, seed, out } => {
-                let case =
-                    lash_estimate::prepare::Case { clearances: clearance, speed, angle0: angle, gain, snr, seed };
-                estimate::emulate(&prepared, &case, &out)
-            }
-        },
+        Command::Estimate { command: Some(command), .. } => estimate_command(command),
         Command::Estimate { command: None, measurement, prepared, out, track_impacts, track_draws } => {
             match (measurement, prepared) {
                 (Some(m), Some(p)) => estimate::estimate(&m, &p, out.as_deref(), (track_impacts, track_draws)),
