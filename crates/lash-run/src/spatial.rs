@@ -372,12 +372,131 @@ pub struct SpatialReducedRun {
     master_options: lash_orchestrate::MasterOptions,
 }
 
+/// The probe a recorded channel needs of the spatial macro subsystem (none: a micro or a fixed
+/// macro output), and the master signal that reads it; `loads`: the interface loads (3k contact
+/// forces, then 3k friction loads).
+fn spatial_probe_signal(
+    scenario: &SpatialScenario,
+    (name, src): (String, SpatialSource),
+    cut_joint_names: &[&str],
+    loads: usize,
+) -> Result<(Option<lash_spatial::SpatialProbe>, lash_orchestrate::Signal), RunError> {
+    use lash_orchestrate::Signal;
+    Ok(match src {
+        SpatialSource::Sensor(s, q) => {
+            let sen = &scenario.sensors[s];
+            let body = scenario.bodies.iter().position(|b| b.name == sen.body);
+            let Some(body) = body else {
+                return Err(RunError::Unsupported(
+                    "a sensor on the ground in the reduced model (its channels are constant)".into(),
+                ));
+            };
+            let p = &sen.name;
+            let signal = crate::reduced::sensor_signal(name, p, q as usize, 3, loads);
+            (Some(lash_spatial::SpatialProbe::Point { name: p.clone(), body, point: Vec3::from(sen.point) }), signal)
+        }
+        SpatialSource::Clearance(j, q) => {
+            let (variable, element) = match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
+                "fx" => ("contact_force", 3 * j),
+                "fy" => ("contact_force", 3 * j + 1),
+                "fz" => ("contact_force", 3 * j + 2),
+                "force" => ("contact_force_magnitude", j),
+                "ex" => ("eccentricity", 3 * j),
+                "ey" => ("eccentricity", 3 * j + 1),
+                "ez" => ("eccentricity", 3 * j + 2),
+                "eccentricity" => ("eccentricity_norm", j),
+                other => (other, j),
+            };
+            (None, Signal::Micro { name, variable: variable.into(), element })
+        }
+        SpatialSource::DriverTorque(d) => {
+            let p = &scenario.drivers[d].name;
+            (
+                Some(lash_spatial::SpatialProbe::DriverTorque { name: p.clone(), driver: d }),
+                Signal::Propagated {
+                    name,
+                    free: (format!("{p}.torque_free"), 0),
+                    gain: (format!("{p}.torque_gain"), 0),
+                },
+            )
+        }
+        SpatialSource::JointReaction(j, comp) => {
+            let p = cut_joint_names[j];
+            let comp = comp as usize;
+            (
+                Some(lash_spatial::SpatialProbe::JointReaction { name: p.to_string(), joint: j }),
+                Signal::Propagated {
+                    name,
+                    free: (format!("{p}.reaction_free"), comp),
+                    gain: (format!("{p}.reaction_gain"), comp * loads),
+                },
+            )
+        }
+        SpatialSource::AngularVelocity(b, q) => {
+            let p = &scenario.bodies[b].name;
+            let q = q as usize;
+            (
+                Some(lash_spatial::SpatialProbe::BodyRates { name: p.clone(), body: b }),
+                Signal::Macro {
+                    name,
+                    variable: format!("{p}.angular_velocity"),
+                    element: q,
+                    derivative: Some((format!("{p}.angular_acceleration"), q)),
+                },
+            )
+        }
+        SpatialSource::ConstraintError => {
+            (None, Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None })
+        }
+        SpatialSource::BodyPose(b, q) => {
+            let p = &scenario.bodies[b].name;
+            let q = q as usize;
+            // The centroid with its rate; the quaternion without (interpolated linearly).
+            let derivative = (q < 3).then(|| (format!("{p}.centroid_velocity"), q));
+            (
+                Some(lash_spatial::SpatialProbe::Body { name: p.clone(), body: b }),
+                Signal::Macro { name, variable: format!("{p}.pose"), element: q, derivative },
+            )
+        }
+    })
+}
+
+/// What the spatial reduced run records: the `recorded` channels of `sources` (the first
+/// `written` of them written), with each of the `k` joints' summary signals.
+fn spatial_recording(
+    scenario: &SpatialScenario,
+    sources: &[(Channel, SpatialSource)],
+    (recorded, written): (&[usize], usize),
+    k: usize,
+) -> crate::reduced::Recording {
+    crate::reduced::Recording {
+        channels: recorded.iter().map(|&i| sources[i].0.clone()).collect(),
+        written,
+        statistics: true,
+        summary: (0..k)
+            .map(|j| {
+                let at = |name: &str| {
+                    recorded
+                        .iter()
+                        .position(|&i| matches!(sources[i].1, SpatialSource::Clearance(c, q) if c == j && SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 == name))
+                        .expect("recorded")
+                };
+                crate::reduced::JointSignals {
+                    eccentricity: at("eccentricity"),
+                    force: at("force"),
+                    penetration: at("penetration"),
+                }
+            })
+            .collect(),
+        measurements: scenario.output.measurements.clone(),
+        stresses: Vec::new(),
+    }
+}
+
 impl SpatialReducedRun {
     /// Prepares a run; refuses what the spatial reduced model does not cover (no spherical
     /// clearance joint, more than four, a sensor on the ground).
     pub fn new(scenario: &SpatialScenario, options: crate::ReducedOptions) -> Result<Self, RunError> {
-        use lash_orchestrate::Signal;
-        let unsupported = |m: &str| Err(RunError::Unsupported(m.to_string()));
         let max_joints = lash_micro::MAX_COORDINATES / 3;
         if scenario.clearances.is_empty() || scenario.clearances.len() > max_joints {
             return Err(RunError::Unsupported(format!(
@@ -421,84 +540,7 @@ impl SpatialReducedRun {
         for &i in &recorded {
             let (channel, src) = &sources[i];
             let name = channel.name.clone();
-            let (probe, signal) = match *src {
-                SpatialSource::Sensor(s, q) => {
-                    let sen = &scenario.sensors[s];
-                    let body = scenario.bodies.iter().position(|b| b.name == sen.body);
-                    let Some(body) = body else {
-                        return unsupported("a sensor on the ground in the reduced model (its channels are constant)");
-                    };
-                    let p = &sen.name;
-                    let signal = crate::reduced::sensor_signal(name, p, q as usize, 3, loads);
-                    (
-                        Some(lash_spatial::SpatialProbe::Point { name: p.clone(), body, point: Vec3::from(sen.point) }),
-                        signal,
-                    )
-                }
-                SpatialSource::Clearance(j, q) => {
-                    let (variable, element) = match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
-                        "fx" => ("contact_force", 3 * j),
-                        "fy" => ("contact_force", 3 * j + 1),
-                        "fz" => ("contact_force", 3 * j + 2),
-                        "force" => ("contact_force_magnitude", j),
-                        "ex" => ("eccentricity", 3 * j),
-                        "ey" => ("eccentricity", 3 * j + 1),
-                        "ez" => ("eccentricity", 3 * j + 2),
-                        "eccentricity" => ("eccentricity_norm", j),
-                        other => (other, j),
-                    };
-                    (None, Signal::Micro { name, variable: variable.into(), element })
-                }
-                SpatialSource::DriverTorque(d) => {
-                    let p = &scenario.drivers[d].name;
-                    (
-                        Some(lash_spatial::SpatialProbe::DriverTorque { name: p.clone(), driver: d }),
-                        Signal::Propagated {
-                            name,
-                            free: (format!("{p}.torque_free"), 0),
-                            gain: (format!("{p}.torque_gain"), 0),
-                        },
-                    )
-                }
-                SpatialSource::JointReaction(j, comp) => {
-                    let p = cut_joint_names[j];
-                    let comp = comp as usize;
-                    (
-                        Some(lash_spatial::SpatialProbe::JointReaction { name: p.to_string(), joint: j }),
-                        Signal::Propagated {
-                            name,
-                            free: (format!("{p}.reaction_free"), comp),
-                            gain: (format!("{p}.reaction_gain"), comp * loads),
-                        },
-                    )
-                }
-                SpatialSource::AngularVelocity(b, q) => {
-                    let p = &scenario.bodies[b].name;
-                    let q = q as usize;
-                    (
-                        Some(lash_spatial::SpatialProbe::BodyRates { name: p.clone(), body: b }),
-                        Signal::Macro {
-                            name,
-                            variable: format!("{p}.angular_velocity"),
-                            element: q,
-                            derivative: Some((format!("{p}.angular_acceleration"), q)),
-                        },
-                    )
-                }
-                SpatialSource::ConstraintError => {
-                    (None, Signal::Macro { name, variable: "constraint_error".into(), element: 0, derivative: None })
-                }
-                SpatialSource::BodyPose(b, q) => {
-                    let p = &scenario.bodies[b].name;
-                    let q = q as usize;
-                    // The centroid with its rate; the quaternion without (interpolated linearly).
-                    let derivative = (q < 3).then(|| (format!("{p}.centroid_velocity"), q));
-                    (
-                        Some(lash_spatial::SpatialProbe::Body { name: p.clone(), body: b }),
-                        Signal::Macro { name, variable: format!("{p}.pose"), element: q, derivative },
-                    )
-                }
-            };
+            let (probe, signal) = spatial_probe_signal(scenario, (name, *src), &cut_joint_names, loads)?;
             if let Some(p) = probe
                 && !probes.contains(&p)
             {
@@ -506,28 +548,7 @@ impl SpatialReducedRun {
             }
             signals.push(signal);
         }
-        let recording = crate::reduced::Recording {
-            channels: recorded.iter().map(|&i| sources[i].0.clone()).collect(),
-            written: written.len(),
-            statistics: true,
-            summary: (0..k)
-                .map(|j| {
-                    let at = |name: &str| {
-                        recorded
-                            .iter()
-                            .position(|&i| matches!(sources[i].1, SpatialSource::Clearance(c, q) if c == j && SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 == name))
-                            .expect("recorded")
-                    };
-                    crate::reduced::JointSignals {
-                        eccentricity: at("eccentricity"),
-                        force: at("force"),
-                        penetration: at("penetration"),
-                    }
-                })
-                .collect(),
-            measurements: scenario.output.measurements.clone(),
-            stresses: Vec::new(),
-        };
+        let recording = spatial_recording(scenario, &sources, (&recorded, written.len()), k);
         let macro_sub =
             lash_spatial::SpatialMechanismSubsystem::new("mechanism", cut, ideal, interfaces, probes, options.coupling);
         let integrator = options.micro_integrator();
