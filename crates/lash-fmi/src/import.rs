@@ -902,6 +902,108 @@ fn array_of(base: &str, run: &[Variable]) -> Option<(Variable, Vec<u32>)> {
     Some((array, order.into_iter().collect::<Option<Vec<u32>>>()?))
 }
 
+/// A symbol of `library` by its NUL-less name, as a function pointer of type `$ty`; a missing
+/// one is an error naming it.
+macro_rules! symbol {
+    ($library:expr, $name:literal, $ty:ty) => {{
+        // SAFETY: the symbol has this signature in fmi3Functions.h / fmi2Functions.h.
+        let s: libloading::Symbol<'_, $ty> = unsafe { $library.get(concat!($name, "\0").as_bytes()) }
+            .map_err(|e| format!("missing symbol {}: {}", $name, lash_core::error_chain(&e)))?;
+        *s
+    }};
+}
+
+/// An FMI 3.0 library's functions resolved and one co-simulation instance made (null where
+/// the FMU refused): value references renumbered to positions, the native ones kept.
+/// `names`: the instance name, the instantiation token and the log environment.
+fn instantiate_v3(
+    library: &libloading::Library,
+    description: &mut Description,
+    resources_dir: &Path,
+    (cname, token, env): (&CString, &CString, *mut c_void),
+) -> Result<(Api, *mut c_void), String> {
+    let functions = Functions {
+        instantiate: symbol!(library, "fmi3InstantiateCoSimulation", Instantiate),
+        free: symbol!(library, "fmi3FreeInstance", Free),
+        enter_init: symbol!(library, "fmi3EnterInitializationMode", EnterInit),
+        exit_init: symbol!(library, "fmi3ExitInitializationMode", Unary),
+        terminate: symbol!(library, "fmi3Terminate", Unary),
+        get: symbol!(library, "fmi3GetFloat64", GetF64),
+        set: symbol!(library, "fmi3SetFloat64", SetF64),
+        do_step: symbol!(library, "fmi3DoStep", DoStep),
+        get_state: symbol!(library, "fmi3GetFMUState", GetState),
+        set_state: symbol!(library, "fmi3SetFMUState", SetState),
+        free_state: symbol!(library, "fmi3FreeFMUState", GetState),
+    };
+    let resources = CString::new(format!("{}/", resources_dir.display())).unwrap_or_default();
+    // SAFETY: valid C strings; the log environment outlives the instance (freed in Drop first).
+    let instance = unsafe {
+        (functions.instantiate)(
+            cname.as_ptr(),
+            token.as_ptr(),
+            resources.as_ptr(),
+            false,
+            false,
+            false,
+            false,
+            std::ptr::null(),
+            0,
+            env,
+            Some(log_message),
+            std::ptr::null(),
+        )
+    };
+    let native: Vec<u32> = description.variables.iter().map(|v| v.value_reference).collect();
+    let identity = native.iter().enumerate().all(|(i, &r)| r as usize == i);
+    for (i, v) in description.variables.iter_mut().enumerate() {
+        v.value_reference = i as u32;
+    }
+    Ok((Api::V3 { functions, native, identity, scratch: Mutex::new(Vec::new()) }, instance))
+}
+
+/// An FMI 2.0 library's functions resolved and one co-simulation instance made (null where
+/// the FMU refused): scalar variables regrouped into arrays. `names` as for
+/// [`instantiate_v3`].
+fn instantiate_v2(
+    library: &libloading::Library,
+    description: &mut Description,
+    resources_dir: &Path,
+    (cname, token, env): (&CString, &CString, *mut c_void),
+) -> Result<(Api, *mut c_void), String> {
+    let instantiate = symbol!(library, "fmi2Instantiate", Instantiate2);
+    let functions = Functions2 {
+        free: symbol!(library, "fmi2FreeInstance", Free),
+        setup: symbol!(library, "fmi2SetupExperiment", Setup2),
+        enter_init: symbol!(library, "fmi2EnterInitializationMode", Unary),
+        exit_init: symbol!(library, "fmi2ExitInitializationMode", Unary),
+        terminate: symbol!(library, "fmi2Terminate", Unary),
+        get: symbol!(library, "fmi2GetReal", GetReal2),
+        set: symbol!(library, "fmi2SetReal", SetReal2),
+        do_step: symbol!(library, "fmi2DoStep", DoStep2),
+        get_state: symbol!(library, "fmi2GetFMUstate", GetState),
+        set_state: symbol!(library, "fmi2SetFMUstate", SetState),
+        free_state: symbol!(library, "fmi2FreeFMUstate", GetState),
+        // SAFETY: the symbols have these signatures in fmi2Functions.h.
+        boolean_status: unsafe { library.get::<GetBooleanStatus2>(b"fmi2GetBooleanStatus\0") }.ok().map(|s| *s),
+        // SAFETY: as above.
+        real_status: unsafe { library.get::<GetRealStatus2>(b"fmi2GetRealStatus\0") }.ok().map(|s| *s),
+    };
+    let callbacks = Box::new(Callbacks2 {
+        logger: fmi2_logger(),
+        allocate_memory,
+        free_memory,
+        step_finished: None,
+        component_environment: env,
+    });
+    let resources = CString::new(format!("file://{}/", resources_dir.display())).unwrap_or_default();
+    // SAFETY: valid C strings and callbacks that outlive the instance; fmi2CoSimulation = 1.
+    let instance = unsafe { instantiate(cname.as_ptr(), 1, token.as_ptr(), resources.as_ptr(), &*callbacks, 0, 0) };
+    let (variables, scalars) = regroup(&description.variables);
+    description.dimension_refs = vec![Vec::new(); variables.len()];
+    description.variables = variables;
+    Ok((Api::V2 { functions, scalars, scratch: Mutex::new(Vec::new()), _callbacks: callbacks }, instance))
+}
+
 impl ImportedFmu {
     /// Imports `fmu` (FMI 3.0 or 2.0 co-simulation; unpacked into `cache` once) and
     /// instantiates it.
@@ -1010,91 +1112,16 @@ impl ImportedFmu {
     ) -> Result<Self, ImportError> {
         let v3 = description.fmi_version.starts_with("3.");
         let lerr = |m: String| ImportError::Library { path: lib_path.to_path_buf(), message: m };
-        macro_rules! sym {
-            ($name:literal, $ty:ty) => {{
-                // SAFETY: the symbol has this signature in fmi3Functions.h / fmi2Functions.h.
-                let s: libloading::Symbol<'_, $ty> = unsafe { library.get(concat!($name, "\0").as_bytes()) }
-                    .map_err(|e| lerr(format!("missing symbol {}: {}", $name, lash_core::error_chain(&e))))?;
-                *s
-            }};
-        }
         let log: Box<Log> = Box::new(Mutex::new(Vec::new()));
         let cname = CString::new(instance_name).unwrap_or_default();
         let token = CString::new(description.token.clone()).unwrap_or_default();
         let env = &*log as *const Log as *mut c_void;
+        let names = (&cname, &token, env);
         let (api, instance, call) = if v3 {
-            let functions = Functions {
-                instantiate: sym!("fmi3InstantiateCoSimulation", Instantiate),
-                free: sym!("fmi3FreeInstance", Free),
-                enter_init: sym!("fmi3EnterInitializationMode", EnterInit),
-                exit_init: sym!("fmi3ExitInitializationMode", Unary),
-                terminate: sym!("fmi3Terminate", Unary),
-                get: sym!("fmi3GetFloat64", GetF64),
-                set: sym!("fmi3SetFloat64", SetF64),
-                do_step: sym!("fmi3DoStep", DoStep),
-                get_state: sym!("fmi3GetFMUState", GetState),
-                set_state: sym!("fmi3SetFMUState", SetState),
-                free_state: sym!("fmi3FreeFMUState", GetState),
-            };
-            let resources = CString::new(format!("{}/", resources_dir.display())).unwrap_or_default();
-            // SAFETY: valid C strings; the log environment outlives the instance (freed in Drop first).
-            let instance = unsafe {
-                (functions.instantiate)(
-                    cname.as_ptr(),
-                    token.as_ptr(),
-                    resources.as_ptr(),
-                    false,
-                    false,
-                    false,
-                    false,
-                    std::ptr::null(),
-                    0,
-                    env,
-                    Some(log_message),
-                    std::ptr::null(),
-                )
-            };
-            let native: Vec<u32> = description.variables.iter().map(|v| v.value_reference).collect();
-            let identity = native.iter().enumerate().all(|(i, &r)| r as usize == i);
-            for (i, v) in description.variables.iter_mut().enumerate() {
-                v.value_reference = i as u32;
-            }
-            let api = Api::V3 { functions, native, identity, scratch: Mutex::new(Vec::new()) };
+            let (api, instance) = instantiate_v3(&library, &mut description, resources_dir, names).map_err(lerr)?;
             (api, instance, "fmi3InstantiateCoSimulation")
         } else {
-            let instantiate = sym!("fmi2Instantiate", Instantiate2);
-            let functions = Functions2 {
-                free: sym!("fmi2FreeInstance", Free),
-                setup: sym!("fmi2SetupExperiment", Setup2),
-                enter_init: sym!("fmi2EnterInitializationMode", Unary),
-                exit_init: sym!("fmi2ExitInitializationMode", Unary),
-                terminate: sym!("fmi2Terminate", Unary),
-                get: sym!("fmi2GetReal", GetReal2),
-                set: sym!("fmi2SetReal", SetReal2),
-                do_step: sym!("fmi2DoStep", DoStep2),
-                get_state: sym!("fmi2GetFMUstate", GetState),
-                set_state: sym!("fmi2SetFMUstate", SetState),
-                free_state: sym!("fmi2FreeFMUstate", GetState),
-                // SAFETY: the symbols have these signatures in fmi2Functions.h.
-                boolean_status: unsafe { library.get::<GetBooleanStatus2>(b"fmi2GetBooleanStatus\0") }.ok().map(|s| *s),
-                // SAFETY: as above.
-                real_status: unsafe { library.get::<GetRealStatus2>(b"fmi2GetRealStatus\0") }.ok().map(|s| *s),
-            };
-            let callbacks = Box::new(Callbacks2 {
-                logger: fmi2_logger(),
-                allocate_memory,
-                free_memory,
-                step_finished: None,
-                component_environment: env,
-            });
-            let resources = CString::new(format!("file://{}/", resources_dir.display())).unwrap_or_default();
-            // SAFETY: valid C strings and callbacks that outlive the instance; fmi2CoSimulation = 1.
-            let instance =
-                unsafe { instantiate(cname.as_ptr(), 1, token.as_ptr(), resources.as_ptr(), &*callbacks, 0, 0) };
-            let (variables, scalars) = regroup(&description.variables);
-            description.dimension_refs = vec![Vec::new(); variables.len()];
-            description.variables = variables;
-            let api = Api::V2 { functions, scalars, scratch: Mutex::new(Vec::new()), _callbacks: callbacks };
+            let (api, instance) = instantiate_v2(&library, &mut description, resources_dir, names).map_err(lerr)?;
             (api, instance, "fmi2Instantiate")
         };
         let typed = Self::resolve_typed(&library, v3);
