@@ -339,8 +339,12 @@ pub fn validate_hidden(
     println!("  impact onsets: {} true, {found}; {} reported{real}", r.impacts, r.onsets_reported);
     if let Some((particles, followed)) = r.tracking {
         println!(
-            "  impact tracking ({particles} particles): followed the measurement in {followed} of {} cases (their onsets the filter's, the others' the draws')",
-            r.cases
+            "  impact tracking ({particles} particles): followed the measurement in {followed} of {} cases (their onsets the filter's, the others' the draws'){}",
+            r.cases,
+            match r.tracking_failures {
+                0 => String::new(),
+                f => format!("; it could not run in {f} (its simulations failed)"),
+            }
         );
     }
     println!("  wall time per case (estimate, re-simulation, alignment): {:.2} s", r.seconds_per_case);

@@ -633,6 +633,9 @@ pub struct HiddenReport {
     /// (whose onsets are the filter's; the others' are the draws').
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tracking: Option<(usize, usize)>,
+    /// With impact tracking: the cases where it could not run (every replayed draw's run or
+    /// every particle failed; their onsets are the draws').
+    pub tracking_failures: usize,
 }
 
 /// One held-out case: its emulated measurement, and per joint the true force and eccentricity
@@ -835,6 +838,7 @@ pub fn validate_hidden(
         seconds_per_case: ok.iter().map(|c| c.2).sum::<f64>() / ok.len() as f64,
         tracking: track
             .map(|t| (t.particles, ok.iter().filter(|c| c.1.tracking.as_ref().is_some_and(|s| s.follows)).count())),
+        tracking_failures: ok.iter().filter(|c| c.1.tracking_failure.is_some()).count(),
     })
 }
 
