@@ -165,6 +165,11 @@ pub fn estimate(
                 t.draw + 1
             ),
         };
+        let draws = match t.rescues {
+            0 => draws,
+            1 => format!("{draws}; every particle failed at one sample, the filter started again from its draw there"),
+            r => format!("{draws}; every particle failed at {r} samples, the filter started again from its draw there"),
+        };
         println!(
             "  impact tracking ({} particles{draws}): innovation {:.0} % of the measurement's RMS (the best draw alone {:.0} %): {}",
             t.particles,

@@ -948,6 +948,7 @@ mod tests {
         let summary = crate::track::TrackSummary {
             particles: 8,
             resamplings: 1,
+            rescues: 0,
             measured_rms: 1.0,
             replay_residual: 0.3,
             innovation: 0.1,
