@@ -601,42 +601,26 @@ fn cross_check(s: &Scenario) -> Problems {
     }
     let channels: Vec<(String, &str)> =
         crate::channels::channels(s, false).into_iter().map(|c| (c.name, c.unit)).collect();
-    p.0.extend(validate_measurements(&s.output, &channels, s.simulation.output_interval).0);
-    if !s.output.channels.is_empty() {
-        let names = crate::channels::channel_names(s, false);
-        for (k, c) in s.output.channels.iter().enumerate() {
-            if !names.iter().any(|n| n == c) {
-                p.push(
-                    format!("output.channels[{k}]"),
-                    format!("no channel called {c:?}; see `lash channels <scenario>`"),
-                );
-            }
+    check_output(&mut p, &s.output, &channels, s.simulation.output_interval);
+    p
+}
+
+/// The `[output]` table against the scenario's channels (name, unit), planar or spatial: its
+/// measurements, and each channel it names.
+pub(crate) fn check_output(p: &mut Problems, output: &OutputSpec, channels: &[(String, &str)], output_interval: f64) {
+    p.0.extend(validate_measurements(output, channels, output_interval).0);
+    for (k, c) in output.channels.iter().enumerate() {
+        if !channels.iter().any(|(n, _)| n == c) {
+            p.push(format!("output.channels[{k}]"), format!("no channel called {c:?}; see `lash channels <scenario>`"));
         }
     }
-    p
 }
 
 /// Unique names of bodies, joints and sensors; the bodies that joints, drivers, loads and sensors name.
 fn check_references(s: &Scenario, p: &mut Problems) {
-    let bodies: HashSet<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
+    let joints = s.joints.iter().map(|j| (j.name.as_str(), [j.body1.as_str(), j.body2.as_str()]));
+    let bodies = check_bodies_and_joints(p, s.bodies.iter().map(|b| b.name.as_str()), joints);
     let body_ok = |name: &str| name == "ground" || bodies.contains(name);
-    let mut seen = HashSet::new();
-    for (k, b) in s.bodies.iter().enumerate() {
-        if !seen.insert(b.name.as_str()) {
-            p.push(format!("bodies[{k}].name"), format!("{:?} is used by another body", b.name));
-        }
-    }
-    let mut joint_names = HashSet::new();
-    for (k, j) in s.joints.iter().enumerate() {
-        if !joint_names.insert(j.name.as_str()) {
-            p.push(format!("joints[{k}].name"), format!("{:?} is used by another joint", j.name));
-        }
-        for (field, name) in [("body1", &j.body1), ("body2", &j.body2)] {
-            if !body_ok(name) {
-                p.push(format!("joints[{k}].{field}"), format!("no body called {name:?}"));
-            }
-        }
-    }
     for (k, d) in s.drivers.iter().enumerate() {
         for (field, name) in [("body", &d.body), ("reference", &d.reference)] {
             if !body_ok(name) {
@@ -653,13 +637,52 @@ fn check_references(s: &Scenario, p: &mut Problems) {
             p.push(format!("loads[{k}].body"), format!("no moving body called {body:?}"));
         }
     }
-    let mut sensor_names = HashSet::new();
-    for (k, sen) in s.sensors.iter().enumerate() {
-        if !body_ok(&sen.body) {
-            p.push(format!("sensors[{k}].body"), format!("no body called {:?}", sen.body));
+    check_sensors(p, &bodies, s.sensors.iter().map(|sen| (sen.name.as_str(), sen.body.as_str())));
+}
+
+/// What planar and spatial files check alike first: unique body names, unique joint names, and
+/// each joint's two bodies (`joints`: name, [body1, body2]) among the bodies or the ground.
+/// Returns the bodies' names.
+pub(crate) fn check_bodies_and_joints<'a>(
+    p: &mut Problems,
+    bodies: impl Iterator<Item = &'a str>,
+    joints: impl Iterator<Item = (&'a str, [&'a str; 2])>,
+) -> HashSet<&'a str> {
+    let mut names = HashSet::new();
+    for (k, b) in bodies.enumerate() {
+        if !names.insert(b) {
+            p.push(format!("bodies[{k}].name"), format!("{b:?} is used by another body"));
         }
-        if !sensor_names.insert(sen.name.as_str()) {
-            p.push(format!("sensors[{k}].name"), format!("{:?} is used by another sensor", sen.name));
+    }
+    let body_ok = |name: &str| name == "ground" || names.contains(name);
+    let mut joint_names = HashSet::new();
+    for (k, (joint, ends)) in joints.enumerate() {
+        if !joint_names.insert(joint) {
+            p.push(format!("joints[{k}].name"), format!("{joint:?} is used by another joint"));
+        }
+        for (field, name) in ["body1", "body2"].into_iter().zip(ends) {
+            if !body_ok(name) {
+                p.push(format!("joints[{k}].{field}"), format!("no body called {name:?}"));
+            }
+        }
+    }
+    names
+}
+
+/// Each sensor (`sensors`: name, body) on one of `bodies` or the ground, and its name unique —
+/// planar and spatial files alike.
+pub(crate) fn check_sensors<'a>(
+    p: &mut Problems,
+    bodies: &HashSet<&str>,
+    sensors: impl Iterator<Item = (&'a str, &'a str)>,
+) {
+    let mut names = HashSet::new();
+    for (k, (sensor, body)) in sensors.enumerate() {
+        if body != "ground" && !bodies.contains(body) {
+            p.push(format!("sensors[{k}].body"), format!("no body called {body:?}"));
+        }
+        if !names.insert(sensor) {
+            p.push(format!("sensors[{k}].name"), format!("{sensor:?} is used by another sensor"));
         }
     }
 }

@@ -399,63 +399,10 @@ pub fn validate_spatial(s: &SpatialScenario) -> Problems {
     crate::format::validate(s)
 }
 
-/// Names, references and counts across the file.
-fn cross_check(s: &SpatialScenario) -> Problems {
+/// Each spherical clearance on a spherical, undriven joint of the file, one per joint, with a
+/// point-contact law and its materials.
+fn check_spatial_clearances(s: &SpatialScenario, p: &mut Problems) {
     use crate::load::NeedsMaterials;
-    let mut p = Problems::new();
-    let bodies: HashSet<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
-    let body_ok = |name: &str| name == "ground" || bodies.contains(name);
-    let mut seen = HashSet::new();
-    for (k, b) in s.bodies.iter().enumerate() {
-        if !seen.insert(b.name.as_str()) {
-            p.push(format!("bodies[{k}].name"), format!("{:?} is used by another body", b.name));
-        }
-    }
-    let mut joint_names = HashSet::new();
-    for (k, j) in s.joints.iter().enumerate() {
-        if !joint_names.insert(j.name.as_str()) {
-            p.push(format!("joints[{k}].name"), format!("{:?} is used by another joint", j.name));
-        }
-        for (field, name) in [("body1", &j.body1), ("body2", &j.body2)] {
-            if !body_ok(name) {
-                p.push(format!("joints[{k}].{field}"), format!("no body called {name:?}"));
-            }
-        }
-    }
-    let rotating_joint =
-        |p: &mut Problems, field: String, name: &str, what: &str| match s.joints.iter().find(|j| j.name == name) {
-            None => p.push(field, format!("no joint called {name:?}")),
-            Some(j) if !j.kind.rotates_about_axis() => {
-                p.push(field, format!("joint {name:?} is {:?}: a {what} needs a revolute or cylindrical joint", j.kind))
-            }
-            Some(_) => {}
-        };
-    let mut driven = HashSet::new();
-    for (k, d) in s.drivers.iter().enumerate() {
-        rotating_joint(&mut p, format!("drivers[{k}].joint"), &d.joint, "driver");
-        if !driven.insert(d.joint.as_str()) {
-            p.push(format!("drivers[{k}].joint"), format!("joint {:?} already has a driver", d.joint));
-        }
-    }
-    for (k, l) in s.loads.iter().enumerate() {
-        match l {
-            SpatialLoadSpec::Force { body, .. } | SpatialLoadSpec::Torque { body, .. } => {
-                if !bodies.contains(body.as_str()) {
-                    p.push(format!("loads[{k}].body"), format!("no moving body called {body:?}"));
-                }
-            }
-            SpatialLoadSpec::Motor { joint, .. } => rotating_joint(&mut p, format!("loads[{k}].joint"), joint, "motor"),
-        }
-    }
-    let mut sensor_names = HashSet::new();
-    for (k, sen) in s.sensors.iter().enumerate() {
-        if !body_ok(&sen.body) {
-            p.push(format!("sensors[{k}].body"), format!("no body called {:?}", sen.body));
-        }
-        if !sensor_names.insert(sen.name.as_str()) {
-            p.push(format!("sensors[{k}].name"), format!("{:?} is used by another sensor", sen.name));
-        }
-    }
     let mut clearance_joints = HashSet::new();
     for (k, c) in s.clearances.iter().enumerate() {
         let f = |x: &str| format!("clearances[{k}].{x}");
@@ -511,6 +458,40 @@ fn cross_check(s: &SpatialScenario) -> Problems {
             }
         }
     }
+}
+
+/// Names, references and counts across the file.
+fn cross_check(s: &SpatialScenario) -> Problems {
+    let mut p = Problems::new();
+    let joints = s.joints.iter().map(|j| (j.name.as_str(), [j.body1.as_str(), j.body2.as_str()]));
+    let bodies = crate::load::check_bodies_and_joints(&mut p, s.bodies.iter().map(|b| b.name.as_str()), joints);
+    let rotating_joint =
+        |p: &mut Problems, field: String, name: &str, what: &str| match s.joints.iter().find(|j| j.name == name) {
+            None => p.push(field, format!("no joint called {name:?}")),
+            Some(j) if !j.kind.rotates_about_axis() => {
+                p.push(field, format!("joint {name:?} is {:?}: a {what} needs a revolute or cylindrical joint", j.kind))
+            }
+            Some(_) => {}
+        };
+    let mut driven = HashSet::new();
+    for (k, d) in s.drivers.iter().enumerate() {
+        rotating_joint(&mut p, format!("drivers[{k}].joint"), &d.joint, "driver");
+        if !driven.insert(d.joint.as_str()) {
+            p.push(format!("drivers[{k}].joint"), format!("joint {:?} already has a driver", d.joint));
+        }
+    }
+    for (k, l) in s.loads.iter().enumerate() {
+        match l {
+            SpatialLoadSpec::Force { body, .. } | SpatialLoadSpec::Torque { body, .. } => {
+                if !bodies.contains(body.as_str()) {
+                    p.push(format!("loads[{k}].body"), format!("no moving body called {body:?}"));
+                }
+            }
+            SpatialLoadSpec::Motor { joint, .. } => rotating_joint(&mut p, format!("loads[{k}].joint"), joint, "motor"),
+        }
+    }
+    crate::load::check_sensors(&mut p, &bodies, s.sensors.iter().map(|sen| (sen.name.as_str(), sen.body.as_str())));
+    check_spatial_clearances(s, &mut p);
     let velocities = 6 * s.bodies.len();
     // The full model's count: a joint with clearance is not a constraint there.
     let equations = s
@@ -527,18 +508,7 @@ fn cross_check(s: &SpatialScenario) -> Problems {
         );
     }
     let channels: Vec<(String, &str)> = spatial_channels(s, false).into_iter().map(|(c, _)| (c.name, c.unit)).collect();
-    p.0.extend(crate::load::validate_measurements(&s.output, &channels, s.simulation.output_interval).0);
-    if !s.output.channels.is_empty() {
-        let names: Vec<String> = spatial_channels(s, false).into_iter().map(|(c, _)| c.name).collect();
-        for (k, c) in s.output.channels.iter().enumerate() {
-            if !names.iter().any(|n| n == c) {
-                p.push(
-                    format!("output.channels[{k}]"),
-                    format!("no channel called {c:?}; see `lash channels <scenario>`"),
-                );
-            }
-        }
-    }
+    crate::load::check_output(&mut p, &s.output, &channels, s.simulation.output_interval);
     p
 }
 

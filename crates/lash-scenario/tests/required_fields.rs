@@ -46,3 +46,35 @@ fn a_negative_harmonic_frequency_is_refused() {
     let e = harmonic(-50.0).unwrap_err();
     assert!(e.contains("drivers[0].motion.frequency"), "{e}");
 }
+
+/// The name and reference checks that planar and spatial files share (one source): a body or
+/// sensor named twice, a joint or sensor on a body that is not there, an output channel that does
+/// not exist — each names its field, in either kind of file.
+#[test]
+fn repeated_names_and_missing_bodies_are_named_in_planar_and_spatial_files() {
+    let mut a = lash_scenario::builtin::by_name("A").unwrap();
+    a.bodies[1].name = a.bodies[0].name.clone();
+    a.joints[0].body2 = "nowhere".into();
+    a.sensors.push(a.sensors[0].clone());
+    a.output.channels = vec!["no_such.channel".into()];
+    let planar = lash_scenario::validate(&a).to_string();
+    let mut e = lash_scenario::builtin_spatial::spatial_by_name("E").unwrap();
+    e.bodies[1].name = e.bodies[0].name.clone();
+    e.joints[0].body2 = "nowhere".into();
+    e.sensors.push(e.sensors[0].clone());
+    e.output.channels = vec!["no_such.channel".into()];
+    let spatial = lash_scenario::validate_spatial(&e).to_string();
+    for text in [planar, spatial] {
+        for wanted in [
+            "bodies[1].name",
+            "is used by another body",
+            "joints[0].body2",
+            "no body called \"nowhere\"",
+            "is used by another sensor",
+            "output.channels[0]",
+            "no channel called \"no_such.channel\"",
+        ] {
+            assert!(text.contains(wanted), "{wanted:?} not in {text}");
+        }
+    }
+}
