@@ -152,140 +152,185 @@ pub fn load(path: &Path, cache: &Path, fallback: Fallback) -> Result<(SystemSpec
 /// Parses the text of an `.ssd`.
 pub fn parse_ssd(xml: &str, base: &Path, fallback: Fallback) -> Result<SystemSpec, SspError> {
     let mut reader = quick_xml::Reader::from_str(xml);
-    let mut name = String::from("system");
-    let (mut start, mut stop, mut file_step, mut osp_step) = (0.0, None, None, None);
-    let mut elements: Vec<ElementSpec> = Vec::new();
-    let mut connections = Vec::new();
-    let mut in_component: Option<usize> = None;
-    let mut depth_component = 0usize;
-    let mut depth = 0usize;
-    let mut in_values = false;
-    let mut parameter: Option<String> = None;
-    let number = |s: Option<String>, what: &str| -> Result<Option<f64>, String> {
-        s.map(|v| v.trim().parse::<f64>().map_err(|_| format!("{what}: {v:?} is not a number"))).transpose()
-    };
+    let mut r = SsdReader { name: String::from("system"), ..Default::default() };
     loop {
         let event = reader.read_event().map_err(SspError::Xml)?;
         let (e, empty) = match &event {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
             Event::End(end) => {
-                if end.local_name().as_ref() == "ParameterValues" {
-                    in_values = false;
-                }
-                if in_component.is_some() && depth == depth_component {
-                    in_component = None;
-                }
-                depth = depth.saturating_sub(1);
+                r.end(end.local_name().as_ref() == "ParameterValues");
                 continue;
             }
             Event::Eof => break,
             _ => continue,
         };
         if !empty {
-            depth += 1;
+            r.depth += 1;
         }
-        let tag = local(&e);
-        if in_values {
-            // An inline parameter set: the same elements as an .ssv file.
-            match tag.as_str() {
-                "Parameter" => parameter = attr(&e, "name"),
-                tag => {
-                    if let (Some(k), Some(name)) = (in_component, &parameter)
-                        && let Some(value) = ssv_value(tag, attr(&e, "value"), name)?
-                    {
-                        elements[k].parameters.insert(name.clone(), value);
-                    }
+        if r.in_values {
+            r.inline_value(&e)?;
+        } else {
+            r.element(&e, empty, base)?;
+        }
+    }
+    r.finish(fallback)
+}
+
+/// The state of [`parse_ssd`] between XML events.
+#[derive(Default)]
+struct SsdReader {
+    name: String,
+    start: f64,
+    stop: Option<f64>,
+    /// The step of lash's own annotation, and of libcosim's fixed-step master.
+    file_step: Option<f64>,
+    osp_step: Option<f64>,
+    elements: Vec<ElementSpec>,
+    connections: Vec<ConnectionSpec>,
+    /// The component being read (its index in `elements`) and the element depth it opened at.
+    in_component: Option<usize>,
+    depth_component: usize,
+    depth: usize,
+    /// Inside an inline ParameterValues block, and the parameter being read there.
+    in_values: bool,
+    parameter: Option<String>,
+}
+
+/// An optional number attribute (`what` names it in the error).
+fn number(s: Option<String>, what: &str) -> Result<Option<f64>, String> {
+    s.map(|v| v.trim().parse::<f64>().map_err(|_| format!("{what}: {v:?} is not a number"))).transpose()
+}
+
+impl SsdReader {
+    /// An element closes (`values_end`: an inline ParameterValues block).
+    fn end(&mut self, values_end: bool) {
+        if values_end {
+            self.in_values = false;
+        }
+        if self.in_component.is_some() && self.depth == self.depth_component {
+            self.in_component = None;
+        }
+        self.depth = self.depth.saturating_sub(1);
+    }
+
+    /// An element of an inline parameter set: the same elements as an .ssv file.
+    fn inline_value(&mut self, e: &BytesStart<'_>) -> Result<(), SspError> {
+        match local(e).as_str() {
+            "Parameter" => self.parameter = attr(e, "name"),
+            tag => {
+                if let (Some(k), Some(name)) = (self.in_component, &self.parameter)
+                    && let Some(value) = ssv_value(tag, attr(e, "value"), name)?
+                {
+                    self.elements[k].parameters.insert(name.clone(), value);
                 }
             }
-            continue;
         }
-        match tag.as_str() {
+        Ok(())
+    }
+
+    /// An element of the system description opens (`empty`: and closes at once); parameter
+    /// bindings are read from files relative to `base`.
+    fn element(&mut self, e: &BytesStart<'_>, empty: bool, base: &Path) -> Result<(), SspError> {
+        match local(e).as_str() {
             "SystemStructureDescription" => {
-                if let Some(n) = attr(&e, "name") {
-                    name = n;
+                if let Some(n) = attr(e, "name") {
+                    self.name = n;
                 }
             }
             "DefaultExperiment" => {
-                start = number(attr(&e, "startTime"), "DefaultExperiment startTime")?.unwrap_or(0.0);
-                stop = number(attr(&e, "stopTime"), "DefaultExperiment stopTime")?;
-                if file_step.is_none() {
-                    file_step = number(attr(&e, "lash:step"), "DefaultExperiment lash:step")?;
+                self.start = number(attr(e, "startTime"), "DefaultExperiment startTime")?.unwrap_or(0.0);
+                self.stop = number(attr(e, "stopTime"), "DefaultExperiment stopTime")?;
+                if self.file_step.is_none() {
+                    self.file_step = number(attr(e, "lash:step"), "DefaultExperiment lash:step")?;
                 }
             }
-            "Step" => file_step = number(attr(&e, "value"), "lash:Step value")?,
-            "FixedStepMaster" => osp_step = number(attr(&e, "stepSize"), "osp:FixedStepMaster stepSize")?,
-            "Component" => {
-                let cname = attr(&e, "name").ok_or_else(|| SspError::Invalid("a Component without a name".into()))?;
-                let source = attr(&e, "source").ok_or_else(|| format!("component {cname:?}: no source"))?;
-                let mut spec = ElementSpec {
-                    name: cname,
-                    fmu: None,
-                    plugin: None,
-                    builtin: None,
-                    scenario: None,
-                    decimation: 1,
-                    parameters: BTreeMap::new(),
-                    isolate: false,
-                    timeout: None,
-                };
-                if source.ends_with(".so") {
-                    spec.plugin = Some(source);
-                } else {
-                    spec.fmu = Some(source);
-                }
-                elements.push(spec);
-                if !empty {
-                    in_component = Some(elements.len() - 1);
-                    depth_component = depth;
-                }
-            }
+            "Step" => self.file_step = number(attr(e, "value"), "lash:Step value")?,
+            "FixedStepMaster" => self.osp_step = number(attr(e, "stepSize"), "osp:FixedStepMaster stepSize")?,
+            "Component" => self.component(e, empty)?,
             "ParameterBinding" => {
-                if let (Some(k), Some(src)) = (in_component, attr(&e, "source")) {
+                if let (Some(k), Some(src)) = (self.in_component, attr(e, "source")) {
                     let path = base.join(&src);
                     let text =
                         std::fs::read_to_string(&path).map_err(|err| format!("parameter binding {src}: {err}"))?;
                     let values =
                         parse_ssv(&text).map_err(|e| SspError::In { path: src.into(), problem: Box::new(e) })?;
-                    bind(&mut elements[k], values);
+                    bind(&mut self.elements[k], values);
                 }
             }
-            "ParameterValues" if !empty => in_values = true,
+            "ParameterValues" if !empty => self.in_values = true,
             "Connection" => {
-                let get = |a: &str| attr(&e, a).ok_or_else(|| format!("a Connection without {a}"));
+                let get = |a: &str| attr(e, a).ok_or_else(|| format!("a Connection without {a}"));
                 let (se, sc, ee, ec) =
                     (get("startElement"), get("startConnector"), get("endElement"), get("endConnector"));
-                connections.push(ConnectionSpec { from: format!("{}.{}", se?, sc?), to: format!("{}.{}", ee?, ec?) });
+                let connection = ConnectionSpec { from: format!("{}.{}", se?, sc?), to: format!("{}.{}", ee?, ec?) };
+                self.connections.push(connection);
             }
             _ => {}
         }
+        Ok(())
     }
-    let stop = stop
-        .or(fallback.horizon.map(|h| start + h))
-        .ok_or_else(|| SspError::Invalid("no DefaultExperiment stopTime: add one, or pass --horizon".into()))?;
-    let step = file_step.or(osp_step).or(fallback.step).ok_or_else(|| {
-        SspError::Invalid(
-            "no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step".into(),
-        )
-    })?;
-    // A file written for libcosim (its fixed-step master's annotation) runs as libcosim runs it:
-    // Jacobi, the initial values iterated in initialization mode.
-    let (algorithm, initialization) = match osp_step {
-        Some(_) => (Algorithm::Jacobi, Initialization::Iterated),
-        None => Default::default(),
-    };
-    Ok(SystemSpec {
-        name,
-        start,
-        stop,
-        step,
-        algorithm,
-        initialization,
-        elements,
-        connections,
-        output: OutputSpec::default(),
-        interface: None,
-    })
+
+    /// A Component: an FMU, or a plugin library (`.so`).
+    fn component(&mut self, e: &BytesStart<'_>, empty: bool) -> Result<(), SspError> {
+        let cname = attr(e, "name").ok_or_else(|| SspError::Invalid("a Component without a name".into()))?;
+        let source = attr(e, "source").ok_or_else(|| format!("component {cname:?}: no source"))?;
+        let mut spec = ElementSpec {
+            name: cname,
+            fmu: None,
+            plugin: None,
+            builtin: None,
+            scenario: None,
+            decimation: 1,
+            parameters: BTreeMap::new(),
+            isolate: false,
+            timeout: None,
+        };
+        if source.ends_with(".so") {
+            spec.plugin = Some(source);
+        } else {
+            spec.fmu = Some(source);
+        }
+        self.elements.push(spec);
+        if !empty {
+            self.in_component = Some(self.elements.len() - 1);
+            self.depth_component = self.depth;
+        }
+        Ok(())
+    }
+
+    /// The system read: its stop time and step from the file or the fallback, libcosim's
+    /// algorithm where the file was written for it.
+    fn finish(self, fallback: Fallback) -> Result<SystemSpec, SspError> {
+        let start = self.start;
+        let stop = self
+            .stop
+            .or(fallback.horizon.map(|h| start + h))
+            .ok_or_else(|| SspError::Invalid("no DefaultExperiment stopTime: add one, or pass --horizon".into()))?;
+        let step = self.file_step.or(self.osp_step).or(fallback.step).ok_or_else(|| {
+            SspError::Invalid(
+                "no communication step: add <lash:Step value=\"…\"/> in an org.lash annotation, or pass --step".into(),
+            )
+        })?;
+        // A file written for libcosim (its fixed-step master's annotation) runs as libcosim runs
+        // it: Jacobi, the initial values iterated in initialization mode.
+        let (algorithm, initialization) = match self.osp_step {
+            Some(_) => (Algorithm::Jacobi, Initialization::Iterated),
+            None => Default::default(),
+        };
+        Ok(SystemSpec {
+            name: self.name,
+            start,
+            stop,
+            step,
+            algorithm,
+            initialization,
+            elements: self.elements,
+            connections: self.connections,
+            output: OutputSpec::default(),
+            interface: None,
+        })
+    }
 }
 
 fn bind(element: &mut ElementSpec, values: BTreeMap<String, ParameterValue>) {
