@@ -56,6 +56,16 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
             BodyId::Body(s.bodies.iter().position(|b| b.name == name).expect("validated body name"))
         }
     };
+    let mechanism = mechanism(s, options, &id);
+    let clearances = if options.ideal { Vec::new() } else { clearance_joints(s, &id) };
+    let slots = if options.ideal { Vec::new() } else { s.guides.iter().map(|g| guide(s, g, &id)).collect() };
+    FullModel::new(mechanism, clearances).with_slots(slots)
+}
+
+/// The mechanism of `s` with its clearance joints cut out (kept as ideal joints with
+/// `options.ideal`), its bushings' springs among the loads (none with `options.ideal`); `id`
+/// maps a body's name to its id.
+fn mechanism(s: &Scenario, options: BuildOptions, id: &dyn Fn(&str) -> BodyId) -> Mechanism {
     let guess_angle = |name: &str| s.bodies.iter().find(|b| b.name == name).map_or(0.0, |b| b.angle);
     let bodies = s
         .bodies
@@ -132,42 +142,39 @@ pub fn build_model(s: &Scenario, options: BuildOptions) -> FullModel {
         })
         .chain(bushings)
         .collect();
-    let mechanism =
-        Mechanism { bodies, joints, drivers, loads, gravity: v2(s.gravity), baumgarte: s.simulation.baumgarte };
-    let clearances = if options.ideal {
-        Vec::new()
-    } else {
-        s.clearances
-            .iter()
-            .map(|c| {
-                let j = s.joints.iter().find(|j| j.name == c.joint).expect("validated clearance joint");
-                let (jb, jp, bb, bp) = if c.journal == j.body1 {
-                    (&j.body1, j.point1, &j.body2, j.point2)
-                } else {
-                    (&j.body2, j.point2, &j.body1, j.point1)
-                };
-                // Validation computed (and kept) the bush's numbers: they cannot fail here.
-                let bush = c.bush.as_ref().map(|b| lash_bush::bonded_pin(b).expect("validated bush"));
-                ClearanceJoint {
-                    name: c.joint.clone(),
-                    journal_body: id(jb),
-                    journal_point: v2(jp),
-                    bearing_body: id(bb),
-                    bearing_point: v2(bp),
-                    journal_radius: c.journal_radius,
-                    bearing_radius: c.bearing_radius,
-                    law: clearance_definition(s, c).normal_force(),
-                    friction: c.friction,
-                    bush_stiffness: bush.map_or(f64::INFINITY, |b| b.stiffness),
-                    bush_damping: bush.map_or(0.0, |b| if damped_in_series(&b) { b.damping } else { 0.0 }),
-                    in_contact: false,
-                    onset_velocity: 0.0,
-                }
-            })
-            .collect()
-    };
-    let slots = if options.ideal { Vec::new() } else { s.guides.iter().map(|g| guide(s, g, &id)).collect() };
-    FullModel::new(mechanism, clearances).with_slots(slots)
+    Mechanism { bodies, joints, drivers, loads, gravity: v2(s.gravity), baumgarte: s.simulation.baumgarte }
+}
+
+/// The clearance joints of `s`'s `[[clearances]]`, the journal on the body the file names.
+fn clearance_joints(s: &Scenario, id: &dyn Fn(&str) -> BodyId) -> Vec<ClearanceJoint> {
+    s.clearances
+        .iter()
+        .map(|c| {
+            let j = s.joints.iter().find(|j| j.name == c.joint).expect("validated clearance joint");
+            let (jb, jp, bb, bp) = if c.journal == j.body1 {
+                (&j.body1, j.point1, &j.body2, j.point2)
+            } else {
+                (&j.body2, j.point2, &j.body1, j.point1)
+            };
+            // Validation computed (and kept) the bush's numbers: they cannot fail here.
+            let bush = c.bush.as_ref().map(|b| lash_bush::bonded_pin(b).expect("validated bush"));
+            ClearanceJoint {
+                name: c.joint.clone(),
+                journal_body: id(jb),
+                journal_point: v2(jp),
+                bearing_body: id(bb),
+                bearing_point: v2(bp),
+                journal_radius: c.journal_radius,
+                bearing_radius: c.bearing_radius,
+                law: clearance_definition(s, c).normal_force(),
+                friction: c.friction,
+                bush_stiffness: bush.map_or(f64::INFINITY, |b| b.stiffness),
+                bush_damping: bush.map_or(0.0, |b| if damped_in_series(&b) { b.damping } else { 0.0 }),
+                in_contact: false,
+                onset_velocity: 0.0,
+            }
+        })
+        .collect()
 }
 
 /// The translational clearance joint of guide `g`: the block centred on the slider's joint point
