@@ -22,6 +22,36 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 pub fn run(quick: bool) -> Result<(), CliError> {
     let reps = if quick { 3 } else { 7 };
+    let b = full_model_figures(reps, quick)?;
+    let (a_full_ms, a_reduced_ms) = scenario_a_times(reps)?;
+    b.print(reps);
+    println!("scenario A (c = 100 µm), 0.036 s, every channel sampled at 1e-5 s (rows discarded)");
+    println!("  full model, converged adaptive                 {a_full_ms:9.2} ms");
+    println!(
+        "  reduced model (h_m = 1e-3, h_r = 1e-5)         {a_reduced_ms:9.2} ms   (speed-up {:.1}×)",
+        a_full_ms / a_reduced_ms
+    );
+    reduced_section(reps, quick)?;
+    spatial_section(reps, quick)?;
+    bush_section(reps)
+}
+
+/// Scenario B's full-model figures: one right-hand side, one RK4 step, the converged adaptive
+/// run (DOP853 and DOPRI5), the ideal mechanism; a dense LU for the machine's speed.
+struct FullModelFigures {
+    rhs_ns: f64,
+    rk4_ns: f64,
+    lu_ns: f64,
+    full_ms: f64,
+    full: lash_run::Summary,
+    dopri5_ms: f64,
+    dopri5_summary: lash_run::Summary,
+    ideal_ms: f64,
+    ideal: lash_run::Summary,
+}
+
+/// Measures [`FullModelFigures`], each the median of `reps` rounds.
+fn full_model_figures(reps: usize, quick: bool) -> Result<FullModelFigures, CliError> {
     let s = builtin::by_name("B").expect("built-in");
 
     let mut model = lash_run::build_model(&s, BuildOptions::default());
@@ -107,8 +137,44 @@ pub fn run(quick: bool) -> Result<(), CliError> {
     let (dopri5_ms, dopri5_summary) = time_run(false, dopri5)?;
     let (ideal_ms, ideal) = time_run(true, converged)?;
 
-    // Scenario A (the main job): converged full model against the reduced model, 0.036 s, all
-    // channels sampled every 1e-5 s, rows discarded.
+    Ok(FullModelFigures { rhs_ns, rk4_ns, lu_ns, full_ms, full, dopri5_ms, dopri5_summary, ideal_ms, ideal })
+}
+
+impl FullModelFigures {
+    /// The bench's first lines.
+    fn print(&self, reps: usize) {
+        let Self { rhs_ns, rk4_ns, lu_ns, full_ms, full, dopri5_ms, dopri5_summary, ideal_ms, ideal } = self;
+        println!("lash bench (median of {reps}; scenario B, c = 0.5 mm, 5000 rpm)");
+        print_profile();
+        println!(
+            "  reference: dense 16×16 LU + solve (nalgebra)   {lu_ns:9.1} ns   (issue's figure for this machine kind: ~1300 ns)"
+        );
+        println!("  full model, one right-hand-side evaluation     {rhs_ns:9.1} ns");
+        println!(
+            "  full model, one RK4 step (h = 1e-5 s)          {rk4_ns:9.1} ns   (target ≤ 2000 ns; {:.2} LU-equivalents)",
+            rk4_ns / lu_ns
+        );
+        println!(
+            "  full model, converged adaptive run of 0.036 s  {full_ms:9.2} ms   (target ≤ 50 ms; {} steps, {} rejected, {} rhs, {} events)",
+            full.steps, full.rejected_steps, full.rhs_evaluations, full.events
+        );
+        println!(
+            "    same tolerances with DOPRI5                  {dopri5_ms:9.2} ms   (DOP853 {:.2}× faster; {} steps, {} rejected, {} rhs)",
+            dopri5_ms / full_ms,
+            dopri5_summary.steps,
+            dopri5_summary.rejected_steps,
+            dopri5_summary.rhs_evaluations
+        );
+        println!(
+            "  ideal mechanism, adaptive run of 0.036 s       {ideal_ms:9.2} ms   ({} steps, {} rhs)",
+            ideal.steps, ideal.rhs_evaluations
+        );
+    }
+}
+
+/// Scenario A (the main job): the converged full model and the reduced model over 0.036 s,
+/// every channel sampled every 1e-5 s, rows discarded [ms], medians of `reps`.
+fn scenario_a_times(reps: usize) -> Result<(f64, f64), CliError> {
     let a = builtin::by_name("A").expect("built-in");
     let time_a = |reduced: bool| -> Result<f64, CliError> {
         let mut times = Vec::new();
@@ -128,42 +194,7 @@ pub fn run(quick: bool) -> Result<(), CliError> {
         }
         Ok(median(times))
     };
-    let (a_full_ms, a_reduced_ms) = (time_a(false)?, time_a(true)?);
-
-    println!("lash bench (median of {reps}; scenario B, c = 0.5 mm, 5000 rpm)");
-    print_profile();
-    println!(
-        "  reference: dense 16×16 LU + solve (nalgebra)   {lu_ns:9.1} ns   (issue's figure for this machine kind: ~1300 ns)"
-    );
-    println!("  full model, one right-hand-side evaluation     {rhs_ns:9.1} ns");
-    println!(
-        "  full model, one RK4 step (h = 1e-5 s)          {rk4_ns:9.1} ns   (target ≤ 2000 ns; {:.2} LU-equivalents)",
-        rk4_ns / lu_ns
-    );
-    println!(
-        "  full model, converged adaptive run of 0.036 s  {full_ms:9.2} ms   (target ≤ 50 ms; {} steps, {} rejected, {} rhs, {} events)",
-        full.steps, full.rejected_steps, full.rhs_evaluations, full.events
-    );
-    println!(
-        "    same tolerances with DOPRI5                  {dopri5_ms:9.2} ms   (DOP853 {:.2}× faster; {} steps, {} rejected, {} rhs)",
-        dopri5_ms / full_ms,
-        dopri5_summary.steps,
-        dopri5_summary.rejected_steps,
-        dopri5_summary.rhs_evaluations
-    );
-    println!(
-        "  ideal mechanism, adaptive run of 0.036 s       {ideal_ms:9.2} ms   ({} steps, {} rhs)",
-        ideal.steps, ideal.rhs_evaluations
-    );
-    println!("scenario A (c = 100 µm), 0.036 s, every channel sampled at 1e-5 s (rows discarded)");
-    println!("  full model, converged adaptive                 {a_full_ms:9.2} ms");
-    println!(
-        "  reduced model (h_m = 1e-3, h_r = 1e-5)         {a_reduced_ms:9.2} ms   (speed-up {:.1}×)",
-        a_full_ms / a_reduced_ms
-    );
-    reduced_section(reps, quick)?;
-    spatial_section(reps, quick)?;
-    bush_section(reps)
+    Ok((time_a(false)?, time_a(true)?))
 }
 
 /// The FE characterisation of the study's flexible bush: assembly, the two factorisations and
