@@ -37,6 +37,14 @@ pub fn build_spatial(s: &SpatialScenario, ideal: bool) -> SpatialFullModel {
             BodyId::Body(s.bodies.iter().position(|b| b.name == name).expect("validated"))
         }
     };
+    let mechanism = spatial_mechanism(s, ideal, &id);
+    let clearances = if ideal { Vec::new() } else { spherical_clearances(s, &id) };
+    SpatialFullModel::new(mechanism, clearances)
+}
+
+/// The spatial mechanism of `s` with its clearance joints left out (kept as written with
+/// `ideal`); `id` maps a body's name to its id.
+fn spatial_mechanism(s: &SpatialScenario, ideal: bool, id: &dyn Fn(&str) -> BodyId) -> SpatialMechanism {
     let bodies: Vec<SpatialBody> = s
         .bodies
         .iter()
@@ -109,49 +117,48 @@ pub fn build_spatial(s: &SpatialScenario, ideal: bool) -> SpatialFullModel {
             },
         })
         .collect();
-    let mechanism = SpatialMechanism {
+    SpatialMechanism {
         bodies,
         joints,
         drivers,
         loads,
         gravity: v3(s.gravity),
         baumgarte: Baumgarte { ..s.simulation.baumgarte },
-    };
+    }
+}
+
+/// The spherical clearance joints of `s`'s `[[clearances]]`, the ball on the body the file names.
+fn spherical_clearances(s: &SpatialScenario, id: &dyn Fn(&str) -> BodyId) -> Vec<SphericalClearance> {
     let material = |m: &Option<String>| m.as_ref().map_or(Material::STEEL, |n| s.materials[n]);
-    let clearances = if ideal {
-        Vec::new()
-    } else {
-        s.clearances
-            .iter()
-            .map(|c| {
-                let j = s.joints.iter().find(|j| j.name == c.joint).expect("validated");
-                let (journal, bearing) = if c.journal == j.body1 {
-                    ((&j.body1, j.point1), (&j.body2, j.point2))
-                } else {
-                    ((&j.body2, j.point2), (&j.body1, j.point1))
-                };
-                SphericalClearance {
-                    name: c.joint.clone(),
-                    journal_body: id(journal.0),
-                    journal_point: v3(journal.1),
-                    bearing_body: id(bearing.0),
-                    bearing_point: v3(bearing.1),
-                    journal_radius: c.journal_radius,
-                    bearing_radius: c.bearing_radius,
-                    law: c.contact.resolve(
-                        &material(&c.journal_material),
-                        &material(&c.bearing_material),
-                        c.journal_radius,
-                        c.bearing_radius,
-                    ),
-                    friction: c.friction,
-                    in_contact: false,
-                    onset_velocity: 0.0,
-                }
-            })
-            .collect()
-    };
-    SpatialFullModel::new(mechanism, clearances)
+    s.clearances
+        .iter()
+        .map(|c| {
+            let j = s.joints.iter().find(|j| j.name == c.joint).expect("validated");
+            let (journal, bearing) = if c.journal == j.body1 {
+                ((&j.body1, j.point1), (&j.body2, j.point2))
+            } else {
+                ((&j.body2, j.point2), (&j.body1, j.point1))
+            };
+            SphericalClearance {
+                name: c.joint.clone(),
+                journal_body: id(journal.0),
+                journal_point: v3(journal.1),
+                bearing_body: id(bearing.0),
+                bearing_point: v3(bearing.1),
+                journal_radius: c.journal_radius,
+                bearing_radius: c.bearing_radius,
+                law: c.contact.resolve(
+                    &material(&c.journal_material),
+                    &material(&c.bearing_material),
+                    c.journal_radius,
+                    c.bearing_radius,
+                ),
+                friction: c.friction,
+                in_contact: false,
+                onset_velocity: 0.0,
+            }
+        })
+        .collect()
 }
 
 /// Computes a spatial full model's channels from its last evaluation: the one sampling routine of
