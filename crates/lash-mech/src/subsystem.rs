@@ -248,47 +248,18 @@ fn mechanism_variables(k: usize, probes: &[Probe]) -> Vec<Variable> {
     let g = n + k;
     let pj = per_joint_shape(k, &[]);
     let mut t = VariableTable::new();
-    t.add_at(
-        vr::EFFECTIVE_MASS,
-        "effective_mass",
-        Output,
-        C,
-        "kg",
-        "effective mass M~ of the interface",
-        &[n, n],
-        &[0.0],
-    );
-    t.add_at(
-        vr::EFFECTIVE_FORCE,
-        "effective_force",
-        Output,
-        C,
-        "N",
-        "effective force f~ (M~ w'' = f~ + f_c + H F_T)",
-        &[n],
-        &[0.0],
-    );
-    t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
-    t.add_at(
-        vr::FREE_ACCELERATION,
-        "free_acceleration",
-        Output,
-        C,
-        "m/s^2",
-        "interface acceleration with f_c = 0",
-        &[n],
-        &[0.0],
-    );
-    t.add_at(
-        vr::FRICTION_MOMENT_FORCE,
-        "friction_moment_force",
-        Output,
-        C,
-        "1",
-        "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)",
-        &per_joint_shape(k, &[n]),
-        &[0.0],
-    );
+    let friction_description =
+        "force on the journals equivalent to each joint's friction moments, per unit friction force (M~ W_T)";
+    let terms: [(ValueReference, &str, &str, &str, Vec<usize>); 5] = [
+        (vr::EFFECTIVE_MASS, "effective_mass", "kg", "effective mass M~ of the interface", vec![n, n]),
+        (vr::EFFECTIVE_FORCE, "effective_force", "N", "effective force f~ (M~ w'' = f~ + f_c + H F_T)", vec![n]),
+        (vr::MOBILITY, "mobility", "1/kg", "W = inverse of M~", vec![n, n]),
+        (vr::FREE_ACCELERATION, "free_acceleration", "m/s^2", "interface acceleration with f_c = 0", vec![n]),
+        (vr::FRICTION_MOMENT_FORCE, "friction_moment_force", "1", friction_description, per_joint_shape(k, &[n])),
+    ];
+    for (at, name, unit, description, shape) in terms {
+        t.add_at(at, name, Output, C, unit, description, &shape, &[0.0]);
+    }
     add_body_rates(
         &mut t,
         [
@@ -301,36 +272,14 @@ fn mechanism_variables(k: usize, probes: &[Probe]) -> Vec<Variable> {
         &pj,
     );
     t.add_at(vr::CONSTRAINT_ERROR, "constraint_error", Output, C, "m", "max |constraint violation|", &[], &[0.0]);
-    t.add_at(
-        vr::ECCENTRICITY,
-        "eccentricity",
-        Input,
-        C,
-        "m",
-        "journal minus bearing centres at the step end (two-way)",
-        &[n],
-        &[0.0],
-    );
-    t.add_at(
-        vr::ECCENTRICITY_RATE,
-        "eccentricity_rate",
-        Input,
-        C,
-        "m/s",
-        "their rates at the step end (two-way)",
-        &[n],
-        &[0.0],
-    );
-    t.add_at(
-        vr::FRICTION_FORCE,
-        "friction_force",
-        Input,
-        C,
-        "N",
-        "mean friction force over the next step (two-way)",
-        &pj,
-        &[0.0],
-    );
+    let two_way: [(ValueReference, &str, &str, &str, &[usize]); 3] = [
+        (vr::ECCENTRICITY, "eccentricity", "m", "journal minus bearing centres at the step end (two-way)", &[n]),
+        (vr::ECCENTRICITY_RATE, "eccentricity_rate", "m/s", "their rates at the step end (two-way)", &[n]),
+        (vr::FRICTION_FORCE, "friction_force", "N", "mean friction force over the next step (two-way)", &pj),
+    ];
+    for (at, name, unit, description, shape) in two_way {
+        t.add_at(at, name, Input, C, unit, description, shape, &[0.0]);
+    }
     // Gains per unit load: the contact forces (n), then the friction forces (k).
     let gains = (g, "per unit contact force (f_c), then per unit friction force (F_T)");
     for p in probes {

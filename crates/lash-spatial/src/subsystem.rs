@@ -165,57 +165,19 @@ fn spatial_variables(k: usize, probes: &[SpatialProbe]) -> Vec<Variable> {
     let g = n + m;
     let rotations = per_joint_shape(3 * k, &[]);
     let mut t = VariableTable::new();
-    t.add_at(
-        vr::EFFECTIVE_MASS,
-        "effective_mass",
-        Output,
-        C,
-        "kg",
-        "effective mass M~ of the interface",
-        &[n, n],
-        &[0.0],
-    );
-    t.add_at(
-        vr::EFFECTIVE_FORCE,
-        "effective_force",
-        Output,
-        C,
-        "N",
-        "effective force f~ (M~ w'' = f~ + f_c + H L)",
-        &[n],
-        &[0.0],
-    );
-    t.add_at(vr::MOBILITY, "mobility", Output, C, "1/kg", "W = inverse of M~", &[n, n], &[0.0]);
-    t.add_at(
-        vr::FREE_ACCELERATION,
-        "free_acceleration",
-        Output,
-        C,
-        "m/s^2",
-        "interface acceleration with f_c = 0",
-        &[n],
-        &[0.0],
-    );
-    t.add_at(
-        vr::FRICTION_MOMENT_FORCE,
-        "friction_moment_force",
-        Output,
-        C,
-        "1",
-        "force on the balls equivalent to a unit friction load n x F_T of each joint (M~ W_tau)",
-        &[n, m],
-        &[0.0],
-    );
-    t.add_at(
-        vr::FRICTION_MOBILITY,
-        "friction_mobility",
-        Output,
-        C,
-        "1/kg",
-        "interface acceleration per unit friction load n x F_T of each joint (W_tau = W H)",
-        &[n, m],
-        &[0.0],
-    );
+    let moment_force = "force on the balls equivalent to a unit friction load n x F_T of each joint (M~ W_tau)";
+    let moment_mobility = "interface acceleration per unit friction load n x F_T of each joint (W_tau = W H)";
+    let terms: [(ValueReference, &str, &str, &str, &[usize]); 6] = [
+        (vr::EFFECTIVE_MASS, "effective_mass", "kg", "effective mass M~ of the interface", &[n, n]),
+        (vr::EFFECTIVE_FORCE, "effective_force", "N", "effective force f~ (M~ w'' = f~ + f_c + H L)", &[n]),
+        (vr::MOBILITY, "mobility", "1/kg", "W = inverse of M~", &[n, n]),
+        (vr::FREE_ACCELERATION, "free_acceleration", "m/s^2", "interface acceleration with f_c = 0", &[n]),
+        (vr::FRICTION_MOMENT_FORCE, "friction_moment_force", "1", moment_force, &[n, m]),
+        (vr::FRICTION_MOBILITY, "friction_mobility", "1/kg", moment_mobility, &[n, m]),
+    ];
+    for (at, name, unit, description, shape) in terms {
+        t.add_at(at, name, Output, C, unit, description, shape, &[0.0]);
+    }
     lash_mech::subsystem::add_body_rates(
         &mut t,
         [
