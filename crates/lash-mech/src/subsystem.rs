@@ -730,6 +730,8 @@ fn write_probes(
 ) {
     let mut next = vr::FRICTION_FORCE + 1;
     let g = gains.len() / 2;
+    // What a reaction or a torque is at no load (λ free) and per unit load (each λ column).
+    let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
     for p in probes {
         match *p {
             Probe::Point { body, point, .. } => {
@@ -756,7 +758,6 @@ fn write_probes(
                     solver.lambda.copy_from_slice(lambda);
                     joint_reaction(cut, solver, joint)
                 };
-                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
                 let (total, free) = linear_in_loads(multipliers, own, at, |c, r: Vec2| {
                     gains[c] = r.x;
                     gains[g + c] = r.y;
@@ -778,7 +779,6 @@ fn write_probes(
                     solver.lambda.copy_from_slice(lambda);
                     driver_torque(cut, solver, driver)
                 };
-                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
                 let (total, free) = linear_in_loads(multipliers, own, at, |c, torque| gains[c] = torque);
                 put(next, &[total]);
                 put(next + 1, &[free]);

@@ -409,6 +409,8 @@ fn write_probes(
 ) {
     let mut next = vr::FRICTION_FORCE + 1;
     let g = gains.len() / 3;
+    // What a reaction or a torque is at no load (λ free) and per unit load (each λ column).
+    let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
     let (v, own, own_load, frames) = (s.v, s.own, s.own_load, s.frames);
     // Rows of each cut joint and the first driver row.
     ranges.clear();
@@ -453,7 +455,6 @@ fn write_probes(
                         (None, None) => Vec3::zeros(),
                     }
                 };
-                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
                 let (total, free) = linear_in_loads(multipliers, own_load, reaction, |c, r: Vec3| {
                     for i in 0..3 {
                         gains[i * g + c] = r[i];
@@ -473,7 +474,6 @@ fn write_probes(
                     solver.lambda.copy_from_slice(lambda);
                     body_index(jt.j.body).map_or(0.0, |b| solver.reaction(driver_row..driver_row + 1, b).1.dot(&axis))
                 };
-                let multipliers = (&terms.free_lambda[..], &terms.lambda_gain[..]);
                 let (total, free) = linear_in_loads(multipliers, own_load, torque, |c, torque| gains[c] = torque);
                 put(next, &[total]);
                 put(next + 1, &[free]);
