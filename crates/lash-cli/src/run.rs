@@ -71,38 +71,11 @@ pub fn run<S: serde::Serialize>(
     format: crate::output::Format,
     quiet: bool,
 ) -> Result<(Timing, lash_run::Summary), CliError> {
-    let measured: usize = output.measurements.iter().map(|m| m.forces.len()).sum();
-    let estimate = crate::limits::run_estimate(
-        simulation.horizon,
-        simulation.output_interval,
-        runner.header().len(),
-        measured,
-        crate::limits::bytes_per_value(format),
-    );
-    crate::limits::check(
-        "the run",
-        &estimate,
-        out,
-        "shorten simulation.horizon (or --horizon), raise simulation.output_interval or list fewer output.channels",
-    )?;
-    if !quiet && estimate.disk_bytes > 2_000_000_000 {
-        eprintln!(
-            "note: this run writes up to {} ({} rows × {} values)",
-            crate::limits::bytes(estimate.disk_bytes),
-            estimate.rows,
-            estimate.columns
-        );
-    }
+    check_size((simulation, output), runner.header().len(), out, format, quiet)?;
     let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
     let summary_path = out.join("summary.json");
     let mut csv = SeriesOutput::create_as(out, &runner.header(), &["summary.json"], format)?;
-    // An earlier run's measurement tables must not pass for this run's.
-    for entry in std::fs::read_dir(out).map_err(|e| fail("reading the output folder", e))?.flatten() {
-        let name = entry.file_name().to_string_lossy().to_string();
-        if name.starts_with("measurement_") && (name.ends_with(".csv") || name.ends_with(".csv.partial")) {
-            std::fs::remove_file(entry.path()).map_err(|e| fail(&format!("removing the old {name}"), e))?;
-        }
-    }
+    remove_old_measurements(out)?;
 
     let mut bar = DelayedBar::new("simulated", quiet);
     let mut progress = |f: f64| bar.update(f);
@@ -147,6 +120,59 @@ pub fn run<S: serde::Serialize>(
     }
     let json = serde_json::to_string_pretty(&json).map_err(|e| CliError::Failure(e.to_string()))?;
     std::fs::write(&summary_path, json + "\n").map_err(|e| fail("writing summary.json", e))?;
+    print_run(&summary, &timing, out);
+    Ok((timing, summary))
+}
+
+/// The run's output checked against the limits before it starts (limits.rs), with a note when
+/// it writes more than 2 GB.
+fn check_size(
+    (simulation, output): (&lash_scenario::schema::SimulationSpec, &lash_scenario::schema::OutputSpec),
+    columns: usize,
+    out: &Path,
+    format: crate::output::Format,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let measured: usize = output.measurements.iter().map(|m| m.forces.len()).sum();
+    let estimate = crate::limits::run_estimate(
+        simulation.horizon,
+        simulation.output_interval,
+        columns,
+        measured,
+        crate::limits::bytes_per_value(format),
+    );
+    crate::limits::check(
+        "the run",
+        &estimate,
+        out,
+        "shorten simulation.horizon (or --horizon), raise simulation.output_interval or list fewer output.channels",
+    )?;
+    if !quiet && estimate.disk_bytes > 2_000_000_000 {
+        eprintln!(
+            "note: this run writes up to {} ({} rows × {} values)",
+            crate::limits::bytes(estimate.disk_bytes),
+            estimate.rows,
+            estimate.columns
+        );
+    }
+    Ok(())
+}
+
+/// Removes an earlier run's measurement tables from `out`: they must not pass for this run's.
+fn remove_old_measurements(out: &Path) -> Result<(), CliError> {
+    let fail = |what: &str, e: std::io::Error| CliError::Failure(format!("{what}: {e}"));
+    for entry in std::fs::read_dir(out).map_err(|e| fail("reading the output folder", e))?.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        if name.starts_with("measurement_") && (name.ends_with(".csv") || name.ends_with(".csv.partial")) {
+            std::fs::remove_file(entry.path()).map_err(|e| fail(&format!("removing the old {name}"), e))?;
+        }
+    }
+    Ok(())
+}
+
+/// The run's line on the terminal (samples, steps, the time split, each joint's impacts, the
+/// folder), then its warnings.
+fn print_run(summary: &lash_run::Summary, timing: &Timing, out: &Path) {
     let impacts: Vec<String> =
         summary.clearances.iter().map(|c| format!("{}: {} impacts", c.name, c.impacts)).collect();
     eprintln!(
@@ -166,5 +192,4 @@ pub fn run<S: serde::Serialize>(
     for w in &summary.warnings {
         eprintln!("warning: {w}");
     }
-    Ok((timing, summary))
 }

@@ -15,9 +15,9 @@ pub mod units;
 pub use names::{csv_header, did_you_mean};
 pub use problems::{Problem, Problems, error_chain};
 pub use subsystem::{
-    AsSubsystem, Causality, Coupling, MacroPorts, Phase, PrescribedInterface, SavedState, StepOutcome, Steps,
-    StopReason, Subsystem, SubsystemError, TwoWayInputs, ValueError, ValueKind, ValueReference, Variability, Variable,
-    VariableTable, VariableTableError, check_variable_table, split_element_name,
+    AsSubsystem, Causality, Coupling, MacroPorts, Phase, PrescribedInterface, SavedPorts, SavedState, StepOutcome,
+    Steps, StopReason, Subsystem, SubsystemError, TwoWayInputs, ValueError, ValueKind, ValueReference, Variability,
+    Variable, VariableTable, VariableTableError, check_variable_table, split_element_name,
 };
 pub use time::{TICKS_PER_SECOND, Ticks, TicksError};
 

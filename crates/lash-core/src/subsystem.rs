@@ -691,6 +691,63 @@ impl MacroPorts {
         self.phase = Phase::Failed;
         SubsystemError::Simulation { t: self.time.seconds(), message }
     }
+
+    /// What [`Subsystem::save_state`] keeps of the ports: the clock, the phase, the outputs and
+    /// the two-way inputs.
+    pub fn saved(&self) -> SavedPorts {
+        SavedPorts { time: self.time, phase: self.phase, values: self.values.clone(), two_way: self.two_way.clone() }
+    }
+
+    /// [`Subsystem::restore_state`] of the ports (no allocation where the sizes agree).
+    pub fn restore(&mut self, saved: &SavedPorts) {
+        self.time = saved.time;
+        self.phase = saved.phase;
+        self.values.clone_from(&saved.values);
+        self.two_way.clone_from(&saved.two_way);
+    }
+}
+
+/// The ports' part of a macro subsystem's saved state ([`MacroPorts::saved`]).
+#[derive(Debug, Clone)]
+pub struct SavedPorts {
+    time: Ticks,
+    phase: Phase,
+    values: Vec<f64>,
+    two_way: TwoWayInputs,
+}
+
+impl SavedPorts {
+    /// The communication point the state was saved at.
+    pub fn time(&self) -> Ticks {
+        self.time
+    }
+}
+
+/// The calls of [`Subsystem`] that a macro subsystem answers from its [`MacroPorts`] field
+/// `ports` alone (`name`, `variables`, `setup`, `set_f64`, `get_f64`, `time`), written once for
+/// the planar and the spatial mechanism: used inside their `impl Subsystem` blocks.
+#[macro_export]
+macro_rules! subsystem_calls_of_ports {
+    () => {
+        fn name(&self) -> &str {
+            self.ports.name()
+        }
+        fn variables(&self) -> &[$crate::Variable] {
+            self.ports.variables()
+        }
+        fn setup(&mut self, start: $crate::Ticks, _stop: Option<$crate::Ticks>) -> Result<(), $crate::SubsystemError> {
+            self.ports.setup(start)
+        }
+        fn set_f64(&mut self, refs: &[$crate::ValueReference], values: &[f64]) -> Result<(), $crate::SubsystemError> {
+            self.ports.set_f64(refs, values)
+        }
+        fn get_f64(&self, refs: &[$crate::ValueReference], values: &mut [f64]) -> Result<(), $crate::SubsystemError> {
+            self.ports.get_f64(refs, values)
+        }
+        fn time(&self) -> $crate::Ticks {
+            self.ports.time
+        }
+    };
 }
 
 /// An output of a subsystem that is not finite (NaN or infinite): its variable and value.

@@ -399,13 +399,6 @@ impl Mechanism {
     /// Every problem of the mechanism's data, with field paths.
     pub fn validate(&self) -> Problems {
         let mut p = Problems::new();
-        let check_body = |p: &mut Problems, field: String, id: BodyId| {
-            if let BodyId::Body(k) = id
-                && k >= self.bodies.len()
-            {
-                p.push(field, format!("body index {k} does not exist"));
-            }
-        };
         if self.bodies.is_empty() {
             p.push("bodies", "a mechanism needs at least one moving body");
         }
@@ -423,10 +416,40 @@ impl Mechanism {
                 p.push(f("name"), format!("name {:?} is used twice (or is the reserved \"ground\")", b.name));
             }
         }
+        self.validate_joints_and_drivers(&mut p);
+        for (k, l) in self.loads.iter().enumerate() {
+            self.validate_load(&mut p, k, l);
+        }
+        p.finite("gravity.x", self.gravity.x);
+        p.finite("gravity.y", self.gravity.y);
+        p.non_negative("baumgarte.alpha", self.baumgarte.alpha);
+        p.non_negative("baumgarte.beta", self.baumgarte.beta);
+        let (n, m) = (self.coordinate_count(), self.constraint_count());
+        if m > n {
+            p.push(
+                "joints",
+                format!("{m} constraint equations for {n} coordinates: the mechanism is over-constrained"),
+            );
+        }
+        p
+    }
+
+    /// A problem at `field` where body `id` does not exist.
+    fn check_body(&self, p: &mut Problems, field: String, id: BodyId) {
+        if let BodyId::Body(k) = id
+            && k >= self.bodies.len()
+        {
+            p.push(field, format!("body index {k} does not exist"));
+        }
+    }
+
+    /// Joints: existing, different bodies, finite points, a prismatic joint's axis; drivers:
+    /// existing, different bodies and a valid motion.
+    fn validate_joints_and_drivers(&self, p: &mut Problems) {
         for (k, j) in self.joints.iter().enumerate() {
             let f = |s: &str| format!("joints[{k}].{s}");
-            check_body(&mut p, f("body1"), j.body_i);
-            check_body(&mut p, f("body2"), j.body_j);
+            self.check_body(p, f("body1"), j.body_i);
+            self.check_body(p, f("body2"), j.body_j);
             if j.body_i == j.body_j {
                 p.push(f("body2"), "a joint needs two different bodies");
             }
@@ -442,60 +465,49 @@ impl Mechanism {
             }
         }
         for (k, d) in self.drivers.iter().enumerate() {
-            check_body(&mut p, format!("drivers[{k}].body"), d.body);
-            check_body(&mut p, format!("drivers[{k}].reference"), d.reference);
+            self.check_body(p, format!("drivers[{k}].body"), d.body);
+            self.check_body(p, format!("drivers[{k}].reference"), d.reference);
             if d.body == d.reference {
                 p.push(format!("drivers[{k}].reference"), "must differ from the driven body");
             }
             p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
         }
-        for (k, l) in self.loads.iter().enumerate() {
-            match l {
-                Load::Force { body, point, force } => {
-                    check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
-                    for (n, v) in [("point", point), ("force", force)] {
-                        p.finite(format!("loads[{k}].{n}.x"), v.x);
-                        p.finite(format!("loads[{k}].{n}.y"), v.y);
-                    }
+    }
+
+    /// Load `k`: existing bodies, finite numbers, a motor's speed and a bushing's stiffness
+    /// positive, a bushing's curve valid.
+    fn validate_load(&self, p: &mut Problems, k: usize, l: &Load) {
+        let f = |s: &str| format!("loads[{k}].{s}");
+        match l {
+            Load::Force { body, point, force } => {
+                self.check_body(p, f("body"), BodyId::Body(*body));
+                for (n, v) in [("point", point), ("force", force)] {
+                    p.finite(format!("loads[{k}].{n}.x"), v.x);
+                    p.finite(format!("loads[{k}].{n}.y"), v.y);
                 }
-                Load::Torque { body, torque } => {
-                    check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
-                    p.finite(format!("loads[{k}].torque"), *torque);
+            }
+            Load::Torque { body, torque } => {
+                self.check_body(p, f("body"), BodyId::Body(*body));
+                p.finite(f("torque"), *torque);
+            }
+            Load::Motor { body, stall_torque, no_load_speed } => {
+                self.check_body(p, f("body"), BodyId::Body(*body));
+                p.finite(f("stall_torque"), *stall_torque);
+                p.positive(f("no_load_speed"), *no_load_speed);
+            }
+            Load::Bushing { body_i, body_j, stiffness, damping, curve, .. } => {
+                self.check_body(p, f("body_i"), *body_i);
+                self.check_body(p, f("body_j"), *body_j);
+                if body_i == body_j {
+                    p.push(f("body_j"), "must differ from body_i");
                 }
-                Load::Motor { body, stall_torque, no_load_speed } => {
-                    check_body(&mut p, format!("loads[{k}].body"), BodyId::Body(*body));
-                    p.finite(format!("loads[{k}].stall_torque"), *stall_torque);
-                    p.positive(format!("loads[{k}].no_load_speed"), *no_load_speed);
-                }
-                Load::Bushing { body_i, body_j, stiffness, damping, curve, .. } => {
-                    check_body(&mut p, format!("loads[{k}].body_i"), *body_i);
-                    check_body(&mut p, format!("loads[{k}].body_j"), *body_j);
-                    if body_i == body_j {
-                        p.push(format!("loads[{k}].body_j"), "must differ from body_i");
-                    }
-                    p.positive(format!("loads[{k}].stiffness"), *stiffness);
-                    p.non_negative(format!("loads[{k}].damping"), *damping);
-                    if let Some(c) = curve {
-                        p.0.extend(c.check(&format!("loads[{k}].curve")).0);
-                    }
+                p.positive(f("stiffness"), *stiffness);
+                p.non_negative(f("damping"), *damping);
+                if let Some(c) = curve {
+                    p.0.extend(c.check(&f("curve")).0);
                 }
             }
         }
-        p.finite("gravity.x", self.gravity.x);
-        p.finite("gravity.y", self.gravity.y);
-        p.non_negative("baumgarte.alpha", self.baumgarte.alpha);
-        p.non_negative("baumgarte.beta", self.baumgarte.beta);
-        if self.constraint_count() > self.coordinate_count() {
-            p.push(
-                "joints",
-                format!(
-                    "{} constraint equations for {} coordinates: the mechanism is over-constrained",
-                    self.constraint_count(),
-                    self.coordinate_count()
-                ),
-            );
-        }
-        p
     }
 }
 

@@ -487,11 +487,6 @@ impl MechanismSubsystem {
             (mass, &terms.free_acceleration, friction_moment_force),
         );
         terms.accelerations(&own[..n], &own[n..], &mut self.qdd);
-        let omega = |b: BodyId, v: &[f64]| match b {
-            BodyId::Body(k) => v[3 * k + 2],
-            BodyId::Ground => 0.0,
-        };
-        let joints = &self.joints;
         let (values, offsets) = self.ports.values_and_offsets();
         let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
         // Matrices go out row-major.
@@ -504,26 +499,7 @@ impl MechanismSubsystem {
         let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         put(vr::EFFECTIVE_FORCE, terms.effective_force.as_slice());
         put(vr::FREE_ACCELERATION, terms.free_acceleration.as_slice());
-        let mut each = |vr: ValueReference, f: &dyn Fn(&ClearanceInterface) -> f64| {
-            for (o, j) in values[range(vr)].iter_mut().zip(joints) {
-                *o = f(j);
-            }
-        };
-        // (A guide's slip is its block's speed along it: the "journal" rate, the bearing's 0.)
-        let poses = &self.cut_solver.poses;
-        let slide = |j: &ClearanceInterface| j.slide_rates(poses, &self.qd, &self.qdd);
-        each(vr::JOURNAL_ANGULAR_VELOCITY, &|j| {
-            slide(j).map_or_else(|| omega(j.interface.journal_body, &self.qd), |s| s.0)
-        });
-        each(vr::JOURNAL_ANGULAR_ACCELERATION, &|j| {
-            slide(j).map_or_else(|| omega(j.interface.journal_body, &self.qdd), |s| s.1)
-        });
-        each(vr::BEARING_ANGULAR_VELOCITY, &|j| {
-            if j.guide.is_some() { 0.0 } else { omega(j.interface.bearing_body, &self.qd) }
-        });
-        each(vr::BEARING_ANGULAR_ACCELERATION, &|j| {
-            if j.guide.is_some() { 0.0 } else { omega(j.interface.bearing_body, &self.qdd) }
-        });
+        write_rotation_rates((&mut *values, offsets), &self.joints, &self.cut_solver.poses, &self.qd, &self.qdd);
         let mut put = |vr: ValueReference, v: &[f64]| values[range(vr)].copy_from_slice(v);
         // Constraint error of the macro's own mechanism (the cut one's rows are a subset of the
         // ideal one's; the cut solver holds the current state).
@@ -583,17 +559,7 @@ impl MechanismSubsystem {
 }
 
 impl Subsystem for MechanismSubsystem {
-    fn name(&self) -> &str {
-        self.ports.name()
-    }
-
-    fn variables(&self) -> &[Variable] {
-        self.ports.variables()
-    }
-
-    fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
-        self.ports.setup(start)
-    }
+    lash_core::subsystem_calls_of_ports!();
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
         self.ports.phase.require("initialize", &[Phase::Configured])?;
@@ -612,14 +578,6 @@ impl Subsystem for MechanismSubsystem {
         }
         self.ports.phase = Phase::Stepping;
         Ok(())
-    }
-
-    fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
-        self.ports.set_f64(refs, values)
-    }
-
-    fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        self.ports.get_f64(refs, values)
     }
 
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
@@ -657,9 +615,7 @@ impl Subsystem for MechanismSubsystem {
                     let n = self.q.len();
                     self.q.copy_from_slice(&y[..n]);
                     self.qd.copy_from_slice(&y[n..]);
-                    self.integration_stats.steps += stats.steps;
-                    self.integration_stats.rejected += stats.rejected;
-                    self.integration_stats.rhs_evaluations += stats.rhs_evaluations;
+                    self.integration_stats.add(&stats);
                     Ok(None)
                 }
                 Err(e) => Err(format!("macro integration: {}", lash_core::error_chain(&e))),
@@ -672,19 +628,12 @@ impl Subsystem for MechanismSubsystem {
         Ok(StepOutcome::Completed)
     }
 
-    fn time(&self) -> Ticks {
-        self.ports.time
-    }
-
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
         Ok(SavedState(Box::new(Snapshot {
             q: self.q.clone(),
             qd: self.qd.clone(),
-            time: self.ports.time,
-            phase: self.ports.phase,
-            two_way: self.ports.two_way.clone(),
+            ports: self.ports.saved(),
             last_prescribed: self.last_prescribed.clone(),
-            values: self.ports.values.clone(),
         })))
     }
 
@@ -696,16 +645,45 @@ impl Subsystem for MechanismSubsystem {
         self.ahead = None;
         self.q.clone_from(&s.q);
         self.qd.clone_from(&s.qd);
-        self.ports.time = s.time;
-        self.ports.phase = s.phase;
-        self.ports.two_way.clone_from(&s.two_way);
+        self.ports.restore(&s.ports);
         self.last_prescribed.clone_from(&s.last_prescribed);
-        self.ports.values.clone_from(&s.values);
         if self.ports.phase == Phase::Stepping {
-            self.refresh(None, false).map_err(|m| SubsystemError::Simulation { t: s.time.seconds(), message: m })?;
+            let t = s.ports.time().seconds();
+            self.refresh(None, false).map_err(|m| SubsystemError::Simulation { t, message: m })?;
         }
         Ok(())
     }
+}
+
+/// The journals' and bearings' angular velocities and accelerations of every joint at (q̇, q̈)
+/// into their outputs (`values` at `offsets`); a guide's "journal" rates are its block's speed
+/// and acceleration along it, its bearing's zero.
+fn write_rotation_rates(
+    (values, offsets): (&mut [f64], &[usize]),
+    joints: &[ClearanceInterface],
+    poses: &[Pose],
+    qd: &[f64],
+    qdd: &[f64],
+) {
+    let range = |vr: ValueReference| offsets[vr as usize]..offsets[vr as usize + 1];
+    let omega = |b: BodyId, v: &[f64]| match b {
+        BodyId::Body(k) => v[3 * k + 2],
+        BodyId::Ground => 0.0,
+    };
+    let mut each = |vr: ValueReference, f: &dyn Fn(&ClearanceInterface) -> f64| {
+        for (o, j) in values[range(vr)].iter_mut().zip(joints) {
+            *o = f(j);
+        }
+    };
+    let slide = |j: &ClearanceInterface| j.slide_rates(poses, qd, qdd);
+    each(vr::JOURNAL_ANGULAR_VELOCITY, &|j| slide(j).map_or_else(|| omega(j.interface.journal_body, qd), |s| s.0));
+    each(vr::JOURNAL_ANGULAR_ACCELERATION, &|j| slide(j).map_or_else(|| omega(j.interface.journal_body, qdd), |s| s.1));
+    each(vr::BEARING_ANGULAR_VELOCITY, &|j| {
+        if j.guide.is_some() { 0.0 } else { omega(j.interface.bearing_body, qd) }
+    });
+    each(vr::BEARING_ANGULAR_ACCELERATION, &|j| {
+        if j.guide.is_some() { 0.0 } else { omega(j.interface.bearing_body, qdd) }
+    });
 }
 
 /// What a probe reads: the macro's coordinates, velocities and accelerations, and the cut
@@ -888,9 +866,6 @@ pub fn kinematic_steps_ahead(
 struct Snapshot {
     q: Vec<f64>,
     qd: Vec<f64>,
-    time: Ticks,
-    phase: Phase,
-    two_way: TwoWayInputs,
+    ports: lash_core::SavedPorts,
     last_prescribed: Option<Prescribed>,
-    values: Vec<f64>,
 }

@@ -69,16 +69,12 @@ impl<P: Pair> Work<P> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn integrate<P: Pair, S: OdeSystem + ?Sized, O: Observer<S>>(
     system: &mut S,
     opt: &AdaptiveOptions,
-    t0: f64,
     y: &mut [f64],
-    t_end: f64,
-    output_interval: f64,
+    (t0, t_end, output_interval, first_step): (f64, f64, f64, Option<f64>),
     observer: &mut O,
-    first_step: Option<f64>,
 ) -> Result<Stats, OdeError> {
     check_options(opt)?;
     let ctl = P::CONTROL;

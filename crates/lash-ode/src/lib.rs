@@ -140,6 +140,17 @@ pub struct Stats {
     pub next_step: f64,
 }
 
+impl Stats {
+    /// Adds the counters of `other` (one more integration of the same system) to these; the
+    /// proposed step stays (it belongs to the integration that ended last).
+    pub fn add(&mut self, other: &Stats) {
+        self.steps += other.steps;
+        self.rejected += other.rejected;
+        self.rhs_evaluations += other.rhs_evaluations;
+        self.events += other.events;
+    }
+}
+
 /// Why an integration stopped early.
 #[derive(Debug, thiserror::Error)]
 pub enum OdeError {
@@ -230,28 +241,11 @@ pub fn integrate_from<S: OdeSystem + ?Sized, O: Observer<S>>(
         return Err(OdeError::Settings(format!("end time {t_end} must exceed start time {t0}")));
     }
     system.begin(!matches!(method, Method::Rk4 { .. }));
+    let span = (t0, t_end, output_interval, first_step);
     match method {
         Method::Rk4 { step } => rk4::integrate(system, *step, t0, y0, t_end, output_interval, observer),
-        Method::Dopri5(options) => adaptive::integrate::<dopri5::Dopri5, _, _>(
-            system,
-            options,
-            t0,
-            y0,
-            t_end,
-            output_interval,
-            observer,
-            first_step,
-        ),
-        Method::Dop853(options) => adaptive::integrate::<dop853::Dop853, _, _>(
-            system,
-            options,
-            t0,
-            y0,
-            t_end,
-            output_interval,
-            observer,
-            first_step,
-        ),
+        Method::Dopri5(options) => adaptive::integrate::<dopri5::Dopri5, _, _>(system, options, y0, span, observer),
+        Method::Dop853(options) => adaptive::integrate::<dop853::Dop853, _, _>(system, options, y0, span, observer),
     }
 }
 

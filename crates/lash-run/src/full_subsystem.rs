@@ -318,10 +318,7 @@ impl Subsystem for FullSubsystem {
         match result {
             Ok(stats) => {
                 self.next_step = (stats.next_step > 0.0).then_some(stats.next_step);
-                self.stats.steps += stats.steps;
-                self.stats.rejected += stats.rejected;
-                self.stats.rhs_evaluations += stats.rhs_evaluations;
-                self.stats.events += stats.events;
+                self.stats.add(&stats);
             }
             Err(message) => {
                 self.phase = Phase::Failed;

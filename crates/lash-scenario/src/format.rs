@@ -52,6 +52,44 @@ pub(crate) trait Format: DeserializeOwned {
     fn cross_check(&self) -> Problems;
 }
 
+/// The calls of [`Format`] that a planar and a spatial scenario answer alike: each element's
+/// checks by the module's own `validate_body`, `validate_joint` and `validate_load`, a driver's
+/// motion, the parts by the same field names, the module's `cross_check`. Used inside each kind's
+/// `impl Format` block (whose element types differ).
+macro_rules! format_calls_of_the_module {
+    () => {
+        fn body(b: &Self::Body) -> Problems {
+            validate_body(b)
+        }
+        fn joint(j: &Self::Joint) -> Problems {
+            validate_joint(j)
+        }
+        fn driver(d: &Self::Driver) -> Problems {
+            crate::format::motion_checks(d.motion.validate())
+        }
+        fn load(l: &Self::Load) -> Problems {
+            validate_load(l)
+        }
+        fn parts(&self) -> crate::format::Parts<'_, Self> {
+            crate::format::Parts {
+                bodies: &self.bodies,
+                joints: &self.joints,
+                drivers: &self.drivers,
+                loads: &self.loads,
+                clearances: &self.clearances,
+                sensors: &self.sensors,
+                materials: &self.materials,
+                simulation: &self.simulation,
+                gravity: &self.gravity,
+            }
+        }
+        fn cross_check(&self) -> Problems {
+            cross_check(self)
+        }
+    };
+}
+pub(crate) use format_calls_of_the_module;
+
 /// The parts of a scenario that [`validate`] checks.
 pub(crate) struct Parts<'a, F: Format> {
     pub bodies: &'a [F::Body],

@@ -281,39 +281,12 @@ impl crate::format::Format for Scenario {
         array::<BushingSpec>(table, "bushings", problems);
         array::<GuideSpec>(table, "guides", problems);
     }
-    fn body(b: &BodySpec) -> Problems {
-        validate_body(b)
-    }
-    fn joint(j: &JointSpec) -> Problems {
-        validate_joint(j)
-    }
-    fn driver(d: &DriverSpec) -> Problems {
-        crate::format::motion_checks(d.motion.validate())
-    }
-    fn load(l: &LoadSpec) -> Problems {
-        validate_load(l)
-    }
+    crate::format::format_calls_of_the_module!();
     fn sensor(s: &SensorSpec) -> Problems {
         finite2("point", s.point)
     }
     fn gravity(g: &[f64; 2]) -> Problems {
         finite2("gravity", *g)
-    }
-    fn parts(&self) -> crate::format::Parts<'_, Self> {
-        crate::format::Parts {
-            bodies: &self.bodies,
-            joints: &self.joints,
-            drivers: &self.drivers,
-            loads: &self.loads,
-            clearances: &self.clearances,
-            sensors: &self.sensors,
-            materials: &self.materials,
-            simulation: &self.simulation,
-            gravity: &self.gravity,
-        }
-    }
-    fn cross_check(&self) -> Problems {
-        cross_check(self)
     }
 }
 

@@ -358,39 +358,12 @@ impl crate::format::Format for SpatialScenario {
     fn own_elements(table: &toml::Table, problems: &mut Problems) {
         element::<Space>(table, "space", problems);
     }
-    fn body(b: &SpatialBodySpec) -> Problems {
-        validate_body(b)
-    }
-    fn joint(j: &SpatialJointSpec) -> Problems {
-        validate_joint(j)
-    }
-    fn driver(d: &SpatialDriverSpec) -> Problems {
-        crate::format::motion_checks(d.motion.validate())
-    }
-    fn load(l: &SpatialLoadSpec) -> Problems {
-        validate_load(l)
-    }
+    crate::format::format_calls_of_the_module!();
     fn sensor(s: &SpatialSensorSpec) -> Problems {
         finite3("point", s.point)
     }
     fn gravity(g: &[f64; 3]) -> Problems {
         finite3("gravity", *g)
-    }
-    fn parts(&self) -> crate::format::Parts<'_, Self> {
-        crate::format::Parts {
-            bodies: &self.bodies,
-            joints: &self.joints,
-            drivers: &self.drivers,
-            loads: &self.loads,
-            clearances: &self.clearances,
-            sensors: &self.sensors,
-            materials: &self.materials,
-            simulation: &self.simulation,
-            gravity: &self.gravity,
-        }
-    }
-    fn cross_check(&self) -> Problems {
-        cross_check(self)
     }
 }
 

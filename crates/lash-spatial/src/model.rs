@@ -205,57 +205,41 @@ impl SpatialMechanism {
     /// Every problem, with its field path.
     pub fn validate(&self) -> Problems {
         let mut p = Problems::new();
-        let check_body = |p: &mut Problems, field: String, id: BodyId| {
-            if let BodyId::Body(k) = id
-                && k >= self.bodies.len()
-            {
-                p.push(field, format!("body index {k} does not exist"));
-            }
-        };
-        let vector = |p: &mut Problems, field: String, v: &Vec3| {
-            for (c, x) in ["x", "y", "z"].iter().zip(v.iter()) {
-                p.finite(format!("{field}.{c}"), *x);
-            }
-        };
         if self.bodies.is_empty() {
             p.push("bodies", "a mechanism needs at least one moving body");
         }
         for (k, b) in self.bodies.iter().enumerate() {
-            let f = |s: &str| format!("bodies[{k}].{s}");
-            p.positive(f("mass"), b.mass);
-            let j = &b.inertia;
-            if !j.iter().all(|x| x.is_finite()) {
-                p.push(f("inertia"), "must be finite");
-            } else if (j - j.transpose()).abs().max() > 1e-12 * j.abs().max() {
-                p.push(f("inertia"), "must be symmetric");
-            } else if j.cholesky().is_none() {
-                p.push(f("inertia"), "must be positive definite");
-            } else {
-                // Principal moments of a rigid body obey the triangle inequality.
-                let e = j.symmetric_eigenvalues();
-                let (a, b2, c) = (e[0], e[1], e[2]);
-                if a > b2 + c + 1e-12 * (a + b2 + c)
-                    || b2 > a + c + 1e-12 * (a + b2 + c)
-                    || c > a + b2 + 1e-12 * (a + b2 + c)
-                {
-                    p.push(
-                        f("inertia"),
-                        format!("principal moments {e:?} break the triangle inequality of a rigid body"),
-                    );
-                }
-            }
-            vector(&mut p, f("position"), &b.position);
-            vector(&mut p, f("velocity"), &b.velocity);
-            vector(&mut p, f("angular_velocity"), &b.angular_velocity);
-            if !b.orientation.coords.iter().all(|x| x.is_finite()) {
-                p.push(f("orientation"), "must be finite");
-            }
+            validate_body(&mut p, k, b);
         }
+        self.validate_joints(&mut p);
+        for (k, d) in self.drivers.iter().enumerate() {
+            self.check_rotating_joint(&mut p, format!("drivers[{k}].joint"), d.joint, "a driver");
+            p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
+        }
+        for (k, l) in self.loads.iter().enumerate() {
+            self.validate_load(&mut p, k, l);
+        }
+        finite_vector(&mut p, "gravity".into(), &self.gravity);
+        p.non_negative("baumgarte.alpha", self.baumgarte.alpha);
+        p.non_negative("baumgarte.beta", self.baumgarte.beta);
+        let (n, m) = (self.velocity_count(), self.constraint_count());
+        if m > n {
+            p.push("joints", format!("{m} constraint equations for {n} velocity coordinates: over-constrained"));
+        }
+        p
+    }
+
+    /// Each joint's markers: existing bodies, finite points, orthonormal axes; two bodies.
+    fn validate_joints(&self, p: &mut Problems) {
         for (k, jt) in self.joints.iter().enumerate() {
             for (side, m) in [("i", &jt.i), ("j", &jt.j)] {
                 let f = |s: &str| format!("joints[{k}].{side}.{s}");
-                check_body(&mut p, f("body"), m.body);
-                vector(&mut p, f("point"), &m.point);
+                if let BodyId::Body(b) = m.body
+                    && b >= self.bodies.len()
+                {
+                    p.push(f("body"), format!("body index {b} does not exist"));
+                }
+                finite_vector(p, f("point"), &m.point);
                 for (name, d) in [("z", &m.z), ("x", &m.x)] {
                     if !d.iter().all(|x| x.is_finite()) || (d.norm() - 1.0).abs() > 1e-9 {
                         p.push(f(name), format!("must be a unit vector, got |{name}| = {}", d.norm()));
@@ -269,57 +253,79 @@ impl SpatialMechanism {
                 p.push(format!("joints[{k}].j.body"), "a joint connects two different bodies");
             }
         }
-        for (k, d) in self.drivers.iter().enumerate() {
-            match self.joints.get(d.joint) {
-                None => p.push(format!("drivers[{k}].joint"), format!("joint index {} does not exist", d.joint)),
-                Some(j) if !j.kind.rotates_about_axis() => p.push(
-                    format!("drivers[{k}].joint"),
-                    format!("joint {:?} is {:?}: a driver needs a revolute or cylindrical joint", j.name, j.kind),
-                ),
-                Some(_) => {}
-            }
-            p.extend_prefixed(&format!("drivers[{k}].motion"), d.motion.validate());
+    }
+
+    /// Joint `joint`, named at `field`, exists and turns about an axis (what `who` needs).
+    fn check_rotating_joint(&self, p: &mut Problems, field: String, joint: usize, who: &str) {
+        match self.joints.get(joint) {
+            None => p.push(field, format!("joint index {joint} does not exist")),
+            Some(j) if !j.kind.rotates_about_axis() => p.push(
+                field,
+                format!("joint {:?} is {:?}: {who} needs a revolute or cylindrical joint", j.name, j.kind),
+            ),
+            Some(_) => {}
         }
-        for (k, l) in self.loads.iter().enumerate() {
-            let f = |s: &str| format!("loads[{k}].{s}");
-            match l {
-                SpatialLoad::Force { body, point, force } => {
-                    if *body >= self.bodies.len() {
-                        p.push(f("body"), format!("body index {body} does not exist"));
-                    }
-                    vector(&mut p, f("point"), point);
-                    vector(&mut p, f("force"), force);
-                }
-                SpatialLoad::Torque { body, torque } => {
-                    if *body >= self.bodies.len() {
-                        p.push(f("body"), format!("body index {body} does not exist"));
-                    }
-                    vector(&mut p, f("torque"), torque);
-                }
-                SpatialLoad::Motor { joint, stall_torque, no_load_speed } => {
-                    match self.joints.get(*joint) {
-                        None => p.push(f("joint"), format!("joint index {joint} does not exist")),
-                        Some(j) if !j.kind.rotates_about_axis() => p.push(
-                            f("joint"),
-                            format!(
-                                "joint {:?} is {:?}: a motor needs a revolute or cylindrical joint",
-                                j.name, j.kind
-                            ),
-                        ),
-                        Some(_) => {}
-                    }
-                    p.finite(f("stall_torque"), *stall_torque);
-                    p.positive(f("no_load_speed"), *no_load_speed);
-                }
+    }
+
+    /// Load `k`: its body or joint exists, its numbers are finite (a motor's speed positive).
+    fn validate_load(&self, p: &mut Problems, k: usize, l: &SpatialLoad) {
+        let f = |s: &str| format!("loads[{k}].{s}");
+        let body_exists = |p: &mut Problems, body: usize| {
+            if body >= self.bodies.len() {
+                p.push(f("body"), format!("body index {body} does not exist"));
+            }
+        };
+        match l {
+            SpatialLoad::Force { body, point, force } => {
+                body_exists(p, *body);
+                finite_vector(p, f("point"), point);
+                finite_vector(p, f("force"), force);
+            }
+            SpatialLoad::Torque { body, torque } => {
+                body_exists(p, *body);
+                finite_vector(p, f("torque"), torque);
+            }
+            SpatialLoad::Motor { joint, stall_torque, no_load_speed } => {
+                self.check_rotating_joint(p, f("joint"), *joint, "a motor");
+                p.finite(f("stall_torque"), *stall_torque);
+                p.positive(f("no_load_speed"), *no_load_speed);
             }
         }
-        vector(&mut p, "gravity".into(), &self.gravity);
-        p.non_negative("baumgarte.alpha", self.baumgarte.alpha);
-        p.non_negative("baumgarte.beta", self.baumgarte.beta);
-        let (n, m) = (self.velocity_count(), self.constraint_count());
-        if m > n {
-            p.push("joints", format!("{m} constraint equations for {n} velocity coordinates: over-constrained"));
+    }
+}
+
+/// Each component of `v` finite (named `field.x`, `.y`, `.z`).
+fn finite_vector(p: &mut Problems, field: String, v: &Vec3) {
+    for (c, x) in ["x", "y", "z"].iter().zip(v.iter()) {
+        p.finite(format!("{field}.{c}"), *x);
+    }
+}
+
+/// Body `k`: positive mass, a rigid body's inertia tensor (finite, symmetric, positive definite,
+/// principal moments obeying the triangle inequality), finite state.
+fn validate_body(p: &mut Problems, k: usize, b: &SpatialBody) {
+    let f = |s: &str| format!("bodies[{k}].{s}");
+    p.positive(f("mass"), b.mass);
+    let j = &b.inertia;
+    if !j.iter().all(|x| x.is_finite()) {
+        p.push(f("inertia"), "must be finite");
+    } else if (j - j.transpose()).abs().max() > 1e-12 * j.abs().max() {
+        p.push(f("inertia"), "must be symmetric");
+    } else if j.cholesky().is_none() {
+        p.push(f("inertia"), "must be positive definite");
+    } else {
+        // Principal moments of a rigid body obey the triangle inequality.
+        let e = j.symmetric_eigenvalues();
+        let (a, b2, c) = (e[0], e[1], e[2]);
+        let slack = 1e-12 * (a + b2 + c);
+        if a > b2 + c + slack || b2 > a + c + slack || c > a + b2 + slack {
+            p.push(f("inertia"), format!("principal moments {e:?} break the triangle inequality of a rigid body"));
         }
-        p
+    }
+    finite_vector(p, f("position"), &b.position);
+    finite_vector(p, f("velocity"), &b.velocity);
+    finite_vector(p, f("angular_velocity"), &b.angular_velocity);
+    if !b.orientation.coords.iter().all(|x| x.is_finite()) {
+        p.push(f("orientation"), "must be finite");
     }
 }

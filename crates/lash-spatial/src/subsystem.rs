@@ -334,14 +334,8 @@ impl SpatialMechanismSubsystem {
             two_way,
             (mass, &terms.free_acceleration, moment_force),
         );
-        work.own.clone_from(&terms.free_accelerations);
-        let own = &mut work.own;
-        for (column, &f) in terms.gain.iter().zip(own_load.iter()) {
-            for (a, c) in own.iter_mut().zip(column) {
-                *a += c * f;
-            }
-        }
-        let (own_load, own) = (&*own_load, &*own);
+        accelerations_under(&mut work.own, &terms.free_accelerations, &terms.gain, own_load);
+        let (own_load, own) = (&*own_load, &*work.own);
         work.frames.clone_from(&self.cut_solver.frames);
         let frames = &work.frames;
         let world = |b: BodyId, x: &[f64], angular: bool| -> Vec3 {
@@ -386,6 +380,18 @@ impl SpatialMechanismSubsystem {
     }
 }
 
+/// The macro's accelerations under the interface loads `loads`: the free ones plus each load's
+/// column of `gain` times the load, into `own`.
+fn accelerations_under(own: &mut Vec<f64>, free: &[f64], gain: &[Vec<f64>], loads: &[f64]) {
+    own.clear();
+    own.extend_from_slice(free);
+    for (column, &f) in gain.iter().zip(loads) {
+        for (a, c) in own.iter_mut().zip(column) {
+            *a += c * f;
+        }
+    }
+}
+
 /// What a probe reads: the macro's velocities `v`, its own accelerations and interface loads, the
 /// bodies' frames, and the cut mechanism with its solver at that state.
 struct ProbeState<'a> {
@@ -423,25 +429,7 @@ fn write_probes(
     for p in probes {
         match p {
             SpatialProbe::Point { body, point, .. } => {
-                let f = &frames[*body];
-                let s = f.rotation * point;
-                let w = f.angular_velocity;
-                let accel = |x: &[f64], centripetal: bool| -> Vec3 {
-                    let linear = Vec3::new(x[6 * body], x[6 * body + 1], x[6 * body + 2]);
-                    let alpha = f.rotation * Vec3::new(x[6 * body + 3], x[6 * body + 4], x[6 * body + 5]);
-                    linear + alpha.cross(&s) + if centripetal { w.cross(&w.cross(&s)) } else { Vec3::zeros() }
-                };
-                for (c, column) in terms.gain.iter().enumerate() {
-                    let a = accel(column, false);
-                    for i in 0..3 {
-                        gains[i * g + c] = a[i];
-                    }
-                }
-                put(next, (f.position + s).as_slice());
-                put(next + 1, (f.velocity + w.cross(&s)).as_slice());
-                put(next + 2, accel(own, true).as_slice());
-                put(next + 3, accel(&terms.free_accelerations, true).as_slice());
-                put(next + 4, gains);
+                put_point_probe((&frames[*body], *body, point), terms, own, gains, &mut *put, next);
                 next += 5;
             }
             SpatialProbe::JointReaction { joint, .. } => {
@@ -495,18 +483,40 @@ fn write_probes(
     }
 }
 
+/// A point probe's outputs from value reference `next` on: the position, velocity and own
+/// acceleration of `point` on body `body` (frame `f`), its free acceleration and its
+/// acceleration per unit load (three rows of one gain per load, through `gains`).
+fn put_point_probe(
+    (f, body, point): (&crate::constraints::BodyFrame, usize, &Vec3),
+    terms: &SpatialCoupledTerms,
+    own: &[f64],
+    gains: &mut [f64],
+    put: &mut dyn FnMut(ValueReference, &[f64]),
+    next: ValueReference,
+) {
+    let g = gains.len() / 3;
+    let s = f.rotation * point;
+    let w = f.angular_velocity;
+    let accel = |x: &[f64], centripetal: bool| -> Vec3 {
+        let linear = Vec3::new(x[6 * body], x[6 * body + 1], x[6 * body + 2]);
+        let alpha = f.rotation * Vec3::new(x[6 * body + 3], x[6 * body + 4], x[6 * body + 5]);
+        linear + alpha.cross(&s) + if centripetal { w.cross(&w.cross(&s)) } else { Vec3::zeros() }
+    };
+    for (c, column) in terms.gain.iter().enumerate() {
+        let a = accel(column, false);
+        for i in 0..3 {
+            gains[i * g + c] = a[i];
+        }
+    }
+    put(next, (f.position + s).as_slice());
+    put(next + 1, (f.velocity + w.cross(&s)).as_slice());
+    put(next + 2, accel(own, true).as_slice());
+    put(next + 3, accel(&terms.free_accelerations, true).as_slice());
+    put(next + 4, gains);
+}
+
 impl Subsystem for SpatialMechanismSubsystem {
-    fn name(&self) -> &str {
-        self.ports.name()
-    }
-
-    fn variables(&self) -> &[Variable] {
-        self.ports.variables()
-    }
-
-    fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
-        self.ports.setup(start)
-    }
+    lash_core::subsystem_calls_of_ports!();
 
     fn initialize(&mut self) -> Result<(), SubsystemError> {
         self.ports.phase.require("initialize", &[Phase::Configured])?;
@@ -524,14 +534,6 @@ impl Subsystem for SpatialMechanismSubsystem {
         }
         self.ports.phase = Phase::Stepping;
         Ok(())
-    }
-
-    fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
-        self.ports.set_f64(refs, values)
-    }
-
-    fn get_f64(&self, refs: &[ValueReference], values: &mut [f64]) -> Result<(), SubsystemError> {
-        self.ports.get_f64(refs, values)
     }
 
     fn do_step(&mut self, t: Ticks, h: Ticks) -> Result<StepOutcome, SubsystemError> {
@@ -559,9 +561,7 @@ impl Subsystem for SpatialMechanismSubsystem {
         let result = match result {
             Ok(stats) => {
                 self.y = y;
-                self.integration_stats.steps += stats.steps;
-                self.integration_stats.rejected += stats.rejected;
-                self.integration_stats.rhs_evaluations += stats.rhs_evaluations;
+                self.integration_stats.add(&stats);
                 self.integration_stats.next_step = stats.next_step;
                 Ok(())
             }
@@ -574,17 +574,10 @@ impl Subsystem for SpatialMechanismSubsystem {
         Ok(StepOutcome::Completed)
     }
 
-    fn time(&self) -> Ticks {
-        self.ports.time
-    }
-
     fn save_state(&self) -> Result<SavedState, SubsystemError> {
         Ok(SavedState(Box::new(Snapshot {
             y: self.y.clone(),
-            time: self.ports.time,
-            phase: self.ports.phase,
-            values: self.ports.values.clone(),
-            two_way: self.ports.two_way.clone(),
+            ports: self.ports.saved(),
             prescribed: self.ideal.prescribed().cloned(),
             next_step: self.integration_stats.next_step,
         })))
@@ -596,10 +589,7 @@ impl Subsystem for SpatialMechanismSubsystem {
             .downcast_ref::<Snapshot>()
             .ok_or_else(|| SubsystemError::Other("the saved state is not a spatial mechanism subsystem's".into()))?;
         self.y.clone_from(&s.y);
-        self.ports.time = s.time;
-        self.ports.phase = s.phase;
-        self.ports.values.clone_from(&s.values);
-        self.ports.two_way.clone_from(&s.two_way);
+        self.ports.restore(&s.ports);
         self.ideal.prescribe(s.prescribed.clone());
         self.integration_stats.next_step = s.next_step;
         Ok(())
@@ -610,10 +600,7 @@ impl Subsystem for SpatialMechanismSubsystem {
 /// targets and the prescription in force, the integrator's next step.
 struct Snapshot {
     y: Vec<f64>,
-    time: Ticks,
-    phase: Phase,
-    values: Vec<f64>,
-    two_way: TwoWayInputs,
+    ports: lash_core::SavedPorts,
     prescribed: Option<lash_core::PrescribedInterface>,
     next_step: f64,
 }

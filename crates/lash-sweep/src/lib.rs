@@ -455,22 +455,14 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     // Runs simulated side by side by one worker: a full group each where there are enough runs
     // to keep every worker busy, else one at a time.
     let group = if pending.len() >= threads * options.side_by_side { options.side_by_side.max(1) } else { 1 };
-    let journal_path = out.join("runs.jsonl");
-    let journal = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&journal_path)
-        .map_err(|source| DatasetError::Io { action: "open", path: journal_path.clone(), source })?;
+    let (journal, journal_path) = open_journal(out)?;
     // Runs finished by an earlier execution: where their rows are (None: failed).
     let earlier: BTreeMap<u64, Option<RunSource>> =
         done.iter().map(|(id, r)| (*id, (r.status == "ok").then(|| part_source(out, r)))).collect();
     let shared = Mutex::new(Shared { journal, journal_path, records: done, simulated_s: 0.0 });
     let halt = Halt { stop: AtomicBool::new(false), error: Mutex::new(None) };
     let cancelled = || options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| SweepError::Input(format!("cannot start {threads} worker threads: {e}")))?;
+    let pool = worker_pool(threads)?;
     // Workers only simulate; they hand each finished run to this thread, which does every write:
     // it keeps the run in the open part (for resumption; journaled once the part is closed) and
     // appends the runs to data.parquet in run order as they become available, so that
@@ -518,16 +510,38 @@ pub fn execute(plan: &Plan, options: &ExecuteOptions, on_event: &(dyn Fn(Event) 
     let (writer, assemble_s) = (assembler.writer, assembler.assemble_s);
     let shared = shared.into_inner().expect("lock");
     if cancelled() {
-        let finished = shared.records.len();
-        return Err(SweepError::Interrupted(format!(
-            "interrupted: {finished} of {} runs of the shard are finished and kept in {}; run the sweep again into \
-             that folder to resume",
-            shard_runs.len(),
-            out.display()
-        )));
+        return Err(interrupted(shared.records.len(), shard_runs.len(), out));
     }
     let ran = Ran { pending: &pending, threads, assemble_s, start };
     complete(out, manifest, &shard_runs, shared, writer, ran)
+}
+
+/// The run journal of `out` (runs.jsonl), opened for appending, and its path.
+fn open_journal(out: &Path) -> Result<(std::fs::File, PathBuf), SweepError> {
+    let journal_path = out.join("runs.jsonl");
+    let journal = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&journal_path)
+        .map_err(|source| DatasetError::Io { action: "open", path: journal_path.clone(), source })?;
+    Ok((journal, journal_path))
+}
+
+/// A pool of `threads` workers.
+fn worker_pool(threads: usize) -> Result<rayon::ThreadPool, SweepError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| SweepError::Input(format!("cannot start {threads} worker threads: {e}")))
+}
+
+/// The error of a sweep cancelled with `finished` of the shard's `total` runs kept in `out`.
+fn interrupted(finished: usize, total: usize, out: &Path) -> SweepError {
+    SweepError::Interrupted(format!(
+        "interrupted: {finished} of {total} runs of the shard are finished and kept in {}; run the sweep again into \
+         that folder to resume",
+        out.display()
+    ))
 }
 
 /// The output folder checked before a sweep runs into it: new, empty, or holding this very

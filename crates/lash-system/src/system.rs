@@ -185,6 +185,70 @@ fn builtin(id: &str, scenario: &lash_scenario::AnyScenario) -> Result<Box<dyn Su
     })
 }
 
+/// The system's start, stop, step and output interval in ticks: the step positive and dividing
+/// the span, the interval positive.
+fn time_grid(spec: &SystemSpec) -> Result<(Ticks, Ticks, Ticks, Ticks), SystemError> {
+    let start = ticks("start", spec.start)?;
+    let stop = ticks("stop", spec.stop)?;
+    let step = ticks("step", spec.step)?;
+    if step.0 <= 0 {
+        return Err(bad(format!("step: must be > 0, got {}", spec.step)));
+    }
+    if stop.0 <= start.0 {
+        return Err(bad(format!("stop: must exceed start ({} s), got {}", spec.start, spec.stop)));
+    }
+    if (stop.0 - start.0) % step.0 != 0 {
+        return Err(bad(format!("step: {} s does not divide stop − start = {} s", spec.step, spec.stop - spec.start)));
+    }
+    let interval = ticks("output.interval", spec.output.interval.unwrap_or(spec.step))?;
+    if interval.0 <= 0 {
+        return Err(bad(format!("output.interval: must be > 0, got {} s", interval.seconds())));
+    }
+    Ok((start, stop, step, interval))
+}
+
+/// Every element of `spec` loaded (names unique and without dots, decimation ≥ 1, isolation
+/// settings valid), its variable table checked, its structural parameters configured, with its
+/// parameter settings.
+fn load_elements(spec: &SystemSpec, base: &Path, cache: &Path) -> Result<(Vec<Element>, Vec<Parameters>), SystemError> {
+    let mut elements: Vec<Element> = Vec::new();
+    let mut element_parameters: Vec<Parameters> = Vec::new();
+    for (k, e) in spec.elements.iter().enumerate() {
+        let field = format!("elements[{k}]");
+        if e.name.is_empty() || e.name.contains('.') {
+            return Err(bad(format!("{field}.name: {:?} must be non-empty and without dots", e.name)));
+        }
+        if elements.iter().any(|x| x.name == e.name) {
+            return Err(bad(format!("{field}.name: {:?} is used twice", e.name)));
+        }
+        if e.decimation == 0 {
+            return Err(bad(format!("{field}.decimation: must be ≥ 1")));
+        }
+        let source = e.source(base).map_err(|m| bad(format!("{field}: {m}")))?;
+        let isolation = match (e.isolate, e.timeout, &source) {
+            (false, None, _) => Isolation::InProcess,
+            (false, Some(_), _) => return Err(bad(format!("{field}.timeout: only with isolate = true"))),
+            (true, _, ElementSource::Fmu(_)) => {
+                let seconds = e.timeout.unwrap_or(60.0);
+                let timeout =
+                    std::time::Duration::try_from_secs_f64(seconds).ok().filter(|t| !t.is_zero()).ok_or_else(|| {
+                        bad(format!("{field}.timeout: must be a positive number of seconds, got {seconds}"))
+                    })?;
+                Isolation::Child(timeout)
+            }
+            (true, _, _) => return Err(bad(format!("{field}.isolate: only FMU elements run in a child process"))),
+        };
+        let model = load(&source, &e.name, cache, isolation).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
+        lash_core::check_variable_table(model.variables()).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
+        let mut model = model;
+        let structural = configure_structural(&field, e, &mut *model)?;
+        let parameters = parameter_settings(&field, k, e, &*model, &structural)?;
+        elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation) });
+        element_parameters.push(parameters);
+    }
+    Ok((elements, element_parameters))
+}
+
 impl System {
     /// Loads every element of `spec` (paths relative to `base`; FMUs unpacked under `cache`) and
     /// checks names, connections, parameters, steps and channels. Every error names its field.
@@ -192,63 +256,8 @@ impl System {
         if spec.elements.is_empty() {
             return Err(bad("elements: a system needs at least one element".into()));
         }
-        let start = ticks("start", spec.start)?;
-        let stop = ticks("stop", spec.stop)?;
-        let step = ticks("step", spec.step)?;
-        if step.0 <= 0 {
-            return Err(bad(format!("step: must be > 0, got {}", spec.step)));
-        }
-        if stop.0 <= start.0 {
-            return Err(bad(format!("stop: must exceed start ({} s), got {}", spec.start, spec.stop)));
-        }
-        if (stop.0 - start.0) % step.0 != 0 {
-            return Err(bad(format!(
-                "step: {} s does not divide stop − start = {} s",
-                spec.step,
-                spec.stop - spec.start
-            )));
-        }
-        let interval = ticks("output.interval", spec.output.interval.unwrap_or(spec.step))?;
-        if interval.0 <= 0 {
-            return Err(bad(format!("output.interval: must be > 0, got {} s", interval.seconds())));
-        }
-        let mut elements: Vec<Element> = Vec::new();
-        let mut element_parameters: Vec<Parameters> = Vec::new();
-        for (k, e) in spec.elements.iter().enumerate() {
-            let field = format!("elements[{k}]");
-            if e.name.is_empty() || e.name.contains('.') {
-                return Err(bad(format!("{field}.name: {:?} must be non-empty and without dots", e.name)));
-            }
-            if elements.iter().any(|x| x.name == e.name) {
-                return Err(bad(format!("{field}.name: {:?} is used twice", e.name)));
-            }
-            if e.decimation == 0 {
-                return Err(bad(format!("{field}.decimation: must be ≥ 1")));
-            }
-            let source = e.source(base).map_err(|m| bad(format!("{field}: {m}")))?;
-            let isolation = match (e.isolate, e.timeout, &source) {
-                (false, None, _) => Isolation::InProcess,
-                (false, Some(_), _) => return Err(bad(format!("{field}.timeout: only with isolate = true"))),
-                (true, _, ElementSource::Fmu(_)) => {
-                    let seconds = e.timeout.unwrap_or(60.0);
-                    let timeout =
-                        std::time::Duration::try_from_secs_f64(seconds).ok().filter(|t| !t.is_zero()).ok_or_else(
-                            || bad(format!("{field}.timeout: must be a positive number of seconds, got {seconds}")),
-                        )?;
-                    Isolation::Child(timeout)
-                }
-                (true, _, _) => return Err(bad(format!("{field}.isolate: only FMU elements run in a child process"))),
-            };
-            let model =
-                load(&source, &e.name, cache, isolation).map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
-            lash_core::check_variable_table(model.variables())
-                .map_err(|m| bad(format!("{field} ({}): {m}", e.name)))?;
-            let mut model = model;
-            let structural = configure_structural(&field, e, &mut *model)?;
-            let parameters = parameter_settings(&field, k, e, &*model, &structural)?;
-            elements.push(Element { name: e.name.clone(), model, decimation: i64::from(e.decimation) });
-            element_parameters.push(parameters);
-        }
+        let (start, stop, step, interval) = time_grid(spec)?;
+        let (elements, element_parameters) = load_elements(spec, base, cache)?;
         if spec.algorithm == Algorithm::Interface {
             if spec.initialization != crate::spec::Initialization::Ordered {
                 return Err(bad(
