@@ -431,13 +431,13 @@ fn time_lane_steps(
                 for m in &mut models {
                     m.inputs = inputs;
                 }
-                let friction = lanes::lane_laws(&models[0]).expect("scenario A's laws run in lanes");
+                let laws = lanes::lane_laws(&models[0]).expect("scenario A's laws run in lanes");
                 let t0 = Instant::now();
                 for k in 0..steps / record.len() {
                     let mut group: [&mut lanes::OneJoint; LANES] =
                         models.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("the lanes"));
                     let t = Ticks(k as i64 * record.len() as i64 * step.0);
-                    let outcome = lanes::advance(&mut group, friction, [t; LANES], step, &record, |_, _, _| {});
+                    let outcome = lanes::advance(&mut group, laws, [t; LANES], step, &record, |_, _, _| {});
                     black_box(&outcome);
                 }
                 black_box(&models[0].states);

@@ -1,7 +1,7 @@
 //! Friction laws: the signed friction coefficient μ(v_t), odd in the slip velocity, so that
 //! F_T = μ(v_t) F_N and the force on the journal is −F_T t.
 
-use crate::law::step;
+use crate::law::step_of;
 use lash_core::Problems;
 use lash_core::lane::Real;
 use serde::{Deserialize, Serialize};
@@ -49,15 +49,40 @@ pub enum FrictionLaw {
 }
 
 /// The friction laws written for any lane width ([`Real`]): the kind shared by the lanes of a
-/// group, their numbers per lane.
+/// group, their numbers per lane ([`LaneFriction::of`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LaneFriction {
     /// No friction.
     None,
-    /// μ sign(v_t).
+    /// μ sign(v_t): numbers (μ).
     Coulomb,
-    /// Ambrósio's modified Coulomb.
+    /// Ambrósio's modified Coulomb: numbers (μ, v0, v1).
     Ambrosio,
+    /// ADAMS stick–slip: numbers (μ_s, μ_d, v_s, v_d).
+    StickSlip,
+    /// Threlfall: numbers (μ, v0).
+    Threlfall,
+}
+
+impl LaneFriction {
+    /// The kind of `law` and its numbers (unused ones zero).
+    pub fn of(law: &FrictionLaw) -> (Self, [f64; 4]) {
+        match *law {
+            FrictionLaw::None => (LaneFriction::None, [0.0; 4]),
+            FrictionLaw::Coulomb { coefficient } => (LaneFriction::Coulomb, [coefficient, 0.0, 0.0, 0.0]),
+            FrictionLaw::Ambrosio { coefficient, v0, v1 } => (LaneFriction::Ambrosio, [coefficient, v0, v1, 0.0]),
+            FrictionLaw::AdamsStickSlip {
+                static_coefficient,
+                dynamic_coefficient,
+                stiction_velocity,
+                friction_velocity,
+            } => (
+                LaneFriction::StickSlip,
+                [static_coefficient, dynamic_coefficient, stiction_velocity, friction_velocity],
+            ),
+            FrictionLaw::Threlfall { coefficient, v0 } => (LaneFriction::Threlfall, [coefficient, v0, 0.0, 0.0]),
+        }
+    }
 }
 
 /// sign(v) as the friction laws take it: 1, −1, or 0 at rest.
@@ -85,14 +110,42 @@ pub fn ambrosio_factor<R: Real>(speed: R, v0: R, v1: R) -> R {
     R::select(stuck, zero, R::select(sliding, one, (speed - v0) / (v1 - v0)))
 }
 
-/// The signed coefficient μ(v) of a law of kind `kind` with coefficient `mu` (and Ambrósio's
-/// `v0`, `v1`), for one run or several side by side.
+/// ADAMS stick–slip μ(v): STEP(v, −v_s, −μ_s, v_s, μ_s) below v_s, STEP(|v|, v_s, μ_s, v_d, μ_d)
+/// sign(v) up to v_d, μ_d sign(v) beyond — each region a branch where every lane is in it (for
+/// one run, the scalar `if`s), selections otherwise.
 #[inline(always)]
-pub fn lane_coefficient<R: Real>(kind: LaneFriction, mu: R, v0: R, v1: R, v: R) -> R {
+pub fn stick_slip_coefficient<R: Real>((ms, md, vs, vd): (R, R, R, R), v: R) -> R {
+    let (s, a) = (slip_sign(v), v.abs());
+    let sticking = a.simd_lt(vs);
+    // (Beyond v_d as the scalar `else` takes it: not at or below v_d.)
+    let beyond = !a.simd_le(vd);
+    if R::all(sticking) {
+        return step_of(v, -vs, -ms, vs, ms);
+    }
+    if R::all(beyond) {
+        return md * s;
+    }
+    let stick = if R::any(sticking) { step_of(v, -vs, -ms, vs, ms) } else { R::splat(0.0) };
+    let between = step_of(a, vs, ms, vd, md) * s;
+    R::select(sticking, stick, R::select(beyond, md * s, between))
+}
+
+/// Threlfall's μ(v) = μ (1 − exp(−3|v|/v0)) sign(v).
+#[inline(always)]
+pub fn threlfall_coefficient<R: Real>((mu, v0): (R, R), v: R) -> R {
+    mu * (R::splat(1.0) - (R::splat(-3.0) * v.abs() / v0).exp()) * slip_sign(v)
+}
+
+/// The signed coefficient μ(v) of a law of kind `kind` with the numbers `p`
+/// ([`LaneFriction::of`]), for one run or several side by side.
+#[inline(always)]
+pub fn lane_coefficient<R: Real>(kind: LaneFriction, p: &[R; 4], v: R) -> R {
     match kind {
         LaneFriction::None => R::splat(0.0),
-        LaneFriction::Coulomb => mu * slip_sign(v),
-        LaneFriction::Ambrosio => mu * ambrosio_factor(v.abs(), v0, v1) * slip_sign(v),
+        LaneFriction::Coulomb => p[0] * slip_sign(v),
+        LaneFriction::Ambrosio => p[0] * ambrosio_factor(v.abs(), p[1], p[2]) * slip_sign(v),
+        LaneFriction::StickSlip => stick_slip_coefficient((p[0], p[1], p[2], p[3]), v),
+        LaneFriction::Threlfall => threlfall_coefficient((p[0], p[1]), v),
     }
 }
 
@@ -100,29 +153,23 @@ impl FrictionLaw {
     /// The signed coefficient μ(v_t).
     #[inline(always)]
     pub fn coefficient(&self, v: f64) -> f64 {
-        let s = slip_sign(v);
-        let a = v.abs();
+        // (The laws' arithmetic is [`lane_coefficient`]'s, written once for a run and for the
+        // lanes; each arm passes its own numbers.)
         match *self {
             FrictionLaw::None => 0.0,
-            FrictionLaw::Coulomb { coefficient } => lane_coefficient(LaneFriction::Coulomb, coefficient, 0.0, 0.0, v),
+            FrictionLaw::Coulomb { coefficient } => {
+                lane_coefficient(LaneFriction::Coulomb, &[coefficient, 0.0, 0.0, 0.0], v)
+            }
             FrictionLaw::Ambrosio { coefficient, v0, v1 } => {
-                lane_coefficient(LaneFriction::Ambrosio, coefficient, v0, v1, v)
+                lane_coefficient(LaneFriction::Ambrosio, &[coefficient, v0, v1, 0.0], v)
             }
             FrictionLaw::AdamsStickSlip {
                 static_coefficient: ms,
                 dynamic_coefficient: md,
                 stiction_velocity: vs,
                 friction_velocity: vd,
-            } => {
-                if a < vs {
-                    step(v, -vs, -ms, vs, ms)
-                } else if a <= vd {
-                    step(a, vs, ms, vd, md) * s
-                } else {
-                    md * s
-                }
-            }
-            FrictionLaw::Threlfall { coefficient, v0 } => coefficient * (1.0 - (-3.0 * a / v0).exp()) * s,
+            } => stick_slip_coefficient((ms, md, vs, vd), v),
+            FrictionLaw::Threlfall { coefficient, v0 } => threlfall_coefficient((coefficient, v0), v),
         }
     }
 
@@ -206,15 +253,10 @@ mod tests {
             [2e-3, -5e-3, 1.0, -0.7, 1e-3, -1e-3, 12.0, -3e-3],
             [0.0, 5e-5, -3e-4, 7e-4, -2e-3, 0.4, -1e-4, 1e-3],
         ];
-        let (mu, v0, v1) = (0.12, 1e-4, 1e-3);
         for v in groups {
-            for (kind, law) in [
-                (LaneFriction::None, FrictionLaw::None),
-                (LaneFriction::Coulomb, FrictionLaw::Coulomb { coefficient: mu }),
-                (LaneFriction::Ambrosio, FrictionLaw::Ambrosio { coefficient: mu, v0, v1 }),
-            ] {
-                let (m, a, b) = (F64x8::splat(mu), F64x8::splat(v0), F64x8::splat(v1));
-                let lanes = lane_coefficient(kind, m, a, b, F64x8(v));
+            for law in laws() {
+                let (kind, numbers) = LaneFriction::of(&law);
+                let lanes = lane_coefficient(kind, &numbers.map(F64x8::splat), F64x8(v));
                 for l in 0..LANES {
                     assert_eq!(lanes[l].to_bits(), law.coefficient(v[l]).to_bits(), "{kind:?} at {}", v[l]);
                 }

@@ -6,14 +6,23 @@ use serde::{Deserialize, Serialize};
 
 /// ADAMS STEP: a cubic from (x0, h0) to (x1, h1) with zero slope at both ends, constant outside.
 pub fn step(x: f64, x0: f64, h0: f64, x1: f64, h1: f64) -> f64 {
-    if x <= x0 {
-        h0
-    } else if x >= x1 {
-        h1
-    } else {
-        let d = (x - x0) / (x1 - x0);
-        h0 + (h1 - h0) * d * d * (3.0 - 2.0 * d)
+    step_of(x, x0, h0, x1, h1)
+}
+
+/// [`step`] for one run or several side by side: the ends are branches where every lane is
+/// beyond the same end (for one run, the scalar `if`s), selections otherwise.
+#[inline(always)]
+pub fn step_of<R: Real>(x: R, x0: R, h0: R, x1: R, h1: R) -> R {
+    let (below, above) = (x.simd_le(x0), x.simd_ge(x1));
+    if R::all(below) {
+        return h0;
     }
+    if R::all(above) {
+        return h1;
+    }
+    let d = (x - x0) / (x1 - x0);
+    let cubic = h0 + (h1 - h0) * d * d * (R::splat(3.0) - R::splat(2.0) * d);
+    R::select(below, h0, R::select(above, h1, cubic))
 }
 
 /// An isotropic elastic material.
@@ -203,6 +212,94 @@ pub fn three_halves<R: Real>(delta: R) -> R {
     delta * delta.sqrt()
 }
 
+/// δⁿ as every law here takes it: δ √δ for n = 1.5, δ for n = 1, `powf` otherwise (one exponent
+/// for every lane).
+#[inline(always)]
+pub fn power_of<R: Real>(delta: R, n: f64) -> R {
+    if n == 1.5 {
+        three_halves(delta)
+    } else if n == 1.0 {
+        delta
+    } else {
+        delta.powf(n)
+    }
+}
+
+/// K δⁿ + STEP(δ, 0, 0, d_max, C_max) δ̇ (ADAMS IMPACT), unclipped.
+#[inline(always)]
+pub fn adams_impact_force<R: Real>(
+    (stiffness, exponent, max_damping, damping_depth): (R, f64, R, R),
+    delta: R,
+    delta_dot: R,
+) -> R {
+    let zero = R::splat(0.0);
+    stiffness * power_of(delta, exponent) + step_of(delta, zero, zero, damping_depth, max_damping) * delta_dot
+}
+
+/// (π/2) E* L δ √(δ/(2(c+δ))) (1 + χ δ̇/max(δ̇⁻, floor)) (Liu), unclipped.
+#[inline(always)]
+pub fn liu_force<R: Real>((factor, clearance, chi, floor): (R, R, R, R), delta: R, delta_dot: R, onset: R) -> R {
+    let one = R::splat(1.0);
+    factor * delta * (delta / (R::splat(2.0) * (clearance + delta))).sqrt() * (one + chi * delta_dot / onset.max(floor))
+}
+
+/// The kind of a normal force law as the lanes of a group share it (with the exponent, which
+/// picks how δⁿ is formed); the numbers are per lane ([`LaneLaw::of`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LaneLaw {
+    /// K δⁿ: numbers (K).
+    Power(f64),
+    /// K δ + D δ̇: numbers (K, D).
+    KelvinVoigt,
+    /// K δⁿ (1 + χ δ̇/max(δ̇⁻, floor)): numbers (K, χ, floor).
+    Hysteresis(f64),
+    /// ADAMS IMPACT: numbers (K, C_max, d_max).
+    AdamsImpact(f64),
+    /// Liu: numbers (factor, c, χ, floor).
+    Liu,
+}
+
+impl LaneLaw {
+    /// The kind of `law` and its numbers (unused ones zero).
+    pub fn of(law: &NormalForce) -> (Self, [f64; 4]) {
+        match *law {
+            NormalForce::Power { stiffness, exponent } => (LaneLaw::Power(exponent), [stiffness, 0.0, 0.0, 0.0]),
+            NormalForce::KelvinVoigt { stiffness, damping } => (LaneLaw::KelvinVoigt, [stiffness, damping, 0.0, 0.0]),
+            NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
+                (LaneLaw::Hysteresis(exponent), [stiffness, chi, floor, 0.0])
+            }
+            NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
+                (LaneLaw::AdamsImpact(exponent), [stiffness, max_damping, damping_depth, 0.0])
+            }
+            NormalForce::Liu { factor, clearance, chi, floor } => (LaneLaw::Liu, [factor, clearance, chi, floor]),
+        }
+    }
+
+    /// The onset velocity's floor among the numbers (where the law has one; else 0).
+    pub fn floor(&self, numbers: &[f64; 4]) -> f64 {
+        match self {
+            LaneLaw::Hysteresis(_) => numbers[2],
+            LaneLaw::Liu => numbers[3],
+            _ => 0.0,
+        }
+    }
+
+    /// The force of this kind with the numbers `p` at (δ, δ̇) — the onset velocity δ̇⁻ as `onset`
+    /// and as `reciprocal` = 1 / max(δ̇⁻, floor) (the hysteresis laws multiply by it, Liu's law
+    /// divides by max(δ̇⁻, floor)) —, unclipped: what [`NormalForce::force`] computes before its
+    /// clip, for one run or several side by side.
+    #[inline(always)]
+    pub fn force<R: Real>(&self, p: &[R; 4], (delta, delta_dot): (R, R), onset: R, reciprocal: R) -> R {
+        match *self {
+            LaneLaw::Power(n) => p[0] * power_of(delta, n),
+            LaneLaw::KelvinVoigt => p[0] * delta + p[1] * delta_dot,
+            LaneLaw::Hysteresis(n) => hysteresis_force(p[0], power_of(delta, n), p[1], delta_dot, reciprocal),
+            LaneLaw::AdamsImpact(n) => adams_impact_force((p[0], n, p[1], p[2]), delta, delta_dot),
+            LaneLaw::Liu => liu_force((p[0], p[1], p[2], p[3]), delta, delta_dot, onset),
+        }
+    }
+}
+
 impl NormalForce {
     /// Normal force for penetration `delta` > 0, rate `delta_dot` (> 0 approaching) and onset
     /// velocity `onset` (the δ̇ captured when this contact began). Clipped at 0.
@@ -211,22 +308,31 @@ impl NormalForce {
         if delta <= 0.0 {
             return 0.0;
         }
+        // (The laws' arithmetic is [`LaneLaw`]'s, written once for a run and for the lanes; each
+        // arm passes its own numbers, so that one run pays no gathering of them.)
         let f = match *self {
-            NormalForce::Power { stiffness, exponent } => stiffness * pow(delta, exponent),
-            NormalForce::KelvinVoigt { stiffness, damping } => stiffness * delta + damping * delta_dot,
+            NormalForce::Power { stiffness, exponent } => {
+                LaneLaw::Power(exponent).force(&[stiffness, 0.0, 0.0, 0.0], (delta, delta_dot), onset, 0.0)
+            }
+            NormalForce::KelvinVoigt { stiffness, damping } => {
+                LaneLaw::KelvinVoigt.force(&[stiffness, damping, 0.0, 0.0], (delta, delta_dot), onset, 0.0)
+            }
             NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
                 // (χ δ̇ times the reciprocal of the onset velocity: a contact's reciprocal is one
                 // number for all its steps, which the micro step's lanes form once.)
-                hysteresis_force(stiffness, pow(delta, exponent), chi, delta_dot, onset_reciprocal(onset, floor))
+                let reciprocal = onset_reciprocal(onset, floor);
+                LaneLaw::Hysteresis(exponent).force(
+                    &[stiffness, chi, floor, 0.0],
+                    (delta, delta_dot),
+                    onset,
+                    reciprocal,
+                )
             }
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
-                stiffness * pow(delta, exponent) + step(delta, 0.0, 0.0, damping_depth, max_damping) * delta_dot
+                adams_impact_force((stiffness, exponent, max_damping, damping_depth), delta, delta_dot)
             }
             NormalForce::Liu { factor, clearance, chi, floor } => {
-                factor
-                    * delta
-                    * (delta / (2.0 * (clearance + delta))).sqrt()
-                    * (1.0 + chi * delta_dot / onset.max(floor))
+                liu_force((factor, clearance, chi, floor), delta, delta_dot, onset)
             }
         };
         f.max(0.0)
@@ -454,13 +560,7 @@ fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> (f64, f64)) -> (f64, f64)
 }
 
 fn pow(delta: f64, n: f64) -> f64 {
-    if n == 1.5 {
-        three_halves(delta)
-    } else if n == 1.0 {
-        delta
-    } else {
-        delta.powf(n)
-    }
+    power_of(delta, n)
 }
 
 impl ContactLaw {
@@ -574,6 +674,39 @@ impl ContactLaw {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// Every law in eight lanes (penetrations on both sides of contact, inside and beyond ADAMS's
+    /// damping depth, onsets below and above the floor), clipped as the lanes clip it, is the
+    /// scalar law lane by lane, bit for bit.
+    #[test]
+    fn every_law_in_lanes_is_the_scalar_law_bit_for_bit() {
+        use lash_core::lane::{F64x8, LANES};
+        let delta = [-1e-6, 0.0, 2e-7, 1e-6, 3e-6, 2e-5, 1e-4, 5e-7];
+        let delta_dot = [0.3, -0.2, 0.5, -1.0, 0.0, 2.0, -0.01, 1e-3];
+        let onset = [0.0, 1e-5, 0.2, 1.0, 3.0, 0.5, 1e-4, 0.05];
+        let laws = [
+            NormalForce::Power { stiffness: 5e9, exponent: 1.5 },
+            NormalForce::Power { stiffness: 1e8, exponent: 1.0 },
+            NormalForce::Power { stiffness: 2e10, exponent: 1.7 },
+            NormalForce::KelvinVoigt { stiffness: 1e8, damping: 3e3 },
+            NormalForce::Hysteresis { stiffness: 5e9, exponent: 1.5, chi: 0.3, floor: 1e-4 },
+            NormalForce::Hysteresis { stiffness: 5e9, exponent: 1.2, chi: 0.3, floor: 1e-4 },
+            NormalForce::AdamsImpact { stiffness: 1e10, exponent: 2.2, max_damping: 1e4, damping_depth: 2e-6 },
+            NormalForce::Liu { factor: 3e9, clearance: 1e-4, chi: 0.2, floor: 1e-4 },
+        ];
+        for law in laws {
+            let (kind, numbers) = LaneLaw::of(&law);
+            let floor = F64x8::splat(kind.floor(&numbers));
+            let (d, v, o) = (F64x8(delta), F64x8(delta_dot), F64x8(onset));
+            let f = kind.force(&numbers.map(F64x8::splat), (d, v), o, onset_reciprocal(o, floor));
+            let zero = F64x8::ZERO;
+            let clipped = d.simd_le(zero).select(zero, f.max(zero));
+            for l in 0..LANES {
+                let scalar = law.force(delta[l], delta_dot[l], onset[l]);
+                assert_eq!(clipped[l].to_bits(), scalar.to_bits(), "{law:?} at lane {l}");
+            }
+        }
+    }
 
     #[test]
     fn hertz_stiffness_of_the_benchmark() {

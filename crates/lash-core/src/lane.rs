@@ -32,6 +32,10 @@ pub trait Real:
     fn abs(self) -> Self;
     /// `f64::max` lane by lane.
     fn max(self, o: Self) -> Self;
+    /// eˣ (`f64::exp` lane by lane).
+    fn exp(self) -> Self;
+    /// xⁿ for one exponent `n` of every lane (`f64::powf` lane by lane).
+    fn powf(self, n: f64) -> Self;
     /// self > o.
     fn simd_gt(self, o: Self) -> Self::Mask;
     /// self ≥ o.
@@ -68,6 +72,14 @@ impl Real for f64 {
     #[inline(always)]
     fn max(self, o: Self) -> Self {
         f64::max(self, o)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        f64::exp(self)
+    }
+    #[inline(always)]
+    fn powf(self, n: f64) -> Self {
+        f64::powf(self, n)
     }
     #[inline(always)]
     fn simd_gt(self, o: Self) -> bool {
@@ -194,6 +206,14 @@ impl Real for F64x8 {
     #[inline(always)]
     fn max(self, o: Self) -> Self {
         self.zip(o, f64::max)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        self.map(f64::exp)
+    }
+    #[inline(always)]
+    fn powf(self, n: f64) -> Self {
+        self.map(|v| v.powf(n))
     }
     #[inline(always)]
     fn simd_gt(self, o: Self) -> Self {

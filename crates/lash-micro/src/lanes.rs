@@ -12,10 +12,10 @@
 //! code. A step that a lane cannot take this way (no kept step end to start from) is taken by the
 //! model itself.
 //!
-//! Which models qualify ([`lane_laws`]): one planar revolute clearance joint without a bush, the
-//! hysteresis contact law (Hunt–Crossley, Lankarani–Nikravesh, Flores, Gonthier, …) with
-//! exponent 1.5, friction none, Coulomb or Ambrósio. The lanes of one group share the laws' kind,
-//! not their numbers.
+//! Which models qualify ([`lane_laws`]): one planar revolute clearance joint without a bush, with
+//! any contact law and any friction law — the laws are lash-contact's, written once over `Real`
+//! for a run and for the lanes ([`LaneLaw::force`], [`lane_coefficient`]). The lanes of one group
+//! share the laws' kind (and a contact law's exponent), not their numbers.
 //!
 //! [`InterfaceModel::rk4_step`]: super::model::InterfaceModel::rk4_step
 
@@ -24,9 +24,8 @@ use super::stages::{self, Rk4Stage};
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
 use lash_contact::clearance::{ClearanceJoint, ContactState, ImpactTracker, Tracker};
 use lash_contact::clearance::{journal_load, normal_motion, penetration};
-use lash_contact::friction::FrictionLaw;
 use lash_contact::friction::{LaneFriction, lane_coefficient};
-use lash_contact::law::{NormalForce, hysteresis_force, onset_reciprocal, three_halves};
+use lash_contact::law::{LaneLaw, onset_reciprocal};
 use lash_core::Ticks;
 use lash_core::lane::{F64x8, Real, flag};
 use lash_mech::Vec2;
@@ -35,21 +34,23 @@ use nalgebra::{SMatrix, SVector};
 /// The micro model of one planar clearance joint.
 pub type OneJoint = InterfaceModel<ClearanceJoint, 2, 1, 1, 1>;
 
-/// The laws' kind of a model that can run in lanes, or `None`.
-pub fn lane_laws(model: &OneJoint) -> Option<LaneFriction> {
+/// The kinds of a joint's contact and friction laws, which the lanes of one group share.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaneLaws {
+    /// The contact law's kind (with its exponent).
+    pub law: LaneLaw,
+    /// The friction law's kind.
+    pub friction: LaneFriction,
+}
+
+/// The laws' kinds of a model that can run in lanes (one joint without a bush in series), or
+/// `None`.
+pub fn lane_laws(model: &OneJoint) -> Option<LaneLaws> {
     let joint = &model.joints[0];
     if joint.bush_stiffness.is_finite() {
         return None;
     }
-    if !matches!(joint.law, NormalForce::Hysteresis { exponent, .. } if exponent == 1.5) {
-        return None;
-    }
-    match joint.friction {
-        FrictionLaw::None => Some(LaneFriction::None),
-        FrictionLaw::Coulomb { .. } => Some(LaneFriction::Coulomb),
-        FrictionLaw::Ambrosio { .. } => Some(LaneFriction::Ambrosio),
-        _ => None,
-    }
+    Some(LaneLaws { law: LaneLaw::of(&joint.law).0, friction: LaneFriction::of(&joint.friction).0 })
 }
 
 /// How a lane's advance ended: the steps completed, and the failure (time reached, message).
@@ -115,20 +116,20 @@ impl std::ops::Mul<f64> for Plane {
 /// terms at the step's middle and end (time past the inputs' node, M̃ with its determinant's
 /// reciprocal, the journal's and the bearing's angular velocities), each lane's contact mode and
 /// its onset velocity's reciprocal.
-struct LaterStages<'a> {
+struct LaterStages<'a, const COMMON: bool> {
     joint: &'a Joint,
     inputs: &'a Inputs,
     middle: (&'a V, &'a ([V; 4], V), &'a (V, V)),
     end: (&'a V, &'a ([V; 4], V), &'a (V, V)),
     in_contact: X,
-    reciprocal: &'a V,
+    onset: (&'a V, &'a V),
 }
 
-impl stages::StageRates<Plane, LaneLoads> for LaterStages<'_> {
+impl<const COMMON: bool> stages::StageRates<Plane, LaneLoads> for LaterStages<'_, COMMON> {
     #[inline(always)]
     fn rate(&mut self, stage: Rk4Stage, e: Plane, v: Plane) -> (Plane, LaneLoads) {
         let (dt, mass, w) = if stage == Rk4Stage::Fourth { self.end } else { self.middle };
-        let loads = self.joint.stage(e, v, (&w.0, &w.1), self.in_contact, self.reciprocal);
+        let loads = self.joint.stage::<COMMON>(e, v, (&w.0, &w.1), self.in_contact, self.onset);
         (self.inputs.acceleration(dt, mass, &loads), loads)
     }
 }
@@ -147,18 +148,17 @@ struct LaneLoads {
     friction: V,
 }
 
-/// Per-lane constants of the joint and its laws.
+/// Per-lane constants of the joint and its laws: the laws' kinds, their numbers per lane
+/// ([`LaneLaw::of`], [`LaneFriction::of`]) and the contact law's onset velocity floor.
 struct Joint {
     clearance: V,
     journal_radius: V,
     bearing_radius: V,
-    stiffness: V,
-    chi: V,
+    law: LaneLaw,
+    law_numbers: [V; 4],
     floor: V,
-    mu: V,
-    v0: V,
-    v1: V,
     friction: LaneFriction,
+    friction_numbers: [V; 4],
 }
 
 /// Per-lane inputs of the interval (values at `input_time` and rates).
@@ -194,36 +194,27 @@ struct States {
 }
 
 impl Joint {
-    fn of(models: &[&mut OneJoint; L], friction: LaneFriction) -> Self {
+    fn of(models: &[&mut OneJoint; L], laws: LaneLaws) -> Self {
         let each = |f: &dyn Fn(&ClearanceJoint) -> f64| std::array::from_fn(|l| f(&models[l].joints[0]));
-        let law = |j: &ClearanceJoint| match j.law {
-            NormalForce::Hysteresis { stiffness, chi, floor, .. } => (stiffness, chi, floor),
-            _ => unreachable!("lane_laws admits the hysteresis law only"),
-        };
-        let fr = |j: &ClearanceJoint| match j.friction {
-            FrictionLaw::Coulomb { coefficient } => (coefficient, 0.0, 0.0),
-            FrictionLaw::Ambrosio { coefficient, v0, v1 } => (coefficient, v0, v1),
-            _ => (0.0, 0.0, 0.0),
-        };
+        let law = |j: &ClearanceJoint| LaneLaw::of(&j.law).1;
+        let friction = |j: &ClearanceJoint| LaneFriction::of(&j.friction).1;
         Self {
             clearance: each(&|j| j.radial_clearance()),
             journal_radius: each(&|j| j.journal_radius),
             bearing_radius: each(&|j| j.bearing_radius),
-            stiffness: each(&|j| law(j).0),
-            chi: each(&|j| law(j).1),
-            floor: each(&|j| law(j).2),
-            mu: each(&|j| fr(j).0),
-            v0: each(&|j| fr(j).1),
-            v1: each(&|j| fr(j).2),
-            friction,
+            law: laws.law,
+            law_numbers: std::array::from_fn(|k| each(&|j| law(j)[k])),
+            floor: each(&|j| laws.law.floor(&law(j))),
+            friction: laws.friction,
+            friction_numbers: std::array::from_fn(|k| each(&|j| friction(j)[k])),
         }
     }
 
     /// The gated loads of a stage at (e, ė) ([`Joint::contact`], [`gated`]).
     #[inline(always)]
-    fn stage(&self, e: Plane, v: Plane, w: (&V, &V), in_contact: X, reciprocal: &V) -> LaneLoads {
+    fn stage<const COMMON: bool>(&self, e: Plane, v: Plane, w: (&V, &V), in_contact: X, onset: (&V, &V)) -> LaneLoads {
         let (ex, ey) = (x(&e.x), x(&e.y));
-        let contact = self.contact((ex, ey, x(&v.x), x(&v.y)), self.geometry(ex, ey), w, in_contact, reciprocal);
+        let contact = self.contact::<COMMON>((ex, ey, x(&v.x), x(&v.y)), self.geometry(ex, ey), w, in_contact, onset);
         gated(&contact, &self.clearance)
     }
 
@@ -235,7 +226,7 @@ impl Joint {
     }
 
     /// The contact of every lane at (e, ė) with the bodies' angular velocities, each lane in its
-    /// mode (`in_contact`, and `reciprocal`: each lane's 1 / max(δ̇⁻, floor), formed where its
+    /// mode (`in_contact`, and `onset`: each lane's δ̇⁻ and 1 / max(δ̇⁻, floor), formed where its
     /// onset velocity changes): the laws [`ClearanceJoint::evaluate_relative_as`] evaluates as the
     /// micro model calls it (`contact_at_as`) — the same functions, at eight lanes — the
     /// free-flight lanes' onset velocity taken as δ̇⁺ where they first indent (their reciprocal
@@ -243,27 +234,31 @@ impl Joint {
     /// in registers: a stage of the step reads only its loads ([`gated`]), the step end is stored
     /// whole ([`Contact::store`]).
     #[inline(always)]
-    fn contact(
+    fn contact<const COMMON: bool>(
         &self,
         (ex, ey, u, v): (X, X, X, X),
         (norm, delta): (X, X),
         (wj, wb): (&V, &V),
         in_contact: X,
-        reciprocal: &V,
+        (onset, reciprocal): (&V, &V),
     ) -> Contact {
         let zero = X::ZERO;
         let radii = [x(&self.journal_radius), x(&self.bearing_radius)];
         let ([nx, ny], delta_dot, slip) = normal_motion([ex, ey], norm, [u, v], [x(wj), x(wb)], radii);
         // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
         let indenting = !in_contact & delta.simd_gt(zero);
-        let reciprocal = if indenting.to_bitmask() == 0 {
-            x(reciprocal)
+        let (onset, reciprocal) = if indenting.to_bitmask() == 0 {
+            (x(onset), x(reciprocal))
         } else {
-            indenting.select(onset_reciprocal(delta_dot.max(zero), x(&self.floor)), x(reciprocal))
+            let own = delta_dot.max(zero);
+            (indenting.select(own, x(onset)), indenting.select(onset_reciprocal(own, x(&self.floor)), x(reciprocal)))
         };
-        let f = hysteresis_force(x(&self.stiffness), three_halves(delta), x(&self.chi), delta_dot, reciprocal);
+        // (The common law, Lankarani–Nikravesh's kind at exponent 1.5, known at compile time: the
+        // kind's and the exponent's tests fold away.)
+        let law = if COMMON { COMMON_LAW } else { self.law };
+        let f = law.force(&xs(&self.law_numbers), (delta, delta_dot), onset, reciprocal);
         let normal = delta.simd_le(zero).select(zero, f.max(zero));
-        let coefficient = lane_coefficient(self.friction, x(&self.mu), x(&self.v0), x(&self.v1), slip);
+        let coefficient = lane_coefficient(self.friction, &xs(&self.friction_numbers), slip);
         let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
         let [fx, fy] = journal_load([nx, ny], normal, tangential);
         Contact { ex, ey, norm, nx, ny, delta, delta_dot, slip, normal, tangential, fx, fy }
@@ -574,27 +569,49 @@ impl Kept {
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+avx512dq", "x86_64+avx2"))]
 pub fn advance(
     models: &mut [&mut OneJoint; L],
-    friction: LaneFriction,
+    laws: LaneLaws,
     t: [Ticks; L],
     step: Ticks,
     record: &[bool],
     sample: impl FnMut(usize, usize, &OneJoint),
 ) -> [LaneOutcome; L] {
-    advance_lanes(models, friction, t, step, record, sample)
+    advance_any(models, laws, t, step, record, sample)
 }
 
-/// [`advance`] in the instruction set it was dispatched to.
+/// [`advance_lanes`] compiled for the laws' kind: the common law's own copy, or any law's.
 #[inline(always)]
-fn advance_lanes(
+fn advance_any(
     models: &mut [&mut OneJoint; L],
-    friction: LaneFriction,
+    laws: LaneLaws,
     t: [Ticks; L],
     step: Ticks,
     record: &[bool],
-    mut sample: impl FnMut(usize, usize, &OneJoint),
+    sample: impl FnMut(usize, usize, &OneJoint),
+) -> [LaneOutcome; L] {
+    if laws.law == COMMON_LAW {
+        advance_lanes::<_, true>(models, laws, t, step, record, sample)
+    } else {
+        advance_lanes::<_, false>(models, laws, t, step, record, sample)
+    }
+}
+
+/// The contact law of most scenarios (the hysteresis laws at exponent 1.5), for which the lanes'
+/// step is compiled with the law's kind and exponent known: the runtime tests of both cost the
+/// lanes' step 3 %.
+const COMMON_LAW: LaneLaw = LaneLaw::Hysteresis(1.5);
+
+/// [`advance`] in the instruction set it was dispatched to.
+#[inline(always)]
+fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
+    models: &mut [&mut OneJoint; L],
+    laws: LaneLaws,
+    t: [Ticks; L],
+    step: Ticks,
+    record: &[bool],
+    mut sample: F,
 ) -> [LaneOutcome; L] {
     let h = step.seconds();
-    let joint = Joint::of(models, friction);
+    let joint = Joint::of(models, laws);
     let inputs = Inputs::of(models);
     let zero = [0.0; L];
     let mut kept = Kept {
@@ -642,9 +659,10 @@ fn advance_lanes(
     };
     let (mut stepped, mut any_by_model) = masks(&running, &by_model);
     let mut lanes_changed = false;
-    // Each lane's 1 / max(δ̇⁻, floor) (`onset_reciprocal`), formed again where its onset changes.
-    let mut reciprocal: V =
-        std::array::from_fn(|l| onset_reciprocal(models[l].joints[0].onset_velocity, joint.floor[l]));
+    // Each lane's δ̇⁻ and 1 / max(δ̇⁻, floor) (`onset_reciprocal`), formed again where its onset
+    // changes.
+    let mut onset: V = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
+    let mut reciprocal: V = std::array::from_fn(|l| onset_reciprocal(onset[l], joint.floor[l]));
     // (The lanes of a sweep share their time: one conversion per step.)
     let shared = t.iter().all(|&x| x == t[0]);
     for (i, &flag) in record.iter().enumerate() {
@@ -704,13 +722,13 @@ fn advance_lanes(
         // Stage 1 from the kept step end's loads.
         let l1 = kept.end_loads;
         let first = (inputs.acceleration(&dt0, &start, &l1), l1);
-        let mut later = LaterStages {
+        let mut later = LaterStages::<COMMON> {
             joint: &joint,
             inputs: &inputs,
             middle: (&dt_half, &middle, &w_half),
             end: (&dt_end, &finish, &w_end),
             in_contact: contact_mask,
-            reciprocal: &reciprocal,
+            onset: (&onset, &reciprocal),
         };
         let stepped_to = stages::rk4(h, (e0, v0), first, &mut later);
         let [l1, l2, l3, l4] = stepped_to.loads;
@@ -741,16 +759,17 @@ fn advance_lanes(
             m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
             kept.trackers.set(l, m.open[0]);
             in_contact[l] = m.joints[0].in_contact;
-            reciprocal[l] = onset_reciprocal(m.joints[0].onset_velocity, joint.floor[l]);
+            onset[l] = m.joints[0].onset_velocity;
+            reciprocal[l] = onset_reciprocal(onset[l], joint.floor[l]);
             contact_mask = X::mask(in_contact);
         }
         // The step end's contact state (not gated), then the impact trackers.
-        let end = joint.contact(
+        let end = joint.contact::<COMMON>(
             (x(&e1x), x(&e1y), x(&v1x), x(&v1y)),
             end_geometry,
             (&w_end.0, &w_end.1),
             contact_mask,
-            &reciprocal,
+            (&onset, &reciprocal),
         );
         end.store(&mut kept.states);
         let end_time: V = (x(&now) + X::splat(h)).into();
@@ -770,7 +789,8 @@ fn advance_lanes(
                     let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
                     by_model[l] = !kept.gather(l, models[l], next);
                     in_contact[l] = models[l].joints[0].in_contact;
-                    reciprocal[l] = onset_reciprocal(models[l].joints[0].onset_velocity, joint.floor[l]);
+                    onset[l] = models[l].joints[0].onset_velocity;
+                    reciprocal[l] = onset_reciprocal(onset[l], joint.floor[l]);
                     contact_mask = X::mask(in_contact);
                     lanes_changed = true;
                 }
@@ -812,6 +832,8 @@ fn advance_lanes(
 mod tests {
     use super::*;
     use crate::model::InterfaceInputs;
+    use lash_contact::friction::FrictionLaw;
+    use lash_contact::law::NormalForce;
     use lash_mech::BodyId;
 
     fn joint(l: usize) -> ClearanceJoint {
@@ -903,16 +925,31 @@ mod tests {
     }
 
     fn lanes_equal_the_models_on(arch: Option<pulp::Arch>) {
-        let step = Ticks::from_seconds(1e-5).unwrap();
-        let h = step.seconds();
         let mut lanes: Vec<OneJoint> = (0..L).map(|l| InterfaceModel::new(vec![joint(l)])).collect();
         let mut models = lanes.clone();
-        let friction = lane_laws(&lanes[0]).unwrap();
-        assert_eq!(lane_laws(&lanes[3]), Some(LaneFriction::Coulomb));
-        assert_eq!(lane_laws(&lanes[4]), Some(LaneFriction::Ambrosio));
+        let laws = lane_laws(&lanes[0]).unwrap();
+        assert_eq!(lane_laws(&lanes[3]).map(|k| k.friction), Some(LaneFriction::Coulomb));
+        assert_eq!(lane_laws(&lanes[4]).map(|k| k.friction), Some(LaneFriction::Ambrosio));
+        let (impacts, sampled) = lanes_against_models(&mut lanes, &mut models, laws, arch, 120);
+        assert!(impacts >= 8, "the inputs should make impacts: {impacts}");
+        assert_eq!(sampled, 120 * 10 * L);
+    }
+
+    /// `lanes` stepped in lanes (laws `laws`, compiled for `arch`, or `advance`'s own dispatch)
+    /// and `models` one by one through `intervals` intervals of 100 steps, compared bit for bit
+    /// after each: their impacts and the samples compared.
+    fn lanes_against_models(
+        lanes: &mut [OneJoint],
+        models: &mut [OneJoint],
+        laws: LaneLaws,
+        arch: Option<pulp::Arch>,
+        intervals: usize,
+    ) -> (usize, usize) {
+        let step = Ticks::from_seconds(1e-5).unwrap();
+        let h = step.seconds();
         let record: Vec<bool> = (0..100).map(|i| i % 10 == 9).collect();
         let (mut impacts, mut sampled) = (0, 0);
-        for k in 0..120 {
+        for k in 0..intervals {
             let t0 = Ticks(k as i64 * 100 * step.0);
             for l in 0..L {
                 for m in [&mut lanes[l], &mut models[l]] {
@@ -925,7 +962,9 @@ mod tests {
             for (l, m) in models.iter_mut().enumerate() {
                 for (i, &flag) in record.iter().enumerate() {
                     m.rk4_step(Ticks(t0.0 + i as i64 * step.0).seconds(), h);
-                    m.check_penetration(0).unwrap();
+                    if let Err(e) = m.check_penetration(0) {
+                        panic!("{:?} {:?}: {e}", m.joints[0].law, m.joints[0].friction);
+                    }
                     if flag {
                         expected[l].push(format!("{i} {:?}", m.states[0]));
                     }
@@ -938,23 +977,91 @@ mod tests {
             let outcome = match arch {
                 Some(arch) => arch.dispatch(
                     #[inline(always)]
-                    || advance_lanes(&mut group, friction, [t0; L], step, &record, sample),
+                    || advance_any(&mut group, laws, [t0; L], step, &record, sample),
                 ),
-                None => advance(&mut group, friction, [t0; L], step, &record, sample),
+                None => advance(&mut group, laws, [t0; L], step, &record, sample),
             };
             for l in 0..L {
-                assert!(outcome[l].is_ok(), "lane {l}: {:?}", outcome[l]);
-                assert_eq!(got[l], expected[l], "interval {k}, lane {l}: samples");
+                assert!(outcome[l].is_ok(), "{laws:?}, lane {l}: {:?}", outcome[l]);
+                assert_eq!(got[l], expected[l], "{laws:?}, interval {k}, lane {l}: samples");
                 let diff = same(&lanes[l], &models[l]);
-                assert!(diff.is_empty(), "interval {k}, lane {l}:\n{diff}");
+                assert!(diff.is_empty(), "{laws:?}, interval {k}, lane {l}:\n{diff}");
                 sampled += got[l].len();
             }
         }
-        for m in &models {
+        for m in models.iter() {
             impacts += m.impacts[0].len();
         }
-        assert!(impacts >= 8, "the inputs should make impacts: {impacts}");
-        assert_eq!(sampled, 120 * 10 * L);
+        (impacts, sampled)
+    }
+
+    /// Every contact law (δⁿ by δ√δ, by δ and by `powf`) with every friction law, eight lanes of
+    /// different numbers per group: the lanes equal the models stepped one by one, bit for bit,
+    /// in every instruction set, through impacts.
+    #[test]
+    fn every_law_runs_in_lanes_bit_for_bit() {
+        let laws: [fn(f64) -> NormalForce; 8] = [
+            |x| NormalForce::Power { stiffness: 5e9 * (1.0 + 0.1 * x), exponent: 1.5 },
+            |x| NormalForce::Power { stiffness: 2e8 * (1.0 + 0.1 * x), exponent: 1.0 },
+            |x| NormalForce::Power { stiffness: 1e10 * (1.0 + 0.1 * x), exponent: 1.6 },
+            |x| NormalForce::KelvinVoigt { stiffness: 2e8 * (1.0 + 0.1 * x), damping: 2e3 },
+            |x| NormalForce::Hysteresis { stiffness: 5e9 * (1.0 + 0.1 * x), exponent: 1.3, chi: 0.2, floor: 1e-4 },
+            |x| NormalForce::AdamsImpact {
+                stiffness: 5e9 * (1.0 + 0.1 * x),
+                exponent: 1.5,
+                max_damping: 1e4 * (1.0 + 0.1 * x),
+                damping_depth: 1e-6,
+            },
+            |x| NormalForce::AdamsImpact {
+                stiffness: 5e10,
+                exponent: 2.2,
+                max_damping: 2e4,
+                damping_depth: 1e-6 * (1.0 + 0.1 * x),
+            },
+            |x| NormalForce::Liu { factor: 3e9 * (1.0 + 0.1 * x), clearance: 1e-4, chi: 0.1 + 0.05 * x, floor: 1e-4 },
+        ];
+        let frictions: [fn(f64) -> FrictionLaw; 5] = [
+            |_| FrictionLaw::None,
+            |x| FrictionLaw::Coulomb { coefficient: 0.02 + 0.002 * x },
+            |x| FrictionLaw::Ambrosio { coefficient: 0.03, v0: 1e-4 * (1.0 + x), v1: 1e-3 },
+            |x| FrictionLaw::AdamsStickSlip {
+                static_coefficient: 0.03,
+                dynamic_coefficient: 0.02 + 0.001 * x,
+                stiction_velocity: 1e-3,
+                friction_velocity: 5e-3 * (1.0 + x),
+            },
+            |x| FrictionLaw::Threlfall { coefficient: 0.02 + 0.002 * x, v0: 1e-3 },
+        ];
+        for law in laws {
+            for friction in frictions {
+                let lanes: Vec<OneJoint> = (0..L)
+                    .map(|l| {
+                        let mut j = joint(l);
+                        (j.law, j.friction) = (law(l as f64), friction(l as f64));
+                        InterfaceModel::new(vec![j])
+                    })
+                    .collect();
+                let models = lanes.clone();
+                let kinds = lane_laws(&lanes[0]).unwrap();
+                assert!(lanes.iter().all(|m| lane_laws(m) == Some(kinds)), "one group: {kinds:?}");
+                for (_, arch) in instruction_sets() {
+                    let (mut l, mut m) = (lanes.clone(), models.clone());
+                    let (impacts, _) = lanes_against_models(&mut l, &mut m, kinds, arch, 40);
+                    assert!(impacts >= L, "{kinds:?}: every lane should meet an impact, {impacts} in all");
+                }
+            }
+        }
+    }
+
+    /// A joint with a bush in series does not run in lanes; any laws do.
+    #[test]
+    fn only_a_bush_keeps_a_joint_out_of_the_lanes() {
+        let mut j = joint(0);
+        (j.law, j.friction) =
+            (NormalForce::Liu { factor: 1e9, clearance: 1e-4, chi: 0.1, floor: 1e-4 }, FrictionLaw::None);
+        assert!(lane_laws(&InterfaceModel::new(vec![j.clone()])).is_some());
+        j.bush_stiffness = 1e8;
+        assert!(lane_laws(&InterfaceModel::new(vec![j])).is_none());
     }
 
     /// A lane that blows up (a soft contact under a large force: the penetration passes a tenth
@@ -970,7 +1077,7 @@ mod tests {
         }
         let mut models = lanes.clone();
         let record = [false; 100];
-        let friction = lane_laws(&lanes[0]).unwrap();
+        let laws = lane_laws(&lanes[0]).unwrap();
         for k in 0..5 {
             let t0 = Ticks(k as i64 * 100 * step.0);
             for l in 0..L {
@@ -994,7 +1101,7 @@ mod tests {
             }
             let mut group: [&mut OneJoint; L] =
                 lanes.iter_mut().collect::<Vec<_>>().try_into().unwrap_or_else(|_| unreachable!("L models"));
-            let outcome = advance(&mut group, friction, [t0; L], step, &record, |_, _, _| {});
+            let outcome = advance(&mut group, laws, [t0; L], step, &record, |_, _, _| {});
             assert_eq!(outcome.to_vec(), expected, "interval {k}");
             if expected[5].is_err() {
                 for l in 0..L {

@@ -396,12 +396,11 @@ pub fn do_steps_together(
     refs: &[ValueReference],
     rows: &mut [&mut [f64]],
 ) -> Vec<Steps> {
-    use lanes::{LANES, OneJoint};
-    use lash_contact::friction::LaneFriction;
+    use lanes::{LANES, LaneLaws, OneJoint};
     assert_eq!(subs.len(), rows.len(), "one row buffer per subsystem");
     let mut results: Vec<Option<Steps>> = (0..subs.len()).map(|_| None).collect();
-    // Which subsystems can run in lanes, by their laws' kind, with their row widths.
-    let mut groups: Vec<(LaneFriction, Vec<(usize, usize)>)> = Vec::new();
+    // Which subsystems can run in lanes, by their laws' kinds, with their row widths.
+    let mut groups: Vec<(LaneLaws, Vec<(usize, usize)>)> = Vec::new();
     for (i, (micro, out)) in subs.iter_mut().zip(rows.iter_mut()).enumerate() {
         let fast = matches!(micro.integrator, MicroIntegrator::Rk4 { .. })
             && h == micro.micro_step
