@@ -156,31 +156,7 @@ pub fn estimate(
         );
     }
     if let Some(t) = &hidden.tracking {
-        let pct = |x: f64| format!("{:.0} %", 100.0 * x / t.measured_rms);
-        let draws = match t.draw_innovations.len() {
-            0 | 1 => String::new(),
-            n => format!(
-                ", a filter on each of {n} draws, their innovations {}; draw {}'s kept",
-                t.draw_innovations.iter().map(|i| i.map_or("failed".into(), pct)).collect::<Vec<_>>().join(", "),
-                t.draw + 1
-            ),
-        };
-        let draws = match t.rescues {
-            0 => draws,
-            1 => format!("{draws}; every particle failed at one sample, the filter started again from its draw there"),
-            r => format!("{draws}; every particle failed at {r} samples, the filter started again from its draw there"),
-        };
-        println!(
-            "  impact tracking ({} particles{draws}): innovation {:.0} % of the measurement's RMS (the best draw alone {:.0} %): {}",
-            t.particles,
-            100.0 * t.innovation / t.measured_rms,
-            100.0 * t.replay_residual / t.measured_rms,
-            if t.follows {
-                "it follows the measurement, the onsets are its own"
-            } else {
-                "it does not follow the measurement, the onsets are the draws'"
-            }
-        );
+        print_tracking(t);
     }
     if let Some(why) = &hidden.tracking_failure {
         println!("  impact tracking failed ({why}): the onsets are the draws'");
@@ -202,6 +178,36 @@ pub fn estimate(
         println!("  → {}/estimate.json, posterior.svg, hidden.csv, hidden.svg", out.display());
     }
     Ok(())
+}
+
+/// The impact tracking's line: its particles, the draws it ran on, its rescues, its innovation
+/// and whether it follows the measurement.
+fn print_tracking(t: &lash_estimate::track::TrackSummary) {
+    let pct = |x: f64| format!("{:.0} %", 100.0 * x / t.measured_rms);
+    let draws = match t.draw_innovations.len() {
+        0 | 1 => String::new(),
+        n => format!(
+            ", a filter on each of {n} draws, their innovations {}; draw {}'s kept",
+            t.draw_innovations.iter().map(|i| i.map_or("failed".into(), pct)).collect::<Vec<_>>().join(", "),
+            t.draw + 1
+        ),
+    };
+    let draws = match t.rescues {
+        0 => draws,
+        1 => format!("{draws}; every particle failed at one sample, the filter started again from its draw there"),
+        r => format!("{draws}; every particle failed at {r} samples, the filter started again from its draw there"),
+    };
+    println!(
+        "  impact tracking ({} particles{draws}): innovation {:.0} % of the measurement's RMS (the best draw alone {:.0} %): {}",
+        t.particles,
+        100.0 * t.innovation / t.measured_rms,
+        100.0 * t.replay_residual / t.measured_rms,
+        if t.follows {
+            "it follows the measurement, the onsets are its own"
+        } else {
+            "it does not follow the measurement, the onsets are the draws'"
+        }
+    );
 }
 
 /// The hidden signals as a table: time from the window's start, then per signal its median and

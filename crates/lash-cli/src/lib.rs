@@ -660,27 +660,7 @@ fn run_reduced(
     }
     match &probe {
         Some(Ok(p)) => {
-            // (DOPRI5 locates every contact itself: its communication step is kept.)
-            if !micro_step_given && !options.error_controlled_micro {
-                let (h, why) = p.micro_step(options);
-                options.micro_step = h;
-                if let Some(why) = why {
-                    if !quiet {
-                        eprintln!("note: {why}");
-                    }
-                    notes.insert("micro_step_choice".into(), why.into());
-                }
-            }
-            if let Some(tolerance) = settings.tolerance {
-                let (chosen, search) =
-                    p.meet_tolerance(options, tolerance, 8).map_err(|e| CliError::Failure(e.to_string()))?;
-                options = chosen;
-                eprintln!("{}", search.line());
-                notes.insert(
-                    "tolerance".into(),
-                    serde_json::to_value(&search).map_err(|e| CliError::Failure(e.to_string()))?,
-                );
-            }
+            options = steps_from_probe(p, options, (micro_step_given, settings.tolerance), &mut notes, quiet)?;
         }
         Some(Err(e)) if settings.tolerance.is_some() => {
             return Err(CliError::Failure(format!("--tolerance: the full model's probe failed: {e}")));
@@ -725,6 +705,36 @@ fn run_reduced(
         None => None,
     };
     probe::attach(estimated, notes, out, quiet)
+}
+
+/// The reduced run's options after the full model's probe `p`: the micro step chosen from its
+/// impacts (unless `micro_step_given` or the micro step is error-controlled), then the settings
+/// that meet `tolerance` where one is asked for; each choice noted in `notes`.
+fn steps_from_probe(
+    p: &probe::FullProbe,
+    mut options: lash_run::ReducedOptions,
+    (micro_step_given, tolerance): (bool, Option<f64>),
+    notes: &mut serde_json::Map<String, serde_json::Value>,
+    quiet: bool,
+) -> Result<lash_run::ReducedOptions, CliError> {
+    // (DOPRI5 locates every contact itself: its communication step is kept.)
+    if !micro_step_given && !options.error_controlled_micro {
+        let (h, why) = p.micro_step(options);
+        options.micro_step = h;
+        if let Some(why) = why {
+            if !quiet {
+                eprintln!("note: {why}");
+            }
+            notes.insert("micro_step_choice".into(), why.into());
+        }
+    }
+    if let Some(tolerance) = tolerance {
+        let (chosen, search) = p.meet_tolerance(options, tolerance, 8).map_err(|e| CliError::Failure(e.to_string()))?;
+        options = chosen;
+        eprintln!("{}", search.line());
+        notes.insert("tolerance".into(), serde_json::to_value(&search).map_err(|e| CliError::Failure(e.to_string()))?);
+    }
+    Ok(options)
 }
 
 /// `lash report`: the page, and what it could not show.
@@ -851,35 +861,42 @@ fn estimate_command(command: EstimateCommand) -> Result<(), CliError> {
     }
 }
 
+/// `lash run`: a system file, or a scenario's full, ideal or reduced run.
+fn run_command(command: Command) -> Result<(), CliError> {
+    let Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, probe, quiet } = command else {
+        unreachable!("dispatched as lash run")
+    };
+    output::catch_interrupts();
+    if system::is_system(&scenario) {
+        return system::run(&scenario, &out, step, horizon, format, quiet);
+    }
+    if step.is_some() {
+        return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
+    }
+    let s = load_with_horizon(&scenario, horizon)?;
+    let model = match model {
+        ModelKind::Full => lash_run::Model::Full { ideal },
+        ModelKind::Reduced if ideal => {
+            return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
+        }
+        ModelKind::Reduced => lash_run::Model::Reduced(reduced.options()),
+    };
+    let lash_run::Model::Reduced(options) = model else {
+        let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(e.to_string()))?;
+        return run::run(&s, (s.simulation(), s.output()), &mut r, &out, format, quiet).map(|_| ());
+    };
+    let settings = ReducedSettings {
+        request: ReducedRequest { options, ..reduced.request() },
+        tolerance: probe.tolerance,
+        error_estimate: !probe.no_error_estimate,
+    };
+    run_reduced(&s, settings.checked()?, &out, format, quiet)
+}
+
+/// Runs one command of the command line.
 fn dispatch(command: Command) -> Result<(), CliError> {
     match command {
-        Command::Run { scenario, model, ideal, out, horizon, step, format, reduced, probe, quiet } => {
-            output::catch_interrupts();
-            if system::is_system(&scenario) {
-                return system::run(&scenario, &out, step, horizon, format, quiet);
-            }
-            if step.is_some() {
-                return Err(CliError::Input("--step is for system files; scenarios set their integrator".into()));
-            }
-            let s = load_with_horizon(&scenario, horizon)?;
-            let model = match model {
-                ModelKind::Full => lash_run::Model::Full { ideal },
-                ModelKind::Reduced if ideal => {
-                    return Err(CliError::Input("--ideal and --model reduced exclude each other".into()));
-                }
-                ModelKind::Reduced => lash_run::Model::Reduced(reduced.options()),
-            };
-            let lash_run::Model::Reduced(options) = model else {
-                let mut r = lash_run::runner(&s, model).map_err(|e| CliError::Input(e.to_string()))?;
-                return run::run(&s, (s.simulation(), s.output()), &mut r, &out, format, quiet).map(|_| ());
-            };
-            let settings = ReducedSettings {
-                request: ReducedRequest { options, ..reduced.request() },
-                tolerance: probe.tolerance,
-                error_estimate: !probe.no_error_estimate,
-            };
-            run_reduced(&s, settings.checked()?, &out, format, quiet)
-        }
+        command @ Command::Run { .. } => run_command(command),
         Command::Compare { scenario, out, horizon, reduced, quiet, report, realisations } => {
             let s = load_with_horizon(&scenario, horizon)?;
             compare_into(&s, &out, reduced.request(), realisations as usize, quiet, report)

@@ -74,14 +74,6 @@ impl Real for f64 {
         f64::max(self, o)
     }
     #[inline(always)]
-    fn exp(self) -> Self {
-        f64::exp(self)
-    }
-    #[inline(always)]
-    fn powf(self, n: f64) -> Self {
-        f64::powf(self, n)
-    }
-    #[inline(always)]
     fn simd_gt(self, o: Self) -> bool {
         self > o
     }
@@ -112,6 +104,14 @@ impl Real for f64 {
     #[inline(always)]
     fn all(mask: bool) -> bool {
         mask
+    }
+    #[inline(always)]
+    fn powf(self, n: f64) -> Self {
+        f64::powf(self, n)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        f64::exp(self)
     }
 }
 

@@ -575,19 +575,7 @@ pub fn advance(
     record: &[bool],
     sample: impl FnMut(usize, usize, &OneJoint),
 ) -> [LaneOutcome; L] {
-    advance_any(models, laws, t, step, record, sample)
-}
-
-/// [`advance_lanes`] compiled for the laws' kind: the common law's own copy, or any law's.
-#[inline(always)]
-fn advance_any(
-    models: &mut [&mut OneJoint; L],
-    laws: LaneLaws,
-    t: [Ticks; L],
-    step: Ticks,
-    record: &[bool],
-    sample: impl FnMut(usize, usize, &OneJoint),
-) -> [LaneOutcome; L] {
+    // (The common law's own copy of the lanes' step, or any law's.)
     if laws.law == COMMON_LAW {
         advance_lanes::<_, true>(models, laws, t, step, record, sample)
     } else {
@@ -977,7 +965,10 @@ mod tests {
             let outcome = match arch {
                 Some(arch) => arch.dispatch(
                     #[inline(always)]
-                    || advance_any(&mut group, laws, [t0; L], step, &record, sample),
+                    || match laws.law == COMMON_LAW {
+                        true => advance_lanes::<_, true>(&mut group, laws, [t0; L], step, &record, sample),
+                        false => advance_lanes::<_, false>(&mut group, laws, [t0; L], step, &record, sample),
+                    },
                 ),
                 None => advance(&mut group, laws, [t0; L], step, &record, sample),
             };

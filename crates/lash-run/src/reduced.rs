@@ -713,6 +713,21 @@ pub(crate) fn run_reduced_together<'c, 's>(
     results.into_iter().map(|r| r.expect("every run ends")).collect()
 }
 
+/// The run's error for the master's `e` (a subsystem's failure at its time, else at `start`).
+fn run_error(e: lash_orchestrate::MasterError, start: f64) -> RunError {
+    match e {
+        lash_orchestrate::MasterError::Observer(e) => RunError::Output(e),
+        lash_orchestrate::MasterError::Subsystem { subsystem, source } => {
+            let (t, message) = match source {
+                lash_core::SubsystemError::Simulation { t, message } => (t, message),
+                other => (start, other.to_string()),
+            };
+            RunError::Simulation { t, message: format!("{subsystem} subsystem: {message}") }
+        }
+        e => RunError::Unsupported(e.to_string()),
+    }
+}
+
 /// The summary of a run of `c` that `recorder` observed: its channel statistics, the clearance
 /// summary from the micro subsystem's impacts, the master's counters; or the run's error.
 fn summarise(
@@ -724,18 +739,7 @@ fn summarise(
 ) -> Result<Summary, RunError> {
     let sim = c.simulation;
     let Recorder { stats, measurements, samples, max_ecc, sum_force, contact_samples, recording, .. } = recorder;
-    let master_stats = match master_stats {
-        Ok(s) => s,
-        Err(lash_orchestrate::MasterError::Observer(e)) => return Err(RunError::Output(e)),
-        Err(lash_orchestrate::MasterError::Subsystem { subsystem, source }) => {
-            let (t, message) = match source {
-                lash_core::SubsystemError::Simulation { t, message } => (t, message),
-                other => (sim.start_time, other.to_string()),
-            };
-            return Err(RunError::Simulation { t, message: format!("{subsystem} subsystem: {message}") });
-        }
-        Err(e) => return Err(RunError::Unsupported(e.to_string())),
-    };
+    let master_stats = master_stats.map_err(|e| run_error(e, sim.start_time))?;
     let horizon = sim.horizon;
     let t_end = sim.start_time + sim.horizon;
     let (measurements, measured) = measurements

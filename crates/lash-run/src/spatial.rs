@@ -42,27 +42,24 @@ pub fn build_spatial(s: &SpatialScenario, ideal: bool) -> SpatialFullModel {
     SpatialFullModel::new(mechanism, clearances)
 }
 
+/// The body of a scenario's `[[bodies]]` entry.
+fn spatial_body(b: &lash_scenario::spatial::SpatialBodySpec) -> SpatialBody {
+    let [w, x, y, z] = b.orientation;
+    SpatialBody {
+        name: b.name.clone(),
+        mass: b.mass,
+        inertia: inertia_tensor(b),
+        position: v3(b.position),
+        orientation: Orientation::from_quaternion(nalgebra::Quaternion::new(w, x, y, z)),
+        velocity: v3(b.velocity),
+        angular_velocity: v3(b.angular_velocity),
+    }
+}
+
 /// The spatial mechanism of `s` with its clearance joints left out (kept as written with
 /// `ideal`); `id` maps a body's name to its id.
 fn spatial_mechanism(s: &SpatialScenario, ideal: bool, id: &dyn Fn(&str) -> BodyId) -> SpatialMechanism {
-    let bodies: Vec<SpatialBody> = s
-        .bodies
-        .iter()
-        .map(|b| SpatialBody {
-            name: b.name.clone(),
-            mass: b.mass,
-            inertia: inertia_tensor(b),
-            position: v3(b.position),
-            orientation: Orientation::from_quaternion(nalgebra::Quaternion::new(
-                b.orientation[0],
-                b.orientation[1],
-                b.orientation[2],
-                b.orientation[3],
-            )),
-            velocity: v3(b.velocity),
-            angular_velocity: v3(b.angular_velocity),
-        })
-        .collect();
+    let bodies: Vec<SpatialBody> = s.bodies.iter().map(spatial_body).collect();
     let rotation = |body: BodyId| match body {
         BodyId::Ground => Orientation::identity(),
         BodyId::Body(k) => bodies[k].orientation,
@@ -333,24 +330,8 @@ impl SpatialRun {
         let (measurements, measured) = measurements
             .finish(t0, sim.output_interval)
             .map_err(|e| RunError::Simulation { t: t_end, message: e.to_string() })?;
-        let period = crate::run::driver_period(self.scenario.drivers.iter().map(|d| &d.motion));
-        let m = samples.max(1) as f64;
-        let clearances: Vec<crate::run::ClearanceSummary> = (0..nc)
-            .map(|k| {
-                let c = &self.model.clearances[k];
-                let mut impacts = self.model.impacts()[k].clone();
-                impacts.extend(self.model.open_impact(k, t_end));
-                ClearanceSummary::from_impacts(
-                    c.name.clone(),
-                    c.radial_clearance(),
-                    impacts,
-                    horizon,
-                    period,
-                    max_eccentricity[k],
-                    sum_force[k] / m,
-                )
-            })
-            .collect();
+        let mean_force: Vec<f64> = sum_force.iter().map(|f| f / samples.max(1) as f64).collect();
+        let clearances = self.clearance_summaries((t_end, horizon), &max_eccentricity, &mean_force);
         let channels = stats.channel_stats(sources.iter().map(|(c, _)| c), samples);
         let model = if self.ideal { "ideal" } else { "full" };
         Ok(Summary {
@@ -363,6 +344,34 @@ impl SpatialRun {
             measured,
             ..Summary::new(&self.scenario.name, model, sim.integrator, &sim, (cpu, wall), &ode)
         })
+    }
+
+    /// Each spherical joint's summary of a run that ended at `t_end` after `horizon`: its
+    /// impacts (the open one closed there), largest eccentricity and mean contact force.
+    fn clearance_summaries(
+        &self,
+        (t_end, horizon): (f64, f64),
+        max_eccentricity: &[f64],
+        mean_force: &[f64],
+    ) -> Vec<ClearanceSummary> {
+        let period = crate::run::driver_period(self.scenario.drivers.iter().map(|d| &d.motion));
+        let model = &self.model;
+        (0..model.clearances.len())
+            .map(|k| {
+                let c = &model.clearances[k];
+                let mut impacts = model.impacts()[k].clone();
+                impacts.extend(model.open_impact(k, t_end));
+                ClearanceSummary::from_impacts(
+                    c.name.clone(),
+                    c.radial_clearance(),
+                    impacts,
+                    horizon,
+                    period,
+                    max_eccentricity[k],
+                    mean_force[k],
+                )
+            })
+            .collect()
     }
 }
 
@@ -377,6 +386,21 @@ pub struct SpatialReducedRun {
     recording: crate::reduced::Recording,
     signals: Vec<lash_orchestrate::Signal>,
     master_options: lash_orchestrate::MasterOptions,
+}
+
+/// The micro subsystem's variable and element of spherical joint `j`'s channel `quantity`.
+fn micro_element(quantity: &str, j: usize) -> (&str, usize) {
+    match quantity {
+        "fx" => ("contact_force", 3 * j),
+        "fy" => ("contact_force", 3 * j + 1),
+        "fz" => ("contact_force", 3 * j + 2),
+        "force" => ("contact_force_magnitude", j),
+        "ex" => ("eccentricity", 3 * j),
+        "ey" => ("eccentricity", 3 * j + 1),
+        "ez" => ("eccentricity", 3 * j + 2),
+        "eccentricity" => ("eccentricity_norm", j),
+        other => (other, j),
+    }
 }
 
 /// The probe a recorded channel needs of the spatial macro subsystem (none: a micro or a fixed
@@ -403,17 +427,7 @@ fn spatial_probe_signal(
             (Some(lash_spatial::SpatialProbe::Point { name: p.clone(), body, point: Vec3::from(sen.point) }), signal)
         }
         SpatialSource::Clearance(j, q) => {
-            let (variable, element) = match SPATIAL_CLEARANCE_QUANTITIES[q as usize].0 {
-                "fx" => ("contact_force", 3 * j),
-                "fy" => ("contact_force", 3 * j + 1),
-                "fz" => ("contact_force", 3 * j + 2),
-                "force" => ("contact_force_magnitude", j),
-                "ex" => ("eccentricity", 3 * j),
-                "ey" => ("eccentricity", 3 * j + 1),
-                "ez" => ("eccentricity", 3 * j + 2),
-                "eccentricity" => ("eccentricity_norm", j),
-                other => (other, j),
-            };
+            let (variable, element) = micro_element(SPATIAL_CLEARANCE_QUANTITIES[q as usize].0, j);
             (None, Signal::Micro { name, variable: variable.into(), element })
         }
         SpatialSource::DriverTorque(d) => {

@@ -785,9 +785,9 @@ fn complete(
     Ok(report)
 }
 
-/// Combines the complete output folders of every shard of one sweep into `out`: the same
-/// data.parquet, params.parquet and manifest as a single-machine execution.
-pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
+/// The manifests of the complete shards in `inputs`: one sweep, each shard of it once, none
+/// missing.
+fn shard_manifests(inputs: &[PathBuf]) -> Result<Vec<Manifest>, SweepError> {
     let bad = SweepError::Input;
     if inputs.is_empty() {
         return Err(bad("merge: name the shard folders to merge".into()));
@@ -836,6 +836,15 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
     if !missing.is_empty() {
         return Err(bad(format!("merge: shards {} are missing", missing.join(", "))));
     }
+    Ok(manifests)
+}
+
+/// Combines the complete output folders of every shard of one sweep into `out`: the same
+/// data.parquet, params.parquet and manifest as a single-machine execution.
+pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<u64, SweepError> {
+    let bad = SweepError::Input;
+    let manifests = shard_manifests(inputs)?;
+    let first = &manifests[0];
     if let Some(m) = Manifest::read(out).map_err(|e| bad(e.to_string()))? {
         if m.sweep_hash != first.sweep_hash {
             return Err(bad(format!("--out {}: the folder holds another sweep's data", out.display())));

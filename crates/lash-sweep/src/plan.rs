@@ -224,21 +224,48 @@ pub fn reduced_options(spec: &SweepSpec, base: &AnyScenario) -> lash_run::Reduce
     options
 }
 
+/// A parameter's listed values: `values`, or `linspace`'s points (none for a `uniform` one).
+fn listed(p: &Parameter) -> Vec<f64> {
+    if let Some(v) = &p.values {
+        return v.clone();
+    }
+    if let Some(l) = p.linspace {
+        if l.count == 1 {
+            return vec![l.start];
+        }
+        return (0..l.count).map(|i| l.start + (l.stop - l.start) * i as f64 / (l.count - 1) as f64).collect();
+    }
+    Vec::new()
+}
+
+/// `n` runs of a Latin hypercube over `pars` (one stratum of each parameter per run, shuffled
+/// by `rng`; a listed parameter takes the value of its stratum's share of the list).
+fn latin_hypercube(pars: &[Parameter], n: usize, rng: &mut ChaCha8Rng) -> Vec<Vec<f64>> {
+    let mut columns: Vec<Vec<f64>> = Vec::with_capacity(pars.len());
+    for p in pars {
+        let mut strata: Vec<usize> = (0..n).collect();
+        strata.shuffle(rng);
+        let col = strata
+            .iter()
+            .map(|&s| {
+                let u = (s as f64 + rng.random::<f64>()) / n as f64;
+                match p.uniform {
+                    Some(r) => r.low + (r.high - r.low) * u,
+                    None => {
+                        let l = listed(p);
+                        l[((u * l.len() as f64) as usize).min(l.len() - 1)]
+                    }
+                }
+            })
+            .collect();
+        columns.push(col);
+    }
+    (0..n).map(|i| columns.iter().map(|c| c[i]).collect()).collect()
+}
+
 /// The runs' parameter values.
 fn design(spec: &SweepSpec) -> Vec<RunSpec> {
     let pars = &spec.parameters;
-    let listed = |p: &Parameter| -> Vec<f64> {
-        if let Some(v) = &p.values {
-            return v.clone();
-        }
-        if let Some(l) = p.linspace {
-            if l.count == 1 {
-                return vec![l.start];
-            }
-            return (0..l.count).map(|i| l.start + (l.stop - l.start) * i as f64 / (l.count - 1) as f64).collect();
-        }
-        Vec::new()
-    };
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
     // Stream u64::MAX is reserved for the design; runs use streams 0, 1, 2, …
     rng.set_stream(u64::MAX);
@@ -277,29 +304,7 @@ fn design(spec: &SweepSpec) -> Vec<RunSpec> {
                 })
                 .collect()
         }
-        Sampling::LatinHypercube => {
-            let n = spec.runs.unwrap_or(0) as usize;
-            let mut columns: Vec<Vec<f64>> = Vec::with_capacity(pars.len());
-            for p in pars {
-                let mut strata: Vec<usize> = (0..n).collect();
-                strata.shuffle(&mut rng);
-                let col = strata
-                    .iter()
-                    .map(|&s| {
-                        let u = (s as f64 + rng.random::<f64>()) / n as f64;
-                        match p.uniform {
-                            Some(r) => r.low + (r.high - r.low) * u,
-                            None => {
-                                let l = listed(p);
-                                l[((u * l.len() as f64) as usize).min(l.len() - 1)]
-                            }
-                        }
-                    })
-                    .collect();
-                columns.push(col);
-            }
-            (0..n).map(|i| columns.iter().map(|c| c[i]).collect()).collect()
-        }
+        Sampling::LatinHypercube => latin_hypercube(pars, spec.runs.unwrap_or(0) as usize, &mut rng),
     };
     values
         .into_iter()
