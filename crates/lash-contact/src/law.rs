@@ -4,13 +4,9 @@ use lash_core::Problems;
 use lash_core::lane::Real;
 use serde::{Deserialize, Serialize};
 
-/// ADAMS STEP: a cubic from (x0, h0) to (x1, h1) with zero slope at both ends, constant outside.
-pub fn step(x: f64, x0: f64, h0: f64, x1: f64, h1: f64) -> f64 {
-    step_of(x, x0, h0, x1, h1)
-}
-
-/// [`step`] for one run or several side by side: the ends are branches where every lane is
-/// beyond the same end (for one run, the scalar `if`s), selections otherwise.
+/// ADAMS STEP: a cubic from (x0, h0) to (x1, h1) with zero slope at both ends, constant outside;
+/// for one run or several side by side: the ends are branches where every lane is beyond the
+/// same end (for one run, the scalar `if`s), selections otherwise.
 #[inline(always)]
 pub fn step_of<R: Real>(x: R, x0: R, h0: R, x1: R, h1: R) -> R {
     let (below, above) = (x.simd_le(x0), x.simd_ge(x1));
@@ -225,6 +221,18 @@ pub fn power_of<R: Real>(delta: R, n: f64) -> R {
     }
 }
 
+/// K δⁿ (power law), unclipped.
+#[inline(always)]
+pub fn power_force<R: Real>(stiffness: R, exponent: f64, delta: R) -> R {
+    stiffness * power_of(delta, exponent)
+}
+
+/// K δ + D δ̇ (Kelvin–Voigt), unclipped.
+#[inline(always)]
+pub fn kelvin_voigt_force<R: Real>(stiffness: R, damping: R, delta: R, delta_dot: R) -> R {
+    stiffness * delta + damping * delta_dot
+}
+
 /// K δⁿ + STEP(δ, 0, 0, d_max, C_max) δ̇ (ADAMS IMPACT), unclipped.
 #[inline(always)]
 pub fn adams_impact_force<R: Real>(
@@ -291,8 +299,8 @@ impl LaneLaw {
     #[inline(always)]
     pub fn force<R: Real>(&self, p: &[R; 4], (delta, delta_dot): (R, R), onset: R, reciprocal: R) -> R {
         match *self {
-            LaneLaw::Power(n) => p[0] * power_of(delta, n),
-            LaneLaw::KelvinVoigt => p[0] * delta + p[1] * delta_dot,
+            LaneLaw::Power(n) => power_force(p[0], n, delta),
+            LaneLaw::KelvinVoigt => kelvin_voigt_force(p[0], p[1], delta, delta_dot),
             LaneLaw::Hysteresis(n) => hysteresis_force(p[0], power_of(delta, n), p[1], delta_dot, reciprocal),
             LaneLaw::AdamsImpact(n) => adams_impact_force((p[0], n, p[1], p[2]), delta, delta_dot),
             LaneLaw::Liu => liu_force((p[0], p[1], p[2], p[3]), delta, delta_dot, onset),
@@ -308,25 +316,15 @@ impl NormalForce {
         if delta <= 0.0 {
             return 0.0;
         }
-        // (The laws' arithmetic is [`LaneLaw`]'s, written once for a run and for the lanes; each
-        // arm passes its own numbers, so that one run pays no gathering of them.)
+        // (Each law's arithmetic is one function over `Real`, which [`LaneLaw::force`] calls for
+        // the lanes.)
         let f = match *self {
-            NormalForce::Power { stiffness, exponent } => {
-                LaneLaw::Power(exponent).force(&[stiffness, 0.0, 0.0, 0.0], (delta, delta_dot), onset, 0.0)
-            }
-            NormalForce::KelvinVoigt { stiffness, damping } => {
-                LaneLaw::KelvinVoigt.force(&[stiffness, damping, 0.0, 0.0], (delta, delta_dot), onset, 0.0)
-            }
+            NormalForce::Power { stiffness, exponent } => power_force(stiffness, exponent, delta),
+            NormalForce::KelvinVoigt { stiffness, damping } => kelvin_voigt_force(stiffness, damping, delta, delta_dot),
             NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
                 // (χ δ̇ times the reciprocal of the onset velocity: a contact's reciprocal is one
                 // number for all its steps, which the micro step's lanes form once.)
-                let reciprocal = onset_reciprocal(onset, floor);
-                LaneLaw::Hysteresis(exponent).force(
-                    &[stiffness, chi, floor, 0.0],
-                    (delta, delta_dot),
-                    onset,
-                    reciprocal,
-                )
+                hysteresis_force(stiffness, power_of(delta, exponent), chi, delta_dot, onset_reciprocal(onset, floor))
             }
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
                 adams_impact_force((stiffness, exponent, max_damping, damping_depth), delta, delta_dot)
@@ -355,7 +353,7 @@ impl NormalForce {
                 // d/dδ of K δⁿ and of the STEP's cubic blend (flat beyond d_max).
                 let d = delta / damping_depth;
                 let blend = if d >= 1.0 { 0.0 } else { max_damping * 6.0 * d * (1.0 - d) / damping_depth };
-                exponent * (stiffness * pow(delta, exponent)) / delta + blend * delta_dot
+                exponent * (stiffness * power_of(delta, exponent)) / delta + blend * delta_dot
             }
             NormalForce::Liu { clearance, .. } => f * (1.5 / delta - 0.5 / (clearance + delta)),
         };
@@ -370,14 +368,14 @@ impl NormalForce {
             return (0.0, 0.0);
         }
         match *self {
-            NormalForce::Power { stiffness, exponent } => (stiffness * pow(delta, exponent), 0.0),
+            NormalForce::Power { stiffness, exponent } => (stiffness * power_of(delta, exponent), 0.0),
             NormalForce::KelvinVoigt { stiffness, damping } => (stiffness * delta, damping),
             NormalForce::Hysteresis { stiffness, exponent, chi, floor } => {
-                let p = stiffness * pow(delta, exponent);
+                let p = stiffness * power_of(delta, exponent);
                 (p, p * chi / onset.max(floor))
             }
             NormalForce::AdamsImpact { stiffness, exponent, max_damping, damping_depth } => {
-                (stiffness * pow(delta, exponent), step(delta, 0.0, 0.0, damping_depth, max_damping))
+                (stiffness * power_of(delta, exponent), step_of(delta, 0.0, 0.0, damping_depth, max_damping))
             }
             NormalForce::Liu { factor, clearance, chi, floor } => {
                 let p = factor * delta * (delta / (2.0 * (clearance + delta))).sqrt();
@@ -557,10 +555,6 @@ fn solve_series(delta: f64, k: f64, f: impl Fn(f64) -> (f64, f64)) -> (f64, f64)
         x = next;
     }
     (x, slope)
-}
-
-fn pow(delta: f64, n: f64) -> f64 {
-    power_of(delta, n)
 }
 
 impl ContactLaw {
@@ -831,10 +825,10 @@ mod tests {
 
     #[test]
     fn step_matches_its_definition() {
-        assert_eq!(step(-1.0, 0.0, 0.0, 1.0, 5.0), 0.0);
-        assert_eq!(step(2.0, 0.0, 0.0, 1.0, 5.0), 5.0);
-        assert!((step(0.5, 0.0, 0.0, 1.0, 5.0) - 2.5).abs() < 1e-15);
-        assert!((step(0.25, 0.0, 1.0, 1.0, 3.0) - (1.0 + 2.0 * 0.0625 * 2.5)).abs() < 1e-15);
+        assert_eq!(step_of(-1.0, 0.0, 0.0, 1.0, 5.0), 0.0);
+        assert_eq!(step_of(2.0, 0.0, 0.0, 1.0, 5.0), 5.0);
+        assert!((step_of(0.5, 0.0, 0.0, 1.0, 5.0) - 2.5).abs() < 1e-15);
+        assert!((step_of(0.25, 0.0, 1.0, 1.0, 3.0) - (1.0 + 2.0 * 0.0625 * 2.5)).abs() < 1e-15);
     }
 
     fn hyst(restitution: f64) -> HysteresisParams {

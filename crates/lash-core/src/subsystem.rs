@@ -716,13 +716,6 @@ pub struct SavedPorts {
     two_way: TwoWayInputs,
 }
 
-impl SavedPorts {
-    /// The communication point the state was saved at.
-    pub fn time(&self) -> Ticks {
-        self.time
-    }
-}
-
 /// The calls of [`Subsystem`] that a macro subsystem answers from its [`MacroPorts`] field
 /// `ports` alone (`name`, `variables`, `setup`, `set_f64`, `get_f64`, `time`), written once for
 /// the planar and the spatial mechanism: used inside their `impl Subsystem` blocks.

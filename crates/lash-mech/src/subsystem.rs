@@ -648,7 +648,7 @@ impl Subsystem for MechanismSubsystem {
         self.ports.restore(&s.ports);
         self.last_prescribed.clone_from(&s.last_prescribed);
         if self.ports.phase == Phase::Stepping {
-            let t = s.ports.time().seconds();
+            let t = self.ports.time.seconds();
             self.refresh(None, false).map_err(|m| SubsystemError::Simulation { t, message: m })?;
         }
         Ok(())

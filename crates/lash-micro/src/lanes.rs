@@ -115,7 +115,7 @@ impl std::ops::Mul<f64> for Plane {
 /// The second to fourth stages of every lane's step ([`stages::rk4`]): the joints and inputs, the
 /// terms at the step's middle and end (time past the inputs' node, M̃ with its determinant's
 /// reciprocal, the journal's and the bearing's angular velocities), each lane's contact mode and
-/// its onset velocity's reciprocal.
+/// its onset velocity with that velocity's reciprocal.
 struct LaterStages<'a, const COMMON: bool> {
     joint: &'a Joint,
     inputs: &'a Inputs,
@@ -196,17 +196,19 @@ struct States {
 impl Joint {
     fn of(models: &[&mut OneJoint; L], laws: LaneLaws) -> Self {
         let each = |f: &dyn Fn(&ClearanceJoint) -> f64| std::array::from_fn(|l| f(&models[l].joints[0]));
-        let law = |j: &ClearanceJoint| LaneLaw::of(&j.law).1;
-        let friction = |j: &ClearanceJoint| LaneFriction::of(&j.friction).1;
+        // Each lane's numbers (lane-major), then as lanes per number.
+        let law: [[f64; 4]; L] = std::array::from_fn(|l| LaneLaw::of(&models[l].joints[0].law).1);
+        let friction: [[f64; 4]; L] = std::array::from_fn(|l| LaneFriction::of(&models[l].joints[0].friction).1);
+        let lanes = |numbers: &[[f64; 4]; L]| std::array::from_fn(|k| std::array::from_fn(|l| numbers[l][k]));
         Self {
             clearance: each(&|j| j.radial_clearance()),
             journal_radius: each(&|j| j.journal_radius),
             bearing_radius: each(&|j| j.bearing_radius),
             law: laws.law,
-            law_numbers: std::array::from_fn(|k| each(&|j| law(j)[k])),
-            floor: each(&|j| laws.law.floor(&law(j))),
+            law_numbers: lanes(&law),
+            floor: std::array::from_fn(|l| laws.law.floor(&law[l])),
             friction: laws.friction,
-            friction_numbers: std::array::from_fn(|k| each(&|j| friction(j)[k])),
+            friction_numbers: lanes(&friction),
         }
     }
 
@@ -649,8 +651,14 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
     let mut lanes_changed = false;
     // Each lane's δ̇⁻ and 1 / max(δ̇⁻, floor) (`onset_reciprocal`), formed again where its onset
     // changes.
-    let mut onset: V = std::array::from_fn(|l| models[l].joints[0].onset_velocity);
-    let mut reciprocal: V = std::array::from_fn(|l| onset_reciprocal(onset[l], joint.floor[l]));
+    let (mut onset, mut reciprocal): (V, V) = ([0.0; L], [0.0; L]);
+    let take_onset = |l: usize, m: &OneJoint, onset: &mut V, reciprocal: &mut V| {
+        onset[l] = m.joints[0].onset_velocity;
+        reciprocal[l] = onset_reciprocal(onset[l], joint.floor[l]);
+    };
+    for (l, m) in models.iter().enumerate() {
+        take_onset(l, m, &mut onset, &mut reciprocal);
+    }
     // (The lanes of a sweep share their time: one conversion per step.)
     let shared = t.iter().all(|&x| x == t[0]);
     for (i, &flag) in record.iter().enumerate() {
@@ -747,8 +755,7 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
             m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
             kept.trackers.set(l, m.open[0]);
             in_contact[l] = m.joints[0].in_contact;
-            onset[l] = m.joints[0].onset_velocity;
-            reciprocal[l] = onset_reciprocal(onset[l], joint.floor[l]);
+            take_onset(l, m, &mut onset, &mut reciprocal);
             contact_mask = X::mask(in_contact);
         }
         // The step end's contact state (not gated), then the impact trackers.
@@ -777,8 +784,7 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
                     let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
                     by_model[l] = !kept.gather(l, models[l], next);
                     in_contact[l] = models[l].joints[0].in_contact;
-                    onset[l] = models[l].joints[0].onset_velocity;
-                    reciprocal[l] = onset_reciprocal(onset[l], joint.floor[l]);
+                    take_onset(l, models[l], &mut onset, &mut reciprocal);
                     contact_mask = X::mask(in_contact);
                     lanes_changed = true;
                 }
