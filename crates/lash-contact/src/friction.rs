@@ -211,11 +211,12 @@ impl FrictionLaw {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn laws() -> [FrictionLaw; 5] {
+    /// One of every friction law (the crate's tests of the laws and of the joints over them).
+    pub(crate) fn laws() -> [FrictionLaw; 5] {
         [
             FrictionLaw::None,
             FrictionLaw::Coulomb { coefficient: 0.1 },

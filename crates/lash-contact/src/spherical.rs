@@ -11,10 +11,88 @@
 
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;
+use lash_core::lane::Real;
 use lash_mech::BodyId;
 use lash_spatial::Vec3;
 use lash_spatial::constraints::BodyFrame;
 use serde::Serialize;
+
+/// a·b, summed as nalgebra sums a 3-vector's (so a run's values keep their bits).
+#[inline(always)]
+pub fn dot<R: Real>(a: [R; 3], b: [R; 3]) -> R {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// a × b, each component formed as nalgebra forms it.
+#[inline(always)]
+pub fn cross<R: Real>(a: [R; 3], b: [R; 3]) -> [R; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+/// The motion of a spherical clearance joint at one state ([`spherical_motion`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphericalMotion<R> {
+    /// |e| \[m\].
+    pub norm: R,
+    /// n = e/|e| ((1, 0, 0) at the centre).
+    pub normal: [R; 3],
+    /// δ = |e| − c \[m\].
+    pub penetration: R,
+    /// δ̇ = ė·n [m/s].
+    pub penetration_rate: R,
+    /// The contact points' relative velocity's tangential part v_t [m/s].
+    pub slip: [R; 3],
+    /// |v_t| [m/s].
+    pub speed: R,
+}
+
+/// The geometry and motion of a spherical clearance joint of clearance `clearance` and radii
+/// `[R_J, R_B]` at eccentricity `e`, its rate `e_dot` and the ball's and socket's angular
+/// velocities `[ω_J, ω_B]` (world frame), for one run or several side by side ([`Real`]): the
+/// one source of [`SphericalClearance::evaluate_relative`] and of any lanes.
+#[inline(always)]
+pub fn spherical_motion<R: Real>(
+    e: [R; 3],
+    e_dot: [R; 3],
+    [omega_journal, omega_bearing]: [[R; 3]; 2],
+    [journal_radius, bearing_radius]: [R; 2],
+    clearance: R,
+) -> SphericalMotion<R> {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    let norm = dot(e, e).sqrt();
+    // One division, then products (three divisions were a fifth of the evaluation).
+    let positive = norm.simd_gt(zero);
+    let inverse = one / norm;
+    let normal = [
+        R::select(positive, e[0] * inverse, one),
+        R::select(positive, e[1] * inverse, zero),
+        R::select(positive, e[2] * inverse, zero),
+    ];
+    let penetration_rate = dot(e_dot, normal);
+    let at = |r: R| normal.map(|x| x * r);
+    let (spin_j, spin_b) = (cross(omega_journal, at(journal_radius)), cross(omega_bearing, at(bearing_radius)));
+    let relative: [R; 3] = std::array::from_fn(|i| e_dot[i] + spin_j[i] - spin_b[i]);
+    let along = dot(relative, normal);
+    let slip: [R; 3] = std::array::from_fn(|i| relative[i] - normal[i] * along);
+    SphericalMotion {
+        norm,
+        normal,
+        penetration: norm - clearance,
+        penetration_rate,
+        slip,
+        speed: dot(slip, slip).sqrt(),
+    }
+}
+
+/// The force on the ball, −F_N n − F_T v_t/|v_t|, of a normal force `normal` and a friction force
+/// `friction` at the motion `m` (no friction direction without slip).
+#[inline(always)]
+pub fn spherical_load<R: Real>(m: &SphericalMotion<R>, normal: R, friction: R) -> [R; 3] {
+    let zero = R::splat(0.0);
+    // −F_T v_t/|v_t| as one scale of the slip.
+    let along_slip = R::select(m.speed.simd_gt(zero), friction / m.speed, zero);
+    std::array::from_fn(|i| -(m.normal[i] * normal) - m.slip[i] * along_slip)
+}
 
 /// A spherical joint with radial clearance.
 #[derive(Debug, Clone, PartialEq)]
@@ -106,30 +184,22 @@ impl SphericalClearance {
         omega_bearing: Vec3,
         onset: f64,
     ) -> SphericalContactState {
-        let norm = e.norm();
-        // One division, then products (three divisions were a fifth of the evaluation).
-        let n = if norm > 0.0 { e * (1.0 / norm) } else { Vec3::x() };
-        let delta = norm - self.radial_clearance();
-        let delta_dot = e_dot.dot(&n);
-        let fn_ = self.law.force(delta, delta_dot, onset);
-        let relative =
-            e_dot + omega_journal.cross(&(n * self.journal_radius)) - omega_bearing.cross(&(n * self.bearing_radius));
-        let slip = relative - n * relative.dot(&n);
-        let speed = slip.norm();
-        let ft = if fn_ > 0.0 { self.friction.coefficient(speed) * fn_ } else { 0.0 };
-        // −F_T v_t/|v_t| as one scale of the slip.
-        let along_slip = if speed > 0.0 { ft / speed } else { 0.0 };
+        let v = |a: Vec3| [a.x, a.y, a.z];
+        let radii = [self.journal_radius, self.bearing_radius];
+        let m = spherical_motion(v(e), v(e_dot), [v(omega_journal), v(omega_bearing)], radii, self.radial_clearance());
+        let fn_ = self.law.force(m.penetration, m.penetration_rate, onset);
+        let ft = if fn_ > 0.0 { self.friction.coefficient(m.speed) * fn_ } else { 0.0 };
         SphericalContactState {
             journal_centre: Vec3::zeros(),
             eccentricity: e,
-            eccentricity_norm: norm,
-            normal: n,
-            penetration: delta,
-            penetration_rate: delta_dot,
-            slip_velocity: slip,
+            eccentricity_norm: m.norm,
+            normal: m.normal.into(),
+            penetration: m.penetration,
+            penetration_rate: m.penetration_rate,
+            slip_velocity: m.slip.into(),
             normal_force: fn_,
             friction_force: ft,
-            force_on_journal: -(n * fn_) - slip * along_slip,
+            force_on_journal: spherical_load(&m, fn_, ft).into(),
         }
     }
 
@@ -188,6 +258,117 @@ mod tests {
         let (arm_j, arm_b) = c.arms(&journal, &BodyFrame::ground(), &s);
         assert!((arm_j - Vec3::new(0.0, 0.0, 0.00575)).norm() < 1e-12);
         assert!((arm_b - Vec3::new(0.0, 0.0, 0.006)).norm() < 1e-12);
+    }
+
+    /// The spherical joint's evaluation over eight lanes — its motion, every contact law, every
+    /// friction law and the load, as lanes would assemble them — is the scalar
+    /// [`SphericalClearance::evaluate_relative`] lane by lane, bit for bit: free flight, the
+    /// centre, contact with and without slip, a rolling ball, onsets below and above the floor.
+    #[test]
+    fn the_evaluation_in_lanes_is_the_scalar_one_bit_for_bit() {
+        use crate::friction::{LaneFriction, lane_coefficient};
+        use crate::law::{LaneLaw, onset_reciprocal};
+        use lash_core::lane::{F64x8, LANES};
+        let c = 0.00025;
+        let e: [[f64; 3]; LANES] = [
+            [1e-4, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [c + 1e-6, 0.0, 0.0],
+            [0.0, -(c + 3e-6), 1e-5],
+            [1.5e-4, 1.5e-4, 1.5e-4],
+            [-2e-4, 1e-4, 1.2e-4],
+            [0.0, 0.0, c + 2e-5],
+            [c * 0.6, c * 0.8, 0.0],
+        ];
+        let e_dot = [
+            [0.3, 0.1, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.05, 0.0],
+            [0.01, -0.2, 0.3],
+            [0.0; 3],
+            [-1.0, 2.0, 0.5],
+            [0.2, 0.0, 1e-3],
+            [0.0, 0.0, 0.4],
+        ];
+        let wj = [
+            [0.0; 3],
+            [0.0, 0.0, 5.0],
+            [0.0, 0.0, -0.05 / 0.00575],
+            [3.0, -2.0, 1.0],
+            [0.0, 10.0, 0.0],
+            [-4.0, 0.0, 2.0],
+            [0.0; 3],
+            [1.0, 1.0, 1.0],
+        ];
+        let wb = [[0.0; 3], [0.0; 3], [0.0; 3], [0.0, 1.0, 0.0], [0.0; 3], [2.0, 2.0, 0.0], [0.0, 0.0, 7.0], [0.0; 3]];
+        let onset = [0.0, 1e-5, 0.2, 1.0, 3.0, 0.5, 1e-4, 0.05];
+        let laws = [
+            NormalForce::Power { stiffness: 1e10, exponent: 1.5 },
+            NormalForce::KelvinVoigt { stiffness: 1e8, damping: 3e3 },
+            NormalForce::Hysteresis { stiffness: 5e9, exponent: 1.5, chi: 0.3, floor: 1e-4 },
+            NormalForce::AdamsImpact { stiffness: 1e10, exponent: 2.2, max_damping: 1e4, damping_depth: 2e-6 },
+            NormalForce::Liu { factor: 3e9, clearance: c, chi: 0.2, floor: 1e-4 },
+        ];
+        let frictions = crate::friction::tests::laws();
+        let lanes = |a: &[[f64; 3]; LANES]| -> [F64x8; 3] { std::array::from_fn(|i| F64x8(a.map(|v| v[i]))) };
+        for (law, friction) in laws.iter().flat_map(|l| frictions.iter().map(move |f| (l, f))) {
+            let joint = SphericalClearance { journal_point: Vec3::zeros(), law: *law, friction: *friction, ..ball() };
+            let (kind, numbers) = LaneLaw::of(law);
+            let (friction_kind, friction_numbers) = LaneFriction::of(friction);
+            let radii = [joint.journal_radius, joint.bearing_radius].map(F64x8::splat);
+            let m = spherical_motion(
+                lanes(&e),
+                lanes(&e_dot),
+                [lanes(&wj), lanes(&wb)],
+                radii,
+                F64x8::splat(joint.radial_clearance()),
+            );
+            let o = F64x8(onset);
+            let reciprocal = onset_reciprocal(o, F64x8::splat(kind.floor(&numbers)));
+            let f = kind.force(&numbers.map(F64x8::splat), (m.penetration, m.penetration_rate), o, reciprocal);
+            let zero = F64x8::ZERO;
+            let normal = m.penetration.simd_le(zero).select(zero, f.max(zero));
+            let coefficient = lane_coefficient(friction_kind, &friction_numbers.map(F64x8::splat), m.speed);
+            let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
+            let load = spherical_load(&m, normal, tangential);
+            let v = |a: [f64; 3]| Vec3::from(a);
+            for l in 0..LANES {
+                let s = joint.evaluate_relative(v(e[l]), v(e_dot[l]), v(wj[l]), v(wb[l]), onset[l]);
+                let lane = [
+                    m.norm[l],
+                    m.penetration[l],
+                    m.penetration_rate[l],
+                    normal[l],
+                    tangential[l],
+                    m.normal[0][l],
+                    m.normal[1][l],
+                    m.normal[2][l],
+                    m.slip[0][l],
+                    m.slip[1][l],
+                    m.slip[2][l],
+                    load[0][l],
+                    load[1][l],
+                    load[2][l],
+                ];
+                let scalar = [
+                    s.eccentricity_norm,
+                    s.penetration,
+                    s.penetration_rate,
+                    s.normal_force,
+                    s.friction_force,
+                    s.normal.x,
+                    s.normal.y,
+                    s.normal.z,
+                    s.slip_velocity.x,
+                    s.slip_velocity.y,
+                    s.slip_velocity.z,
+                    s.force_on_journal.x,
+                    s.force_on_journal.y,
+                    s.force_on_journal.z,
+                ];
+                assert_eq!(lane.map(f64::to_bits), scalar.map(f64::to_bits), "{law:?}, {friction:?}, lane {l}");
+            }
+        }
     }
 
     #[test]
