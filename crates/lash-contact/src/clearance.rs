@@ -45,6 +45,102 @@ pub fn journal_load<R: Real>([nx, ny]: [R; 2], normal: R, friction: R) -> [R; 2]
     [-(nx * normal) - -ny * friction, -(ny * normal) - nx * friction]
 }
 
+/// The laws of one contact as [`planar_contact`], [`crate::spherical::spherical_contact`] and a
+/// translational joint's corner evaluate them, for one run ([`OneContact`]) or several side by
+/// side (the micro step's lanes). Methods, not closures: called from the lanes' step, a closure
+/// was compiled out of line and cost the lanes half again their time.
+pub trait ContactLaws<R: Real> {
+    /// The normal force at penetration `delta` > 0 and its rate `delta_dot`, clipped at zero.
+    fn normal_force(&self, delta: R, delta_dot: R) -> R;
+    /// The friction coefficient at the slip (planar: signed; spherical: the slip speed).
+    fn friction_coefficient(&self, slip: R) -> R;
+}
+
+/// The laws of one contact of one run: its normal force law at the onset velocity `onset`, in
+/// series with a bush of stiffness `series` when `SERIES` (the rigid path leaves the series solve
+/// out of the code), and its friction law.
+pub struct OneContact<'a, const SERIES: bool> {
+    /// The normal force law.
+    pub law: &'a NormalForce,
+    /// The friction law.
+    pub friction: &'a FrictionLaw,
+    /// δ̇⁻ of the current contact [m/s].
+    pub onset: f64,
+    /// The stiffness of a bush in series [N/m] (read only when `SERIES`; infinite: none).
+    pub series: f64,
+}
+
+impl<const SERIES: bool> ContactLaws<f64> for OneContact<'_, SERIES> {
+    #[inline(always)]
+    fn normal_force(&self, delta: f64, delta_dot: f64) -> f64 {
+        if SERIES && self.series.is_finite() {
+            self.law.force_in_series(delta, delta_dot, self.onset, self.series)
+        } else {
+            self.law.force(delta, delta_dot, self.onset)
+        }
+    }
+    #[inline(always)]
+    fn friction_coefficient(&self, slip: f64) -> f64 {
+        self.friction.coefficient(slip)
+    }
+}
+
+/// The normal and friction forces of a contact at penetration `delta`, rate `delta_dot` and slip
+/// `slip` (for one run, or several side by side): F_N the law's where the contact indents (δ > 0),
+/// F_T = μ F_N where F_N > 0, zero elsewhere. One run does not evaluate a law it does not need
+/// (free flight); lanes evaluate both for every lane and select (a branch in the middle of their
+/// arithmetic costs them more than the laws).
+#[inline(always)]
+pub fn contact_forces<R: Real>(laws: &impl ContactLaws<R>, (delta, delta_dot): (R, R), slip: R) -> (R, R) {
+    let zero = R::splat(0.0);
+    let indents = delta.simd_gt(zero);
+    if R::WIDTH == 1 && !R::any(indents) {
+        return (zero, zero);
+    }
+    let normal = R::select(indents, laws.normal_force(delta, delta_dot), zero);
+    let loaded = normal.simd_gt(zero);
+    if R::WIDTH == 1 && !R::any(loaded) {
+        return (normal, zero);
+    }
+    (normal, R::select(loaded, laws.friction_coefficient(slip) * normal, zero))
+}
+
+/// A planar revolute clearance joint's contact at one state ([`planar_contact`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanarContact<R> {
+    /// n = e/|e|.
+    pub normal: [R; 2],
+    /// δ̇ = ė·n [m/s].
+    pub penetration_rate: R,
+    /// v_t [m/s].
+    pub slip: R,
+    /// F_N \[N\].
+    pub normal_force: R,
+    /// F_T \[N\].
+    pub friction_force: R,
+    /// The force on the journal, −F_N n − F_T t \[N\].
+    pub load: [R; 2],
+}
+
+/// The contact of a planar revolute clearance joint with the laws `laws` at eccentricity `e` of
+/// norm and penetration `geometry` ([`penetration`]), its rate `e_dot`, the angular velocities
+/// `omega` and the radii `radii` (journal's, bearing's) — for one run, or several side by side: the
+/// one source of [`ClearanceJoint::evaluate_relative`] and of the micro step's lanes.
+#[inline(always)]
+pub fn planar_contact<R: Real>(
+    laws: &impl ContactLaws<R>,
+    e: [R; 2],
+    (norm, delta): (R, R),
+    e_dot: [R; 2],
+    omega: [R; 2],
+    radii: [R; 2],
+) -> PlanarContact<R> {
+    let (normal, penetration_rate, slip) = normal_motion(e, norm, e_dot, omega, radii);
+    let (normal_force, friction_force) = contact_forces(laws, (delta, penetration_rate), slip);
+    let load = journal_load(normal, normal_force, friction_force);
+    PlanarContact { normal, penetration_rate, slip, normal_force, friction_force, load }
+}
+
 /// Penetrations beyond this fraction of the journal radius are a blow-up, not contact (full
 /// models, micro model and its lanes alike).
 pub const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
@@ -260,7 +356,8 @@ impl ClearanceJoint {
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn state(&self, e: Vec2, n: Vec2, norm: f64, delta: f64, delta_dot: f64, slip: f64, fn_: f64) -> ContactState {
-        // No normal force, no friction (skips the friction law in free flight).
+        // No normal force, no friction (skips the friction law in free flight; [`contact_forces`]
+        // for the laws in series with a damped bush, whose normal force comes with its rate).
         let ft = if fn_ > 0.0 { self.friction.coefficient(slip) * fn_ } else { 0.0 };
         ContactState {
             journal_centre: Vec2::zeros(),
@@ -305,13 +402,23 @@ impl ClearanceJoint {
         onset: f64,
     ) -> ContactState {
         debug_assert!(SERIES || self.bush_stiffness == f64::INFINITY, "a bushed joint on the rigid path");
-        let (n, norm, delta, delta_dot, slip) = self.relative_kinematics(e, e_dot, omega_journal, omega_bearing);
-        let fn_ = if SERIES && self.bush_stiffness.is_finite() {
-            self.law.force_in_series(delta, delta_dot, onset, self.bush_stiffness)
-        } else {
-            self.law.force(delta, delta_dot, onset)
-        };
-        self.state(e, n, norm, delta, delta_dot, slip, fn_)
+        let geometry = penetration([e.x, e.y], self.radial_clearance());
+        let laws =
+            OneContact::<SERIES> { law: &self.law, friction: &self.friction, onset, series: self.bush_stiffness };
+        let radii = [self.journal_radius, self.bearing_radius];
+        let c = planar_contact(&laws, [e.x, e.y], geometry, [e_dot.x, e_dot.y], [omega_journal, omega_bearing], radii);
+        ContactState {
+            journal_centre: Vec2::zeros(),
+            eccentricity: e,
+            eccentricity_norm: geometry.0,
+            normal: c.normal.into(),
+            penetration: geometry.1,
+            penetration_rate: c.penetration_rate,
+            slip_velocity: c.slip,
+            normal_force: c.normal_force,
+            friction_force: c.friction_force,
+            force_on_journal: c.load.into(),
+        }
     }
 
     /// World-frame arms from the journal body's and the bearing body's centroids to the contact

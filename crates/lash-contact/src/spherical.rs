@@ -9,6 +9,7 @@
 //! P_J; the socket receives −f_J at P_B. The normal force passes through both centres; the
 //! friction force has moments R_J n × f and R_B n × (−f) about them.
 
+use crate::clearance::{ContactLaws, OneContact, contact_forces};
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;
 use lash_core::lane::Real;
@@ -92,6 +93,37 @@ pub fn spherical_load<R: Real>(m: &SphericalMotion<R>, normal: R, friction: R) -
     // −F_T v_t/|v_t| as one scale of the slip.
     let along_slip = R::select(m.speed.simd_gt(zero), friction / m.speed, zero);
     std::array::from_fn(|i| -(m.normal[i] * normal) - m.slip[i] * along_slip)
+}
+
+/// A spherical clearance joint's contact at one state ([`spherical_contact`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphericalContact<R> {
+    /// The geometry and motion.
+    pub motion: SphericalMotion<R>,
+    /// F_N \[N\].
+    pub normal_force: R,
+    /// F_T (its magnitude) \[N\].
+    pub friction_force: R,
+    /// The force on the ball \[N\].
+    pub load: [R; 3],
+}
+
+/// The contact of a spherical clearance joint with the laws `laws` ([`spherical_motion`]'s
+/// arguments) for one run or several side by side: the one source of
+/// [`SphericalClearance::evaluate_relative`] and of any lanes.
+#[inline(always)]
+pub fn spherical_contact<R: Real>(
+    laws: &impl ContactLaws<R>,
+    (e, e_dot): ([R; 3], [R; 3]),
+    omega: [[R; 3]; 2],
+    radii: [R; 2],
+    clearance: R,
+) -> SphericalContact<R> {
+    let motion = spherical_motion(e, e_dot, omega, radii, clearance);
+    let (normal_force, friction_force) =
+        contact_forces(laws, (motion.penetration, motion.penetration_rate), motion.speed);
+    let load = spherical_load(&motion, normal_force, friction_force);
+    SphericalContact { motion, normal_force, friction_force, load }
 }
 
 /// A spherical joint with radial clearance.
@@ -185,10 +217,11 @@ impl SphericalClearance {
         onset: f64,
     ) -> SphericalContactState {
         let v = |a: Vec3| [a.x, a.y, a.z];
+        let laws = OneContact::<false> { law: &self.law, friction: &self.friction, onset, series: f64::INFINITY };
         let radii = [self.journal_radius, self.bearing_radius];
-        let m = spherical_motion(v(e), v(e_dot), [v(omega_journal), v(omega_bearing)], radii, self.radial_clearance());
-        let fn_ = self.law.force(m.penetration, m.penetration_rate, onset);
-        let ft = if fn_ > 0.0 { self.friction.coefficient(m.speed) * fn_ } else { 0.0 };
+        let omega = [v(omega_journal), v(omega_bearing)];
+        let c = spherical_contact(&laws, (v(e), v(e_dot)), omega, radii, self.radial_clearance());
+        let m = &c.motion;
         SphericalContactState {
             journal_centre: Vec3::zeros(),
             eccentricity: e,
@@ -197,9 +230,9 @@ impl SphericalClearance {
             penetration: m.penetration,
             penetration_rate: m.penetration_rate,
             slip_velocity: m.slip.into(),
-            normal_force: fn_,
-            friction_force: ft,
-            force_on_journal: spherical_load(&m, fn_, ft).into(),
+            normal_force: c.normal_force,
+            friction_force: c.friction_force,
+            force_on_journal: c.load.into(),
         }
     }
 
@@ -260,8 +293,25 @@ mod tests {
         assert!((arm_b - Vec3::new(0.0, 0.0, 0.006)).norm() < 1e-12);
     }
 
-    /// The spherical joint's evaluation over eight lanes — its motion, every contact law, every
-    /// friction law and the load, as lanes would assemble them — is the scalar
+    /// A contact's laws over eight lanes, as the micro step's lanes hold them.
+    struct TestLanes {
+        law: (crate::law::LaneLaw, [lash_core::lane::F64x8; 4]),
+        friction: (crate::friction::LaneFriction, [lash_core::lane::F64x8; 4]),
+        onset: (lash_core::lane::F64x8, lash_core::lane::F64x8),
+    }
+
+    impl ContactLaws<lash_core::lane::F64x8> for TestLanes {
+        fn normal_force(&self, delta: lash_core::lane::F64x8, rate: lash_core::lane::F64x8) -> lash_core::lane::F64x8 {
+            let f = self.law.0.force(&self.law.1, (delta, rate), self.onset.0, self.onset.1);
+            f.max(lash_core::lane::F64x8::ZERO)
+        }
+        fn friction_coefficient(&self, speed: lash_core::lane::F64x8) -> lash_core::lane::F64x8 {
+            crate::friction::lane_coefficient(self.friction.0, &self.friction.1, speed)
+        }
+    }
+
+    /// The spherical joint's contact over eight lanes ([`spherical_contact`] with every contact law
+    /// and every friction law in their lane forms) is the scalar
     /// [`SphericalClearance::evaluate_relative`] lane by lane, bit for bit: free flight, the
     /// centre, contact with and without slip, a rolling ball, onsets below and above the floor.
     #[test]
@@ -316,21 +366,22 @@ mod tests {
             let (kind, numbers) = LaneLaw::of(law);
             let (friction_kind, friction_numbers) = LaneFriction::of(friction);
             let radii = [joint.journal_radius, joint.bearing_radius].map(F64x8::splat);
-            let m = spherical_motion(
-                lanes(&e),
-                lanes(&e_dot),
+            let o = F64x8(onset);
+            let reciprocal = onset_reciprocal(o, F64x8::splat(kind.floor(&numbers)));
+            let laws = TestLanes {
+                law: (kind, numbers.map(F64x8::splat)),
+                friction: (friction_kind, friction_numbers.map(F64x8::splat)),
+                onset: (o, reciprocal),
+            };
+            let lanes_of = (lanes(&e), lanes(&e_dot));
+            let c = spherical_contact(
+                &laws,
+                lanes_of,
                 [lanes(&wj), lanes(&wb)],
                 radii,
                 F64x8::splat(joint.radial_clearance()),
             );
-            let o = F64x8(onset);
-            let reciprocal = onset_reciprocal(o, F64x8::splat(kind.floor(&numbers)));
-            let f = kind.force(&numbers.map(F64x8::splat), (m.penetration, m.penetration_rate), o, reciprocal);
-            let zero = F64x8::ZERO;
-            let normal = m.penetration.simd_le(zero).select(zero, f.max(zero));
-            let coefficient = lane_coefficient(friction_kind, &friction_numbers.map(F64x8::splat), m.speed);
-            let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
-            let load = spherical_load(&m, normal, tangential);
+            let (m, normal, tangential, load) = (c.motion, c.normal_force, c.friction_force, c.load);
             let v = |a: [f64; 3]| Vec3::from(a);
             for l in 0..LANES {
                 let s = joint.evaluate_relative(v(e[l]), v(e_dot[l]), v(wj[l]), v(wb[l]), onset[l]);

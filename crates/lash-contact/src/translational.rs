@@ -17,6 +17,7 @@
 //! A corner meets only the face on its side: crossing to the other face would take the block a
 //! tilt of about 90°, which a clearance small against the block's height excludes.
 
+use crate::clearance::{OneContact, contact_forces};
 use crate::friction::FrictionLaw;
 use crate::joint::Clearance;
 use crate::law::NormalForce;
@@ -196,10 +197,8 @@ impl TranslationalClearance {
         let penetration = normal.dot(&(point - origin)) - (self.block.half_height + self.clearance);
         let penetration_rate = normal.dot(&v_rel);
         let slip_velocity = u.dot(&v_rel);
-        let normal_force = self.law.force(penetration, penetration_rate, onset);
-        // No normal force, no friction (skips the friction law in free flight).
-        let friction_force =
-            if normal_force > 0.0 { self.friction.coefficient(slip_velocity) * normal_force } else { 0.0 };
+        let laws = OneContact::<false> { law: &self.law, friction: &self.friction, onset, series: f64::INFINITY };
+        let (normal_force, friction_force) = contact_forces(&laws, (penetration, penetration_rate), slip_velocity);
         CornerState {
             point,
             normal,

@@ -23,7 +23,7 @@ use super::model::{InterfaceModel, Loads, MassFactor, StepEnd};
 use super::stages::{self, Rk4Stage};
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
 use lash_contact::clearance::{ClearanceJoint, ContactState, ImpactTracker, Tracker};
-use lash_contact::clearance::{journal_load, normal_motion, penetration};
+use lash_contact::clearance::{ContactLaws, PlanarContact, penetration, planar_contact};
 use lash_contact::friction::{LaneFriction, lane_coefficient};
 use lash_contact::law::{LaneLaw, onset_reciprocal};
 use lash_core::Ticks;
@@ -244,26 +244,44 @@ impl Joint {
         in_contact: X,
         (onset, reciprocal): (&V, &V),
     ) -> Contact {
-        let zero = X::ZERO;
         let radii = [x(&self.journal_radius), x(&self.bearing_radius)];
-        let ([nx, ny], delta_dot, slip) = normal_motion([ex, ey], norm, [u, v], [x(wj), x(wb)], radii);
-        // Free flight: a stage already indenting takes its own δ̇ (≥ 0) as the onset velocity.
-        let indenting = !in_contact & delta.simd_gt(zero);
+        let laws = LaneContact::<COMMON> { joint: self, in_contact, onset: (x(onset), x(reciprocal)) };
+        let contact = planar_contact(&laws, [ex, ey], (norm, delta), [u, v], [x(wj), x(wb)], radii);
+        let PlanarContact { normal: [nx, ny], penetration_rate: delta_dot, slip, .. } = contact;
+        let (normal, tangential, [fx, fy]) = (contact.normal_force, contact.friction_force, contact.load);
+        Contact { ex, ey, norm, nx, ny, delta, delta_dot, slip, normal, tangential, fx, fy }
+    }
+}
+
+/// The laws of every lane's contact in a stage ([`Joint::contact`]): each lane's law at its
+/// onset velocity and reciprocal (`onset`), a lane in free flight (`in_contact` clear) that
+/// already indents at its own δ̇ (≥ 0), as the model takes it.
+struct LaneContact<'a, const COMMON: bool> {
+    joint: &'a Joint,
+    in_contact: X,
+    onset: (X, X),
+}
+
+impl<const COMMON: bool> ContactLaws<X> for LaneContact<'_, COMMON> {
+    #[inline(always)]
+    fn normal_force(&self, delta: X, delta_dot: X) -> X {
+        let zero = X::ZERO;
+        let indenting = !self.in_contact & delta.simd_gt(zero);
         let (onset, reciprocal) = if indenting.to_bitmask() == 0 {
-            (x(onset), x(reciprocal))
+            self.onset
         } else {
             let own = delta_dot.max(zero);
-            (indenting.select(own, x(onset)), indenting.select(onset_reciprocal(own, x(&self.floor)), x(reciprocal)))
+            let reciprocal = onset_reciprocal(own, x(&self.joint.floor));
+            (indenting.select(own, self.onset.0), indenting.select(reciprocal, self.onset.1))
         };
         // (The common law, Lankarani–Nikravesh's kind at exponent 1.5, known at compile time: the
         // kind's and the exponent's tests fold away.)
-        let law = if COMMON { COMMON_LAW } else { self.law };
-        let f = law.force(&xs(&self.law_numbers), (delta, delta_dot), onset, reciprocal);
-        let normal = delta.simd_le(zero).select(zero, f.max(zero));
-        let coefficient = lane_coefficient(self.friction, &xs(&self.friction_numbers), slip);
-        let tangential = normal.simd_gt(zero).select(coefficient * normal, zero);
-        let [fx, fy] = journal_load([nx, ny], normal, tangential);
-        Contact { ex, ey, norm, nx, ny, delta, delta_dot, slip, normal, tangential, fx, fy }
+        let law = if COMMON { COMMON_LAW } else { self.joint.law };
+        law.force(&xs(&self.joint.law_numbers), (delta, delta_dot), onset, reciprocal).max(zero)
+    }
+    #[inline(always)]
+    fn friction_coefficient(&self, slip: X) -> X {
+        lane_coefficient(self.joint.friction, &xs(&self.joint.friction_numbers), slip)
     }
 }
 
