@@ -568,7 +568,7 @@ fn reduced_section(reps: usize, quick: bool) -> Result<(), CliError> {
         rk4_ms / red_ms
     );
     println!(
-        "  full model, converged adaptive                 {conv_ms:9.2} ms   (ratio {:.1}×, target ≥ 100×; {} steps)",
+        "  full model, converged adaptive                 {conv_ms:9.2} ms   (ratio {:.1}×, target ≥ 40×; {} steps)",
         conv_ms / red_ms,
         conv.steps
     );
