@@ -316,7 +316,7 @@ mod tests {
     /// centre, contact with and without slip, a rolling ball, onsets below and above the floor.
     #[test]
     fn the_evaluation_in_lanes_is_the_scalar_one_bit_for_bit() {
-        use crate::friction::{LaneFriction, lane_coefficient};
+        use crate::friction::LaneFriction;
         use crate::law::{LaneLaw, onset_reciprocal};
         use lash_core::lane::{F64x8, LANES};
         let c = 0.00025;

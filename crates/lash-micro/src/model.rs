@@ -345,11 +345,15 @@ impl<const N: usize, const M: usize> Mobility<N, M> {
     /// The terms at `dt` after the step's start.
     #[inline(always)]
     pub fn at(&self, dt: f64) -> MobilityAt<N, M> {
-        MobilityAt {
-            mobility: self.mobility + self.mobility_rate * dt,
-            friction_mobility: self.friction_mobility + self.friction_mobility_rate * dt,
-            free_acceleration: self.free_acceleration + self.free_acceleration_rate * dt,
-        }
+        let mut at = MobilityAt {
+            mobility: self.mobility,
+            friction_mobility: self.friction_mobility,
+            free_acceleration: self.free_acceleration,
+        };
+        stages::linear_at(at.mobility.as_mut_slice(), self.mobility_rate.as_slice(), dt);
+        stages::linear_at(at.friction_mobility.as_mut_slice(), self.friction_mobility_rate.as_slice(), dt);
+        stages::linear_at(at.free_acceleration.as_mut_slice(), self.free_acceleration_rate.as_slice(), dt);
+        at
     }
 }
 
@@ -370,15 +374,8 @@ impl<const N: usize, const M: usize> MobilityAt<N, M> {
     #[inline(always)]
     pub fn acceleration(&self, loads: &Loads<N, M>) -> SVector<f64, N> {
         let mut a = self.free_acceleration;
-        let add = |a: &mut SVector<f64, N>, columns: &[f64], values: &[f64]| {
-            for (column, &v) in columns.chunks_exact(N).zip(values) {
-                for (ai, ci) in a.iter_mut().zip(column) {
-                    *ai += ci * v;
-                }
-            }
-        };
-        add(&mut a, self.mobility.as_slice(), loads.contact.as_slice());
-        add(&mut a, self.friction_mobility.as_slice(), loads.friction.as_slice());
+        stages::add_columns(a.as_mut_slice(), self.mobility.as_slice(), loads.contact.as_slice());
+        stages::add_columns(a.as_mut_slice(), self.friction_mobility.as_slice(), loads.friction.as_slice());
         a
     }
 }

@@ -1,6 +1,7 @@
 //! The arithmetic of the micro step written once for every width: the classical RK4 step of the
-//! interface's second-order equation `ẅ = a(t, w, ẇ)` ([`rk4`], [`weighted`]) and the 2 × 2
-//! effective mass of one planar joint ([`planar_mass`], [`planar_solve`], [`planar_load`]).
+//! interface's second-order equation `ẅ = a(t, w, ẇ)` ([`rk4`], [`weighted`]), the 2 × 2
+//! effective mass of one planar joint ([`planar_mass`], [`planar_solve`], [`planar_load`]) and
+//! the mobility form's terms of the spatial joints ([`linear_at`], [`add_columns`]).
 //!
 //! A single run ([`crate::model::InterfaceModel::rk4_step`]: nalgebra vectors of `f64`) and the
 //! sweep's lanes ([`crate::lanes`]: eight runs in one [`lash_core::lane::F64x8`] per number) call
@@ -146,6 +147,28 @@ pub fn planar_load<R: Real>(
         R::select(acting, r[0] + (map[0] + map_rate[0] * dt) * friction, r[0]),
         R::select(acting, r[1] + (map[1] + map_rate[1] * dt) * friction, r[1]),
     ]
+}
+
+/// Terms linear across the communication step, taken from their node to `dt` past it, entry by
+/// entry: v ← v + v̇ dt (the mobility form's W, G and a_free, entries of any layout).
+#[inline(always)]
+pub fn linear_at<R: Real>(value: &mut [R], rate: &[R], dt: R) {
+    for (v, &r) in value.iter_mut().zip(rate) {
+        *v = *v + r * dt;
+    }
+}
+
+/// Adds the columns of a column-major matrix of `a.len()` rows, each times its load, to `a`, in
+/// column order: `a += C v` as the mobility form forms ẅ = a_free + W f_c + G L (a load of a joint
+/// in free flight is zero and adds nothing: no test).
+#[inline(always)]
+pub fn add_columns<R: Real>(a: &mut [R], columns: &[R], values: &[R]) {
+    let n = a.len();
+    for (column, &v) in columns.chunks_exact(n).zip(values) {
+        for (ai, &ci) in a.iter_mut().zip(column) {
+            *ai = *ai + ci * v;
+        }
+    }
 }
 
 #[cfg(test)]
