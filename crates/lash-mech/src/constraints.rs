@@ -4,7 +4,8 @@
 //! ä = θ̈ ⊥a − θ̇² a, with ⊥(x, y) = (−y, x).
 
 use crate::model::{BodyId, JointKind, Mechanism};
-use crate::{Pose, Vec2, perp};
+use crate::{Pose, Vec2};
+use lash_core::lane::Real;
 
 /// The Jacobian entries of one body in one constraint row: ∂Φ_row/∂(x, y, θ) of that body.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,11 +88,123 @@ fn blk(id: BodyId, dr: Vec2, dtheta: f64) -> Block {
     }
 }
 
+/// A body's pose and velocity as the constraint rows read them (a [`Pose`]'s numbers), for one
+/// mechanism or several side by side ([`Real`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BodyState<R> {
+    pub(crate) position: [R; 2],
+    pub(crate) angle: R,
+    pub(crate) cos: R,
+    pub(crate) sin: R,
+    pub(crate) velocity: [R; 2],
+    pub(crate) angular_velocity: R,
+}
+
+impl BodyState<f64> {
+    /// A pose's numbers.
+    #[inline(always)]
+    pub(crate) fn of(p: &Pose) -> Self {
+        Self {
+            position: [p.position.x, p.position.y],
+            angle: p.angle,
+            cos: p.cos,
+            sin: p.sin,
+            velocity: [p.velocity.x, p.velocity.y],
+            angular_velocity: p.angular_velocity,
+        }
+    }
+}
+
+impl<R: Real> BodyState<R> {
+    /// A body-fixed vector in world components, A(θ) s ([`Pose::rotate`]).
+    #[inline(always)]
+    pub(crate) fn rotate(&self, [x, y]: [R; 2]) -> [R; 2] {
+        [self.cos * x - self.sin * y, self.sin * x + self.cos * y]
+    }
+}
+
+/// One constraint row: ∂Φ/∂(x, y, θ) of body i and of body j (a ground side's block is its
+/// caller's to empty), Φ and γ (zero unless asked for).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Row<R> {
+    pub(crate) i: [R; 3],
+    pub(crate) j: [R; 3],
+    pub(crate) phi: R,
+    pub(crate) gamma: R,
+}
+
+/// d = r_i + a_i − r_j − a_j.
+#[inline(always)]
+fn separation<R: Real>((bi, bj): (&BodyState<R>, &BodyState<R>), (ai, aj): ([R; 2], [R; 2])) -> [R; 2] {
+    [bi.position[0] + ai[0] - bj.position[0] - aj[0], bi.position[1] + ai[1] - bj.position[1] - aj[1]]
+}
+
 /// The row of Φ = v·d, d = r_i + a_i − r_j − a_j: the distance of point a_i of body i from the
 /// line through point a_j of body j along a direction fixed on body j, whose normal is v (world
-/// components) — its Jacobian row, its value and γ (0 unless `GAMMA`). A prismatic joint's second
-/// row (v normal to its axis); with v along the axis, the slide of a translational clearance
-/// joint's block along its guide.
+/// components) — its Jacobian row, its value and γ (0 unless `GAMMA`); for one mechanism or
+/// several side by side. A prismatic joint's second row (v normal to its axis); with v along the
+/// axis, the slide of a translational clearance joint's block along its guide.
+#[inline(always)]
+pub(crate) fn line<R: Real, const GAMMA: bool>(
+    (bi, bj): (&BodyState<R>, &BodyState<R>),
+    (ai, aj): ([R; 2], [R; 2]),
+    v: [R; 2],
+) -> Row<R> {
+    let dot = |a: [R; 2], b: [R; 2]| a[0] * b[0] + a[1] * b[1];
+    let perp = |a: [R; 2]| [-a[1], a[0]];
+    let (wi, wj) = (bi.angular_velocity, bj.angular_velocity);
+    let d = separation((bi, bj), (ai, aj));
+    let pv = perp(v);
+    let gamma = if GAMMA {
+        let (pai, paj) = (perp(ai), perp(aj));
+        let d_dot: [R; 2] = std::array::from_fn(|k| bi.velocity[k] + pai[k] * wi - bj.velocity[k] - paj[k] * wj);
+        wj * wj * dot(v, d) - R::splat(2.0) * wj * dot(pv, d_dot) + wi * wi * dot(v, ai) - wj * wj * dot(v, aj)
+    } else {
+        R::splat(0.0)
+    };
+    Row { i: [v[0], v[1], dot(v, perp(ai))], j: [-v[0], -v[1], dot(pv, d) - dot(v, perp(aj))], phi: dot(v, d), gamma }
+}
+
+/// The two rows of a joint between bodies `bi` and `bj` at their points `points` (body frames):
+/// a revolute joint's d = r_i + a_i − r_j − a_j = 0, or, given its unit axis on body j and its
+/// angle offset (`prismatic`), a prismatic joint's θ_i − θ_j − θ₀ = 0 and [`line`] along the
+/// axis' normal — for one mechanism ([`evaluate_as`]) or several side by side (the macro step's
+/// lanes), the same operations in the same order.
+#[inline(always)]
+pub(crate) fn joint_rows<R: Real, const GAMMA: bool>(
+    (bi, bj): (&BodyState<R>, &BodyState<R>),
+    (point_i, point_j): ([R; 2], [R; 2]),
+    prismatic: Option<([R; 2], R)>,
+) -> [Row<R>; 2] {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    let (ai, aj) = (bi.rotate(point_i), bj.rotate(point_j));
+    match prismatic {
+        None => {
+            let d = separation((bi, bj), (ai, aj));
+            let (wi, wj) = (bi.angular_velocity, bj.angular_velocity);
+            let gamma = |k: usize| if GAMMA { ai[k] * (wi * wi) - aj[k] * (wj * wj) } else { zero };
+            [
+                Row { i: [one, zero, -ai[1]], j: [-one, zero, aj[1]], phi: d[0], gamma: gamma(0) },
+                Row { i: [zero, one, ai[0]], j: [zero, -one, -aj[0]], phi: d[1], gamma: gamma(1) },
+            ]
+        }
+        Some((u, offset)) => {
+            let angle =
+                Row { i: [zero, zero, one], j: [zero, zero, -one], phi: bi.angle - bj.angle - offset, gamma: zero };
+            [angle, line::<R, GAMMA>((bi, bj), (ai, aj), bj.rotate([-u[1], u[0]]))]
+        }
+    }
+}
+
+/// A driver's row, θ_i − θ_j − f(t) = 0, for the motion's f, ḟ, f̈ at the instant: the row and ν
+/// (= ḟ; γ = f̈).
+#[inline(always)]
+pub(crate) fn driver_row<R: Real>((bi, bj): (&BodyState<R>, &BodyState<R>), [f, fd, fdd]: [R; 3]) -> (Row<R>, R) {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    (Row { i: [zero, zero, one], j: [zero, zero, -one], phi: bi.angle - bj.angle - f, gamma: fdd }, fd)
+}
+
+/// [`line`] of one mechanism as a Jacobian row, Φ and γ.
 #[inline(always)]
 pub(crate) fn line_row<const GAMMA: bool>(
     (body_i, body_j): (BodyId, BodyId),
@@ -99,17 +212,15 @@ pub(crate) fn line_row<const GAMMA: bool>(
     (ai, aj): (Vec2, Vec2),
     v: Vec2,
 ) -> (JacobianRow, f64, f64) {
-    let (wi, wj) = (pi.angular_velocity, pj.angular_velocity);
-    let d = pi.position + ai - pj.position - aj;
-    let pv = perp(v);
-    let row = [blk(body_i, v, v.dot(&perp(ai))), blk(body_j, -v, pv.dot(&d) - v.dot(&perp(aj)))];
-    let gamma = if GAMMA {
-        let d_dot = pi.velocity + perp(ai) * wi - pj.velocity - perp(aj) * wj;
-        wj * wj * v.dot(&d) - 2.0 * wj * pv.dot(&d_dot) + wi * wi * v.dot(&ai) - wj * wj * v.dot(&aj)
-    } else {
-        0.0
-    };
-    (row, v.dot(&d), gamma)
+    let r = line::<f64, GAMMA>((&BodyState::of(pi), &BodyState::of(pj)), ([ai.x, ai.y], [aj.x, aj.y]), [v.x, v.y]);
+    (jacobian_row((body_i, body_j), &r), r.phi, r.gamma)
+}
+
+/// A row's two blocks as one mechanism's Jacobian row (the ground's block empty).
+#[inline(always)]
+fn jacobian_row((body_i, body_j): (BodyId, BodyId), r: &Row<f64>) -> JacobianRow {
+    let blk = |id: BodyId, d: [f64; 3]| blk(id, Vec2::new(d[0], d[1]), d[2]);
+    [blk(body_i, r.i), blk(body_j, r.j)]
 }
 
 /// The constraint terms at one state.
@@ -136,60 +247,35 @@ pub(crate) fn evaluate_as<const GAMMA: bool>(mech: &Mechanism, t: f64, poses: &[
     let ConstraintTerms { jacobian: jac, phi, nu, gamma } = out;
     let mut row = 0;
     for joint in &mech.joints {
-        let pi = pose_of(poses, joint.body_i);
-        let pj = pose_of(poses, joint.body_j);
-        let ai = pi.rotate(joint.point_i);
-        let aj = pj.rotate(joint.point_j);
-        let (wi, wj) = (pi.angular_velocity, pj.angular_velocity);
-        match &joint.kind {
-            JointKind::Revolute => {
-                let d = pi.position + ai - pj.position - aj;
-                let (pai, paj) = (perp(ai), perp(aj));
-                jac[row] =
-                    [blk(joint.body_i, Vec2::new(1.0, 0.0), pai.x), blk(joint.body_j, Vec2::new(-1.0, 0.0), -paj.x)];
-                jac[row + 1] =
-                    [blk(joint.body_i, Vec2::new(0.0, 1.0), pai.y), blk(joint.body_j, Vec2::new(0.0, -1.0), -paj.y)];
-                phi[row] = d.x;
-                phi[row + 1] = d.y;
-                nu[row] = 0.0;
-                nu[row + 1] = 0.0;
-                if GAMMA {
-                    let g = ai * (wi * wi) - aj * (wj * wj);
-                    gamma[row] = g.x;
-                    gamma[row + 1] = g.y;
-                }
-            }
+        let (pi, pj) = (pose_of(poses, joint.body_i), pose_of(poses, joint.body_j));
+        let prismatic = match joint.kind {
+            JointKind::Revolute => None,
             JointKind::Prismatic { axis_j, angle_offset } => {
-                // Φ1 = θ_i − θ_j − θ0
-                jac[row] = [blk(joint.body_i, Vec2::zeros(), 1.0), blk(joint.body_j, Vec2::zeros(), -1.0)];
-                phi[row] = pi.angle - pj.angle - angle_offset;
-                nu[row] = 0.0;
-                if GAMMA {
-                    gamma[row] = 0.0;
-                }
-                // Φ2 = v·d, v = A_j ⊥u (unit normal to the axis), d = r_i + a_i − r_j − a_j
                 let u = axis_j / axis_j.norm();
-                let v = pj.rotate(perp(u));
-                let (r, value, g) = line_row::<GAMMA>((joint.body_i, joint.body_j), (&pi, &pj), (ai, aj), v);
-                jac[row + 1] = r;
-                phi[row + 1] = value;
-                nu[row + 1] = 0.0;
-                if GAMMA {
-                    gamma[row + 1] = g;
-                }
+                Some(([u.x, u.y], angle_offset))
+            }
+        };
+        let points = ([joint.point_i.x, joint.point_i.y], [joint.point_j.x, joint.point_j.y]);
+        let rows = joint_rows::<f64, GAMMA>((&BodyState::of(&pi), &BodyState::of(&pj)), points, prismatic);
+        for (k, r) in rows.iter().enumerate() {
+            jac[row + k] = jacobian_row((joint.body_i, joint.body_j), r);
+            phi[row + k] = r.phi;
+            nu[row + k] = 0.0;
+            if GAMMA {
+                gamma[row + k] = r.gamma;
             }
         }
         row += joint.equations();
     }
     for driver in &mech.drivers {
-        let pi = pose_of(poses, driver.body);
-        let pj = pose_of(poses, driver.reference);
+        let (pi, pj) = (pose_of(poses, driver.body), pose_of(poses, driver.reference));
         let (f, fd, fdd) = driver.motion.eval(t);
-        jac[row] = [blk(driver.body, Vec2::zeros(), 1.0), blk(driver.reference, Vec2::zeros(), -1.0)];
-        phi[row] = pi.angle - pj.angle - f;
-        nu[row] = fd;
+        let (r, rate) = driver_row((&BodyState::of(&pi), &BodyState::of(&pj)), [f, fd, fdd]);
+        jac[row] = jacobian_row((driver.body, driver.reference), &r);
+        phi[row] = r.phi;
+        nu[row] = rate;
         if GAMMA {
-            gamma[row] = fdd;
+            gamma[row] = r.gamma;
         }
         row += 1;
     }

@@ -13,7 +13,7 @@
 //! The sines and cosines are taken lane by lane with `sin_cos`, through each solver's cache of
 //! them (as [`crate::constraints::fill_poses`] does).
 
-use crate::constraints::Block;
+use crate::constraints::{Block, BodyState, driver_row, joint_rows};
 use crate::interface::{ClearanceInterface, CoupledTerms};
 use crate::model::{BodyId, JointKind, Mechanism};
 use crate::solver::Solver;
@@ -682,64 +682,34 @@ fn evaluate<const GAMMA: bool>(pose: &[[X; 5]], qd: &[X], rows: &mut Rows, mech:
     // A ground block's entries are zeros (Block::EMPTY).
     let block = |b: BodyId, d: [X; 3]| if b == BodyId::Ground { [ZERO; 3] } else { d };
     let row_of = |i: [X; 3], j: [X; 3]| [i[0], i[1], i[2], j[0], j[1], j[2]];
-    let (one, zero) = (X::splat(1.0), ZERO);
+    let state = |b: BodyId| {
+        let p = &pose[slot(b)];
+        let [vx, vy, w] = velocity(b);
+        BodyState { position: [p[0], p[1]], angle: p[2], cos: p[3], sin: p[4], velocity: [vx, vy], angular_velocity: w }
+    };
     let mut row = 0;
     for (joint, p) in mech.joints.iter().zip(&rows.joint) {
-        let (pi, pj) = (&pose[slot(joint.body_i)], &pose[slot(joint.body_j)]);
         let (bi, bj) = (joint.body_i, joint.body_j);
         let [pix, piy, pjx, pjy, ux, uy, offset] = *p;
-        let (ci, si, cj, sj) = (pi[3], pi[4], pj[3], pj[4]);
-        let (aix, aiy) = (ci * pix - si * piy, si * pix + ci * piy);
-        let (ajx, ajy) = (cj * pjx - sj * pjy, sj * pjx + cj * pjy);
-        let dx = pi[0] + aix - pj[0] - ajx;
-        let dy = pi[1] + aiy - pj[1] - ajy;
-        let (vi, vj) = (velocity(bi), velocity(bj));
-        let (wi, wj) = (vi[2], vj[2]);
-        match joint.kind {
-            JointKind::Prismatic { .. } => {
-                rows.jacobian[row] = row_of(block(bi, [zero, zero, one]), block(bj, [zero, zero, -one]));
-                rows.phi[row] = pi[2] - pj[2] - offset;
-                // v = A_j ⊥u, ⊥v, and the products as the scalar code forms them.
-                let (pux, puy) = (-uy, ux);
-                let (vx, vy) = (cj * pux - sj * puy, sj * pux + cj * puy);
-                let (pvx, pvy) = (-vy, vx);
-                rows.jacobian[row + 1] = row_of(
-                    block(bi, [vx, vy, vx * -aiy + vy * aix]),
-                    block(bj, [-vx, -vy, (pvx * dx + pvy * dy) - (vx * -ajy + vy * ajx)]),
-                );
-                rows.phi[row + 1] = vx * dx + vy * dy;
-                if GAMMA {
-                    rows.gamma[row] = ZERO;
-                    // ḋ = ṙ_i + ⊥a_i ω_i − ṙ_j − ⊥a_j ω_j
-                    let ddx = vi[0] + -aiy * wi - vj[0] - -ajy * wj;
-                    let ddy = vi[1] + aix * wi - vj[1] - ajx * wj;
-                    rows.gamma[row + 1] = wj * wj * (vx * dx + vy * dy) - X::splat(2.0) * wj * (pvx * ddx + pvy * ddy)
-                        + wi * wi * (vx * aix + vy * aiy)
-                        - wj * wj * (vx * ajx + vy * ajy);
-                }
-            }
-            JointKind::Revolute => {
-                rows.jacobian[row] = row_of(block(bi, [one, zero, -aiy]), block(bj, [-one, zero, ajy]));
-                rows.jacobian[row + 1] = row_of(block(bi, [zero, one, aix]), block(bj, [zero, -one, -ajx]));
-                rows.phi[row] = dx;
-                rows.phi[row + 1] = dy;
-                if GAMMA {
-                    rows.gamma[row] = aix * (wi * wi) - ajx * (wj * wj);
-                    rows.gamma[row + 1] = aiy * (wi * wi) - ajy * (wj * wj);
-                }
+        let prismatic = matches!(joint.kind, JointKind::Prismatic { .. }).then_some(([ux, uy], offset));
+        let pair = joint_rows::<X, GAMMA>((&state(bi), &state(bj)), ([pix, piy], [pjx, pjy]), prismatic);
+        for (k, r) in pair.iter().enumerate() {
+            rows.jacobian[row + k] = row_of(block(bi, r.i), block(bj, r.j));
+            rows.phi[row + k] = r.phi;
+            rows.nu[row + k] = ZERO;
+            if GAMMA {
+                rows.gamma[row + k] = r.gamma;
             }
         }
-        rows.nu[row] = ZERO;
-        rows.nu[row + 1] = ZERO;
         row += 2;
     }
     for (driver, f) in mech.drivers.iter().zip(&rows.driver) {
-        let (pi, pj) = (&pose[slot(driver.body)], &pose[slot(driver.reference)]);
-        rows.jacobian[row] = row_of(block(driver.body, [zero, zero, one]), block(driver.reference, [zero, zero, -one]));
-        rows.phi[row] = pi[2] - pj[2] - f[0];
-        rows.nu[row] = f[1];
+        let (r, rate) = driver_row((&state(driver.body), &state(driver.reference)), *f);
+        rows.jacobian[row] = row_of(block(driver.body, r.i), block(driver.reference, r.j));
+        rows.phi[row] = r.phi;
+        rows.nu[row] = rate;
         if GAMMA {
-            rows.gamma[row] = f[2];
+            rows.gamma[row] = r.gamma;
         }
         row += 1;
     }
