@@ -6,6 +6,8 @@
 //! for the factorisation plus 9 % for the two triangular solves). This kernel works on one flat
 //! row-major buffer that is reused for every evaluation, and is checked against nalgebra in tests.
 
+use lash_core::lane::Real;
+
 /// Lower Cholesky factor L (row-major, n × n, upper part unused) of an SPD matrix, in place.
 #[derive(Debug, Clone)]
 pub struct SmallCholesky {
@@ -124,7 +126,7 @@ impl SmallCholesky {
             10 => solve_n::<10>(a, inv, b),
             11 => solve_n::<11>(a, inv, b),
             12 => solve_n::<12>(a, inv, b),
-            n if self.profiled => solve_with(n, a, inv, &self.first[..n], b),
+            n if self.profiled => solve_with((n, n), a, inv, &self.first[..n], b),
             n => solve_dyn(n, a, inv, b),
         }
     }
@@ -142,13 +144,14 @@ fn solve_n<const N: usize>(a: &[f64], inv: &[f64], b: &mut [f64]) {
 
 /// Where each row's structural non-zeros start: nowhere but column 0 for a dense matrix (known at
 /// compile time, so the dense kernels carry no profile look-ups), or a profile per row.
-trait Profile: Copy {
+pub(crate) trait Profile: Copy {
     /// First column of row `i` that can be non-zero.
     fn first(self, i: usize) -> usize;
 }
 
+/// No profile: every row from column 0.
 #[derive(Clone, Copy)]
-struct Dense;
+pub(crate) struct Dense;
 
 impl Profile for Dense {
     #[inline(always)]
@@ -171,30 +174,37 @@ fn factor_dyn(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
 
 #[inline(always)]
 fn solve_dyn(n: usize, a: &[f64], inv: &[f64], b: &mut [f64]) {
-    solve_with(n, a, inv, Dense, b)
+    solve_with((n, n), &a[..n * n], inv, Dense, b)
 }
 
 /// L Lᵀ = A in place (lower triangle, row-major), over the profile `p`: a product with a k left
-/// of a row's profile is exactly zero, so skipping it changes nothing else.
+/// of a row's profile is exactly zero, so skipping it changes nothing else. Written over `Real`:
+/// one mechanism's matrix (f64) or several side by side (the macro lanes' Schur complements),
+/// the same operations in the same order; whether each is positive definite (a pivot above 1e-14
+/// of the largest diagonal entry). One matrix stops at its first failing pivot; lanes go on (a
+/// failing lane is redone alone).
 #[inline(always)]
-fn factor_with<P: Profile>(n: usize, a: &mut [f64], inv: &mut [f64], p: P) -> bool {
+pub(crate) fn factor_with<R: Real, P: Profile>(n: usize, a: &mut [R], inv: &mut [R], p: P) -> R::Mask {
     let a = &mut a[..n * n];
     let inv = &mut inv[..n];
-    let mut scale = 0.0f64;
+    let zero = R::splat(0.0);
+    let mut scale = zero;
     for i in 0..n {
         scale = scale.max(a[i * n + i].abs());
     }
-    let tiny = 1e-14 * scale;
+    let tiny = R::splat(1e-14) * scale;
+    let mut ok = zero.simd_le(zero);
     for j in 0..n {
         let mut d = a[j * n + j];
         for k in p.first(j)..j {
-            d -= a[j * n + k] * a[j * n + k];
+            d = d - a[j * n + k] * a[j * n + k];
         }
-        if !(d > tiny) {
-            return false;
+        ok = ok & d.simd_gt(tiny);
+        if R::WIDTH == 1 && !R::all(ok) {
+            return ok;
         }
         let d = d.sqrt();
-        let r = 1.0 / d;
+        let r = R::splat(1.0) / d;
         a[j * n + j] = d;
         inv[j] = r;
         for i in (j + 1)..n {
@@ -203,24 +213,25 @@ fn factor_with<P: Profile>(n: usize, a: &mut [f64], inv: &mut [f64], p: P) -> bo
             }
             let mut s = a[i * n + j];
             for k in p.first(i).max(p.first(j))..j {
-                s -= a[i * n + k] * a[j * n + k];
+                s = s - a[i * n + k] * a[j * n + k];
             }
             a[i * n + j] = s * r;
         }
     }
-    true
+    ok
 }
 
-/// (L Lᵀ) x = b in place, over the profile `p`.
+/// (L Lᵀ) x = b in place for the leading `n` × `n` block of a factor stored with row stride
+/// `stride` (a cut mechanism's solve with its ideal mechanism's factor), over the profile `p`
+/// (one system, or several side by side).
 #[inline(always)]
-fn solve_with<P: Profile>(n: usize, a: &[f64], inv: &[f64], p: P, b: &mut [f64]) {
-    let a = &a[..n * n];
+pub(crate) fn solve_with<R: Real, P: Profile>((n, stride): (usize, usize), a: &[R], inv: &[R], p: P, b: &mut [R]) {
     let inv = &inv[..n];
     let b = &mut b[..n];
     for i in 0..n {
         let mut s = b[i];
         for k in p.first(i)..i {
-            s -= a[i * n + k] * b[k];
+            s = s - a[i * stride + k] * b[k];
         }
         b[i] = s * inv[i];
     }
@@ -228,7 +239,7 @@ fn solve_with<P: Profile>(n: usize, a: &[f64], inv: &[f64], p: P, b: &mut [f64])
         let xi = b[i] * inv[i];
         b[i] = xi;
         for k in p.first(i)..i {
-            b[k] -= a[i * n + k] * xi;
+            b[k] = b[k] - a[i * stride + k] * xi;
         }
     }
 }

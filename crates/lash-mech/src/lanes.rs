@@ -14,6 +14,7 @@
 //! them (as [`crate::constraints::fill_poses`] does).
 
 use crate::constraints::{Block, BodyState, driver_row, joint_rows};
+use crate::dense::{Dense, factor_with, solve_with};
 use crate::interface::{ClearanceInterface, CoupledTerms};
 use crate::model::{BodyId, JointKind, Mechanism};
 use crate::solver::Solver;
@@ -733,33 +734,8 @@ fn factor(
         let im = &inverse_mass[k..k + 3];
         s[index] = s[index] + (pa[0] * pb[0] * im[0] + pa[1] * pb[1] * im[1] + pa[2] * pb[2] * im[2]);
     }
-    let mut scale = ZERO;
-    for i in 0..mf {
-        scale = scale.max(s[i * mf + i].map(f64::abs));
-    }
-    let tiny = X::splat(1e-14) * scale;
-    let mut ok = [true; LANES];
-    for j in 0..mf {
-        let mut d = s[j * mf + j];
-        for k in 0..j {
-            d = d - s[j * mf + k] * s[j * mf + k];
-        }
-        for l in 0..LANES {
-            ok[l] &= d[l] > tiny[l];
-        }
-        let d = d.map(f64::sqrt);
-        let r = X::splat(1.0) / d;
-        s[j * mf + j] = d;
-        inv_diag[j] = r;
-        for i in (j + 1)..mf {
-            let mut x = s[i * mf + j];
-            for k in 0..j {
-                x = x - s[i * mf + k] * s[j * mf + k];
-            }
-            s[i * mf + j] = x * r;
-        }
-    }
-    ok
+    let ok = factor_with(mf, s, inv_diag, Dense);
+    std::array::from_fn(|l| ok[l].to_bits() != 0)
 }
 
 /// A KKT system in lanes: the rows, their structure, a factor of S (row stride `stride`: the
@@ -806,20 +782,7 @@ impl Kkt<'_> {
                 + j[5] * acc[o1 + 2]
                 - g[row];
         }
-        for i in 0..mf {
-            let mut x = lam[i];
-            for k in 0..i {
-                x = x - s[i * stride + k] * lam[k];
-            }
-            lam[i] = x * inv[i];
-        }
-        for i in (0..mf).rev() {
-            let xi = lam[i] * inv[i];
-            lam[i] = xi;
-            for k in 0..i {
-                lam[k] = lam[k] - s[i * stride + k] * xi;
-            }
-        }
+        solve_with((mf, stride), s, inv, Dense, lam);
         reaction.fill(ZERO);
         for (a, &row) in st.free_rows.iter().enumerate() {
             let [o0, o1] = st.offsets[row];
