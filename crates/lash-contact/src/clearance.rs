@@ -141,6 +141,24 @@ pub fn planar_contact<R: Real>(
     PlanarContact { normal, penetration_rate, slip, normal_force, friction_force, load }
 }
 
+/// One run's contact state at eccentricity `e` of norm and penetration `geometry`, with the
+/// contact `c` (`journal_centre` left at zero).
+#[inline(always)]
+fn contact_state(e: Vec2, (norm, delta): (f64, f64), c: &PlanarContact<f64>) -> ContactState {
+    ContactState {
+        journal_centre: Vec2::zeros(),
+        eccentricity: e,
+        eccentricity_norm: norm,
+        normal: c.normal.into(),
+        penetration: delta,
+        penetration_rate: c.penetration_rate,
+        slip_velocity: c.slip,
+        normal_force: c.normal_force,
+        friction_force: c.friction_force,
+        force_on_journal: c.load.into(),
+    }
+}
+
 /// Penetrations beyond this fraction of the journal radius are a blow-up, not contact (full
 /// models, micro model and its lanes alike).
 pub const PENETRATION_LIMIT_FRACTION: f64 = 0.1;
@@ -359,18 +377,11 @@ impl ClearanceJoint {
         // No normal force, no friction (skips the friction law in free flight; [`contact_forces`]
         // for the laws in series with a damped bush, whose normal force comes with its rate).
         let ft = if fn_ > 0.0 { self.friction.coefficient(slip) * fn_ } else { 0.0 };
-        ContactState {
-            journal_centre: Vec2::zeros(),
-            eccentricity: e,
-            eccentricity_norm: norm,
-            normal: n,
-            penetration: delta,
-            penetration_rate: delta_dot,
-            slip_velocity: slip,
-            normal_force: fn_,
-            friction_force: ft,
-            force_on_journal: journal_load([n.x, n.y], fn_, ft).into(),
-        }
+        let normal = [n.x, n.y];
+        let load = journal_load(normal, fn_, ft);
+        let c =
+            PlanarContact { normal, penetration_rate: delta_dot, slip, normal_force: fn_, friction_force: ft, load };
+        contact_state(e, (norm, delta), &c)
     }
 
     /// Geometry and forces from the eccentricity `e`, its rate `e_dot` and the two bodies' angular
@@ -407,18 +418,7 @@ impl ClearanceJoint {
             OneContact::<SERIES> { law: &self.law, friction: &self.friction, onset, series: self.bush_stiffness };
         let radii = [self.journal_radius, self.bearing_radius];
         let c = planar_contact(&laws, [e.x, e.y], geometry, [e_dot.x, e_dot.y], [omega_journal, omega_bearing], radii);
-        ContactState {
-            journal_centre: Vec2::zeros(),
-            eccentricity: e,
-            eccentricity_norm: geometry.0,
-            normal: c.normal.into(),
-            penetration: geometry.1,
-            penetration_rate: c.penetration_rate,
-            slip_velocity: c.slip,
-            normal_force: c.normal_force,
-            friction_force: c.friction_force,
-            force_on_journal: c.load.into(),
-        }
+        contact_state(e, geometry, &c)
     }
 
     /// World-frame arms from the journal body's and the bearing body's centroids to the contact

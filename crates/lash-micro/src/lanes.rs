@@ -246,10 +246,8 @@ impl Joint {
     ) -> Contact {
         let radii = [x(&self.journal_radius), x(&self.bearing_radius)];
         let laws = LaneContact::<COMMON> { joint: self, in_contact, onset: (x(onset), x(reciprocal)) };
-        let contact = planar_contact(&laws, [ex, ey], (norm, delta), [u, v], [x(wj), x(wb)], radii);
-        let PlanarContact { normal: [nx, ny], penetration_rate: delta_dot, slip, .. } = contact;
-        let (normal, tangential, [fx, fy]) = (contact.normal_force, contact.friction_force, contact.load);
-        Contact { ex, ey, norm, nx, ny, delta, delta_dot, slip, normal, tangential, fx, fy }
+        let c = planar_contact(&laws, [ex, ey], (norm, delta), [u, v], [x(wj), x(wb)], radii);
+        Contact { ex, ey, norm, delta, c }
     }
 }
 
@@ -285,39 +283,34 @@ impl<const COMMON: bool> ContactLaws<X> for LaneContact<'_, COMMON> {
     }
 }
 
-/// The contact of every lane at one state ([`Joint::contact`]).
+/// The contact of every lane at one state ([`Joint::contact`]): the eccentricity, |e|, δ and the
+/// rest of [`planar_contact`]'s result.
 #[derive(Clone, Copy)]
 struct Contact {
     ex: X,
     ey: X,
     norm: X,
-    nx: X,
-    ny: X,
     delta: X,
-    delta_dot: X,
-    slip: X,
-    normal: X,
-    tangential: X,
-    fx: X,
-    fy: X,
+    c: PlanarContact<X>,
 }
 
 impl Contact {
     /// As the lanes' contact states.
     #[inline(always)]
     fn store(&self, out: &mut States) {
+        let c = &self.c;
         out.ex = self.ex.into();
         out.ey = self.ey.into();
         out.norm = self.norm.into();
-        out.nx = self.nx.into();
-        out.ny = self.ny.into();
+        out.nx = c.normal[0].into();
+        out.ny = c.normal[1].into();
         out.delta = self.delta.into();
-        out.delta_dot = self.delta_dot.into();
-        out.slip = self.slip.into();
-        out.normal_force = self.normal.into();
-        out.friction_force = self.tangential.into();
-        out.fx = self.fx.into();
-        out.fy = self.fy.into();
+        out.delta_dot = c.penetration_rate.into();
+        out.slip = c.slip.into();
+        out.normal_force = c.normal_force.into();
+        out.friction_force = c.friction_force.into();
+        out.fx = c.load[0].into();
+        out.fy = c.load[1].into();
     }
 }
 
@@ -370,9 +363,9 @@ fn gated(c: &Contact, clearance: &V) -> LaneLoads {
     let (ex, ey, r) = (c.ex, c.ey, x(clearance));
     let outside = (ex * ex + ey * ey).simd_gt(r * r);
     LaneLoads {
-        fx: outside.select(c.fx, X::ZERO).into(),
-        fy: outside.select(c.fy, X::ZERO).into(),
-        friction: outside.select(c.tangential, X::ZERO).into(),
+        fx: outside.select(c.c.load[0], X::ZERO).into(),
+        fy: outside.select(c.c.load[1], X::ZERO).into(),
+        friction: outside.select(c.c.friction_force, X::ZERO).into(),
     }
 }
 
@@ -786,13 +779,14 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
         );
         end.store(&mut kept.states);
         let end_time: V = (x(&now) + X::splat(h)).into();
-        kept.trackers.sample(stepped, x(&end_time), end.normal, end.delta);
+        kept.trackers.sample(stepped, x(&end_time), end.c.normal_force, end.delta);
         // (Every lane: those stepped by their models are gathered again below, failed ones are
         // no longer read.)
         (kept.ex, kept.ey, kept.vx, kept.vy) = (e1x, e1y, v1x, v1y);
         (kept.impulse, kept.friction_impulse) = (impulse, friction_impulse);
         kept.end_time = end_time;
-        kept.end_loads = LaneLoads { fx: end.fx.into(), fy: end.fy.into(), friction: end.tangential.into() };
+        let [fx, fy] = end.c.load;
+        kept.end_loads = LaneLoads { fx: fx.into(), fy: fy.into(), friction: end.c.friction_force.into() };
         kept.end_mass = finish;
         kept.end_inputs = [true; L];
         // Lanes stepped by their models come back into the lanes.
