@@ -690,18 +690,18 @@ fn fmi_section(quick: bool) -> Result<(), CliError> {
 }
 
 /// `lash bench sweep`: throughput of a sweep of scenario A in the reduced model (runs × 0.1 s,
-/// `slider.ax` at 10 kHz with noise, Latin hypercube over clearance and crank speed), executed
-/// with 1 and then 2 worker threads into temporary folders; the time split shows whether the
-/// dataset writer limits it. "Per CPU s" divides by the process's CPU time over the sweep (every
-/// thread: the workers, the thread that assembles the dataset, the kernel's time writing files):
-/// the work per simulated second whatever the thread count.
+/// `slider.ax` at 10 kHz with noise, Latin hypercube over clearance and crank speed), then of
+/// scenario E (two spherical clearance joints; runs × 0.1 s, `slider.ax` at 10 kHz, Latin
+/// hypercube over both clearances and the crank speed), each executed with 1 and then 2 worker
+/// threads, one run at a time and side by side, into temporary folders; the time split shows
+/// whether the dataset writer limits it. "Per CPU s" divides by the process's CPU time over the
+/// sweep (every thread: the workers, the thread that assembles the dataset, the kernel's time
+/// writing files): the work per simulated second whatever the thread count.
 pub fn sweep(quick: bool) -> Result<(), CliError> {
     let runs = if quick { 40 } else { 200 };
-    let dir = std::env::temp_dir().join(format!("lash-bench-sweep-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).map_err(|e| CliError::Failure(format!("cannot create {}: {e}", dir.display())))?;
-    let file = dir.join("sweep.toml");
-    let text = format!(
+    // (The steps given, 1 ms and 10 µs, as every session's figure was measured: without them a
+    // sweep of A takes the 0.5 ms macro step lash chooses at 5000 rpm.)
+    let a = format!(
         r#"base = "A"
 model = "reduced"
 sampling = "latin_hypercube"
@@ -723,13 +723,48 @@ path = "drivers[0].motion.omega"
 uniform = {{ low = 400.0, high = 600.0 }}
 "#
     );
-    // (The steps given, 1 ms and 10 µs, as every session's figure was measured: without them a
-    // sweep of A takes the 0.5 ms macro step lash chooses at 5000 rpm.)
+    let title = format!(
+        "scenario A, reduced model, {runs} runs × 0.1 s, slider.ax at 10 kHz (+ noise), LHS over clearance and speed"
+    );
+    sweep_table("a", &title, &a)?;
+    let runs = if quick { 32 } else { 96 };
+    let e = format!(
+        r#"base = "E"
+model = "reduced"
+sampling = "latin_hypercube"
+runs = {runs}
+seed = 1
+horizon = 0.1
+[output]
+channels = ["slider.ax"]
+sample_rate = 10000.0
+[[parameters]]
+path = "clearances[0].bearing_radius"
+uniform = {{ low = 0.00555, high = 0.0061 }}
+[[parameters]]
+path = "clearances[1].bearing_radius"
+uniform = {{ low = 0.00555, high = 0.0061 }}
+[[parameters]]
+path = "drivers[0].motion.omega"
+uniform = {{ low = 20.0, high = 32.0 }}
+"#
+    );
+    let title = format!(
+        "scenario E, reduced model, {runs} runs × 0.1 s, slider.ax at 10 kHz, LHS over both clearances and speed"
+    );
+    sweep_table("e", &title, &e)
+}
+
+/// One table of [`sweep`]: the sweep file `text` executed with 1 and 2 threads, one at a time and
+/// side by side, and whether their datasets are the same bytes.
+fn sweep_table(name: &str, title: &str, text: &str) -> Result<(), CliError> {
+    let dir = std::env::temp_dir().join(format!("lash-bench-sweep-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).map_err(|e| CliError::Failure(format!("cannot create {}: {e}", dir.display())))?;
+    let file = dir.join("sweep.toml");
     std::fs::write(&file, text).map_err(|e| CliError::Failure(e.to_string()))?;
     let plan = lash_sweep::load(&file).map_err(|e| CliError::Failure(e.to_string()))?;
-    println!(
-        "lash bench sweep: scenario A, reduced model, {runs} runs × 0.1 s, slider.ax at 10 kHz (+ noise), LHS over clearance and speed"
-    );
+    println!("lash bench sweep: {title}");
     print_profile();
     println!(
         "  threads   runs side by side   wall [s]   runs/s   simulated s per wall s   per core   per CPU s   simulate [s]   write parts [s]   assemble [s]"

@@ -24,8 +24,8 @@ use super::stages::{self, Rk4Stage};
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
 use lash_contact::clearance::{ClearanceJoint, ContactState, ImpactTracker, Tracker};
 use lash_contact::clearance::{ContactLaws, PlanarContact, penetration, planar_contact};
-use lash_contact::friction::{LaneFriction, lane_coefficient};
-use lash_contact::law::{LaneLaw, onset_reciprocal};
+use lash_contact::friction::{FrictionLaw, LaneFriction, lane_coefficient};
+use lash_contact::law::{LaneLaw, NormalForce, onset_reciprocal};
 use lash_core::Ticks;
 use lash_core::lane::{F64x8, Real, flag};
 use lash_mech::Vec2;
@@ -58,10 +58,10 @@ pub type LaneOutcome = Result<(), (usize, f64, lash_contact::PenetrationError)>;
 
 /// Runs advanced together.
 pub const LANES: usize = lash_core::lane::LANES;
-const L: usize = LANES;
+pub(crate) const L: usize = LANES;
 
 /// One number per lane.
-type V = [f64; L];
+pub(crate) type V = [f64; L];
 
 /// The lanes as one value ([`lash_core::lane`]): [`advance`] runs in a copy compiled for
 /// AVX-512 or AVX2 where the CPU has it (chosen at run time), else for the baseline (SSE2 pairs).
@@ -148,17 +148,46 @@ struct LaneLoads {
     friction: V,
 }
 
-/// Per-lane constants of the joint and its laws: the laws' kinds, their numbers per lane
-/// ([`LaneLaw::of`], [`LaneFriction::of`]) and the contact law's onset velocity floor.
+/// Per-lane constants of the joint: its geometry and its laws.
 struct Joint {
     clearance: V,
     journal_radius: V,
     bearing_radius: V,
+    laws: LawLanes,
+}
+
+/// One contact's laws in every lane: the laws' kinds, their numbers per lane ([`LaneLaw::of`],
+/// [`LaneFriction::of`]) and the contact law's onset velocity floor.
+pub(crate) struct LawLanes {
     law: LaneLaw,
     law_numbers: [V; 4],
-    floor: V,
+    pub(crate) floor: V,
     friction: LaneFriction,
     friction_numbers: [V; 4],
+}
+
+impl LawLanes {
+    /// The laws of each lane's contact, `of(l)` (a contact law and a friction law), of the kinds
+    /// `kinds`.
+    pub(crate) fn of<'a>(kinds: LaneLaws, of: impl Fn(usize) -> (&'a NormalForce, &'a FrictionLaw)) -> Self {
+        // Each lane's numbers (lane-major), then as lanes per number.
+        let law: [[f64; 4]; L] = std::array::from_fn(|l| LaneLaw::of(of(l).0).1);
+        let friction: [[f64; 4]; L] = std::array::from_fn(|l| LaneFriction::of(of(l).1).1);
+        let lanes = |numbers: &[[f64; 4]; L]| std::array::from_fn(|k| std::array::from_fn(|l| numbers[l][k]));
+        Self {
+            law: kinds.law,
+            law_numbers: lanes(&law),
+            floor: std::array::from_fn(|l| kinds.law.floor(&law[l])),
+            friction: kinds.friction,
+            friction_numbers: lanes(&friction),
+        }
+    }
+
+    /// Whether the contact law is of kind `law`.
+    #[inline(always)]
+    pub(crate) fn is(&self, law: LaneLaw) -> bool {
+        self.law == law
+    }
 }
 
 /// Per-lane inputs of the interval (values at `input_time` and rates).
@@ -196,19 +225,11 @@ struct States {
 impl Joint {
     fn of(models: &[&mut OneJoint; L], laws: LaneLaws) -> Self {
         let each = |f: &dyn Fn(&ClearanceJoint) -> f64| std::array::from_fn(|l| f(&models[l].joints[0]));
-        // Each lane's numbers (lane-major), then as lanes per number.
-        let law: [[f64; 4]; L] = std::array::from_fn(|l| LaneLaw::of(&models[l].joints[0].law).1);
-        let friction: [[f64; 4]; L] = std::array::from_fn(|l| LaneFriction::of(&models[l].joints[0].friction).1);
-        let lanes = |numbers: &[[f64; 4]; L]| std::array::from_fn(|k| std::array::from_fn(|l| numbers[l][k]));
         Self {
             clearance: each(&|j| j.radial_clearance()),
             journal_radius: each(&|j| j.journal_radius),
             bearing_radius: each(&|j| j.bearing_radius),
-            law: laws.law,
-            law_numbers: lanes(&law),
-            floor: std::array::from_fn(|l| laws.law.floor(&law[l])),
-            friction: laws.friction,
-            friction_numbers: lanes(&friction),
+            laws: LawLanes::of(laws, |l| (&models[l].joints[0].law, &models[l].joints[0].friction)),
         }
     }
 
@@ -245,7 +266,7 @@ impl Joint {
         (onset, reciprocal): (&V, &V),
     ) -> Contact {
         let radii = [x(&self.journal_radius), x(&self.bearing_radius)];
-        let laws = LaneContact::<COMMON> { joint: self, in_contact, onset: (x(onset), x(reciprocal)) };
+        let laws = LaneContact::<COMMON> { laws: &self.laws, in_contact, onset: (x(onset), x(reciprocal)) };
         let c = planar_contact(&laws, [ex, ey], (norm, delta), [u, v], [x(wj), x(wb)], radii);
         Contact { ex, ey, norm, delta, c }
     }
@@ -253,11 +274,12 @@ impl Joint {
 
 /// The laws of every lane's contact in a stage ([`Joint::contact`]): each lane's law at its
 /// onset velocity and reciprocal (`onset`), a lane in free flight (`in_contact` clear) that
-/// already indents at its own δ̇ (≥ 0), as the model takes it.
-struct LaneContact<'a, const COMMON: bool> {
-    joint: &'a Joint,
-    in_contact: X,
-    onset: (X, X),
+/// already indents at its own δ̇ (≥ 0), as the model takes it. `COMMON`: the law is
+/// [`COMMON_LAW`].
+pub(crate) struct LaneContact<'a, const COMMON: bool> {
+    pub(crate) laws: &'a LawLanes,
+    pub(crate) in_contact: X,
+    pub(crate) onset: (X, X),
 }
 
 impl<const COMMON: bool> ContactLaws<X> for LaneContact<'_, COMMON> {
@@ -269,17 +291,17 @@ impl<const COMMON: bool> ContactLaws<X> for LaneContact<'_, COMMON> {
             self.onset
         } else {
             let own = delta_dot.max(zero);
-            let reciprocal = onset_reciprocal(own, x(&self.joint.floor));
+            let reciprocal = onset_reciprocal(own, x(&self.laws.floor));
             (indenting.select(own, self.onset.0), indenting.select(reciprocal, self.onset.1))
         };
         // (The common law, Lankarani–Nikravesh's kind at exponent 1.5, known at compile time: the
         // kind's and the exponent's tests fold away.)
-        let law = if COMMON { COMMON_LAW } else { self.joint.law };
-        law.force(&xs(&self.joint.law_numbers), (delta, delta_dot), onset, reciprocal).max(zero)
+        let law = if COMMON { COMMON_LAW } else { self.laws.law };
+        law.force(&xs(&self.laws.law_numbers), (delta, delta_dot), onset, reciprocal).max(zero)
     }
     #[inline(always)]
     fn friction_coefficient(&self, slip: X) -> X {
-        lane_coefficient(self.joint.friction, &xs(&self.joint.friction_numbers), slip)
+        lane_coefficient(self.laws.friction, &xs(&self.laws.friction_numbers), slip)
     }
 }
 
@@ -410,7 +432,7 @@ struct Kept {
 /// through the models' trackers, this bookkeeping took ~10 % of a sweep of scenario A, whose joint
 /// is in contact most of the time.
 #[derive(Clone, Copy)]
-struct Trackers {
+pub(crate) struct Trackers {
     /// Lanes with an open impact (a mask: all bits set).
     open: X,
     /// Their trackers' numbers (a closed lane's are not read).
@@ -418,7 +440,7 @@ struct Trackers {
 }
 
 impl Trackers {
-    const NONE: Self = Self {
+    pub(crate) const NONE: Self = Self {
         open: X::ZERO,
         numbers: Tracker {
             onset_time: X::ZERO,
@@ -434,7 +456,7 @@ impl Trackers {
     };
 
     /// Lane `l` takes `tracker`.
-    fn set(&mut self, l: usize, tracker: Option<ImpactTracker>) {
+    pub(crate) fn set(&mut self, l: usize, tracker: Option<ImpactTracker>) {
         self.open[l] = flag(tracker.is_some());
         let Some(tr) = tracker else { return };
         let n = &mut self.numbers;
@@ -447,7 +469,7 @@ impl Trackers {
     }
 
     /// Lane `l`'s tracker.
-    fn get(&self, l: usize) -> Option<ImpactTracker> {
+    pub(crate) fn get(&self, l: usize) -> Option<ImpactTracker> {
         let n = &self.numbers;
         (self.open[l].to_bits() != 0).then(|| Tracker {
             onset_time: n.onset_time[l],
@@ -466,7 +488,7 @@ impl Trackers {
     /// mask): the parabola's vertex, where a sample follows a peak, lane by lane through the
     /// single tracker's code.
     #[inline(always)]
-    fn sample(&mut self, lanes: X, t: X, force: X, penetration: X) {
+    pub(crate) fn sample(&mut self, lanes: X, t: X, force: X, penetration: X) {
         let active = lanes & self.open;
         if active.to_bitmask() == 0 {
             return;
@@ -500,12 +522,8 @@ impl Kept {
         (st.slip[l], st.normal_force[l], st.friction_force[l]) = (s.slip_velocity, s.normal_force, s.friction_force);
         (st.fx[l], st.fy[l]) = (s.force_on_journal.x, s.force_on_journal.y);
         self.trackers.set(l, m.open[0]);
-        match &m.end {
-            Some(end)
-                if (end.time - t).abs() < 1e-12
-                    && end.eccentricity == m.eccentricity
-                    && end.eccentricity_rate == m.eccentricity_rate =>
-            {
+        match m.end_at(t) {
+            Some(end) => {
                 self.end_time[l] = end.time;
                 self.end_loads.fx[l] = end.loads.contact[0];
                 self.end_loads.fy[l] = end.loads.contact[1];
@@ -519,7 +537,7 @@ impl Kept {
                 self.end_inputs[l] = end.input_time == m.input_time;
                 true
             }
-            _ => false,
+            None => false,
         }
     }
 
@@ -599,7 +617,7 @@ pub fn advance(
 /// The contact law of most scenarios (the hysteresis laws at exponent 1.5), for which the lanes'
 /// step is compiled with the law's kind and exponent known: the runtime tests of both cost the
 /// lanes' step 3 %.
-const COMMON_LAW: LaneLaw = LaneLaw::Hysteresis(1.5);
+pub(crate) const COMMON_LAW: LaneLaw = LaneLaw::Hysteresis(1.5);
 
 /// [`advance`] in the instruction set it was dispatched to.
 #[inline(always)]
@@ -665,7 +683,7 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
     let (mut onset, mut reciprocal): (V, V) = ([0.0; L], [0.0; L]);
     let take_onset = |l: usize, m: &OneJoint, onset: &mut V, reciprocal: &mut V| {
         onset[l] = m.joints[0].onset_velocity;
-        reciprocal[l] = onset_reciprocal(onset[l], joint.floor[l]);
+        reciprocal[l] = onset_reciprocal(onset[l], joint.laws.floor[l]);
     };
     for (l, m) in models.iter().enumerate() {
         take_onset(l, m, &mut onset, &mut reciprocal);
@@ -830,6 +848,117 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
         if running[l] && !by_model[l] {
             kept.scatter(l, models[l]);
         }
+    }
+    outcome
+}
+
+/// A kind of micro model that runs in lanes: what the lanes hold of `L` models between steps
+/// and their step — the lanes' own part, for one kind of joint; [`drive`] does what is the same
+/// for every kind (which lanes the lanes step, which their models step, which fail, when they
+/// are sampled).
+pub(crate) trait LaneKind<M> {
+    /// Lane `l` from its model at `t` (its state, modes, open impacts and kept step end);
+    /// `false` when the model has no step end to start from at `t`.
+    fn gather(&mut self, l: usize, m: &M, t: f64) -> bool;
+    /// Writes lane `l` back into its model whole (state, open impacts and step end).
+    fn scatter(&self, l: usize, m: &mut M);
+    /// What a sample reads of lane `l`: the state, the impulses and the contact states.
+    fn scatter_sampled(&self, l: usize, m: &mut M);
+    /// The time of each lane's kept step end.
+    fn end_time(&self) -> X;
+    /// One RK4 step of `h` from `now` of every lane; the lanes in `stepped` are the ones whose
+    /// results count (mode switches and impacts are theirs alone, lane by lane through their
+    /// models).
+    fn step(&mut self, now: X, h: f64, stepped: X, models: &mut [&mut M; L]);
+    /// The lanes whose penetrations are within the model's limits.
+    fn fine(&self) -> X;
+    /// The model's own step (a lane without a kept step end).
+    fn model_step(m: &mut M, t: f64, h: f64);
+    /// The penetration check of the model's own loop, on the model.
+    fn check(m: &M) -> Result<(), lash_contact::PenetrationError>;
+}
+
+/// Advances the `L` models of `lanes` (each at its own time `t[l]` with its inputs set) by
+/// `record.len()` steps of `step`, as [`advance`] describes: a lane without a step end to start
+/// from is stepped by its model and taken back afterwards, a lane that fails stops there (its
+/// outcome says where) and the others go on, and after each flagged step `sample(lane, step
+/// index, model)` is called for every lane still running, in lane order.
+#[inline(always)]
+pub(crate) fn drive<M, S: LaneKind<M>>(
+    lanes: &mut S,
+    models: &mut [&mut M; L],
+    t: [Ticks; L],
+    step: Ticks,
+    record: &[bool],
+    mut sample: impl FnMut(usize, usize, &M),
+) -> [LaneOutcome; L] {
+    let h = step.seconds();
+    let mut outcome: [LaneOutcome; L] = std::array::from_fn(|_| Ok(()));
+    let mut running = [true; L];
+    // Lanes whose model takes the step itself (no kept step end to start from).
+    let mut by_model: [bool; L] = std::array::from_fn(|l| !lanes.gather(l, models[l], t[l].seconds()));
+    // The lanes stepped here (running, not by their models) as a mask, and whether any running
+    // lane is stepped by its model: formed again only where a lane changes.
+    let masks = |running: &[bool; L], by_model: &[bool; L]| {
+        (X::mask(*running) & !X::mask(*by_model), (0..L).any(|l| running[l] && by_model[l]))
+    };
+    let (mut stepped, mut any_by_model) = masks(&running, &by_model);
+    let at = |l: usize, i: usize| Ticks(t[l].0 + i as i64 * step.0).seconds();
+    // (The lanes of a sweep share their time: one conversion per step.)
+    let shared = t.iter().all(|&x| x == t[0]);
+    for (i, &flag) in record.iter().enumerate() {
+        let now = if shared { X::splat(at(0, i)) } else { X::from(std::array::from_fn(|l| at(l, i))) };
+        // (A step end that is not this instant: possible only for times far from the origin; the
+        // model decides what to reuse.)
+        let elsewhere = (stepped & (lanes.end_time() - now).abs().simd_ge(X::splat(1e-12))).to_bitmask();
+        if elsewhere != 0 {
+            for (l, m) in models.iter_mut().enumerate().filter(|(l, _)| elsewhere >> l & 1 == 1) {
+                lanes.scatter(l, m);
+                by_model[l] = true;
+            }
+            (stepped, any_by_model) = masks(&running, &by_model);
+        }
+        // The models that take this step themselves, before the lanes overwrite their numbers.
+        let stepping_themselves =
+            if any_by_model { std::array::from_fn(|l| running[l] && by_model[l]) } else { [false; L] };
+        for (l, m) in models.iter_mut().enumerate().filter(|(l, _)| stepping_themselves[*l]) {
+            S::model_step(m, now[l], h);
+        }
+        lanes.step(now, h, stepped, models);
+        // Lanes stepped by their models come back into the lanes.
+        if any_by_model {
+            for (l, m) in models.iter().enumerate().filter(|(l, _)| stepping_themselves[*l]) {
+                by_model[l] = !lanes.gather(l, m, at(l, i + 1));
+            }
+            (stepped, any_by_model) = masks(&running, &by_model);
+        }
+        // The penetration check of the model's loop: the lanes' numbers, or the model's where it
+        // stepped itself.
+        let bad = !lanes.fine().to_bitmask();
+        let checked: [bool; L] = std::array::from_fn(|l| running[l] && (by_model[l] || bad >> l & 1 == 1));
+        for (l, m) in models.iter_mut().enumerate().filter(|(l, _)| checked[*l]) {
+            if !by_model[l] {
+                lanes.scatter(l, m);
+            }
+            if let Err(e) = S::check(m) {
+                outcome[l] = Err((i, at(l, i + 1), e));
+                running[l] = false;
+            }
+        }
+        if checked.iter().any(|&c| c) {
+            (stepped, any_by_model) = masks(&running, &by_model);
+        }
+        if flag {
+            for (l, m) in models.iter_mut().enumerate().filter(|(l, _)| running[*l]) {
+                if !by_model[l] {
+                    lanes.scatter_sampled(l, m);
+                }
+                sample(l, i, m);
+            }
+        }
+    }
+    for (l, m) in models.iter_mut().enumerate().filter(|(l, _)| running[*l] && !by_model[*l]) {
+        lanes.scatter(l, m);
     }
     outcome
 }

@@ -24,6 +24,7 @@ pub mod guide;
 pub mod joint;
 pub mod lanes;
 pub mod model;
+pub mod spherical_lanes;
 pub mod stages;
 
 pub use bushing::BushingJoint;
@@ -382,12 +383,14 @@ fn rk4_recorded_in<
 }
 
 /// [`Subsystem::do_steps`] of several micro subsystems (independent runs at the same point of
-/// their runs, each with its inputs set), with the same results bit for bit: those that hold one
-/// planar clearance joint stepped by RK4 at their own micro step, with laws that run in lanes
-/// ([`lanes::lane_laws`]), are advanced [`lanes::LANES`] at a time in lockstep
-/// ([`lanes::advance`]); the others, and the last group when it is not full, one by one. `rows[i]`
-/// receives subsystem i's flagged rows as `do_steps` writes them. (The interface master of
-/// runs stepped together hands them over by their type: lash-orchestrate's `GroupStep`.)
+/// their runs, each with its inputs set), with the same results bit for bit: those stepped by RK4
+/// at their own micro step whose joints run in lanes — one planar clearance joint
+/// ([`lanes::lane_laws`]), or one to four spherical ones ([`spherical_lanes::ball_laws`]) — are
+/// advanced [`lanes::LANES`] at a time in lockstep ([`lanes::advance`],
+/// [`spherical_lanes::advance_balls`]), the lanes of a group alike in their joints and their
+/// laws' kinds; the others, and the last group of a kind when it is not full, one by one.
+/// `rows[i]` receives subsystem i's flagged rows as `do_steps` writes them. (The interface master
+/// of runs stepped together hands them over by their type: lash-orchestrate's `GroupStep`.)
 pub fn do_steps_together(
     subs: &mut [&mut InterfaceSubsystem],
     t: Ticks,
@@ -396,18 +399,16 @@ pub fn do_steps_together(
     refs: &[ValueReference],
     rows: &mut [&mut [f64]],
 ) -> Vec<Steps> {
-    use lanes::{LANES, LaneLaws, OneJoint};
     assert_eq!(subs.len(), rows.len(), "one row buffer per subsystem");
     let mut results: Vec<Option<Steps>> = (0..subs.len()).map(|_| None).collect();
-    // Which subsystems can run in lanes, by their laws' kinds, with their row widths.
-    let mut groups: Vec<(LaneLaws, Vec<(usize, usize)>)> = Vec::new();
+    // Which subsystems can run in lanes, by their kind, with their row widths.
+    let mut groups: Vec<(LaneGroup, Vec<(usize, usize)>)> = Vec::new();
     for (i, (micro, out)) in subs.iter_mut().zip(rows.iter_mut()).enumerate() {
         let fast = matches!(micro.integrator, MicroIntegrator::Rk4 { .. })
             && h == micro.micro_step
             && micro.phase == Phase::Stepping
             && t == micro.time;
-        let Core::C2(model) = &micro.core else { continue };
-        let (Some(kind), true) = (lanes::lane_laws(model), fast) else { continue };
+        let (Some(kind), true) = (LaneGroup::of(&micro.core), fast) else { continue };
         let width = match lash_core::subsystem::recorded_rows(&micro.variables, record, refs, out) {
             Ok(w) => w,
             Err(e) => {
@@ -415,39 +416,38 @@ pub fn do_steps_together(
                 continue;
             }
         };
-        match groups.iter_mut().find(|(k, members)| *k == kind && members.len() < LANES) {
+        match groups.iter_mut().find(|(k, members)| *k == kind && members.len() < lanes::LANES) {
             Some((_, members)) => members.push((i, width)),
             None => groups.push((kind, vec![(i, width)])),
         }
     }
-    for (kind, members) in groups.iter().filter(|(_, m)| m.len() == LANES) {
-        // The members' models, their step counts and parameters (for reading outputs), and rows.
-        let mut picked: Vec<(&mut InterfaceSubsystem, &mut [f64], usize)> = Vec::with_capacity(LANES);
-        let mut rest: &mut [&mut InterfaceSubsystem] = &mut subs[..];
-        let mut rows_rest: &mut [&mut [f64]] = &mut rows[..];
-        let mut offset = 0;
-        for &(i, width) in members {
-            let (sub_tail, row_tail) = (std::mem::take(&mut rest), std::mem::take(&mut rows_rest));
-            let (sub, sub_tail) = sub_tail[i - offset..].split_first_mut().expect("a member index");
-            let (out, row_tail) = row_tail[i - offset..].split_first_mut().expect("a member index");
-            picked.push((&mut **sub, &mut **out, width));
-            (rest, rows_rest, offset) = (sub_tail, row_tail, i + 1);
+    for (kind, members) in groups.iter().filter(|(_, m)| m.len() == lanes::LANES) {
+        let mut picked = pick(subs, rows, members);
+        let steps = (t, h, record, refs);
+        let at = [t; lanes::LANES];
+        // (The spherical kinds alike but for their joint count.)
+        macro_rules! balls {
+            ($variant:ident, $laws:expr) => {
+                in_lanes(
+                    &mut picked,
+                    steps,
+                    |c| as_variant!(c, $variant),
+                    |models, sample| spherical_lanes::advance_balls(models, $laws, at, h, record, sample),
+                )
+            };
         }
-        let mut contexts = Vec::with_capacity(LANES);
-        let mut models: Vec<&mut OneJoint> = Vec::with_capacity(LANES);
-        for (micro, out, width) in picked.iter_mut() {
-            let InterfaceSubsystem { core, lens, parameter_values, micro_steps, .. } = &mut **micro;
-            let Core::C2(model) = core else { unreachable!("grouped as one planar joint") };
-            models.push(&mut **model);
-            contexts.push((*micro_steps, &parameter_values[..], &lens[..], &mut **out, *width, 0usize));
-        }
-        let mut models: [&mut OneJoint; LANES] = models.try_into().unwrap_or_else(|_| unreachable!("a full group"));
-        let outcome = lanes::advance(&mut models, *kind, [t; LANES], h, record, |l, i, m| {
-            let (steps, parameters, lens, out, width, row) = &mut contexts[l];
-            read(m, *steps + i as u64 + 1, parameters, lens, refs, &mut out[*row * *width..(*row + 1) * *width]);
-            *row += 1;
-        });
-        drop(contexts);
+        let outcome = match *kind {
+            LaneGroup::Planar(laws) => in_lanes(
+                &mut picked,
+                steps,
+                |c| as_variant!(c, C2),
+                |models, sample| lanes::advance(models, laws, at, h, record, sample),
+            ),
+            LaneGroup::Balls1(laws) => balls!(S3, laws),
+            LaneGroup::Balls2(laws) => balls!(S6, laws),
+            LaneGroup::Balls3(laws) => balls!(S9, laws),
+            LaneGroup::Balls4(laws) => balls!(S12, laws),
+        };
         for ((micro, _, _), (outcome, &(i, _))) in picked.iter_mut().zip(outcome.into_iter().zip(members)) {
             results[i] = Some(match outcome {
                 Ok(()) => {
@@ -468,6 +468,86 @@ pub fn do_steps_together(
         .zip(results)
         .map(|((sub, out), r)| r.unwrap_or_else(|| sub.do_steps(t, h, record, refs, out)))
         .collect()
+}
+
+/// What the micro models of a group of lanes share: their kind of joints and the laws' kinds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LaneGroup {
+    Planar(lanes::LaneLaws),
+    Balls1([lanes::LaneLaws; 1]),
+    Balls2([lanes::LaneLaws; 2]),
+    Balls3([lanes::LaneLaws; 3]),
+    Balls4([lanes::LaneLaws; 4]),
+}
+
+impl LaneGroup {
+    /// The group of a micro model that can run in lanes, or `None`.
+    fn of(core: &Core) -> Option<Self> {
+        use spherical_lanes::ball_laws;
+        match core {
+            Core::C2(m) => lanes::lane_laws(m).map(Self::Planar),
+            Core::S3(m) => Some(Self::Balls1(ball_laws(m))),
+            Core::S6(m) => Some(Self::Balls2(ball_laws(m))),
+            Core::S9(m) => Some(Self::Balls3(ball_laws(m))),
+            Core::S12(m) => Some(Self::Balls4(ball_laws(m))),
+            _ => None,
+        }
+    }
+}
+
+/// The model of a core of variant `$variant` (grouped by it: any other is a bug).
+macro_rules! as_variant {
+    ($core:expr, $variant:ident) => {
+        match $core {
+            Core::$variant(m) => &mut **m,
+            _ => unreachable!("grouped by the core's kind"),
+        }
+    };
+}
+use as_variant;
+
+/// A group's members (subsystem index, row width) with their row buffers, taken apart from the
+/// others.
+fn pick<'a>(
+    subs: &'a mut [&mut InterfaceSubsystem],
+    rows: &'a mut [&mut [f64]],
+    members: &[(usize, usize)],
+) -> Vec<(&'a mut InterfaceSubsystem, &'a mut [f64], usize)> {
+    let mut picked = Vec::with_capacity(members.len());
+    let (mut rest, mut rows_rest, mut offset) = (subs, rows, 0);
+    for &(i, width) in members {
+        let (sub, sub_tail) = std::mem::take(&mut rest)[i - offset..].split_first_mut().expect("a member index");
+        let (out, row_tail) = std::mem::take(&mut rows_rest)[i - offset..].split_first_mut().expect("a member index");
+        picked.push((&mut **sub, &mut **out, width));
+        (rest, rows_rest, offset) = (sub_tail, row_tail, i + 1);
+    }
+    picked
+}
+
+/// Steps a full group's models (`model_of` each subsystem's core) by `advance`, each flagged
+/// step's outputs read into its rows as `do_steps` reads them.
+fn in_lanes<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
+    picked: &mut [(&mut InterfaceSubsystem, &mut [f64], usize)],
+    (_, _, _, refs): (Ticks, Ticks, &[bool], &[ValueReference]),
+    model_of: impl Fn(&mut Core) -> &mut InterfaceModel<J, N, K, M, R>,
+    advance: impl FnOnce(
+        &mut [&mut InterfaceModel<J, N, K, M, R>; lanes::LANES],
+        &mut dyn FnMut(usize, usize, &InterfaceModel<J, N, K, M, R>),
+    ) -> [lanes::LaneOutcome; lanes::LANES],
+) -> [lanes::LaneOutcome; lanes::LANES] {
+    let mut contexts = Vec::with_capacity(lanes::LANES);
+    let mut models = Vec::with_capacity(lanes::LANES);
+    for (micro, out, width) in picked.iter_mut() {
+        let InterfaceSubsystem { core, lens, parameter_values, micro_steps, .. } = &mut **micro;
+        models.push(model_of(core));
+        contexts.push((*micro_steps, &parameter_values[..], &lens[..], &mut **out, *width, 0usize));
+    }
+    let mut models: [_; lanes::LANES] = models.try_into().unwrap_or_else(|_| unreachable!("a full group"));
+    advance(&mut models, &mut |l, i, m| {
+        let (steps, parameters, lens, out, width, row) = &mut contexts[l];
+        read(m, *steps + i as u64 + 1, parameters, lens, refs, &mut out[*row * *width..(*row + 1) * *width]);
+        *row += 1;
+    })
 }
 
 /// Writes input `r` (already checked: an input, finite, of the right length) into `u`.

@@ -921,6 +921,16 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         }
     }
 
+    /// The kept step end where the next step from `t` may start from it: the same instant (up to
+    /// rounding) and the same state — what the lanes take from a model.
+    pub(super) fn end_at(&self, t: f64) -> Option<&StepEnd<N, M>> {
+        self.end.as_ref().filter(|end| {
+            (end.time - t).abs() < 1e-12
+                && end.eccentricity == self.eccentricity
+                && end.eccentricity_rate == self.eccentricity_rate
+        })
+    }
+
     /// Mode switches at the end of a step from (w0, ẇ0, s0) at `t` to (w1, ẇ1, s1) at `t + h`: a
     /// joint that closes its clearance opens a contact, one that leaves it closes it; the onset
     /// or exit is placed by linear interpolation.

@@ -11,6 +11,36 @@ pub const F0: f64 = 100.0;
 /// Its slope \[N/s\].
 pub const F1: f64 = 2000.0;
 
+/// The calls both mocks answer alike from their variables and their clock alone (a saved state
+/// is the time).
+macro_rules! clock_calls {
+    ($name:literal) => {
+        fn name(&self) -> &str {
+            $name
+        }
+        fn variables(&self) -> &[Variable] {
+            &self.variables
+        }
+        fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
+            self.t = start;
+            Ok(())
+        }
+        fn initialize(&mut self) -> Result<(), SubsystemError> {
+            Ok(())
+        }
+        fn time(&self) -> Ticks {
+            self.t
+        }
+        fn save_state(&self) -> Result<SavedState, SubsystemError> {
+            Ok(SavedState(Box::new(self.t)))
+        }
+        fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
+            self.t = *state.0.downcast_ref::<Ticks>().expect("a mock state");
+            Ok(())
+        }
+    };
+}
+
 /// The mock mechanism: one planar joint (n = 2, one friction load, one angular velocity each).
 pub struct Macro {
     variables: Vec<Variable>,
@@ -56,19 +86,7 @@ impl Macro {
 }
 
 impl Subsystem for Macro {
-    fn name(&self) -> &str {
-        "mock macro"
-    }
-    fn variables(&self) -> &[Variable] {
-        &self.variables
-    }
-    fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
-        self.t = start;
-        Ok(())
-    }
-    fn initialize(&mut self) -> Result<(), SubsystemError> {
-        Ok(())
-    }
+    clock_calls!("mock macro");
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         let mut at = 0;
         for &r in refs {
@@ -92,16 +110,6 @@ impl Subsystem for Macro {
         self.received.push((self.eccentricity, t));
         self.t = Ticks(t.0 + h.0);
         Ok(StepOutcome::Completed)
-    }
-    fn time(&self) -> Ticks {
-        self.t
-    }
-    fn save_state(&self) -> Result<SavedState, SubsystemError> {
-        Ok(SavedState(Box::new(self.t)))
-    }
-    fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
-        self.t = *state.0.downcast_ref::<Ticks>().expect("a mock state");
-        Ok(())
     }
 }
 
@@ -148,19 +156,7 @@ impl Micro {
 }
 
 impl Subsystem for Micro {
-    fn name(&self) -> &str {
-        "mock micro"
-    }
-    fn variables(&self) -> &[Variable] {
-        &self.variables
-    }
-    fn setup(&mut self, start: Ticks, _stop: Option<Ticks>) -> Result<(), SubsystemError> {
-        self.t = start;
-        Ok(())
-    }
-    fn initialize(&mut self) -> Result<(), SubsystemError> {
-        Ok(())
-    }
+    clock_calls!("mock micro");
     fn set_f64(&mut self, refs: &[ValueReference], values: &[f64]) -> Result<(), SubsystemError> {
         let mut at = 0;
         for &r in refs {
@@ -197,16 +193,6 @@ impl Subsystem for Micro {
         self.t = Ticks(t.0 + h.0);
         self.seen = self.force.0 + self.force.1 * Ticks(self.t.0 - self.set_at.0).seconds();
         Ok(StepOutcome::Completed)
-    }
-    fn time(&self) -> Ticks {
-        self.t
-    }
-    fn save_state(&self) -> Result<SavedState, SubsystemError> {
-        Ok(SavedState(Box::new(self.t)))
-    }
-    fn restore_state(&mut self, state: &SavedState) -> Result<(), SubsystemError> {
-        self.t = *state.0.downcast_ref::<Ticks>().expect("a mock state");
-        Ok(())
     }
 }
 

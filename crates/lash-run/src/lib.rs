@@ -98,24 +98,33 @@ pub fn runner(scenario: &lash_scenario::AnyScenario, model: Model) -> Result<Any
 }
 
 /// Executes several runners, run i's rows to `sinks[i]`, with the result each gives alone:
-/// planar reduced runs go side by side ([`ReducedRun::execute_together`], their micro models
-/// stepped in vector lanes where they can be — the same rows and summaries bit for bit, the CPU
-/// and wall times shared), the others one after the other. Nothing reports progress.
+/// reduced runs go side by side, planar and spatial apart ([`ReducedRun::execute_together`],
+/// [`SpatialReducedRun::execute_together`]: their micro models stepped in vector lanes where they
+/// can be — the same rows and summaries bit for bit, the CPU and wall times shared), the others
+/// one after the other. Nothing reports progress.
 pub fn execute_together(runners: &mut [AnyRunner], sinks: Vec<Sink<'_>>) -> Vec<Result<Summary, RunError>> {
     assert_eq!(runners.len(), sinks.len(), "one sink per runner");
     let mut results: Vec<Option<Result<Summary, RunError>>> = runners.iter().map(|_| None).collect();
-    let (mut group, mut group_sinks, mut members) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut planar, mut planar_sinks, mut planar_members) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut spatial, mut spatial_sinks, mut spatial_members) = (Vec::new(), Vec::new(), Vec::new());
     for (i, (runner, sink)) in runners.iter_mut().zip(sinks).enumerate() {
         match runner {
             AnyRunner::Reduced(run) => {
-                group.push(&mut **run);
-                group_sinks.push(sink);
-                members.push(i);
+                planar.push(&mut **run);
+                planar_sinks.push(sink);
+                planar_members.push(i);
+            }
+            AnyRunner::SpatialReduced(run) => {
+                spatial.push(&mut **run);
+                spatial_sinks.push(sink);
+                spatial_members.push(i);
             }
             other => results[i] = Some(other.execute(sink, &mut |_| {})),
         }
     }
-    for (i, r) in members.into_iter().zip(ReducedRun::execute_together(&mut group, group_sinks)) {
+    let planar = planar_members.into_iter().zip(ReducedRun::execute_together(&mut planar, planar_sinks));
+    let spatial = spatial_members.into_iter().zip(SpatialReducedRun::execute_together(&mut spatial, spatial_sinks));
+    for (i, r) in planar.chain(spatial) {
         results[i] = Some(r);
     }
     results.into_iter().map(|r| r.expect("every runner ran")).collect()

@@ -267,7 +267,11 @@ impl ReducedRun {
         let details: Vec<_> = runs.iter().map(|r| r.details()).collect();
         let group: Vec<Coupled<'_, MechanismSubsystem>> =
             runs.iter_mut().zip(&recordings).map(|(r, rec)| r.coupled(rec)).collect();
-        let results = run_reduced_together(group, sinks, |i, master| details[i](master));
+        let mut work = lash_mech::lanes::KinematicLanes::default();
+        let mut ahead = |subs: &mut [&mut MechanismSubsystem], t, h| {
+            lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);
+        };
+        let results = run_reduced_together(group, sinks, &mut ahead, |i, master| details[i](master));
         results
             .into_iter()
             .zip(runs.iter())
@@ -663,9 +667,10 @@ pub(crate) fn run_reduced<Ma: Subsystem>(
 /// [`run_reduced`] gives it, bit for bit, but for its CPU and wall times: the group's, shared
 /// equally. Runs whose settings cannot go together (two-way coupling, threads, cubic Hermite,
 /// different steps or output intervals) run one after the other, as [`run_reduced`] runs them.
-pub(crate) fn run_reduced_together<'c, 's>(
-    mut group: Vec<Coupled<'c, MechanismSubsystem>>,
+pub(crate) fn run_reduced_together<'c, 's, Ma: Subsystem>(
+    mut group: Vec<Coupled<'c, Ma>>,
     sinks: Vec<Sink<'s>>,
+    ahead: &mut lash_orchestrate::GroupAhead<'_, Ma>,
     details: impl Fn(usize, MasterStats) -> ReducedDetails,
 ) -> Vec<Result<Summary, RunError>> {
     assert_eq!(group.len(), sinks.len(), "one sink per run");
@@ -697,11 +702,7 @@ pub(crate) fn run_reduced_together<'c, 's>(
         }
         let mut lists: Vec<&mut [(&mut dyn Observer, Ticks)]> = observers.iter_mut().map(|o| &mut o[..]).collect();
         let mut step = lash_micro::do_steps_together;
-        let mut work = lash_mech::lanes::KinematicLanes::default();
-        let mut ahead = |subs: &mut [&mut MechanismSubsystem], t, h| {
-            lash_mech::subsystem::kinematic_steps_ahead(subs, t, h, &mut work);
-        };
-        let stats = InterfaceMaster::run_together(&mut masters, &mut lists, &mut step, &mut ahead);
+        let stats = InterfaceMaster::run_together(&mut masters, &mut lists, &mut step, ahead);
         members.into_iter().zip(stats).collect()
     };
     let share = 1.0 / ran.len().max(1) as f64;

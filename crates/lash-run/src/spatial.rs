@@ -605,22 +605,43 @@ impl SpatialReducedRun {
 
     /// Runs the horizon; rows go to `sink`, the fraction done to `progress`.
     pub fn execute(&mut self, sink: Sink<'_>, progress: &mut dyn FnMut(f64)) -> Result<Summary, RunError> {
-        let period = crate::run::driver_period(self.scenario.drivers.iter().map(|d| &d.motion));
+        let details = self.details();
+        crate::reduced::run_reduced(self.coupled(), details, sink, progress)
+    }
+
+    /// Runs several prepared runs side by side, run i's rows to `sinks[i]`: their micro models
+    /// are stepped eight at a time in vector lanes where they can be
+    /// ([`lash_micro::do_steps_together`]). Each run's rows and summary are those of its own
+    /// [`SpatialReducedRun::execute`], bit for bit, but for the CPU and wall times (the group's,
+    /// shared equally); runs whose settings cannot go together run one after the other.
+    pub fn execute_together(
+        runs: &mut [&mut SpatialReducedRun],
+        sinks: Vec<Sink<'_>>,
+    ) -> Vec<Result<Summary, RunError>> {
+        let details: Vec<_> = runs.iter().map(|r| r.details()).collect();
+        let group: Vec<_> = runs.iter_mut().map(|r| r.coupled()).collect();
+        // (The spatial macro steps are not taken ahead in lanes: each run takes its own.)
+        let mut ahead = |_: &mut [&mut lash_spatial::SpatialMechanismSubsystem], _, _| {};
+        crate::reduced::run_reduced_together(group, sinks, &mut ahead, |i, master| details[i](master))
+    }
+
+    /// The two subsystems and what the run records, for the interface master.
+    fn coupled(&mut self) -> crate::reduced::Coupled<'_, lash_spatial::SpatialMechanismSubsystem> {
+        crate::reduced::Coupled {
+            macro_sub: &mut self.macro_sub,
+            micro_sub: &mut self.micro_sub,
+            master: self.master_options,
+            signals: &self.signals,
+            recording: &self.recording,
+            simulation: &self.scenario.simulation,
+            scenario: &self.scenario.name,
+            period: crate::run::driver_period(self.scenario.drivers.iter().map(|d| &d.motion)),
+        }
+    }
+
+    /// The run's details from the master's statistics.
+    fn details(&self) -> impl Fn(lash_orchestrate::MasterStats) -> crate::reduced::ReducedDetails + use<> {
         let options = self.options;
-        crate::reduced::run_reduced(
-            crate::reduced::Coupled {
-                macro_sub: &mut self.macro_sub,
-                micro_sub: &mut self.micro_sub,
-                master: self.master_options,
-                signals: &self.signals,
-                recording: &self.recording,
-                simulation: &self.scenario.simulation,
-                scenario: &self.scenario.name,
-                period,
-            },
-            |master| crate::reduced::ReducedDetails { options, kinematic_macro: false, master },
-            sink,
-            progress,
-        )
+        move |master| crate::reduced::ReducedDetails { options, kinematic_macro: false, master }
     }
 }
