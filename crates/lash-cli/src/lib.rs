@@ -267,7 +267,7 @@ enum Command {
         /// Fewer repetitions.
         #[arg(long)]
         quick: bool,
-        /// `sweep`: throughput of a reduced-model sweep of scenario A (1 vs 2 threads) instead;
+        /// `sweep`: throughput of reduced-model sweeps of scenarios A and E (1 vs 2 threads, one run at a time vs side by side) instead;
         /// `fmu <file.fmu>`: the cost of one step of an FMU through lash's importer.
         #[arg(value_parser = ["sweep", "fmu"])]
         what: Option<String>,

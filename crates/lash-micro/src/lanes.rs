@@ -627,24 +627,31 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
     t: [Ticks; L],
     step: Ticks,
     record: &[bool],
-    mut sample: F,
+    sample: F,
 ) -> [LaneOutcome; L] {
-    let h = step.seconds();
-    let joint = Joint::of(models, laws);
-    let inputs = Inputs::of(models);
-    let zero = [0.0; L];
-    let mut kept = Kept {
-        ex: zero,
-        ey: zero,
-        vx: zero,
-        vy: zero,
-        impulse: [zero; 2],
-        friction_impulse: zero,
-        end_time: zero,
-        end_loads: LaneLoads { fx: zero, fy: zero, friction: zero },
-        end_mass: ([zero; 4], zero),
-        end_inputs: [false; L],
-        states: States {
+    let mut lanes = PlanarLanes::<COMMON>::of(models, laws);
+    drive(&mut lanes, models, t, step, record, sample)
+}
+
+/// The lanes of `L` one-joint planar models: the joint's constants, the inputs, the state
+/// between steps ([`Kept`]) and each lane's mode (closed, as flags and as a mask for the lanes'
+/// arithmetic, formed again where a lane's mode changes; its δ̇⁻ and 1 / max(δ̇⁻, floor), formed
+/// again where its onset changes). `COMMON`: the law is [`COMMON_LAW`].
+struct PlanarLanes<const COMMON: bool> {
+    joint: Joint,
+    inputs: Inputs,
+    kept: Kept,
+    penetration_limit: V,
+    in_contact: [bool; L],
+    contact_mask: X,
+    onset: V,
+    reciprocal: V,
+}
+
+impl<const COMMON: bool> PlanarLanes<COMMON> {
+    fn of(models: &[&mut OneJoint; L], laws: LaneLaws) -> Self {
+        let zero = [0.0; L];
+        let states = States {
             ex: zero,
             ey: zero,
             norm: zero,
@@ -657,84 +664,87 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
             friction_force: zero,
             fx: zero,
             fy: zero,
-        },
-        trackers: Trackers::NONE,
-    };
-    let mut outcome: [LaneOutcome; L] = std::array::from_fn(|_| Ok(()));
-    let mut running = [true; L];
-    // Lanes whose model takes the step itself (no kept step end to start from).
-    let mut by_model = [false; L];
-    for (l, m) in models.iter_mut().enumerate() {
-        by_model[l] = !kept.gather(l, m, t[l].seconds());
-    }
-    let penetration_limit: V = std::array::from_fn(|l| PENETRATION_LIMIT_FRACTION * models[l].joints[0].journal_radius);
-    let mut in_contact: [bool; L] = std::array::from_fn(|l| models[l].joints[0].in_contact);
-    // (As a mask for the lanes' arithmetic, formed again where a lane's mode changes.)
-    let mut contact_mask = X::mask(in_contact);
-    // The lanes stepped here (running, not by their models) as a mask, and whether any running
-    // lane is stepped by its model: formed again only where a lane changes.
-    let masks = |running: &[bool; L], by_model: &[bool; L]| {
-        (X::mask(*running) & !X::mask(*by_model), (0..L).any(|l| running[l] && by_model[l]))
-    };
-    let (mut stepped, mut any_by_model) = masks(&running, &by_model);
-    let mut lanes_changed = false;
-    // Each lane's δ̇⁻ and 1 / max(δ̇⁻, floor) (`onset_reciprocal`), formed again where its onset
-    // changes.
-    let (mut onset, mut reciprocal): (V, V) = ([0.0; L], [0.0; L]);
-    let take_onset = |l: usize, m: &OneJoint, onset: &mut V, reciprocal: &mut V| {
-        onset[l] = m.joints[0].onset_velocity;
-        reciprocal[l] = onset_reciprocal(onset[l], joint.laws.floor[l]);
-    };
-    for (l, m) in models.iter().enumerate() {
-        take_onset(l, m, &mut onset, &mut reciprocal);
-    }
-    // (The lanes of a sweep share their time: one conversion per step.)
-    let shared = t.iter().all(|&x| x == t[0]);
-    for (i, &flag) in record.iter().enumerate() {
-        let now: V = if shared {
-            [Ticks(t[0].0 + i as i64 * step.0).seconds(); L]
-        } else {
-            std::array::from_fn(|l| Ticks(t[l].0 + i as i64 * step.0).seconds())
         };
-        if lanes_changed {
-            (stepped, any_by_model) = masks(&running, &by_model);
-            lanes_changed = false;
+        Self {
+            joint: Joint::of(models, laws),
+            inputs: Inputs::of(models),
+            kept: Kept {
+                ex: zero,
+                ey: zero,
+                vx: zero,
+                vy: zero,
+                impulse: [zero; 2],
+                friction_impulse: zero,
+                end_time: zero,
+                end_loads: LaneLoads { fx: zero, fy: zero, friction: zero },
+                end_mass: ([zero; 4], zero),
+                end_inputs: [false; L],
+                states,
+                trackers: Trackers::NONE,
+            },
+            penetration_limit: std::array::from_fn(|l| PENETRATION_LIMIT_FRACTION * models[l].joints[0].journal_radius),
+            in_contact: [false; L],
+            contact_mask: X::ZERO,
+            onset: zero,
+            reciprocal: zero,
         }
-        // (A step end that is not this instant: possible only for times far from the origin; the
-        // model decides what to reuse.)
-        let elsewhere = (stepped & (x(&kept.end_time) - x(&now)).abs().simd_ge(X::splat(1e-12))).to_bitmask();
-        if elsewhere != 0 {
-            for l in 0..L {
-                if elsewhere >> l & 1 == 1 {
-                    kept.scatter(l, models[l]);
-                    by_model[l] = true;
+    }
+
+    /// Lane `l`'s mode from its model.
+    #[inline(always)]
+    fn take_mode(&mut self, l: usize, m: &OneJoint) {
+        self.in_contact[l] = m.joints[0].in_contact;
+        self.contact_mask = X::mask(self.in_contact);
+        self.onset[l] = m.joints[0].onset_velocity;
+        self.reciprocal[l] = onset_reciprocal(self.onset[l], self.joint.laws.floor[l]);
+    }
+
+    /// The kept factor where it was formed with these inputs (after the interval's first step),
+    /// else a fresh one at `dt0`.
+    #[inline(always)]
+    fn start_mass(&self, dt0: &V) -> ([V; 4], V) {
+        let mut start = self.kept.end_mass;
+        if !self.kept.end_inputs.iter().all(|&k| k) {
+            let fresh = self.inputs.mass_at(dt0);
+            for l in (0..L).filter(|&l| !self.kept.end_inputs[l]) {
+                for k in 0..4 {
+                    start.0[k][l] = fresh.0[k][l];
                 }
-            }
-            (stepped, any_by_model) = masks(&running, &by_model);
-        }
-        // The models that take this step themselves, before the lanes overwrite their numbers.
-        if any_by_model {
-            for l in 0..L {
-                if running[l] && by_model[l] {
-                    models[l].rk4_step(now[l], h);
-                }
+                start.1[l] = fresh.1[l];
             }
         }
+        start
+    }
+}
+
+impl<const COMMON: bool> LaneKind<OneJoint> for PlanarLanes<COMMON> {
+    #[inline(always)]
+    fn gather(&mut self, l: usize, m: &OneJoint, t: f64) -> bool {
+        self.take_mode(l, m);
+        self.kept.gather(l, m, t)
+    }
+
+    #[inline(always)]
+    fn scatter(&self, l: usize, m: &mut OneJoint) {
+        self.kept.scatter(l, m);
+    }
+
+    #[inline(always)]
+    fn scatter_sampled(&self, l: usize, m: &mut OneJoint) {
+        self.kept.scatter_sampled(l, m);
+    }
+
+    #[inline(always)]
+    fn end_time(&self) -> X {
+        x(&self.kept.end_time)
+    }
+
+    #[inline(always)]
+    fn step(&mut self, now: X, h: f64, stepped: X, models: &mut [&mut OneJoint; L]) {
+        let (now, inputs, joint) = (<V>::from(now), &self.inputs, &self.joint);
         let dt = |offset: f64| -> V { std::array::from_fn(|l| now[l] + offset - inputs.time[l]) };
         let (dt0, dt_half, dt_end) = (dt(0.0), dt(0.5 * h), dt(h));
-        // The kept factor where it was formed with these inputs (after the interval's first step).
-        let mut start = kept.end_mass;
-        if !kept.end_inputs.iter().all(|&k| k) {
-            let fresh = inputs.mass_at(&dt0);
-            for l in 0..L {
-                if !kept.end_inputs[l] {
-                    for k in 0..4 {
-                        start.0[k][l] = fresh.0[k][l];
-                    }
-                    start.1[l] = fresh.1[l];
-                }
-            }
-        }
+        let start = self.start_mass(&dt0);
         let (middle, finish) = (inputs.mass_at(&dt_half), inputs.mass_at(&dt_end));
         let omega = |dt: &V| -> (V, V) {
             (
@@ -743,17 +753,18 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
             )
         };
         let (w_half, w_end) = (omega(&dt_half), omega(&dt_end));
+        let kept = &mut self.kept;
         let (e0, v0) = (Plane { x: kept.ex, y: kept.ey }, Plane { x: kept.vx, y: kept.vy });
         // Stage 1 from the kept step end's loads.
         let l1 = kept.end_loads;
         let first = (inputs.acceleration(&dt0, &start, &l1), l1);
         let mut later = LaterStages::<COMMON> {
-            joint: &joint,
-            inputs: &inputs,
+            joint,
+            inputs,
             middle: (&dt_half, &middle, &w_half),
             end: (&dt_end, &finish, &w_end),
-            in_contact: contact_mask,
-            onset: (&onset, &reciprocal),
+            in_contact: self.contact_mask,
+            onset: (&self.onset, &self.reciprocal),
         };
         let stepped_to = stages::rk4(h, (e0, v0), first, &mut later);
         let [l1, l2, l3, l4] = stepped_to.loads;
@@ -770,36 +781,32 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
         // (|e| and δ at the step end do not depend on the mode: computed once, before the switch.)
         let end_geometry = joint.geometry(x(&e1x), x(&e1y));
         let closed = end_geometry.1.simd_gt(X::ZERO);
-        let switching = (closed ^ contact_mask).to_bitmask();
-        for l in 0..L {
-            if switching >> l & 1 == 0 || !running[l] || by_model[l] {
-                continue;
-            }
+        let switching = (closed ^ self.contact_mask).to_bitmask() & stepped.to_bitmask();
+        for l in (0..L).filter(|l| switching >> l & 1 == 1) {
             let m = &mut *models[l];
             m.located = false;
             let (e0, v0) = (SVector::from([e0x[l], e0y[l]]), SVector::from([v0x[l], v0y[l]]));
             let (e1, v1) = (SVector::from([e1x[l], e1y[l]]), SVector::from([v1x[l], v1y[l]]));
             let none = SVector::zeros();
-            m.open[0] = kept.trackers.get(l);
+            m.open[0] = self.kept.trackers.get(l);
             m.switch_modes::<false>(now[l], h, (&e0, &v0, &none), (&e1, &v1, &none));
-            kept.trackers.set(l, m.open[0]);
-            in_contact[l] = m.joints[0].in_contact;
-            take_onset(l, m, &mut onset, &mut reciprocal);
-            contact_mask = X::mask(in_contact);
+            self.kept.trackers.set(l, m.open[0]);
+            self.take_mode(l, m);
         }
         // The step end's contact state (not gated), then the impact trackers.
-        let end = joint.contact::<COMMON>(
+        let end = self.joint.contact::<COMMON>(
             (x(&e1x), x(&e1y), x(&v1x), x(&v1y)),
             end_geometry,
             (&w_end.0, &w_end.1),
-            contact_mask,
-            (&onset, &reciprocal),
+            self.contact_mask,
+            (&self.onset, &self.reciprocal),
         );
+        let kept = &mut self.kept;
         end.store(&mut kept.states);
         let end_time: V = (x(&now) + X::splat(h)).into();
         kept.trackers.sample(stepped, x(&end_time), end.c.normal_force, end.delta);
-        // (Every lane: those stepped by their models are gathered again below, failed ones are
-        // no longer read.)
+        // (Every lane: those stepped by their models are gathered again, failed ones are no
+        // longer read.)
         (kept.ex, kept.ey, kept.vx, kept.vy) = (e1x, e1y, v1x, v1y);
         (kept.impulse, kept.friction_impulse) = (impulse, friction_impulse);
         kept.end_time = end_time;
@@ -807,49 +814,22 @@ fn advance_lanes<F: FnMut(usize, usize, &OneJoint), const COMMON: bool>(
         kept.end_loads = LaneLoads { fx: fx.into(), fy: fy.into(), friction: end.c.friction_force.into() };
         kept.end_mass = finish;
         kept.end_inputs = [true; L];
-        // Lanes stepped by their models come back into the lanes.
-        if any_by_model {
-            for l in 0..L {
-                if running[l] && by_model[l] {
-                    let next = Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds();
-                    by_model[l] = !kept.gather(l, models[l], next);
-                    in_contact[l] = models[l].joints[0].in_contact;
-                    take_onset(l, models[l], &mut onset, &mut reciprocal);
-                    contact_mask = X::mask(in_contact);
-                    lanes_changed = true;
-                }
-            }
-        }
-        // The penetration check of the model's loop (|e| finite: below infinity, and not NaN).
-        let (delta, norm) = (x(&kept.states.delta), x(&kept.states.norm));
-        let fine = delta.simd_le(x(&penetration_limit)) & norm.abs().simd_lt(X::splat(f64::INFINITY));
-        let bad = !fine.to_bitmask() & ((1 << L) - 1);
-        for l in (0..L).filter(|_| bad != 0) {
-            if bad >> l & 1 == 1 && running[l] {
-                kept.scatter(l, models[l]);
-                let message = models[l].penetration_error(0);
-                outcome[l] = Err((i, Ticks(t[l].0 + (i as i64 + 1) * step.0).seconds(), message));
-                running[l] = false;
-                lanes_changed = true;
-            }
-        }
-        if flag {
-            for l in 0..L {
-                if running[l] {
-                    if !by_model[l] {
-                        kept.scatter_sampled(l, models[l]);
-                    }
-                    sample(l, i, models[l]);
-                }
-            }
-        }
     }
-    for l in 0..L {
-        if running[l] && !by_model[l] {
-            kept.scatter(l, models[l]);
-        }
+
+    #[inline(always)]
+    fn fine(&self) -> X {
+        // (|e| finite: below infinity, and not NaN.)
+        let (delta, norm) = (x(&self.kept.states.delta), x(&self.kept.states.norm));
+        delta.simd_le(x(&self.penetration_limit)) & norm.abs().simd_lt(X::splat(f64::INFINITY))
     }
-    outcome
+
+    fn model_step(m: &mut OneJoint, t: f64, h: f64) {
+        m.rk4_step(t, h);
+    }
+
+    fn check(m: &OneJoint) -> Result<(), lash_contact::PenetrationError> {
+        m.check_penetration(0)
+    }
 }
 
 /// A kind of micro model that runs in lanes: what the lanes hold of `L` models between steps
