@@ -43,6 +43,13 @@ pub struct LaneLaws {
     pub friction: LaneFriction,
 }
 
+impl LaneLaws {
+    /// The kinds of a contact law and a friction law.
+    pub fn of(law: &NormalForce, friction: &FrictionLaw) -> Self {
+        Self { law: LaneLaw::of(law).0, friction: LaneFriction::of(friction).0 }
+    }
+}
+
 /// The laws' kinds of a model that can run in lanes (one joint without a bush in series), or
 /// `None`.
 pub fn lane_laws(model: &OneJoint) -> Option<LaneLaws> {
@@ -50,7 +57,7 @@ pub fn lane_laws(model: &OneJoint) -> Option<LaneLaws> {
     if joint.bush_stiffness.is_finite() {
         return None;
     }
-    Some(LaneLaws { law: LaneLaw::of(&joint.law).0, friction: LaneFriction::of(&joint.friction).0 })
+    Some(LaneLaws::of(&joint.law, &joint.friction))
 }
 
 /// How a lane's advance ended: the steps completed, and the failure (time reached, message).

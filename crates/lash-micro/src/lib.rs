@@ -423,14 +423,13 @@ pub fn do_steps_together(
     }
     for (kind, members) in groups.iter().filter(|(_, m)| m.len() == lanes::LANES) {
         let mut picked = pick(subs, rows, members);
-        let steps = (t, h, record, refs);
         let at = [t; lanes::LANES];
         // (The spherical kinds alike but for their joint count.)
         macro_rules! balls {
             ($variant:ident, $laws:expr) => {
                 in_lanes(
                     &mut picked,
-                    steps,
+                    refs,
                     |c| as_variant!(c, $variant),
                     |models, sample| spherical_lanes::advance_balls(models, $laws, at, h, record, sample),
                 )
@@ -439,7 +438,7 @@ pub fn do_steps_together(
         let outcome = match *kind {
             LaneGroup::Planar(laws) => in_lanes(
                 &mut picked,
-                steps,
+                refs,
                 |c| as_variant!(c, C2),
                 |models, sample| lanes::advance(models, laws, at, h, record, sample),
             ),
@@ -528,7 +527,7 @@ fn pick<'a>(
 /// step's outputs read into its rows as `do_steps` reads them.
 fn in_lanes<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usize>(
     picked: &mut [(&mut InterfaceSubsystem, &mut [f64], usize)],
-    (_, _, _, refs): (Ticks, Ticks, &[bool], &[ValueReference]),
+    refs: &[ValueReference],
     model_of: impl Fn(&mut Core) -> &mut InterfaceModel<J, N, K, M, R>,
     advance: impl FnOnce(
         &mut [&mut InterfaceModel<J, N, K, M, R>; lanes::LANES],

@@ -19,8 +19,7 @@ use crate::model::{InterfaceModel, Loads, MassFactor, StepEnd};
 use crate::stages::{self, Rk4Stage};
 use lash_contact::PenetrationError;
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
-use lash_contact::friction::LaneFriction;
-use lash_contact::law::{LaneLaw, onset_reciprocal};
+use lash_contact::law::onset_reciprocal;
 use lash_contact::spherical::{SphericalContact, SphericalMotion, cross, spherical_contact};
 use lash_contact::{SphericalClearance, SphericalContactState};
 use lash_core::Ticks;
@@ -36,10 +35,7 @@ pub type Balls<const N: usize, const K: usize> = InterfaceModel<SphericalClearan
 
 /// The laws' kinds of each joint of a model, which the lanes of one group share.
 pub fn ball_laws<const N: usize, const K: usize>(model: &Balls<N, K>) -> [LaneLaws; K] {
-    std::array::from_fn(|j| {
-        let joint = &model.joints[j];
-        LaneLaws { law: LaneLaw::of(&joint.law).0, friction: LaneFriction::of(&joint.friction).0 }
-    })
+    std::array::from_fn(|j| LaneLaws::of(&model.joints[j].law, &model.joints[j].friction))
 }
 
 /// Advances `L` models of spherical joints (each of the laws' kinds `laws`, each at its own time
