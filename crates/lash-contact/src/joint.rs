@@ -4,9 +4,17 @@
 //! are clearance joints; so, for the micro model, is the flexible bushing (always loaded). The
 //! full models' impact log (lash-full-model's `ImpactLog`) and the micro model
 //! (lash-micro's `MicroJoint`) speak to a joint through this trait.
+//!
+//! A joint may hold several contacts, each with its own mode and impacts (a translational joint's
+//! four corners): [`JointContacts`] says how many, where each is at its two bodies' poses, and
+//! which [`Clearance`] holds each one's mode. The full models' events, impact records and blow-up
+//! checks read every joint through it, whatever its shape.
 
 use crate::clearance::{ClearanceJoint, PenetrationError};
 use crate::spherical::SphericalClearance;
+use crate::translational::{Corner, TranslationalClearance};
+use lash_mech::{BodyId, Pose};
+use lash_spatial::constraints::BodyFrame;
 
 /// A clearance joint's name, size and contact mode.
 pub trait Clearance {
@@ -67,3 +75,118 @@ macro_rules! clearance_of_fields {
 
 clearance_of_fields!(ClearanceJoint, "clearance joint", "journal radius");
 clearance_of_fields!(SphericalClearance, "spherical clearance joint", "ball radius");
+
+/// One contact's numbers at one state, as events and impact records read them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactNumbers {
+    /// The contact's own indentation \[m\], positive when closed: the penetration δ, less the
+    /// deflection s of a bush damped in series with the contact.
+    pub indentation: f64,
+    /// Its rate δ̇ − ṡ [m/s] (positive: approaching).
+    pub indentation_rate: f64,
+    /// The penetration δ the impact record keeps (a bush's deflection included) \[m\].
+    pub penetration: f64,
+    /// Normal force F_N \[N\].
+    pub normal_force: f64,
+}
+
+impl ContactNumbers {
+    /// The numbers of a contact with nothing in series: its indentation is its penetration.
+    pub fn rigid(penetration: f64, penetration_rate: f64, normal_force: f64) -> Self {
+        Self { indentation: penetration, indentation_rate: penetration_rate, penetration, normal_force }
+    }
+}
+
+/// A clearance joint's contacts where its two bodies are (see the module): how many, which
+/// [`Clearance`] holds each one's mode, and each one's [`ContactNumbers`].
+pub trait JointContacts {
+    /// A body's pose as the joint reads it (planar [`Pose`], spatial [`BodyFrame`]).
+    type Frame;
+    /// What holds one contact's mode.
+    type Contact: Clearance;
+    /// Contacts of one joint.
+    const CONTACTS: usize;
+    /// The two bodies the joint connects: the journal's (ball's, block's) first.
+    fn bodies(&self) -> [BodyId; 2];
+    /// Contact `k`'s mode.
+    fn contact(&self, k: usize) -> &Self::Contact;
+    /// Contact `k`'s mode, to switch.
+    fn contact_mut(&mut self, k: usize) -> &mut Self::Contact;
+    /// Contact `k`'s numbers with the bodies at `frames` (in [`JointContacts::bodies`] order),
+    /// under onset velocity `onset`, with the joint's bush damped in series deflected by
+    /// `deflection` (None: no such bush).
+    fn contact_numbers(
+        &self,
+        frames: [&Self::Frame; 2],
+        k: usize,
+        onset: f64,
+        deflection: Option<f64>,
+    ) -> ContactNumbers;
+}
+
+/// The items of [`JointContacts`] of a journal (ball) in its bearing: one contact, whose mode
+/// the joint holds itself.
+macro_rules! journal_in_bearing {
+    ($frame:ty) => {
+        type Frame = $frame;
+        type Contact = Self;
+        const CONTACTS: usize = 1;
+        fn bodies(&self) -> [BodyId; 2] {
+            [self.journal_body, self.bearing_body]
+        }
+        fn contact(&self, _k: usize) -> &Self {
+            self
+        }
+        fn contact_mut(&mut self, _k: usize) -> &mut Self {
+            self
+        }
+    };
+}
+
+impl JointContacts for ClearanceJoint {
+    journal_in_bearing!(Pose);
+    fn contact_numbers(&self, [pj, pb]: [&Pose; 2], _k: usize, onset: f64, deflection: Option<f64>) -> ContactNumbers {
+        let (s, rate) = self.evaluate_with_bush(pj, pb, onset, deflection);
+        ContactNumbers {
+            indentation: s.penetration - deflection.unwrap_or(0.0),
+            indentation_rate: s.penetration_rate - rate,
+            penetration: s.penetration,
+            normal_force: s.normal_force,
+        }
+    }
+}
+
+impl JointContacts for TranslationalClearance {
+    type Frame = Pose;
+    type Contact = Corner;
+    const CONTACTS: usize = 4;
+    fn bodies(&self) -> [BodyId; 2] {
+        [self.block.body, self.guide.body]
+    }
+    fn contact(&self, k: usize) -> &Corner {
+        self.corner(k)
+    }
+    fn contact_mut(&mut self, k: usize) -> &mut Corner {
+        self.corner_mut(k)
+    }
+    /// (A translational joint has no bush: `deflection` is not read.)
+    fn contact_numbers(&self, [pb, pg]: [&Pose; 2], k: usize, onset: f64, _deflection: Option<f64>) -> ContactNumbers {
+        let s = self.evaluate_corner(pb, pg, k, onset);
+        ContactNumbers::rigid(s.penetration, s.penetration_rate, s.normal_force)
+    }
+}
+
+impl JointContacts for SphericalClearance {
+    journal_in_bearing!(BodyFrame);
+    /// (A spherical joint has no bush: `deflection` is not read.)
+    fn contact_numbers(
+        &self,
+        [fj, fb]: [&BodyFrame; 2],
+        _k: usize,
+        onset: f64,
+        _deflection: Option<f64>,
+    ) -> ContactNumbers {
+        let s = self.evaluate(fj, fb, onset);
+        ContactNumbers::rigid(s.penetration, s.penetration_rate, s.normal_force)
+    }
+}

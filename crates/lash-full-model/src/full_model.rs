@@ -11,9 +11,9 @@
 //! negative in contact, so the adaptive integrator locates every onset and exit; the approach
 //! velocity δ̇⁻ of the hysteresis laws is captured at the located onset.
 
-use crate::impact_log::ImpactLog;
-use lash_contact::clearance::{ClearanceJoint, ContactState, Impact, StepSearch};
-use lash_contact::joint::Clearance;
+use crate::contacts::{self, PlanarFrames};
+use crate::impact_log::{ImpactLog, log_calls};
+use lash_contact::clearance::{ClearanceJoint, ContactState};
 use lash_contact::translational::{CornerState, SlotState, TranslationalClearance};
 use lash_mech::constraints::pose_of;
 use lash_mech::{Joint, JointKind, MechError, Mechanism, Solver, Vec2, assemble, kinematics, velocity_analysis};
@@ -106,12 +106,6 @@ impl FullModel {
     /// per translational one.
     pub fn contact_count(&self) -> usize {
         self.clearances.len() + 4 * self.slots.len()
-    }
-
-    /// Contact `k`'s translational joint and corner, None for a revolute joint's contact.
-    fn corner_of(&self, k: usize) -> Option<(usize, usize)> {
-        let k = k.checked_sub(self.clearances.len())?;
-        Some((k / 4, k % 4))
     }
 
     /// The mechanism with every clearance joint replaced by an ideal revolute joint at the bearing
@@ -213,10 +207,14 @@ impl FullModel {
     /// sets each contact mode from the state (a journal already penetrating starts in contact,
     /// with its current approach velocity as onset velocity).
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
-        self.log.clear(&mut self.clearances);
-        self.slots.iter_mut().for_each(|s| s.corners_mut().iter_mut().for_each(|c| c.set_mode(false, 0.0)));
-        for k in 0..self.contact_count() {
-            if self.indentation(k, y) > 0.0 {
+        self.log.clear();
+        contacts::open_all(&mut self.clearances);
+        contacts::open_all(&mut self.slots);
+        let mut g = vec![0.0; self.contact_count()];
+        // Every contact opened: each event function is its contact's indentation.
+        self.events(t0, y, &mut g);
+        for (k, indentation) in g.into_iter().enumerate() {
+            if indentation > 0.0 {
                 self.on_event(k, t0, y);
             }
         }
@@ -267,28 +265,16 @@ impl FullModel {
             let pb = pose_of(&solver.poses, c.bearing_body);
             let deflection = bush_states[k].map(|i| y[i]);
             let evaluate = |onset: f64| c.evaluate_with_bush(&pj, &pb, onset, deflection);
-            // Probe geometry first. A stage outside the current mode is flagged (the integrator
-            // then cuts or rejects the step). A free-flight stage that penetrates gets no force
-            // when the integrator locates events (the right side stays smooth in its mode, so the
-            // error control is not fooled by the switching surface); under fixed-step RK4 it
-            // gets the contact force with the local approach velocity as onset velocity.
+            // Probe geometry first, then keep to the contact's mode (its own indentation δ − s
+            // and approach rate δ̇ − ṡ, ṡ of the relaxing bush).
             let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
-            let (mut s, mut rate) = evaluate(onset);
-            let indentation = s.penetration - deflection.unwrap_or(0.0);
-            if (indentation > 0.0) != c.in_contact {
-                log.flag_violation();
-                if !c.in_contact && indentation > 0.0 {
-                    if *strict_modes {
-                        s.normal_force = 0.0;
-                        s.friction_force = 0.0;
-                        s.force_on_journal = lash_mech::Vec2::zeros();
-                        rate = c.bush_relaxation_rate(deflection.unwrap_or(0.0));
-                    } else {
-                        // The contact's own approach rate δ̇ − ṡ (ṡ of the relaxing bush).
-                        (s, rate) = evaluate((s.penetration_rate - rate).max(0.0));
-                    }
-                }
-            }
+            let (s, rate) = evaluate(onset);
+            let own = (s.penetration - deflection.unwrap_or(0.0), s.penetration_rate - rate);
+            let free = |(s, _): (ContactState, f64)| {
+                let s = ContactState { normal_force: 0.0, friction_force: 0.0, force_on_journal: Vec2::zeros(), ..s };
+                (s, c.bush_relaxation_rate(deflection.unwrap_or(0.0)))
+            };
+            let (s, rate) = contacts::in_mode(c, own, (log, *strict_modes), (s, rate), free, evaluate);
             if s.normal_force != 0.0 || s.friction_force != 0.0 {
                 let (arm_j, arm_b) = c.arms(&pj, &pb, &s);
                 solver.add_force(c.journal_body, arm_j, s.force_on_journal);
@@ -305,94 +291,21 @@ impl FullModel {
         Ok(())
     }
 
+    log_calls!(records);
+
     /// Generalized accelerations of the last evaluation.
     pub fn accelerations(&self) -> &[f64] {
         &self.solver.accelerations
     }
 
-    /// Completed impacts, per clearance joint.
-    pub fn impacts(&self) -> &[Vec<Impact>] {
-        &self.log.impacts
-    }
-
-    /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).
-    pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
-        self.log.open_impact(k, t)
-    }
-
-    /// The first error met inside a right-hand-side evaluation, if any.
-    pub fn take_error(&mut self) -> Option<ModelError> {
-        self.log.take_error()
-    }
-
-    /// Contact `k`'s (penetration, penetration rate, normal force) at `y`, under onset velocity
-    /// `onset`; a revolute joint's penetration and rate are its contact's own (less its damped
-    /// bush's deflection and rate).
-    fn contact_numbers(&self, k: usize, y: &[f64], onset: f64) -> (f64, f64, f64) {
-        match self.corner_of(k) {
-            Some((j, corner)) => {
-                let s = self.corner_state(j, corner, y, onset);
-                (s.penetration, s.penetration_rate, s.normal_force)
-            }
-            None => {
-                let (s, rate) = self.contact_state_and_rate(k, y, onset);
-                let deflection = self.bush_states[k].map_or(0.0, |i| y[i]);
-                (s.penetration - deflection, s.penetration_rate - rate, s.normal_force)
-            }
-        }
-    }
-
-    /// Contact `k`'s (normal force, penetration) at `y` as its impact record keeps them (a
-    /// revolute joint's penetration is its journal's approach δ, bush deflection included).
-    fn searched(&self, k: usize, y: &[f64], onset: f64) -> (f64, f64) {
-        match self.corner_of(k) {
-            Some((j, corner)) => {
-                let s = self.corner_state(j, corner, y, onset);
-                (s.normal_force, s.penetration)
-            }
-            None => {
-                let s = self.contact_state(k, y, onset);
-                (s.normal_force, s.penetration)
-            }
-        }
-    }
-
-    /// Corner `corner` of translational joint `j` at `y`.
-    fn corner_state(&self, j: usize, corner: usize, y: &[f64], onset: f64) -> CornerState {
-        let n = self.n;
-        let (q, qd) = (&y[..n], &y[n..2 * n]);
-        let s = &self.slots[j];
-        let pb = lash_mech::Pose::of(s.block.body, q, qd);
-        let pg = lash_mech::Pose::of(s.guide.body, q, qd);
-        s.evaluate_corner(&pb, &pg, corner, onset)
-    }
-
-    /// Contact `k`'s mode: in contact, onset velocity.
-    fn contact_mode(&self, k: usize) -> (bool, f64) {
-        match self.corner_of(k) {
-            Some((j, c)) => (self.slots[j].corner(c).in_contact, self.slots[j].corner(c).onset_velocity),
-            None => (self.clearances[k].in_contact, self.clearances[k].onset_velocity),
-        }
-    }
-
-    /// Clearance joint `k`'s state at `y` (and its damped bush's deflection rate, 0 without).
-    fn contact_state_and_rate(&self, k: usize, y: &[f64], onset: f64) -> (ContactState, f64) {
-        let n = self.n;
-        let (q, qd) = (&y[..n], &y[n..2 * n]);
-        let c = &self.clearances[k];
-        let pj = lash_mech::Pose::of(c.journal_body, q, qd);
-        let pb = lash_mech::Pose::of(c.bearing_body, q, qd);
-        c.evaluate_with_bush(&pj, &pb, onset, self.bush_states[k].map(|i| y[i]))
-    }
-
-    fn contact_state(&self, k: usize, y: &[f64], onset: f64) -> ContactState {
-        self.contact_state_and_rate(k, y, onset).0
-    }
-
-    /// Contact `k`'s own indentation at `y` (δ − s for a revolute joint with a damped bush, δ
-    /// otherwise): positive in contact.
-    fn indentation(&self, k: usize, y: &[f64]) -> f64 {
-        self.contact_numbers(k, y, 0.0).0
+    /// The poses of state `y` and each clearance joint's bush deflection in it (None: no bush
+    /// damped in series).
+    fn frames_and_bushes<'a>(
+        n: usize,
+        bush_states: &'a [Option<usize>],
+        y: &'a [f64],
+    ) -> (PlanarFrames<'a>, impl Fn(usize) -> Option<f64> + 'a) {
+        (PlanarFrames { q: &y[..n], qd: &y[n..2 * n] }, move |j: usize| bush_states[j].map(|i| y[i]))
     }
 
     /// The deflection of clearance joint `k`'s bush in series at `y` when it is a state (a bush
@@ -403,6 +316,8 @@ impl FullModel {
 }
 
 impl OdeSystem for FullModel {
+    log_calls!(ode);
+
     fn dim(&self) -> usize {
         2 * self.n + self.bush_states.iter().flatten().count()
     }
@@ -426,36 +341,25 @@ impl OdeSystem for FullModel {
         }
     }
 
-    fn begin(&mut self, locates_events: bool) {
-        self.strict_modes = locates_events;
-    }
-
     fn event_count(&self) -> usize {
         self.contact_count()
     }
 
     fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
-        for (k, g) in g.iter_mut().enumerate().take(self.contact_count()) {
-            let indentation = self.indentation(k, y);
-            *g = if self.contact_mode(k).0 { -indentation } else { indentation };
-        }
+        let (frames, bushes) = Self::frames_and_bushes(self.n, &self.bush_states, y);
+        let (revolute, translational) = g.split_at_mut(self.clearances.len());
+        contacts::events(&self.clearances, &frames, bushes, revolute);
+        contacts::events(&self.slots, &frames, |_| None, translational);
     }
 
     fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
-        // The contact's own approach rate (δ̇ − ṡ for a revolute joint with a damped bush).
-        let (_, rate, _) = self.contact_numbers(k, y, f64::INFINITY);
-        match self.corner_of(k) {
-            Some((j, c)) => self.log.switch((k, self.slots[j].corner_mut(c)), t, rate, self.strict_modes),
-            None => self.log.switch((k, &mut self.clearances[k]), t, rate, self.strict_modes),
+        let (frames, bushes) = Self::frames_and_bushes(self.n, &self.bush_states, y);
+        let (log, searched, first) = (&mut self.log, self.strict_modes, self.clearances.len());
+        if k < first {
+            contacts::switch((&mut self.clearances, 0), k, &frames, bushes, log, t, searched);
+        } else {
+            contacts::switch((&mut self.slots, first), k - first, &frames, |_| None, log, t, searched);
         }
-    }
-
-    fn take_mode_violation(&mut self) -> bool {
-        self.log.take_violation()
-    }
-
-    fn wants_dense(&self) -> bool {
-        self.log.any_open()
     }
 
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
@@ -466,17 +370,18 @@ impl OdeSystem for FullModel {
         // refined where the step holds the peak); the samples also update the largest penetration.
         let mut y = std::mem::take(&mut self.dense_buffer);
         y.resize(self.dim(), 0.0);
-        for k in 0..self.contact_count() {
-            if !self.log.is_open(k) {
-                continue;
-            }
-            let onset = self.contact_mode(k).1;
-            let search = StepSearch::run_with(t, h, |theta| {
-                dense.eval(theta, &mut y);
-                self.searched(k, &y, onset)
-            });
-            self.log.accept_search(k, search);
-        }
+        let (n, bush_states, first) = (self.n, &self.bush_states, self.clearances.len());
+        let (clearances, slots) = (&self.clearances, &self.slots);
+        contacts::search_open((clearances, 0), &mut self.log, (t, h), |theta, k, onset| {
+            dense.eval(theta, &mut y);
+            let (frames, bushes) = Self::frames_and_bushes(n, bush_states, &y);
+            contacts::numbers(clearances, k, &frames, bushes, onset)
+        });
+        contacts::search_open((slots, first), &mut self.log, (t, h), |theta, k, onset| {
+            dense.eval(theta, &mut y);
+            let frames = PlanarFrames { q: &y[..n], qd: &y[n..2 * n] };
+            contacts::numbers(slots, k, &frames, |_| None, onset)
+        });
         self.dense_buffer = y;
     }
 
@@ -484,17 +389,9 @@ impl OdeSystem for FullModel {
         if let Some(e) = self.log.take_error() {
             return Err(e.into());
         }
-        for k in 0..self.clearances.len() {
-            let onset = self.clearances[k].onset_velocity;
-            let s = self.contact_state(k, y, onset);
-            self.log.accept_step((k, &self.clearances[k]), t, (s.penetration, s.normal_force))?;
-        }
-        for k in self.clearances.len()..self.contact_count() {
-            let Some((j, c)) = self.corner_of(k) else { continue };
-            let corner = self.slots[j].corner(c);
-            let s = self.corner_state(j, c, y, corner.onset_velocity);
-            self.log.accept_step((k, corner), t, (s.penetration, s.normal_force))?;
-        }
+        let (frames, bushes) = Self::frames_and_bushes(self.n, &self.bush_states, y);
+        contacts::accept_step((&self.clearances, 0), &frames, bushes, &mut self.log, t)?;
+        contacts::accept_step((&self.slots, self.clearances.len()), &frames, |_| None, &mut self.log, t)?;
         Ok(())
     }
 }
@@ -513,17 +410,10 @@ fn evaluate_slot(
     for (k, corner_state) in state.corners.iter_mut().enumerate() {
         let corner = slot.corner(k);
         let onset = if corner.in_contact { corner.onset_velocity } else { f64::INFINITY };
-        let mut s = slot.evaluate_corner(&pb, &pg, k, onset);
-        if (s.penetration > 0.0) != corner.in_contact {
-            log.flag_violation();
-            if !corner.in_contact && s.penetration > 0.0 {
-                s = if strict_modes {
-                    CornerState { normal_force: 0.0, friction_force: 0.0, force_on_block: Vec2::zeros(), ..s }
-                } else {
-                    slot.evaluate_corner(&pb, &pg, k, s.penetration_rate.max(0.0))
-                };
-            }
-        }
+        let s = slot.evaluate_corner(&pb, &pg, k, onset);
+        let free = |s| CornerState { normal_force: 0.0, friction_force: 0.0, force_on_block: Vec2::zeros(), ..s };
+        let at = |onset| slot.evaluate_corner(&pb, &pg, k, onset);
+        let s = contacts::in_mode(corner, (s.penetration, s.penetration_rate), (log, strict_modes), s, free, at);
         if s.normal_force != 0.0 || s.friction_force != 0.0 {
             solver.add_force(slot.block.body, s.point - pb.position, s.force_on_block);
             solver.add_force(slot.guide.body, s.point - pg.position, -s.force_on_block);

@@ -30,10 +30,8 @@ impl ImpactLog {
         }
     }
 
-    /// Empties the log for a new run and opens every joint's contact (`joints`, in the log's
-    /// order).
-    pub fn clear(&mut self, joints: &mut [impl Clearance]) {
-        joints.iter_mut().for_each(|j| j.set_mode(false, 0.0));
+    /// Empties the log for a new run (the joints' contacts are opened by their model).
+    pub fn clear(&mut self) {
         self.impacts.iter_mut().for_each(Vec::clear);
         self.open.iter_mut().for_each(|o| *o = None);
         self.error = None;
@@ -119,3 +117,39 @@ impl ImpactLog {
         Ok(())
     }
 }
+
+/// The calls a full model answers from its `log` and `strict_modes` fields: the
+/// [`lash_ode::OdeSystem`] mode flags and dense-output wish (`ode`), and the run's impacts and
+/// pending error (`records`, with the model's error type).
+macro_rules! log_calls {
+    (ode) => {
+        fn begin(&mut self, locates_events: bool) {
+            self.strict_modes = locates_events;
+        }
+
+        fn take_mode_violation(&mut self) -> bool {
+            self.log.take_violation()
+        }
+
+        fn wants_dense(&self) -> bool {
+            self.log.any_open()
+        }
+    };
+    (records) => {
+        /// Completed impacts, per contact.
+        pub fn impacts(&self) -> &[Vec<lash_contact::Impact>] {
+            &self.log.impacts
+        }
+
+        /// Contact `k`'s impact still open at the end of a run (closed at `t` for reporting).
+        pub fn open_impact(&self, k: usize, t: f64) -> Option<lash_contact::Impact> {
+            self.log.open_impact(k, t)
+        }
+
+        /// The first error met inside a right-hand side (a singular solve), if any; cleared.
+        pub fn take_error(&mut self) -> Option<crate::full_model::ModelError> {
+            self.log.take_error()
+        }
+    };
+}
+pub(crate) use log_calls;

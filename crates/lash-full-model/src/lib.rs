@@ -7,6 +7,7 @@
 //! Both are [`lash_ode::OdeSystem`]s whose impacts and blow-up checks go through one
 //! [`impact_log::ImpactLog`]. The joints and laws they evaluate are lash-contact's.
 
+mod contacts;
 pub mod full_model;
 pub mod impact_log;
 pub mod spatial_model;

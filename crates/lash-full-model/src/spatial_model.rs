@@ -2,8 +2,8 @@
 //! with the joints' contact forces and moments, as an [`OdeSystem`] with one event function per
 //! joint (δ in free flight, −δ in contact), like the planar [`crate::FullModel`].
 
-use crate::impact_log::ImpactLog;
-use lash_contact::clearance::{Impact, StepSearch};
+use crate::contacts::{self, Frames, SpatialFrames};
+use crate::impact_log::{ImpactLog, log_calls};
 use lash_contact::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::{BodyId, MechError};
 use lash_ode::OdeSystem;
@@ -34,13 +34,6 @@ pub struct SpatialFullModelState {
     clearances: Vec<SphericalClearance>,
     contacts: Vec<SphericalContactState>,
     log: ImpactLog,
-}
-
-fn frame(frames: &[BodyFrame], id: BodyId) -> BodyFrame {
-    match id {
-        BodyId::Body(k) => frames[k],
-        BodyId::Ground => BodyFrame::ground(),
-    }
 }
 
 /// The bodies' frames of a state `y = [q; v]` (without a solve).
@@ -106,9 +99,13 @@ impl SpatialFullModel {
 
     /// Prepares a run from a state chosen by the caller (contact modes from the state).
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
-        self.log.clear(&mut self.clearances);
-        for k in 0..self.clearances.len() {
-            if self.contact_state(k, y, 0.0).penetration > 0.0 {
+        self.log.clear();
+        contacts::open_all(&mut self.clearances);
+        let mut g = vec![0.0; self.clearances.len()];
+        // Every contact opened: each event function is its contact's penetration.
+        self.events(t0, y, &mut g);
+        for (k, penetration) in g.into_iter().enumerate() {
+            if penetration > 0.0 {
                 self.on_event(k, t0, y);
             }
         }
@@ -121,21 +118,18 @@ impl SpatialFullModel {
         let Self { mechanism, clearances, solver, contacts, log, strict_modes, .. } = self;
         solver.set_state(mechanism, t, q, v);
         for (c, state) in clearances.iter().zip(contacts.iter_mut()) {
-            let (fj, fb) = (frame(&solver.frames, c.journal_body), frame(&solver.frames, c.bearing_body));
+            let frames = SpatialFrames(&solver.frames);
+            let (fj, fb) = (frames.frame(c.journal_body), frames.frame(c.bearing_body));
             let onset = if c.in_contact { c.onset_velocity } else { f64::INFINITY };
-            let mut s = c.evaluate(&fj, &fb, onset);
-            if (s.penetration > 0.0) != c.in_contact {
-                log.flag_violation();
-                if !c.in_contact && s.penetration > 0.0 {
-                    if *strict_modes {
-                        s.normal_force = 0.0;
-                        s.friction_force = 0.0;
-                        s.force_on_journal = Vec3::zeros();
-                    } else {
-                        s = c.evaluate(&fj, &fb, s.penetration_rate.max(0.0));
-                    }
-                }
-            }
+            let s = c.evaluate(&fj, &fb, onset);
+            let free = |s| SphericalContactState {
+                normal_force: 0.0,
+                friction_force: 0.0,
+                force_on_journal: Vec3::zeros(),
+                ..s
+            };
+            let at = |onset| c.evaluate(&fj, &fb, onset);
+            let s = contacts::in_mode(c, (s.penetration, s.penetration_rate), (log, *strict_modes), s, free, at);
             if s.normal_force != 0.0 || s.friction_force != 0.0 {
                 let (arm_j, arm_b) = c.arms(&fj, &fb, &s);
                 let f = s.force_on_journal;
@@ -168,35 +162,19 @@ impl SpatialFullModel {
         self.log.clone_from(&state.log);
     }
 
-    /// The error a right-hand side recorded (a singular solve), if any; cleared.
-    pub fn take_error(&mut self) -> Option<crate::full_model::ModelError> {
-        self.log.take_error()
-    }
-
-    /// Completed impacts, per clearance joint.
-    pub fn impacts(&self) -> &[Vec<Impact>] {
-        &self.log.impacts
-    }
-
-    /// Clearance joint `k`'s impact still open at the end of a run (closed at `t` for reporting).
-    pub fn open_impact(&self, k: usize, t: f64) -> Option<Impact> {
-        self.log.open_impact(k, t)
-    }
+    log_calls!(records);
 
     /// Joint `k`'s contact state at `y` with onset velocity `onset` (no solve).
     pub fn contact_state(&mut self, k: usize, y: &[f64], onset: f64) -> SphericalContactState {
         frames_of(&self.mechanism, y, &mut self.frames);
-        self.contact_in_frames(k, onset)
-    }
-
-    /// Joint `k`'s contact state in the frames last computed by `frames_of`.
-    fn contact_in_frames(&self, k: usize, onset: f64) -> SphericalContactState {
-        let c = &self.clearances[k];
-        c.evaluate(&frame(&self.frames, c.journal_body), &frame(&self.frames, c.bearing_body), onset)
+        let (c, frames) = (&self.clearances[k], SpatialFrames(&self.frames));
+        c.evaluate(&frames.frame(c.journal_body), &frames.frame(c.bearing_body), onset)
     }
 }
 
 impl OdeSystem for SpatialFullModel {
+    log_calls!(ode);
+
     fn dim(&self) -> usize {
         self.mechanism.coordinate_count() + self.mechanism.velocity_count()
     }
@@ -212,33 +190,19 @@ impl OdeSystem for SpatialFullModel {
         dydt[n..].copy_from_slice(&self.solver.accelerations);
     }
 
-    fn begin(&mut self, locates_events: bool) {
-        self.strict_modes = locates_events;
-    }
-
     fn event_count(&self) -> usize {
         self.clearances.len()
     }
 
     fn events(&mut self, _t: f64, y: &[f64], g: &mut [f64]) {
         frames_of(&self.mechanism, y, &mut self.frames);
-        for k in 0..self.clearances.len() {
-            let delta = self.contact_in_frames(k, 0.0).penetration;
-            g[k] = if self.clearances[k].in_contact { -delta } else { delta };
-        }
+        contacts::events(&self.clearances, &SpatialFrames(&self.frames), |_| None, g);
     }
 
     fn on_event(&mut self, k: usize, t: f64, y: &[f64]) {
-        let s = self.contact_state(k, y, 0.0);
-        self.log.switch((k, &mut self.clearances[k]), t, s.penetration_rate, self.strict_modes);
-    }
-
-    fn take_mode_violation(&mut self) -> bool {
-        self.log.take_violation()
-    }
-
-    fn wants_dense(&self) -> bool {
-        self.log.any_open()
+        frames_of(&self.mechanism, y, &mut self.frames);
+        let frames = SpatialFrames(&self.frames);
+        contacts::switch((&mut self.clearances, 0), k, &frames, |_| None, &mut self.log, t, self.strict_modes);
     }
 
     fn accept_dense(&mut self, t: f64, h: f64, dense: &lash_ode::Dense<'_>) {
@@ -246,18 +210,12 @@ impl OdeSystem for SpatialFullModel {
             return;
         }
         let mut y = std::mem::take(&mut self.dense_buffer);
-        for k in 0..self.clearances.len() {
-            if !self.log.is_open(k) {
-                continue;
-            }
-            let onset = self.clearances[k].onset_velocity;
-            let search = StepSearch::run_with(t, h, |theta| {
-                dense.eval(theta, &mut y);
-                let s = self.contact_state(k, &y, onset);
-                (s.normal_force, s.penetration)
-            });
-            self.log.accept_search(k, search);
-        }
+        let Self { mechanism, clearances, log, frames, .. } = self;
+        contacts::search_open((clearances, 0), log, (t, h), |theta, k, onset| {
+            dense.eval(theta, &mut y);
+            frames_of(mechanism, &y, frames);
+            contacts::numbers(clearances, k, &SpatialFrames(frames), |_| None, onset)
+        });
         self.dense_buffer = y;
     }
 
@@ -266,11 +224,7 @@ impl OdeSystem for SpatialFullModel {
             return Err(e.into());
         }
         frames_of(&self.mechanism, y, &mut self.frames);
-        for k in 0..self.clearances.len() {
-            let onset = self.clearances[k].onset_velocity;
-            let s = self.contact_in_frames(k, onset);
-            self.log.accept_step((k, &self.clearances[k]), t, (s.penetration, s.normal_force))?;
-        }
+        contacts::accept_step((&self.clearances, 0), &SpatialFrames(&self.frames), |_| None, &mut self.log, t)?;
         Ok(())
     }
 }
