@@ -16,6 +16,7 @@
 use crate::constraints::{Block, BodyState, driver_row, joint_rows};
 use crate::dense::{Dense, factor_with, solve_with};
 use crate::interface::{ClearanceInterface, CoupledTerms};
+use crate::kkt;
 use crate::model::{BodyId, JointKind, Mechanism};
 use crate::solver::Solver;
 use crate::{Pose, Vec2};
@@ -587,12 +588,9 @@ fn solves_lanes(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Str
     // γ̂ = γ − 2α(Φ_q q̇ − ν) − β²Φ (`Solver::solve`, over the padded velocities).
     w.velocity[..n].copy_from_slice(&w.qd);
     let (alpha, beta) = (w.baumgarte[0], w.baumgarte[1]);
-    for (a, [o0, o1]) in st.offsets.iter().enumerate() {
-        let (j, v) = (&w.cut.jacobian[a], &w.velocity);
-        let jqd =
-            j[0] * v[*o0] + j[1] * v[o0 + 1] + j[2] * v[o0 + 2] + j[3] * v[*o1] + j[4] * v[o1 + 1] + j[5] * v[o1 + 2];
-        w.gamma_hat[a] = w.cut.gamma[a] - X::splat(2.0) * alpha * (jqd - w.cut.nu[a]) - beta * beta * w.cut.phi[a];
-    }
+    let terms = (&w.cut.gamma[..], &w.cut.nu[..], &w.cut.phi[..]);
+    let row = |a: usize| w.cut.jacobian[a];
+    kkt::stabilised_gamma(st, row, &w.velocity, terms, (alpha, beta), &mut w.gamma_hat);
     let kkt = Kkt { rows: &w.cut, st, schur: &w.schur, stride, inv_diag: &w.inv_diag, inverse_mass: &w.inverse_mass };
     let scratch = (&mut w.acc[..], &mut w.reaction[..], &mut w.lambda[..]);
     let free_lambda = Some((&mut w.free_lambda[..], &w.full_inverse_mass[..]));
@@ -729,11 +727,11 @@ fn factor(
 ) -> [bool; LANES] {
     let mf = st.free_rows.len();
     s.fill(ZERO);
-    for &(ja, jb, index, k) in &st.pairs {
-        let (pa, pb) = (&rows.jacobian[ja / 2][3 * (ja % 2)..], &rows.jacobian[jb / 2][3 * (jb % 2)..]);
-        let im = &inverse_mass[k..k + 3];
-        s[index] = s[index] + (pa[0] * pb[0] * im[0] + pa[1] * pb[1] * im[1] + pa[2] * pb[2] * im[2]);
-    }
+    let half = |k: usize| {
+        let (j, o) = (&rows.jacobian[k / 2], 3 * (k % 2));
+        [j[o], j[o + 1], j[o + 2]]
+    };
+    kkt::add_schur(st, half, inverse_mass, s);
     let ok = factor_with(mf, s, inv_diag, Dense);
     std::array::from_fn(|l| ok[l].to_bits() != 0)
 }
@@ -750,9 +748,7 @@ struct Kkt<'a> {
 }
 
 impl Kkt<'_> {
-    /// The solve of `solve_rhs` (`Solver::solve_with`): q̈ into `qdd` for the load `forces`
-    /// (None: zero) and the right side `g`; with `lambda`, the multipliers (for the pinned rows
-    /// from their coordinates' equations of motion, with the full M⁻¹ given).
+    /// [`kkt::solve`] with these rows and this factor of S.
     #[inline(always)]
     fn solve(
         &self,
@@ -762,47 +758,10 @@ impl Kkt<'_> {
         qdd: &mut [X],
         lambda: Option<(&mut [X], &[X])>,
     ) {
-        let (st, im, s, inv, stride) = (self.st, self.inverse_mass, self.schur, self.inv_diag, self.stride);
-        let n = qdd.len();
-        let mf = st.free_rows.len();
-        for k in 0..n {
-            acc[k] = im[k] * forces.map_or(ZERO, |f| f[k]);
-        }
-        for &(row, k, c) in &st.fixed {
-            acc[k] = g[row] * X::splat(c);
-        }
-        for (a, &row) in st.free_rows.iter().enumerate() {
-            let [o0, o1] = st.offsets[row];
-            let j = &self.rows.jacobian[row];
-            lam[a] = j[0] * acc[o0]
-                + j[1] * acc[o0 + 1]
-                + j[2] * acc[o0 + 2]
-                + j[3] * acc[o1]
-                + j[4] * acc[o1 + 1]
-                + j[5] * acc[o1 + 2]
-                - g[row];
-        }
-        solve_with((mf, stride), s, inv, Dense, lam);
-        reaction.fill(ZERO);
-        for (a, &row) in st.free_rows.iter().enumerate() {
-            let [o0, o1] = st.offsets[row];
-            let j = &self.rows.jacobian[row];
-            for i in 0..3 {
-                reaction[o0 + i] = reaction[o0 + i] + j[i] * lam[a];
-                reaction[o1 + i] = reaction[o1 + i] + j[3 + i] * lam[a];
-            }
-        }
-        for k in 0..n {
-            qdd[k] = acc[k] - im[k] * reaction[k];
-        }
-        if let Some((lambda, full_inverse_mass)) = lambda {
-            for (a, &row) in st.free_rows.iter().enumerate() {
-                lambda[row] = lam[a];
-            }
-            for &(row, k, c) in &st.fixed {
-                let f = forces.map_or(ZERO, |f| f[k]);
-                lambda[row] = (f - qdd[k] / full_inverse_mass[k] - reaction[k]) * X::splat(c);
-            }
-        }
+        let (st, s, inv, stride) = (self.st, self.schur, self.inv_diag, self.stride);
+        let solve_schur = |b: &mut [X]| solve_with((st.free_rows.len(), stride), s, inv, Dense, b);
+        let row = |a: usize| self.rows.jacobian[a];
+        let work = kkt::Work { acc, reaction, lam };
+        kkt::solve(st, row, self.inverse_mass, (forces, g), work, solve_schur, qdd, lambda);
     }
 }

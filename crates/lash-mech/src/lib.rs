@@ -21,6 +21,7 @@ pub mod constraints;
 pub mod dense;
 pub mod interface;
 pub mod kinematics;
+mod kkt;
 pub mod lanes;
 pub mod model;
 pub mod solver;

@@ -13,6 +13,7 @@
 
 use crate::constraints::{self, Block, ConstraintTerms, JacobianRow};
 use crate::dense::SmallCholesky;
+use crate::kkt;
 use crate::model::{BodyId, Load, Mechanism};
 use crate::{Pose, cross};
 use nalgebra::DVector;
@@ -377,11 +378,7 @@ impl Solver {
         let blocks = self.jacobian.as_flattened();
         let s = &mut self.schur.matrix_mut()[..m * m];
         s.fill(0.0);
-        for &(ja, jb, index, k) in &st.pairs {
-            let (pa, pb) = (&blocks[ja].d, &blocks[jb].d);
-            let w = &im[k..k + 3];
-            s[index] += pa[0] * pb[0] * w[0] + pa[1] * pb[1] * w[1] + pa[2] * pb[2] * w[2];
-        }
+        kkt::add_schur(st, |k| blocks[k].d, im, s);
         self.factored = self.schur.factor();
         if self.factored { Ok(()) } else { Err(MechError::SingularConstraints { t: self.time }) }
     }
@@ -398,16 +395,9 @@ impl Solver {
         let n = qd.len();
         let v = &mut self.scratch.velocity[..n + 3];
         v[..n].copy_from_slice(qd);
-        for (a, (row, [o0, o1])) in self.jacobian.iter().zip(&self.structure.offsets).enumerate() {
-            let [b0, b1] = row;
-            let jqd = b0.d[0] * v[*o0]
-                + b0.d[1] * v[o0 + 1]
-                + b0.d[2] * v[o0 + 2]
-                + b1.d[0] * v[*o1]
-                + b1.d[1] * v[o1 + 1]
-                + b1.d[2] * v[o1 + 2];
-            self.gamma_hat[a] = self.gamma[a] - 2.0 * alpha * (jqd - self.nu[a]) - beta * beta * self.phi[a];
-        }
+        let terms = (&self.gamma[..], &self.nu[..], &self.phi[..]);
+        let row = |a| entries(&self.jacobian[a]);
+        kkt::stabilised_gamma(&self.structure, row, v, terms, (alpha, beta), &mut self.gamma_hat);
         let Solver {
             jacobian,
             forces,
@@ -465,6 +455,13 @@ impl Solver {
     }
 }
 
+/// One row's entries as the KKT kernels read them.
+#[inline(always)]
+fn entries([b0, b1]: &JacobianRow) -> kkt::RowEntries<f64> {
+    [b0.d[0], b0.d[1], b0.d[2], b1.d[0], b1.d[1], b1.d[2]]
+}
+
+/// [`kkt::solve`] with the scalar solver's rows, factor and work vectors.
 #[allow(clippy::too_many_arguments)]
 fn solve_rhs(
     jacobian: &[JacobianRow],
@@ -477,50 +474,9 @@ fn solve_rhs(
     qdd: &mut [f64],
     lambda: &mut DVector<f64>,
 ) {
-    // Work vectors carry three padding slots (index n..n+3, always 0) that stand for the ground,
-    // so every row has exactly two blocks and the loops need no branch.
-    let n = qdd.len();
-    let im = &st.free_inverse_mass[..n];
-    let acc = &mut scratch.acc[..n + 3];
-    // acc = M⁻¹Q on free coordinates and the pinned accelerations γ/c (c = ±1).
-    for k in 0..n {
-        acc[k] = im[k] * forces[k];
-    }
-    for &(row, k, c) in &st.fixed {
-        acc[k] = gamma[row] * c;
-    }
-    // λ' = S⁻¹ (Φ_q acc − γ) over the free rows.
-    let lam = &mut scratch.lambda;
-    for (a, &row) in st.free_rows.iter().enumerate() {
-        let [o0, o1] = st.offsets[row];
-        let [b0, b1] = &jacobian[row];
-        lam[a] = b0.d[0] * acc[o0]
-            + b0.d[1] * acc[o0 + 1]
-            + b0.d[2] * acc[o0 + 2]
-            + b1.d[0] * acc[o1]
-            + b1.d[1] * acc[o1 + 1]
-            + b1.d[2] * acc[o1 + 2]
-            - gamma[row];
-    }
-    factor.solve_mut(lam);
-    // reaction = Φ_qᵀλ over the free rows; q̈ = acc − M⁻¹ reaction (pinned: M⁻¹ entry is 0).
-    let reaction = &mut scratch.reaction[..n + 3];
-    reaction.fill(0.0);
-    for (a, &row) in st.free_rows.iter().enumerate() {
-        let l = lam[a];
-        lambda[row] = l;
-        let [o0, o1] = st.offsets[row];
-        let [b0, b1] = &jacobian[row];
-        for i in 0..3 {
-            reaction[o0 + i] += b0.d[i] * l;
-            reaction[o1 + i] += b1.d[i] * l;
-        }
-    }
-    for k in 0..n {
-        qdd[k] = acc[k] - im[k] * reaction[k];
-    }
-    // Pinned rows: c λ = Q_k − m_k q̈_k − (Φ_qᵀλ)_k, with 1/c = c.
-    for &(row, k, c) in &st.fixed {
-        lambda[row] = (forces[k] - qdd[k] / inverse_mass[k] - reaction[k]) * c;
-    }
+    let work = kkt::Work { acc: &mut scratch.acc, reaction: &mut scratch.reaction, lam: &mut scratch.lambda };
+    let row = |a| entries(&jacobian[a]);
+    let lambda = Some((lambda.as_mut_slice(), inverse_mass));
+    let solve_schur = |b: &mut [f64]| factor.solve_mut(b);
+    kkt::solve(st, row, &st.free_inverse_mass, (Some(forces), gamma), work, solve_schur, qdd, lambda);
 }
