@@ -97,21 +97,26 @@ impl ContactNumbers {
     }
 }
 
-/// A clearance joint's contacts where its two bodies are (see the module): how many, which
-/// [`Clearance`] holds each one's mode, and each one's [`ContactNumbers`].
-pub trait JointContacts {
-    /// A body's pose as the joint reads it (planar [`Pose`], spatial [`BodyFrame`]).
-    type Frame;
+/// A clearance joint's contacts, each with its own mode and impacts: how many, and which
+/// [`Clearance`] holds each one's mode — what the full models and the micro model switch.
+pub trait ContactModes {
     /// What holds one contact's mode.
     type Contact: Clearance;
-    /// Contacts of one joint.
+    /// Contacts of one joint: 1 (a journal in its bearing), 4 (a translational joint's corners).
     const CONTACTS: usize;
-    /// The two bodies the joint connects: the journal's (ball's, block's) first.
-    fn bodies(&self) -> [BodyId; 2];
     /// Contact `k`'s mode.
     fn contact(&self, k: usize) -> &Self::Contact;
     /// Contact `k`'s mode, to switch.
     fn contact_mut(&mut self, k: usize) -> &mut Self::Contact;
+}
+
+/// A clearance joint's contacts where its two bodies are (see the module): each one's
+/// [`ContactNumbers`].
+pub trait JointContacts: ContactModes {
+    /// A body's pose as the joint reads it (planar [`Pose`], spatial [`BodyFrame`]).
+    type Frame;
+    /// The two bodies the joint connects: the journal's (ball's, block's) first.
+    fn bodies(&self) -> [BodyId; 2];
     /// Contact `k`'s numbers with the bodies at `frames` (in [`JointContacts::bodies`] order),
     /// under onset velocity `onset`, with the joint's bush damped in series deflected by
     /// `deflection` (None: no such bush).
@@ -124,21 +129,35 @@ pub trait JointContacts {
     ) -> ContactNumbers;
 }
 
-/// The items of [`JointContacts`] of a journal (ball) in its bearing: one contact, whose mode
-/// the joint holds itself.
+/// [`ContactModes`] of a joint of one contact whose mode it holds itself (a journal in its
+/// bearing, a ball in its socket, a bushing).
+#[macro_export]
+macro_rules! one_contact {
+    ($joint:ty) => {
+        impl $crate::joint::ContactModes for $joint {
+            type Contact = Self;
+            const CONTACTS: usize = 1;
+            #[inline(always)]
+            fn contact(&self, _k: usize) -> &Self {
+                self
+            }
+            #[inline(always)]
+            fn contact_mut(&mut self, _k: usize) -> &mut Self {
+                self
+            }
+        }
+    };
+}
+
+one_contact!(ClearanceJoint);
+one_contact!(SphericalClearance);
+
+/// The items of [`JointContacts`] of a journal (ball) in its bearing.
 macro_rules! journal_in_bearing {
     ($frame:ty) => {
         type Frame = $frame;
-        type Contact = Self;
-        const CONTACTS: usize = 1;
         fn bodies(&self) -> [BodyId; 2] {
             [self.journal_body, self.bearing_body]
-        }
-        fn contact(&self, _k: usize) -> &Self {
-            self
-        }
-        fn contact_mut(&mut self, _k: usize) -> &mut Self {
-            self
         }
     };
 }
@@ -156,18 +175,23 @@ impl JointContacts for ClearanceJoint {
     }
 }
 
-impl JointContacts for TranslationalClearance {
-    type Frame = Pose;
+impl ContactModes for TranslationalClearance {
     type Contact = Corner;
     const CONTACTS: usize = 4;
-    fn bodies(&self) -> [BodyId; 2] {
-        [self.block.body, self.guide.body]
-    }
+    #[inline(always)]
     fn contact(&self, k: usize) -> &Corner {
         self.corner(k)
     }
+    #[inline(always)]
     fn contact_mut(&mut self, k: usize) -> &mut Corner {
         self.corner_mut(k)
+    }
+}
+
+impl JointContacts for TranslationalClearance {
+    type Frame = Pose;
+    fn bodies(&self) -> [BodyId; 2] {
+        [self.block.body, self.guide.body]
     }
     /// (A translational joint has no bush: `deflection` is not read.)
     fn contact_numbers(&self, [pb, pg]: [&Pose; 2], k: usize, onset: f64, _deflection: Option<f64>) -> ContactNumbers {

@@ -17,7 +17,7 @@ pub mod translational;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact, PenetrationError};
 pub use friction::FrictionLaw;
-pub use joint::{Clearance, ContactNumbers, JointContacts};
+pub use joint::{Clearance, ContactModes, ContactNumbers, JointContacts};
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step_of};
 pub use parameters::ClearanceDefinition;
 pub use spherical::{SphericalClearance, SphericalContactState};

@@ -64,6 +64,8 @@ impl Clearance for BushingJoint {
     fn set_mode(&mut self, _in_contact: bool, _onset_velocity: f64) {}
 }
 
+lash_contact::one_contact!(BushingJoint);
+
 impl MicroJoint for BushingJoint {
     const COORDINATES: usize = 2;
     const FRICTION_LOADS: usize = 1;

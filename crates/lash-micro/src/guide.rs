@@ -12,8 +12,8 @@
 //! friction load Σ F_k·u (the force along it), which the macro side applies through its slide.
 
 use crate::joint::MicroJoint;
-use lash_contact::joint::Clearance;
-use lash_contact::translational::{CornerState, TranslationalClearance};
+use lash_contact::joint::{Clearance, ContactModes};
+use lash_contact::translational::{Corner, CornerState, TranslationalClearance};
 use lash_mech::{Pose, Vec2, cross};
 
 /// A translational clearance joint in its guide's frame.
@@ -97,8 +97,22 @@ impl Clearance for GuideJoint {
     /// Every corner's mode.
     fn set_mode(&mut self, in_contact: bool, onset_velocity: f64) {
         for k in 0..4 {
-            self.set_contact_mode(k, in_contact, onset_velocity);
+            self.slot.corner_mut(k).set_mode(in_contact, onset_velocity);
         }
+    }
+}
+
+/// The slot's corners.
+impl ContactModes for GuideJoint {
+    type Contact = Corner;
+    const CONTACTS: usize = 4;
+    #[inline(always)]
+    fn contact(&self, k: usize) -> &Corner {
+        self.slot.contact(k)
+    }
+    #[inline(always)]
+    fn contact_mut(&mut self, k: usize) -> &mut Corner {
+        self.slot.contact_mut(k)
     }
 }
 
@@ -106,7 +120,6 @@ impl MicroJoint for GuideJoint {
     const COORDINATES: usize = 2;
     const FRICTION_LOADS: usize = 1;
     const ROTATIONS: usize = 1;
-    const CONTACTS: usize = 4;
     type State = GuideState;
 
     /// Each corner under its own mode: a closed corner under its contact's onset velocity, an
@@ -141,13 +154,6 @@ impl MicroJoint for GuideJoint {
     fn contact_gap(&self, e: &[f64], e_dot: &[f64], k: usize) -> (f64, f64) {
         let c = self.slot.evaluate_corner(&Self::block(e, e_dot, 0.0), &Pose::GROUND, k, f64::INFINITY);
         (c.penetration, c.penetration_rate)
-    }
-    fn contact_mode(&self, k: usize) -> (bool, f64) {
-        let c = self.slot.corner(k);
-        (c.in_contact, c.onset_velocity)
-    }
-    fn set_contact_mode(&mut self, k: usize, in_contact: bool, onset_velocity: f64) {
-        self.slot.corner_mut(k).set_mode(in_contact, onset_velocity);
     }
     fn contact_sample(s: &GuideState, k: usize) -> (f64, f64) {
         (s.corners[k].normal_force, s.corners[k].penetration)

@@ -8,13 +8,16 @@
 //! macro side's map carries with the radii).
 
 use lash_contact::clearance::{ClearanceJoint, ContactState};
-use lash_contact::joint::Clearance;
+use lash_contact::joint::{Clearance, ContactModes};
 use lash_contact::spherical::{SphericalClearance, SphericalContactState};
 use lash_mech::Vec2;
 use lash_spatial::Vec3;
 
-/// A clearance joint of the micro model.
-pub trait MicroJoint: Clearance + Clone + std::fmt::Debug {
+/// A clearance joint of the micro model. Its contacts ([`ContactModes`]) each have their own mode
+/// and impacts; a joint of several contacts evaluates each under its own mode
+/// ([`MicroJoint::evaluate`] ignores `onset`) and switches them through
+/// [`MicroJoint::contact_gap`].
+pub trait MicroJoint: Clearance + ContactModes + Clone + std::fmt::Debug {
     /// Interface coordinates of one joint (its eccentricity): 2 planar, 3 spherical.
     const COORDINATES: usize;
     /// Friction loads of one joint: planar 1 (F_T), spherical 3 (n × F_T, world frame).
@@ -26,11 +29,6 @@ pub trait MicroJoint: Clearance + Clone + std::fmt::Debug {
     /// communication step) rather than in effective-mass form (M̃, f̃ and H linear, M̃ factored at
     /// every instant a micro step needs): see [`super::model::Mobility`].
     const MOBILITY_FORM: bool = false;
-    /// Contacts of one joint, each with its own mode and impacts: 1 (a journal in its bearing),
-    /// 4 (a translational joint's corners). A joint of several contacts evaluates each under its
-    /// own mode ([`MicroJoint::evaluate`] ignores `onset`) and switches them through
-    /// [`MicroJoint::contact_gap`].
-    const CONTACTS: usize = 1;
     /// Geometry, kinematics and forces at one state.
     type State: Copy + Default + std::fmt::Debug + PartialEq;
 
@@ -45,14 +43,6 @@ pub trait MicroJoint: Clearance + Clone + std::fmt::Debug {
     /// from the geometry alone (its mode switches are placed by them).
     fn contact_gap(&self, _e: &[f64], _e_dot: &[f64], _k: usize) -> (f64, f64) {
         unreachable!("a joint of one contact switches by its eccentricity")
-    }
-    /// Contact `k`'s mode: closed, and the approach velocity it closed at.
-    fn contact_mode(&self, _k: usize) -> (bool, f64) {
-        (self.in_contact(), self.onset_velocity())
-    }
-    /// Sets contact `k`'s mode.
-    fn set_contact_mode(&mut self, _k: usize, in_contact: bool, onset_velocity: f64) {
-        self.set_mode(in_contact, onset_velocity)
     }
     /// Contact `k`'s normal force F_N \[N\] and penetration δ \[m\] in state `s`.
     fn contact_sample(s: &Self::State, _k: usize) -> (f64, f64) {

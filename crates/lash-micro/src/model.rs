@@ -26,6 +26,7 @@ use super::stages::{self, Rk4Stage};
 use lash_contact::PenetrationError;
 use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
 use lash_contact::clearance::{ClearanceJoint, Impact, ImpactTracker};
+use lash_contact::joint::Clearance;
 use lash_ode::{AdaptiveOptions, Method, OdeSystem};
 use nalgebra::{SMatrix, SVector};
 
@@ -989,7 +990,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             for k in 0..J::CONTACTS {
                 let ((d0, r0), (d1, r1)) =
                     (self.joints[j].contact_gap(a0, b0, k), self.joints[j].contact_gap(a1, b1, k));
-                let closed = self.joints[j].contact_mode(k).0;
+                let closed = self.joints[j].contact(k).in_contact();
                 if !closed && d1 > 0.0 {
                     let frac = if d1 - d0 > 0.0 { (-d0 / (d1 - d0)).clamp(0.0, 1.0) } else { 1.0 };
                     self.open_contact(j, k, t + frac * h, r0 + (r1 - r0) * frac);
@@ -1002,13 +1003,13 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     }
 
     fn open_contact(&mut self, j: usize, k: usize, t: f64, rate: f64) {
-        self.joints[j].set_contact_mode(k, true, rate.max(0.0));
+        self.joints[j].contact_mut(k).set_mode(true, rate.max(0.0));
         self.open[j * J::CONTACTS + k] = Some(ImpactTracker::open(t, rate, self.located));
     }
 
     fn close_contact(&mut self, j: usize, k: usize, t: f64) {
-        let onset = self.joints[j].contact_mode(k).1;
-        self.joints[j].set_contact_mode(k, false, onset);
+        let contact = self.joints[j].contact_mut(k);
+        contact.set_mode(false, contact.onset_velocity());
         let c = j * J::CONTACTS + k;
         if let Some(tr) = self.open[c].take() {
             self.impacts[c].push(tr.close(t));
@@ -1030,7 +1031,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     pub fn reset_contacts(&mut self, t: f64) {
         for joint in &mut self.joints {
             for k in 0..J::CONTACTS {
-                joint.set_contact_mode(k, false, 0.0);
+                joint.contact_mut(k).set_mode(false, 0.0);
             }
         }
         self.bush_deflection = SVector::zeros();
