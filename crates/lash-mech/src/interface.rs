@@ -14,7 +14,8 @@
 use crate::constraints::{Block, JacobianRow, line_row, pose_of};
 use crate::model::{BodyId, Mechanism};
 use crate::solver::{MechError, Solver};
-use crate::{Pose, Vec2, cross, perp};
+use crate::{Pose, Vec2, perp};
+use lash_core::lane::Real;
 use nalgebra::{DMatrix, DVector, Matrix2};
 
 /// Where the interface is: the journal centre on one body, the bearing centre on another.
@@ -173,6 +174,60 @@ impl ClearanceInterface {
     }
 }
 
+/// One of a revolute clearance joint's unit loads, the columns of its effective terms: a unit
+/// force on the journal's centre along (x, y) (its opposite on the bearing's), or a unit friction
+/// force F_T.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum UnitLoad {
+    /// A unit force along (x, y) on the journal, its opposite on the bearing.
+    Along(f64, f64),
+    /// A unit friction force: its moments −R_J on the journal's body and +R_B on the bearing's
+    /// (f_J = −F_N n − F_T t acts at r_J + R_J n, and (R_J n) × (−t) = −R_J).
+    Friction,
+}
+
+/// Adds the generalized force of a revolute clearance joint's unit load `load` to `force`: the
+/// journal's and the bearing's bodies `bodies` (None: the ground), their centres' arms `arms`
+/// (world frame) and radii (R_J, R_B). One source over [`Real`] for the scalar effective terms
+/// and the macro lanes' ([`crate::lanes`]).
+#[inline(always)]
+pub(crate) fn add_unit_load<R: Real>(
+    bodies: [Option<usize>; 2],
+    arms: [[R; 2]; 2],
+    (journal_radius, bearing_radius): (R, R),
+    load: UnitLoad,
+    force: &mut [R],
+) {
+    match load {
+        UnitLoad::Along(ex, ey) => {
+            let (ex, ey) = (R::splat(ex), R::splat(ey));
+            for (side, sign) in [(0, 1.0), (1, -1.0)] {
+                if let Some(b) = bodies[side] {
+                    let ([ax, ay], sign) = (arms[side], R::splat(sign));
+                    force[3 * b] = force[3 * b] + sign * ex;
+                    force[3 * b + 1] = force[3 * b + 1] + sign * ey;
+                    force[3 * b + 2] = force[3 * b + 2] + sign * (ax * ey - ay * ex);
+                }
+            }
+        }
+        UnitLoad::Friction => {
+            for (side, moment) in [(0, -journal_radius), (1, bearing_radius)] {
+                if let Some(b) = bodies[side] {
+                    force[3 * b + 2] = force[3 * b + 2] + moment;
+                }
+            }
+        }
+    }
+}
+
+/// The moving-body index of `id` (None: the ground).
+pub(crate) fn moving(id: BodyId) -> Option<usize> {
+    match id {
+        BodyId::Body(b) => Some(b),
+        BodyId::Ground => None,
+    }
+}
+
 fn body_index(id: BodyId) -> usize {
     match id {
         BodyId::Body(k) => k,
@@ -327,30 +382,18 @@ pub fn coupled_effective_terms_into(
             }
             continue;
         }
-        for (i, e) in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)].into_iter().enumerate() {
-            // Jᵀ e: the unit force on the journal point and its opposite on the bearing point.
+        // Jᵀ e: the unit force on the journal point and its opposite on the bearing point, along
+        // x, then y; then the unit friction force.
+        let bodies = [moving(iface.journal_body), moving(iface.bearing_body)];
+        let arms = arms[j].map(|a| [a.x, a.y]);
+        let radii = (joint.journal_radius, joint.bearing_radius);
+        let columns = [(2 * j, UnitLoad::Along(1.0, 0.0)), (2 * j + 1, UnitLoad::Along(0.0, 1.0))];
+        for (column, load) in columns.into_iter().chain([(2 * k + j, UnitLoad::Friction)]) {
             force.fill(0.0);
-            for (body, a, sign) in [(iface.journal_body, arms[j][0], 1.0), (iface.bearing_body, arms[j][1], -1.0)] {
-                if let BodyId::Body(b) = body {
-                    force[3 * b] += sign * e.x;
-                    force[3 * b + 1] += sign * e.y;
-                    force[3 * b + 2] += sign * cross(a, e);
-                }
-            }
-            solver.solve_with(force, zero_gamma, &mut gain[2 * j + i], lambda);
-            lambda_gain[2 * j + i].copy_from_slice(lambda.as_slice());
+            add_unit_load(bodies, arms, radii, load, force);
+            solver.solve_with(force, zero_gamma, &mut gain[column], lambda);
+            lambda_gain[column].copy_from_slice(lambda.as_slice());
         }
-        // The friction force's moments per unit F_T: −R_J on the journal body, +R_B on the
-        // bearing body (f_J = −F_N n − F_T t acts at r_J + R_J n, and (R_J n) × (−t) = −R_J).
-        force.fill(0.0);
-        for (body, moment) in [(iface.journal_body, -joint.journal_radius), (iface.bearing_body, joint.bearing_radius)]
-        {
-            if let BodyId::Body(b) = body {
-                force[3 * b + 2] += moment;
-            }
-        }
-        solver.solve_with(force, zero_gamma, &mut gain[2 * k + j], lambda);
-        lambda_gain[2 * k + j].copy_from_slice(lambda.as_slice());
     }
     coupled_rates_into(solver, joints, terms);
     Ok(())

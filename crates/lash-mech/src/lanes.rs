@@ -15,7 +15,7 @@
 
 use crate::constraints::{Block, BodyState, driver_row, joint_rows};
 use crate::dense::{Dense, factor_with, solve_with};
-use crate::interface::{ClearanceInterface, CoupledTerms};
+use crate::interface::{ClearanceInterface, CoupledTerms, UnitLoad, add_unit_load, moving};
 use crate::kkt;
 use crate::model::{BodyId, JointKind, Mechanism};
 use crate::solver::Solver;
@@ -606,32 +606,21 @@ fn solves_lanes(w: &mut KinematicLanes, cut: &Mechanism, st: &crate::solver::Str
     };
     for (j, bodies) in joints.iter().enumerate() {
         let c = w.clearance[j];
-        // The columns of joint j: unit force along x, along y (2j, 2j + 1), friction (2k + j).
-        for (column, unit) in [(2 * j, Some((1.0, 0.0))), (2 * j + 1, Some((0.0, 1.0))), (2 * k + j, None)] {
-            w.force.fill(ZERO);
-            match unit {
-                Some(e) => {
-                    let (ex, ey) = (X::splat(e.0), X::splat(e.1));
-                    for (side, sign) in [(0, 1.0), (1, -1.0)] {
-                        if let BodyId::Body(b) = bodies[side] {
-                            let (ax, ay) = rotate(b, c[2 * side], c[2 * side + 1]);
-                            let sign = X::splat(sign);
-                            w.force[3 * b] = w.force[3 * b] + sign * ex;
-                            w.force[3 * b + 1] = w.force[3 * b + 1] + sign * ey;
-                            w.force[3 * b + 2] = w.force[3 * b + 2] + sign * (ax * ey - ay * ex);
-                        }
-                    }
-                }
-                // The friction force's moments per unit F_T: −R_J on the journal body, +R_B on
-                // the bearing body.
-                None => {
-                    for (side, moment) in [(0, -c[4]), (1, c[5])] {
-                        if let BodyId::Body(b) = bodies[side] {
-                            w.force[3 * b + 2] = w.force[3 * b + 2] + moment;
-                        }
-                    }
-                }
+        let bodies = bodies.map(moving);
+        // The journal's and the bearing's arms (a ground side's is not read).
+        let arm = |side: usize| match bodies[side] {
+            Some(b) => {
+                let (ax, ay) = rotate(b, c[2 * side], c[2 * side + 1]);
+                [ax, ay]
             }
+            None => [ZERO; 2],
+        };
+        let arms = [arm(0), arm(1)];
+        // The columns of joint j: unit force along x, along y (2j, 2j + 1), friction (2k + j).
+        let columns = [(2 * j, UnitLoad::Along(1.0, 0.0)), (2 * j + 1, UnitLoad::Along(0.0, 1.0))];
+        for (column, load) in columns.into_iter().chain([(2 * k + j, UnitLoad::Friction)]) {
+            w.force.fill(ZERO);
+            add_unit_load(bodies, arms, (c[4], c[5]), load, &mut w.force);
             kkt.solve(
                 Some(&w.force),
                 zero_gamma,
