@@ -228,6 +228,51 @@ pub(crate) fn moving(id: BodyId) -> Option<usize> {
     }
 }
 
+/// A clearance joint's three unit loads at one state (see [`ClearanceInterface::unit_loads`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum UnitLoads {
+    /// A revolute joint's: its bodies, their centres' arms and its radii (R_J, R_B).
+    Revolute { bodies: [Option<usize>; 2], arms: [[f64; 2]; 2], radii: (f64, f64) },
+    /// A guide's: unit loads on its tilt, offset and slide rows.
+    Guide(GuideRows),
+}
+
+impl UnitLoads {
+    /// Adds the generalized force of unit load `r` (0 and 1: along the joint's two interface
+    /// coordinates; 2: its friction load) to `force`.
+    fn add(&self, r: usize, force: &mut [f64]) {
+        match self {
+            Self::Guide(rows) => rows.add_to(r, 1.0, force),
+            Self::Revolute { bodies, arms, radii } => {
+                let load = [UnitLoad::Along(1.0, 0.0), UnitLoad::Along(0.0, 1.0), UnitLoad::Friction][r];
+                add_unit_load(*bodies, *arms, *radii, load, force)
+            }
+        }
+    }
+}
+
+impl ClearanceInterface {
+    /// The joint's unit loads at `poses`, the columns of its effective terms: a revolute joint's
+    /// unit force on the journal's centre along x and along y (its opposite on the bearing's)
+    /// and its unit friction force; a guide's unit loads on its tilt, its offset and its slide.
+    fn unit_loads(&self, poses: &[Pose]) -> UnitLoads {
+        let iface = &self.interface;
+        if let Some(guide) = &self.guide {
+            return UnitLoads::Guide(GuideRows::at(iface, guide, poses));
+        }
+        let arm = |body: BodyId, point: Vec2| match body {
+            BodyId::Body(b) => poses[b].rotate(point),
+            BodyId::Ground => Vec2::zeros(),
+        };
+        let arms = [arm(iface.journal_body, iface.journal_point), arm(iface.bearing_body, iface.bearing_point)];
+        UnitLoads::Revolute {
+            bodies: [moving(iface.journal_body), moving(iface.bearing_body)],
+            arms: arms.map(|a| [a.x, a.y]),
+            radii: (self.journal_radius, self.bearing_radius),
+        }
+    }
+}
+
 fn body_index(id: BodyId) -> usize {
     match id {
         BodyId::Body(k) => k,
@@ -278,8 +323,7 @@ struct Scratch {
     force: Vec<f64>,
     zero_gamma: Vec<f64>,
     lambda: DVector<f64>,
-    arms: Vec<[Vec2; 2]>,
-    guides: Vec<Option<GuideRows>>,
+    loads: Vec<UnitLoads>,
 }
 
 impl CoupledTerms {
@@ -301,8 +345,7 @@ impl CoupledTerms {
                 force: vec![0.0; coordinates],
                 zero_gamma: vec![0.0; constraints],
                 lambda: DVector::zeros(constraints),
-                arms: Vec::with_capacity(joints),
-                guides: Vec::with_capacity(joints),
+                loads: Vec::with_capacity(joints),
             },
         }
     }
@@ -355,42 +398,17 @@ pub fn coupled_effective_terms_into(
     solver.solve(mech, qd);
     terms.free_accelerations.copy_from_slice(&solver.accelerations);
     terms.free_lambda.copy_from_slice(solver.lambda.as_slice());
-    // The arms of each joint's journal and bearing centres (read before the solves borrow the
-    // solver).
-    let arm = |body: BodyId, point: Vec2| match body {
-        BodyId::Body(b) => solver.poses[b].rotate(point),
-        BodyId::Ground => Vec2::zeros(),
-    };
+    // Each joint's unit loads at the poses (read before the solves borrow the solver).
     let CoupledTerms { scratch, gain, lambda_gain, .. } = terms;
-    scratch.arms.clear();
-    scratch.arms.extend(joints.iter().map(|j| {
-        let iface = &j.interface;
-        [arm(iface.journal_body, iface.journal_point), arm(iface.bearing_body, iface.bearing_point)]
-    }));
-    scratch.guides.clear();
-    scratch.guides.extend(joints.iter().map(|j| j.guide.map(|g| GuideRows::at(&j.interface, &g, &solver.poses))));
-    let Scratch { force, zero_gamma, lambda, arms, guides } = scratch;
-    for (j, joint) in joints.iter().enumerate() {
-        let iface = &joint.interface;
-        if let Some(rows) = &guides[j] {
-            // The unit loads on the tilt and the offset, then on the slide (the friction load).
-            for (column, r) in [(2 * j, 0), (2 * j + 1, 1), (2 * k + j, 2)] {
-                force.fill(0.0);
-                rows.add_to(r, 1.0, force);
-                solver.solve_with(force, zero_gamma, &mut gain[column], lambda);
-                lambda_gain[column].copy_from_slice(lambda.as_slice());
-            }
-            continue;
-        }
-        // Jᵀ e: the unit force on the journal point and its opposite on the bearing point, along
-        // x, then y; then the unit friction force.
-        let bodies = [moving(iface.journal_body), moving(iface.bearing_body)];
-        let arms = arms[j].map(|a| [a.x, a.y]);
-        let radii = (joint.journal_radius, joint.bearing_radius);
-        let columns = [(2 * j, UnitLoad::Along(1.0, 0.0)), (2 * j + 1, UnitLoad::Along(0.0, 1.0))];
-        for (column, load) in columns.into_iter().chain([(2 * k + j, UnitLoad::Friction)]) {
+    scratch.loads.clear();
+    scratch.loads.extend(joints.iter().map(|j| j.unit_loads(&solver.poses)));
+    let Scratch { force, zero_gamma, lambda, loads } = scratch;
+    for (j, loads) in loads.iter().enumerate() {
+        // Joint j's columns: its two interface coordinates' (2j, 2j + 1), its friction load's
+        // (2k + j).
+        for (column, r) in [(2 * j, 0), (2 * j + 1, 1), (2 * k + j, 2)] {
             force.fill(0.0);
-            add_unit_load(bodies, arms, radii, load, force);
+            loads.add(r, force);
             solver.solve_with(force, zero_gamma, &mut gain[column], lambda);
             lambda_gain[column].copy_from_slice(lambda.as_slice());
         }
