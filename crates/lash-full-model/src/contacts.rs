@@ -105,6 +105,22 @@ pub(crate) fn switch<J: JointContacts>(
     log.switch((first + k, contact), t, rate, searched);
 }
 
+/// A run starts at `t` at `frames`, every contact of `joints` open: each contact that already
+/// indents closes there (see [`switch`]).
+pub(crate) fn start<J: JointContacts>(
+    (joints, first): (&mut [J], usize),
+    frames: &impl Frames<J::Frame>,
+    deflection: impl Fn(usize) -> Option<f64>,
+    log: &mut ImpactLog,
+    (t, searched): (f64, bool),
+) {
+    for k in 0..count(joints) {
+        if numbers(joints, k, frames, &deflection, 0.0).indentation > 0.0 {
+            switch((&mut *joints, first), k, frames, &deflection, log, t, searched);
+        }
+    }
+}
+
 /// At an accepted step's end `t` (`frames`): each contact's penetration checked and its open
 /// impact sampled (see [`ImpactLog::accept_step`]).
 pub(crate) fn accept_step<J: JointContacts>(

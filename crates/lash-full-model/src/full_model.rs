@@ -210,14 +210,10 @@ impl FullModel {
         self.log.clear();
         contacts::open_all(&mut self.clearances);
         contacts::open_all(&mut self.slots);
-        let mut g = vec![0.0; self.contact_count()];
-        // Every contact opened: each event function is its contact's indentation.
-        self.events(t0, y, &mut g);
-        for (k, indentation) in g.into_iter().enumerate() {
-            if indentation > 0.0 {
-                self.on_event(k, t0, y);
-            }
-        }
+        let (frames, bushes) = Self::frames_and_bushes(self.n, &self.bush_states, y);
+        let (log, at, first) = (&mut self.log, (t0, self.strict_modes), self.clearances.len());
+        contacts::start((&mut self.clearances, 0), &frames, bushes, log, at);
+        contacts::start((&mut self.slots, first), &frames, |_| None, log, at);
     }
 
     /// A copy of everything in the model that evolves during a run (contact modes, onset

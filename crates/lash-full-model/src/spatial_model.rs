@@ -101,14 +101,9 @@ impl SpatialFullModel {
     pub fn reset(&mut self, t0: f64, y: &[f64]) {
         self.log.clear();
         contacts::open_all(&mut self.clearances);
-        let mut g = vec![0.0; self.clearances.len()];
-        // Every contact opened: each event function is its contact's penetration.
-        self.events(t0, y, &mut g);
-        for (k, penetration) in g.into_iter().enumerate() {
-            if penetration > 0.0 {
-                self.on_event(k, t0, y);
-            }
-        }
+        frames_of(&self.mechanism, y, &mut self.frames);
+        let (frames, at) = (SpatialFrames(&self.frames), (t0, self.strict_modes));
+        contacts::start((&mut self.clearances, 0), &frames, |_| None, &mut self.log, at);
     }
 
     /// Evaluates contact forces, v̇ and λ at `(t, y)`; results in `solver` and `contacts`.
