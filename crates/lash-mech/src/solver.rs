@@ -115,6 +115,88 @@ pub(crate) struct Structure {
     pub(crate) offsets: Vec<[usize; 2]>,
 }
 
+impl Structure {
+    /// The structure of `mech`'s KKT system, its bodies' inverse masses `inverse_mass`.
+    fn of(mech: &Mechanism, inverse_mass: &[f64]) -> Self {
+        let n = mech.coordinate_count();
+        let row_bodies = row_bodies(mech);
+        let fixed = pinned_rows(mech);
+        let free_rows: Vec<usize> = (0..row_bodies.len()).filter(|r| !fixed.iter().any(|f| f.0 == *r)).collect();
+        let mut free_inverse_mass = inverse_mass.to_vec();
+        for f in &fixed {
+            free_inverse_mass[f.1] = 0.0;
+        }
+        let pairs = schur_pairs(&free_rows, &row_bodies);
+        let offsets = row_bodies.iter().map(|r| r.map(|b| if b == Block::NONE { n } else { 3 * b })).collect();
+        Structure { fixed, free_rows, pairs, free_inverse_mass, offsets }
+    }
+}
+
+/// Each constraint row's two moving bodies ([`Block::NONE`] for the ground).
+fn row_bodies(mech: &Mechanism) -> Vec<[usize; 2]> {
+    let body = |id: BodyId| match id {
+        BodyId::Body(k) => k,
+        BodyId::Ground => Block::NONE,
+    };
+    let mut rows = Vec::with_capacity(mech.constraint_count());
+    for j in &mech.joints {
+        for _ in 0..j.equations() {
+            rows.push([body(j.body_i), body(j.body_j)]);
+        }
+    }
+    for d in &mech.drivers {
+        rows.push([body(d.body), body(d.reference)]);
+    }
+    rows
+}
+
+/// Rows that pin one coordinate: the angle rows of drivers and prismatic joints whose other side
+/// is the ground, as (row, coordinate, coefficient ±1), the first for each coordinate.
+fn pinned_rows(mech: &Mechanism) -> Vec<(usize, usize, f64)> {
+    let mut fixed: Vec<(usize, usize, f64)> = Vec::new();
+    let mut pin = |row: usize, a: BodyId, b: BodyId| {
+        let (coord, c) = match (a, b) {
+            (BodyId::Body(k), BodyId::Ground) => (3 * k + 2, 1.0),
+            (BodyId::Ground, BodyId::Body(k)) => (3 * k + 2, -1.0),
+            _ => return,
+        };
+        if !fixed.iter().any(|f| f.1 == coord) {
+            fixed.push((row, coord, c));
+        }
+    };
+    let mut row = 0;
+    for j in &mech.joints {
+        if matches!(j.kind, crate::model::JointKind::Prismatic { .. }) {
+            pin(row, j.body_i, j.body_j);
+        }
+        row += j.equations();
+    }
+    for d in &mech.drivers {
+        pin(row, d.body, d.reference);
+        row += 1;
+    }
+    fixed
+}
+
+/// S's structural non-zeros over the free rows (lower triangle): the pairs of blocks that share a
+/// body (see [`Structure::pairs`]).
+fn schur_pairs(free_rows: &[usize], row_bodies: &[[usize; 2]]) -> Vec<(usize, usize, usize, usize)> {
+    let mut pairs = Vec::new();
+    for (ca, &a) in free_rows.iter().enumerate() {
+        for (cb, &b) in free_rows[..=ca].iter().enumerate() {
+            for ia in 0..2 {
+                for ib in 0..2 {
+                    let k = row_bodies[a][ia];
+                    if k != Block::NONE && k == row_bodies[b][ib] {
+                        pairs.push((2 * a + ia, 2 * b + ib, ca * free_rows.len() + cb, 3 * k));
+                    }
+                }
+            }
+        }
+    }
+    pairs
+}
+
 /// Buffers of one solve (coordinate-sized ones padded with three ground slots).
 struct Scratch {
     lambda: Vec<f64>,
@@ -137,64 +219,8 @@ impl Solver {
         for b in &mech.bodies {
             inverse_mass.extend_from_slice(&[1.0 / b.mass, 1.0 / b.mass, 1.0 / b.inertia]);
         }
-        let body = |id: BodyId| match id {
-            BodyId::Body(k) => k,
-            BodyId::Ground => Block::NONE,
-        };
-        let mut row_bodies = Vec::with_capacity(m);
-        for j in &mech.joints {
-            for _ in 0..j.equations() {
-                row_bodies.push([body(j.body_i), body(j.body_j)]);
-            }
-        }
-        for d in &mech.drivers {
-            row_bodies.push([body(d.body), body(d.reference)]);
-        }
-        // Rows that pin one coordinate: the angle rows of drivers and prismatic joints whose other
-        // side is the ground.
-        let mut fixed: Vec<(usize, usize, f64)> = Vec::new();
-        let pin = |row: usize, a: BodyId, b: BodyId, fixed: &mut Vec<(usize, usize, f64)>| {
-            let (coord, c) = match (a, b) {
-                (BodyId::Body(k), BodyId::Ground) => (3 * k + 2, 1.0),
-                (BodyId::Ground, BodyId::Body(k)) => (3 * k + 2, -1.0),
-                _ => return,
-            };
-            if !fixed.iter().any(|f| f.1 == coord) {
-                fixed.push((row, coord, c));
-            }
-        };
-        let mut row = 0;
-        for j in &mech.joints {
-            if matches!(j.kind, crate::model::JointKind::Prismatic { .. }) {
-                pin(row, j.body_i, j.body_j, &mut fixed);
-            }
-            row += j.equations();
-        }
-        for d in &mech.drivers {
-            pin(row, d.body, d.reference, &mut fixed);
-            row += 1;
-        }
-        let free_rows: Vec<usize> = (0..m).filter(|r| !fixed.iter().any(|f| f.0 == *r)).collect();
-        let mut free_inverse_mass = inverse_mass.clone();
-        for f in &fixed {
-            free_inverse_mass[f.1] = 0.0;
-        }
-        let mut pairs = Vec::new();
-        for (ca, &a) in free_rows.iter().enumerate() {
-            for (cb, &b) in free_rows[..=ca].iter().enumerate() {
-                for ia in 0..2 {
-                    for ib in 0..2 {
-                        let k = row_bodies[a][ia];
-                        if k != Block::NONE && k == row_bodies[b][ib] {
-                            pairs.push((2 * a + ia, 2 * b + ib, ca * free_rows.len() + cb, 3 * k));
-                        }
-                    }
-                }
-            }
-        }
-        let mf = free_rows.len();
-        let offsets = row_bodies.iter().map(|r| r.map(|b| if b == Block::NONE { n } else { 3 * b })).collect();
-        let structure = Structure { fixed, free_rows, pairs, free_inverse_mass, offsets };
+        let structure = Structure::of(mech, &inverse_mass);
+        let mf = structure.free_rows.len();
         Self {
             poses: vec![Pose::GROUND; mech.bodies.len()],
             rotations: constraints::Rotations::new(mech.bodies.len()),

@@ -581,6 +581,17 @@ fn interface_plan(
         StepError::TwoWayThreaded => "interface.coupling",
     };
     options.check().and_then(|_| options.check_sampling(interval)).map_err(|e| bad(format!("{}: {e}", field(&e))))?;
+    let (signals, units) = interface_signals(i, elements, (mechanism, clearance))?;
+    Ok(InterfacePlan { mechanism, clearance, options, signals, units, interval })
+}
+
+/// The interface master's signals of `i` (each a propagated, micro or macro variable checked
+/// against its element), with their units.
+fn interface_signals(
+    i: &InterfaceSpec,
+    elements: &[Element],
+    (mechanism, clearance): (usize, usize),
+) -> Result<(Vec<Signal>, Vec<String>), SystemError> {
     let has = |k: usize, name: &str| find(elements[k].model.variables(), name).map(|v| v.len());
     let mut signals = Vec::new();
     let mut units = Vec::new();
@@ -622,7 +633,7 @@ fn interface_plan(
         };
         signals.push(signal);
     }
-    Ok(InterfacePlan { mechanism, clearance, options, signals, units, interval })
+    Ok((signals, units))
 }
 
 /// Sets an element's structural parameters (FMI 3.0 configuration mode) before anything else:
