@@ -181,3 +181,137 @@ pub(crate) fn in_mode<S>(
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    //! The bookkeeping against a mock joint of two contacts whose numbers are set by hand: each
+    //! function must reach the right contact of the right joint and keep it under the model's
+    //! number `first + k` in the log.
+    use super::*;
+    use lash_contact::clearance::PENETRATION_LIMIT_FRACTION;
+    use lash_contact::joint::ContactModes;
+
+    #[derive(Debug, Clone, Default)]
+    struct Mode {
+        in_contact: bool,
+        onset: f64,
+    }
+
+    impl Clearance for Mode {
+        const KIND: &'static str = "mock joint";
+        const RADIUS: &'static str = "unit length";
+        fn name(&self) -> &str {
+            "mock"
+        }
+        fn journal_radius(&self) -> f64 {
+            1.0
+        }
+        fn radial_clearance(&self) -> f64 {
+            0.01
+        }
+        fn in_contact(&self) -> bool {
+            self.in_contact
+        }
+        fn onset_velocity(&self) -> f64 {
+            self.onset
+        }
+        fn set_mode(&mut self, in_contact: bool, onset_velocity: f64) {
+            (self.in_contact, self.onset) = (in_contact, onset_velocity);
+        }
+    }
+
+    /// Contact k indents by `gaps[k]` plus the frame's value less the bush's deflection, at the
+    /// rate `rates[k]`; its force is 1000 N per metre of indentation when it indents.
+    #[derive(Debug, Clone, Default)]
+    struct Mock {
+        modes: [Mode; 2],
+        gaps: [f64; 2],
+        rates: [f64; 2],
+    }
+
+    impl ContactModes for Mock {
+        type Contact = Mode;
+        const CONTACTS: usize = 2;
+        fn contact(&self, k: usize) -> &Mode {
+            &self.modes[k]
+        }
+        fn contact_mut(&mut self, k: usize) -> &mut Mode {
+            &mut self.modes[k]
+        }
+    }
+
+    impl JointContacts for Mock {
+        type Frame = f64;
+        fn bodies(&self) -> [BodyId; 2] {
+            [BodyId::Body(0), BodyId::Ground]
+        }
+        fn contact_numbers(&self, [a, _]: [&f64; 2], k: usize, _onset: f64, deflection: Option<f64>) -> ContactNumbers {
+            let penetration = self.gaps[k] + a;
+            let indentation = penetration - deflection.unwrap_or(0.0);
+            ContactNumbers {
+                indentation,
+                indentation_rate: self.rates[k],
+                penetration,
+                normal_force: 1000.0 * indentation.max(0.0),
+            }
+        }
+    }
+
+    /// Every body at the value `.0`.
+    struct At(f64);
+
+    impl Frames<f64> for At {
+        fn frame(&self, _body: BodyId) -> f64 {
+            self.0
+        }
+    }
+
+    fn joints(gaps: [[f64; 2]; 2]) -> Vec<Mock> {
+        gaps.iter().map(|&gaps| Mock { gaps, rates: [0.5, -0.5], ..Mock::default() }).collect()
+    }
+
+    #[test]
+    fn events_are_each_contacts_indentation_signed_by_its_mode() {
+        let mut js = joints([[-1e-3, 2e-3], [3e-3, -4e-3]]);
+        js[1].modes[0].in_contact = true;
+        let mut g = [0.0; 4];
+        // Joint 1 carries a bush deflected by 1e-3: its contacts' indentations are 1e-3 less.
+        events(&js, &At(0.0), |j| (j == 1).then_some(1e-3), &mut g);
+        assert_eq!(g, [-1e-3, 2e-3, -(3e-3 - 1e-3), -4e-3 - 1e-3]);
+    }
+
+    #[test]
+    fn a_switch_opens_and_closes_the_impact_of_the_contact_under_the_models_number() {
+        let mut js = joints([[0.0; 2]; 2]);
+        let (first, mut log) = (3, ImpactLog::new(7));
+        // Contact 2 of these joints is joint 1's first contact, the model's contact 5.
+        switch((&mut js, first), 2, &At(0.0), |_| None, &mut log, 0.1, false);
+        assert!(js[1].modes[0].in_contact && !js[0].modes[0].in_contact && !js[1].modes[1].in_contact);
+        assert_eq!(js[1].modes[0].onset, 0.5, "the onset velocity is the contact's approach rate");
+        assert!(log.is_open(5) && (0..7).filter(|&k| log.is_open(k)).count() == 1);
+        switch((&mut js, first), 2, &At(0.0), |_| None, &mut log, 0.2, false);
+        assert!(!js[1].modes[0].in_contact && !log.is_open(5));
+        assert_eq!(log.impacts[5].len(), 1);
+        assert_eq!((log.impacts[5][0].onset_time, log.impacts[5][0].duration), (0.1, 0.1));
+    }
+
+    #[test]
+    fn a_run_starts_in_contact_where_a_contact_already_indents() {
+        let mut js = joints([[-1e-3, 2e-3], [3e-3, -4e-3]]);
+        let mut log = ImpactLog::new(4);
+        start((&mut js, 0), &At(0.0), |_| None, &mut log, (0.0, true));
+        let closed: Vec<bool> = js.iter().flat_map(|j| j.modes.iter().map(|m| m.in_contact)).collect();
+        assert_eq!(closed, [false, true, true, false]);
+        assert_eq!((0..4).map(|k| log.is_open(k)).collect::<Vec<_>>(), closed);
+    }
+
+    #[test]
+    fn a_step_end_past_the_blow_up_limit_names_the_joint() {
+        let js = joints([[0.0; 2], [0.0, PENETRATION_LIMIT_FRACTION * 1.5]]);
+        let mut log = ImpactLog::new(6);
+        let e = accept_step((&js, 2), &At(0.0), |_| None, &mut log, 0.3).unwrap_err();
+        assert_eq!((e.joint.as_str(), e.kind, e.penetration), ("mock", "mock joint", PENETRATION_LIMIT_FRACTION * 1.5));
+        let fine = joints([[0.0; 2], [0.0, PENETRATION_LIMIT_FRACTION * 0.5]]);
+        assert!(accept_step((&fine, 2), &At(0.0), |_| None, &mut log, 0.3).is_ok());
+    }
+}
