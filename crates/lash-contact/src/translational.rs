@@ -169,11 +169,6 @@ impl TranslationalClearance {
         &mut self.corners[k]
     }
 
-    /// The corners' contact modes.
-    pub fn corners_mut(&mut self) -> &mut [Corner; 4] {
-        &mut self.corners
-    }
-
     /// The relative angle θ_block − θ_guide at which the block's axis lies along the guide's.
     pub fn aligned_angle(&self) -> f64 {
         let (u, s) = (self.guide.axis, self.block.axis);
