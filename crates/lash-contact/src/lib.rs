@@ -8,6 +8,7 @@
 //! P_J = r_J + R_J n; the bearing receives −f_J at P_B = r_B + R_B n.
 
 pub mod clearance;
+pub mod film;
 pub mod friction;
 pub mod joint;
 pub mod law;
@@ -16,6 +17,7 @@ pub mod spherical;
 pub mod translational;
 
 pub use clearance::{ClearanceJoint, ContactState, Impact, PenetrationError};
+pub use film::{BearingLength, Film};
 pub use friction::FrictionLaw;
 pub use joint::{Clearance, ContactModes, ContactNumbers, JointContacts};
 pub use law::{ContactLaw, Material, NormalForce, hertz_stiffness, step_of};

@@ -36,6 +36,13 @@ pub trait Real:
     fn exp(self) -> Self;
     /// xⁿ for one exponent `n` of every lane (`f64::powf` lane by lane).
     fn powf(self, n: f64) -> Self;
+    /// The angle of the point (x, y) = (`x`, `self`) in (−π, π] (`f64::atan2` lane by lane).
+    fn atan2(self, x: Self) -> Self;
+    /// Lane `l`'s number (`l < WIDTH`): for work that is scalar by nature (a root search
+    /// whose steps differ from lane to lane), done lane by lane.
+    fn lane(self, l: usize) -> f64;
+    /// The number whose lane `l` is `f(l)`.
+    fn from_lanes(f: impl FnMut(usize) -> f64) -> Self;
     /// self > o.
     fn simd_gt(self, o: Self) -> Self::Mask;
     /// self ≥ o.
@@ -112,6 +119,18 @@ impl Real for f64 {
     #[inline(always)]
     fn exp(self) -> Self {
         f64::exp(self)
+    }
+    #[inline(always)]
+    fn atan2(self, x: Self) -> Self {
+        f64::atan2(self, x)
+    }
+    #[inline(always)]
+    fn lane(self, _: usize) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn from_lanes(mut f: impl FnMut(usize) -> f64) -> Self {
+        f(0)
     }
 }
 
@@ -214,6 +233,18 @@ impl Real for F64x8 {
     #[inline(always)]
     fn powf(self, n: f64) -> Self {
         self.map(|v| v.powf(n))
+    }
+    #[inline(always)]
+    fn atan2(self, x: Self) -> Self {
+        self.zip(x, f64::atan2)
+    }
+    #[inline(always)]
+    fn lane(self, l: usize) -> f64 {
+        self.0[l]
+    }
+    #[inline(always)]
+    fn from_lanes(f: impl FnMut(usize) -> f64) -> Self {
+        Self(std::array::from_fn(f))
     }
     #[inline(always)]
     fn simd_gt(self, o: Self) -> Self {
