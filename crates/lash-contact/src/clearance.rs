@@ -1,5 +1,6 @@
 //! The planar revolute clearance joint (docs/theory.md §2).
 
+use crate::film::Film;
 use crate::friction::FrictionLaw;
 use crate::law::NormalForce;
 use lash_core::lane::Real;
@@ -220,6 +221,9 @@ pub struct ClearanceJoint {
     /// along the normal is a state of its own ([`NormalForce::force_in_series_damped`]); zero, the
     /// bush follows its load quasi-statically ([`NormalForce::force_in_series`]).
     pub bush_damping: f64,
+    /// The oil film of a lubricated joint (none: dry). Its force acts in every mode, through the
+    /// journal's and the bearing's centres; the contact law adds to it when the journal touches.
+    pub film: Option<Film>,
     /// Discrete state: contact closed (δ > 0 since the last located onset).
     pub in_contact: bool,
     /// Discrete state: approach velocity δ̇⁻ captured at the last onset [m/s].
@@ -419,6 +423,37 @@ impl ClearanceJoint {
         let radii = [self.journal_radius, self.bearing_radius];
         let c = planar_contact(&laws, [e.x, e.y], geometry, [e_dot.x, e_dot.y], [omega_journal, omega_bearing], radii);
         contact_state(e, geometry, &c)
+    }
+
+    /// The oil film's force on the journal \[N\] at eccentricity `e`, its rate `e_dot` and the two
+    /// bodies' angular velocities (zero for a dry joint); it passes through the journal's centre
+    /// (the bearing takes its opposite through its own).
+    #[inline(always)]
+    pub fn film_force(&self, e: Vec2, e_dot: Vec2, omega_journal: f64, omega_bearing: f64) -> Vec2 {
+        match &self.film {
+            None => Vec2::zeros(),
+            Some(film) => {
+                let mean_rate = 0.5 * (omega_journal + omega_bearing);
+                let f = film.force(
+                    (self.journal_radius, self.radial_clearance()),
+                    [e.x, e.y],
+                    [e_dot.x, e_dot.y],
+                    mean_rate,
+                );
+                Vec2::new(f[0], f[1])
+            }
+        }
+    }
+
+    /// A lubricated joint's film at the two bodies' poses: its force on the journal and the
+    /// world-frame arms from the journal body's and the bearing body's centroids to the journal's
+    /// and the bearing's centres, where the force and its opposite act (None: a dry joint).
+    #[inline]
+    pub fn film_at(&self, journal: &Pose, bearing: &Pose) -> Option<(Vec2, Vec2, Vec2)> {
+        self.film.as_ref()?;
+        let (_, e, e_dot) = self.centres(journal, bearing);
+        let force = self.film_force(e, e_dot, journal.angular_velocity, bearing.angular_velocity);
+        Some((force, journal.rotate(self.journal_point), bearing.rotate(self.bearing_point)))
     }
 
     /// World-frame arms from the journal body's and the bearing body's centroids to the contact
@@ -718,6 +753,7 @@ mod tests {
             friction,
             bush_stiffness: f64::INFINITY,
             bush_damping: 0.0,
+            film: None,
             in_contact: true,
             onset_velocity,
         }

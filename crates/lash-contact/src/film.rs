@@ -67,11 +67,22 @@ pub struct Film {
     /// Short or long bearing.
     pub bearing: BearingLength,
     /// The thinnest film, as a fraction of the radial clearance, below which the film force is
-    /// held at its value there (mixed lubrication); in (0, 1).
+    /// held at its value there (mixed lubrication); in (0, 1), [`Film::MIXED_FRACTION`] when
+    /// left out.
+    #[serde(default = "Film::default_mixed_fraction")]
     pub mixed_fraction: f64,
 }
 
 impl Film {
+    /// The mixed-lubrication limit when a scenario gives none: a film thinner than 5 % of the
+    /// clearance (ε > 0.95), where the closed forms' force grows as (1 − ε)^(−5/2) and a
+    /// real surface's roughness is no longer small beside the film.
+    pub const MIXED_FRACTION: f64 = 0.05;
+
+    fn default_mixed_fraction() -> f64 {
+        Self::MIXED_FRACTION
+    }
+
     /// Problems of the film's numbers, each named by its field.
     pub fn validate(&self) -> Problems {
         let mut p = Problems::new();
@@ -93,6 +104,19 @@ impl Film {
             BearingLength::Long => FilmIntegrals::long(self.viscosity, radius, self.length, clearance),
         };
         film_force(length, clearance, 1.0 - self.mixed_fraction, e, e_dot, mean_rate)
+    }
+}
+
+impl Film {
+    /// The film's largest damping coefficient ∂F/∂ė \[N s/m\]: at the mixed-lubrication limit,
+    /// for a squeeze along the line of centres or across it, whichever is stiffer (the force is
+    /// linear in ė there for a given film half, so one evaluation at a unit speed gives it). A
+    /// fixed-step integrator needs steps below about 2.8 m/c for a mass m on this damping.
+    pub fn damping_bound(&self, (radius, clearance): (f64, f64)) -> f64 {
+        let e = [(1.0 - self.mixed_fraction) * clearance, 0.0];
+        let along = self.force((radius, clearance), e, [1.0, 0.0], 0.0);
+        let across = self.force((radius, clearance), e, [0.0, 1.0], 0.0);
+        along[0].hypot(along[1]).max(across[0].hypot(across[1]))
     }
 }
 

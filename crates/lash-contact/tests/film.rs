@@ -98,3 +98,48 @@ fn bad_film_numbers_are_named() {
         assert!(text.contains(field), "{text}");
     }
 }
+
+/// A journal of 0.1 kg spinning at ω in a fixed short bearing, pushed by a constant load W from
+/// the centre: its orbit settles where the film carries the load — at the eccentricity ratio
+/// whose Ocvirk load capacity is W (found here by bisection on the textbook formula), with the
+/// line of centres turned from the load line by the attitude angle, in the sense of rotation.
+#[test]
+fn a_loaded_journal_settles_at_the_static_equilibrium() {
+    let film = film(BearingLength::Short);
+    let (mass, load) = (0.1, 9.0);
+    let capacity = |eps: f64| {
+        let q = 1.0 - eps * eps;
+        VISCOSITY * RADIUS * OMEGA * LENGTH.powi(3) / (4.0 * CLEARANCE.powi(2)) * eps / q.powi(2)
+            * (PI * PI * q + 16.0 * eps * eps).sqrt()
+    };
+    let (mut lo, mut hi) = (0.0, 0.99);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if capacity(mid) < load { lo = mid } else { hi = mid }
+    }
+    let eps = 0.5 * (lo + hi);
+    let attitude = (PI * (1.0 - eps * eps).sqrt() / (4.0 * eps)).atan();
+    // RK4 on (e, ė), the load along −y.
+    let accel = |e: [f64; 2], v: [f64; 2]| {
+        let f = film.force((RADIUS, CLEARANCE), e, v, OMEGA / 2.0);
+        [f[0] / mass, (f[1] - load) / mass]
+    };
+    let (mut e, mut v, h) = ([0.0; 2], [0.0; 2], 1e-5);
+    let add = |a: [f64; 2], b: [f64; 2], k: f64| [a[0] + k * b[0], a[1] + k * b[1]];
+    for _ in 0..20_000 {
+        let k1 = (v, accel(e, v));
+        let k2 = (add(v, k1.1, h / 2.0), accel(add(e, k1.0, h / 2.0), add(v, k1.1, h / 2.0)));
+        let k3 = (add(v, k2.1, h / 2.0), accel(add(e, k2.0, h / 2.0), add(v, k2.1, h / 2.0)));
+        let k4 = (add(v, k3.1, h), accel(add(e, k3.0, h), add(v, k3.1, h)));
+        for i in 0..2 {
+            e[i] += h / 6.0 * (k1.0[i] + 2.0 * k2.0[i] + 2.0 * k3.0[i] + k4.0[i]);
+            v[i] += h / 6.0 * (k1.1[i] + 2.0 * k2.1[i] + 2.0 * k3.1[i] + k4.1[i]);
+        }
+    }
+    let ratio = e[0].hypot(e[1]) / CLEARANCE;
+    // The angle from the load line (−y) to e, positive counter-clockwise (the journal's sense).
+    let turned = e[1].atan2(e[0]) + PI / 2.0;
+    assert!((ratio - eps).abs() < 1e-6, "ε {ratio} vs {eps}");
+    assert!((turned - attitude).abs() < 1e-6, "attitude {turned} vs {attitude}");
+    assert!(v[0].hypot(v[1]) < 1e-9, "still moving: {v:?}");
+}

@@ -270,11 +270,17 @@ impl FullModel {
                 let s = ContactState { normal_force: 0.0, friction_force: 0.0, force_on_journal: Vec2::zeros(), ..s };
                 (s, c.bush_relaxation_rate(deflection.unwrap_or(0.0)))
             };
-            let (s, rate) = contacts::in_mode(c, own, (log, *strict_modes), (s, rate), free, evaluate);
+            let (mut s, rate) = contacts::in_mode(c, own, (log, *strict_modes), (s, rate), free, evaluate);
             if s.normal_force != 0.0 || s.friction_force != 0.0 {
                 let (arm_j, arm_b) = c.arms(&pj, &pb, &s);
                 solver.add_force(c.journal_body, arm_j, s.force_on_journal);
                 solver.add_force(c.bearing_body, arm_b, -s.force_on_journal);
+            }
+            // A lubricated joint's film, in every mode, through the two centres.
+            if let Some((film, arm_j, arm_b)) = c.film_at(&pj, &pb) {
+                solver.add_force(c.journal_body, arm_j, film);
+                solver.add_force(c.bearing_body, arm_b, -film);
+                s.force_on_journal += film;
             }
             *state = s;
             bush_rates[k] = rate;

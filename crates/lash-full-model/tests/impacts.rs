@@ -42,6 +42,7 @@ fn free_journal(law: &ContactLaw, friction: FrictionLaw, velocity: Vec2) -> Full
         friction,
         bush_stiffness: f64::INFINITY,
         bush_damping: 0.0,
+        film: None,
         in_contact: false,
         onset_velocity: 0.0,
     };

@@ -97,6 +97,12 @@ pub trait MicroJoint: Clearance + ContactModes + Clone + std::fmt::Debug {
     fn rest_under(&self, _force: &[f64], _e: &mut [f64]) -> bool {
         false
     }
+    /// The largest damping coefficient of a lubricated joint's film \[N s/m\] (0 without one):
+    /// the micro step divides itself where the film is too stiff for it
+    /// ([`super::InterfaceModel::rk4_step`]).
+    fn film_damping(&self) -> f64 {
+        0.0
+    }
     /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
     fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
     /// δ \[m\].
@@ -168,7 +174,22 @@ impl MicroJoint for ClearanceJoint {
         wb: &[f64],
         onset: f64,
     ) -> ContactState {
-        self.evaluate_relative_as::<SERIES>(Vec2::new(e[0], e[1]), Vec2::new(e_dot[0], e_dot[1]), wj[0], wb[0], onset)
+        let (e, e_dot) = (Vec2::new(e[0], e[1]), Vec2::new(e_dot[0], e_dot[1]));
+        let mut s = self.evaluate_relative_as::<SERIES>(e, e_dot, wj[0], wb[0], onset);
+        if self.film.is_some() {
+            // The film's force through the centres: on the interface, with the contact's.
+            s.force_on_journal += self.film_force(e, e_dot, wj[0], wb[0]);
+        }
+        s
+    }
+    fn film_damping(&self) -> f64 {
+        self.film.map_or(0.0, |f| f.damping_bound((self.journal_radius, self.radial_clearance())))
+    }
+    /// A lubricated joint's film acts in free flight too.
+    #[inline(always)]
+    fn may_touch(&self, e: &[f64]) -> bool {
+        let c = self.radial_clearance();
+        self.film.is_some() || e[0] * e[0] + e[1] * e[1] > c * c
     }
     #[inline(always)]
     fn in_series(&self) -> bool {

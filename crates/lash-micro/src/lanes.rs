@@ -54,7 +54,8 @@ impl LaneLaws {
 /// `None`.
 pub fn lane_laws(model: &OneJoint) -> Option<LaneLaws> {
     let joint = &model.joints[0];
-    if joint.bush_stiffness.is_finite() {
+    if joint.bush_stiffness.is_finite() || joint.film.is_some() {
+        // (A bush in series, or an oil film: run alone.)
         return None;
     }
     Some(LaneLaws::of(&joint.law, &joint.friction))
@@ -976,6 +977,7 @@ mod tests {
             },
             bush_stiffness: f64::INFINITY,
             bush_damping: 0.0,
+            film: None,
             in_contact: false,
             onset_velocity: 0.0,
         }

@@ -1280,6 +1280,7 @@ mod tests {
             friction: FrictionLaw::None,
             bush_stiffness: f64::INFINITY,
             bush_damping: 0.0,
+            film: None,
             in_contact: false,
             onset_velocity: 0.0,
         }

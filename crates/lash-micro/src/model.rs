@@ -517,6 +517,8 @@ pub struct InterfaceModel<J: MicroJoint, const N: usize, const K: usize, const M
     pub(super) located: bool,
     /// The end of the last RK4 step: the next step's first stage is the same instant and state.
     pub(super) end: Option<StepEnd<N, M>>,
+    /// The largest film damping of the joints \[N s/m\] (0: no lubricated joint).
+    film_damping: f64,
 }
 
 /// The micro model of k planar revolute clearance joints (N = 2k).
@@ -596,7 +598,9 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             violation: false,
             located: false,
             end: None,
+            film_damping: 0.0,
         };
+        m.film_damping = m.joints.iter().map(J::film_damping).fold(0.0, f64::max);
         m.refresh_states(0.0);
         m
     }
@@ -798,8 +802,49 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
     }
 
     /// One RK4 step of size `h` from `t`; the joints' states at the step end are in `states`.
+    /// With a lubricated joint whose film is too stiff for `h` on the interface's mass, the step
+    /// is made of as many equal RK4 steps as keep the film's damping stable
+    /// ([`InterfaceModel::film_substeps`]).
     #[inline(always)]
     pub fn rk4_step(&mut self, t: f64, h: f64) {
+        if self.film_damping > 0.0 {
+            return self.rk4_film_steps(t, h);
+        }
+        self.rk4_step_once(t, h)
+    }
+
+    /// [`InterfaceModel::rk4_step`] of a model with a film, compiled apart from the dry path.
+    #[inline(never)]
+    fn rk4_film_steps(&mut self, t: f64, h: f64) {
+        let n = self.film_substeps(t, h);
+        let dh = h / n as f64;
+        for k in 0..n {
+            self.rk4_step_once(t + k as f64 * dh, dh);
+        }
+    }
+
+    /// How many RK4 steps the step from `t` of size `h` needs for the films: h λ ≤ 2.5 (RK4 is
+    /// stable on the negative real axis to 2.79), λ bounded by the largest film damping times
+    /// trace(M̃⁻¹) at the step's two ends (the trace bounds M̃⁻¹'s largest eigenvalue, so λ
+    /// bounds every mode's rate of the film on the interface).
+    fn film_substeps(&self, t: f64, h: f64) -> usize {
+        const STABLE: f64 = 2.5;
+        let trace = |dt: f64| -> f64 {
+            if J::MOBILITY_FORM {
+                (self.mobility.mobility + self.mobility.mobility_rate * dt).trace()
+            } else {
+                let mass = self.inputs.effective_mass + self.inputs.effective_mass_rate * dt;
+                mass.try_inverse().map_or(f64::INFINITY, |w| w.trace())
+            }
+        };
+        let largest = trace(t - self.input_time).max(trace(t + h - self.input_time));
+        let n = (h * self.film_damping * largest / STABLE).ceil();
+        if n.is_finite() { n.clamp(1.0, 1e5) as usize } else { 1 }
+    }
+
+    /// One RK4 step (no division for films).
+    #[inline(always)]
+    fn rk4_step_once(&mut self, t: f64, h: f64) {
         if J::MOBILITY_FORM {
             self.rk4_step_in::<MobilityAt<N, M>>(t, h)
         } else {
@@ -1036,6 +1081,8 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         }
         self.bush_deflection = SVector::zeros();
         self.end = None;
+        // (Here as well as at construction: a definition applied since may change the radii.)
+        self.film_damping = self.joints.iter().map(J::film_damping).fold(0.0, f64::max);
         self.refresh_states(t);
     }
 

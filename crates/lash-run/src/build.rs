@@ -170,6 +170,7 @@ fn clearance_joints(s: &Scenario, id: &dyn Fn(&str) -> BodyId) -> Vec<ClearanceJ
                 friction: c.friction,
                 bush_stiffness: bush.map_or(f64::INFINITY, |b| b.stiffness),
                 bush_damping: bush.map_or(0.0, |b| if damped_in_series(&b) { b.damping } else { 0.0 }),
+                film: c.film,
                 in_contact: false,
                 onset_velocity: 0.0,
             }

@@ -175,6 +175,7 @@ pub fn scenario_e(clearance: f64, rpm: f64, friction: bool) -> SpatialScenario {
         contact: ContactLaw::AdamsImpact { stiffness: None, exponent: 1.5, max_damping: 1e4, damping_depth: 1e-5 },
         friction: friction_law,
         bush: None,
+        film: None,
     };
     let clearance_mm = clearance * 1e3;
     let name = format!("E-{clearance_mm}mm-{rpm}rpm{}", if friction { "" } else { "-frictionless" });

@@ -712,6 +712,12 @@ fn check_clearances<'a>(s: &'a Scenario, p: &mut Problems) -> HashSet<&'a str> {
             }
             p.0.extend(problems.0);
         }
+        if let Some(film) = &c.film {
+            p.extend_prefixed(&f("film"), film.validate());
+            if c.bush.is_some() {
+                p.push(f("film"), "an oil film with a flexible bush behind the bearing is not there yet (give the joint one or the other)");
+            }
+        }
         let needs_materials = c.contact.needs_materials();
         let bearing = if c.bush.is_some() { &None } else { &c.bearing_material };
         for (field, m) in [("journal_material", &c.journal_material), ("bearing_material", bearing)] {
@@ -929,5 +935,22 @@ mod tests {
         let lash_ode::Method::Dop853(o) = base.integrator else { panic!("B is adaptive") };
         let below = problems(o.min_step / 2.0);
         assert!(below.contains("output_interval") && below.contains("min_step"), "{below}");
+    }
+
+    #[test]
+    fn a_film_with_meaningless_numbers_or_beside_a_bush_is_named() {
+        let text = toml::to_string(&crate::builtin::by_name("A-lubricated").unwrap()).unwrap();
+        let bad = text
+            .replace("viscosity = 0.2", "viscosity = -0.2")
+            .replace("mixed_fraction = 0.05", "mixed_fraction = 1.5");
+        let p = parse(&bad).unwrap_err().to_string();
+        assert!(p.contains("clearances[0].film.viscosity") && p.contains("clearances[0].film.mixed_fraction"), "{p}");
+        let unknown = text.replace("bearing = \"short\"", "bearing = \"finite\"");
+        let p = parse(&unknown).unwrap_err().to_string();
+        assert!(p.contains("film") && p.contains("short"), "{p}");
+        let mut s = crate::builtin::by_name("F-flexible-imperfect").unwrap();
+        s.clearances[0].film = crate::builtin::by_name("A-lubricated").unwrap().clearances[0].film;
+        let p = validate(&s).to_string();
+        assert!(p.contains("clearances[0].film") && p.contains("bush"), "{p}");
     }
 }

@@ -200,6 +200,10 @@ pub struct ClearanceSpec {
     /// `inner_radius` must be `bearing_radius` and its `pin_radius` `journal_radius`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bush: Option<lash_bush::BushSpec>,
+    /// An oil film (a lubricated joint): the hydrodynamic force of the short or long bearing
+    /// acts in every mode, the contact law adds to it where the journal touches.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub film: Option<lash_contact::Film>,
 }
 
 /// Turns the prismatic joint `joint` into a translational clearance joint: a rectangular block on

@@ -382,6 +382,12 @@ fn check_spatial_clearances(s: &SpatialScenario, p: &mut Problems) {
         if c.bush.is_some() {
             p.push(f("bush"), "a flexible bush behind a spherical clearance is not there yet (planar joints only)");
         }
+        if c.film.is_some() {
+            p.push(
+                f("film"),
+                "an oil film in a spherical clearance joint is not there yet (planar revolute joints only)",
+            );
+        }
         match s.joints.iter().find(|j| j.name == c.joint) {
             None => p.push(f("joint"), format!("no joint called {:?}", c.joint)),
             Some(j) => {
