@@ -2,9 +2,11 @@
 
 Run from the repository root after producing the outputs (commands in docs/validation.md):
     python docs/figures/make_figures.py
+(`python docs/figures/make_figures.py lubricated` draws the lubricated joint's figure alone.)
 Needs numpy and matplotlib (not needed by lash itself or its tests).
 """
 import csv
+import sys
 import numpy as np
 import matplotlib
 
@@ -33,6 +35,37 @@ def overlay(full, ideal, title, out, channel="slider.ax"):
     fig.tight_layout()
     fig.savefig(out, dpi=110)
 
+
+def lubricated(out="docs/figures/A_lubricated.png"):
+    """Dry and lubricated crank pivot of scenario A side by side: journal orbit, slider
+    acceleration, crank torque (full model; the lubricated reduced model dashed)."""
+    dry, wet, wet_r = (load(f"out/{n}/timeseries.csv") for n in ["A", "A-lubricated-full", "A-lubricated-reduced"])
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    t = np.linspace(0, 2 * np.pi, 200)
+    axes[0].plot(100 * np.cos(t), 100 * np.sin(t), "k", lw=0.6, label="clearance (100 µm)")
+    for d, label, style in [(dry, "dry (full)", "-"), (wet, "lubricated (full)", "-"), (wet_r, "lubricated (reduced)", "--")]:
+        axes[0].plot(d["crank_pivot.ex"] * 1e6, d["crank_pivot.ey"] * 1e6, style, lw=0.7, label=label)
+        axes[1].plot(d["time"] * 1e3, d["slider.ax"] / 1e3, style, lw=0.7, label=label)
+        axes[2].plot(d["time"] * 1e3, d["motor.torque"], style, lw=0.7, label=label)
+    axes[0].set_aspect("equal")
+    axes[0].set_xlabel("e_x [µm]")
+    axes[0].set_ylabel("e_y [µm]")
+    axes[0].set_title("journal orbit")
+    axes[1].set_xlabel("time [ms]")
+    axes[1].set_ylabel("slider acceleration [km/s²]")
+    axes[2].set_xlabel("time [ms]")
+    axes[2].set_ylabel("crank torque [N m]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, loc="lower left")
+    fig.suptitle("Scenario A: the crank pivot dry and lubricated (SAE 50, short bearing L/D = 0.25), 5000 rpm")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
+if sys.argv[1:] == ["lubricated"]:
+    lubricated()
+    sys.exit()
 
 overlay("out/B/timeseries.csv", "out/B-ideal/timeseries.csv", "Scenario B, c = 0.5 mm, 5000 rpm", "docs/figures/B_slider_acceleration.png")
 overlay("out/A/timeseries.csv", "out/A-ideal/timeseries.csv", "Scenario A, c = 100 µm at the crank pivot", "docs/figures/A_slider_acceleration.png")
