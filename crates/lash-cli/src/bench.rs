@@ -23,7 +23,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn run(quick: bool) -> Result<(), CliError> {
     let reps = if quick { 3 } else { 7 };
     let b = full_model_figures(reps, quick)?;
-    let (a_full_ms, a_reduced_ms) = scenario_a_times(reps)?;
+    let (a_full_ms, a_reduced_ms) = scenario_times("A", reps)?;
     b.print(reps);
     println!("scenario A (c = 100 µm), 0.036 s, every channel sampled at 1e-5 s (rows discarded)");
     println!("  full model, converged adaptive                 {a_full_ms:9.2} ms");
@@ -32,8 +32,46 @@ pub fn run(quick: bool) -> Result<(), CliError> {
         a_full_ms / a_reduced_ms
     );
     reduced_section(reps, quick)?;
+    film_section(reps)?;
     spatial_section(reps, quick)?;
     bush_section(reps)
+}
+
+/// The lubricated joint: one film force of each closed form, and scenario A-lubricated's runs.
+fn film_section(reps: usize) -> Result<(), CliError> {
+    use lash_contact::film::{BearingLength, Film};
+    // States over the clearance (ε to 0.9, all directions) with squeeze and rotation.
+    let states: Vec<([f64; 2], [f64; 2])> = (0..64)
+        .map(|k| {
+            let (a, r) = (k as f64 * 0.7, 0.9 * (k % 8) as f64 / 7.0 * 5e-5);
+            ([r * a.cos(), r * a.sin()], [0.01 * (2.0 * a).sin(), 0.004 * a.cos()])
+        })
+        .collect();
+    let per_call = |bearing| {
+        let film = Film { viscosity: 0.2, length: 0.005, bearing, mixed_fraction: Film::MIXED_FRACTION };
+        let mut times = Vec::new();
+        for _ in 0..reps {
+            let t = Instant::now();
+            for _ in 0..100 {
+                for (e, v) in &states {
+                    black_box(film.force((0.0099, 1e-4), black_box(*e), black_box(*v), black_box(262.0)));
+                }
+            }
+            times.push(t.elapsed().as_secs_f64() * 1e9 / (100 * states.len()) as f64);
+        }
+        median(times)
+    };
+    let (short_ns, long_ns) = (per_call(BearingLength::Short), per_call(BearingLength::Long));
+    let (full_ms, reduced_ms) = scenario_times("A-lubricated", reps)?;
+    println!("lubricated joint: the film's force, and scenario A-lubricated (0.036 s, every channel at 1e-5 s)");
+    println!("  film force, short bearing (closed form)        {short_ns:9.1} ns");
+    println!("  film force, long bearing (roots on 64 samples) {long_ns:9.1} ns");
+    println!("  full model, converged adaptive                 {full_ms:9.2} ms");
+    println!(
+        "  reduced model (h_m = 1e-3, h_r = 1e-5 divided)  {reduced_ms:9.2} ms   (speed-up {:.1}×)",
+        full_ms / reduced_ms
+    );
+    Ok(())
 }
 
 /// Scenario B's full-model figures: one right-hand side, one RK4 step, the converged adaptive
@@ -172,10 +210,11 @@ impl FullModelFigures {
     }
 }
 
-/// Scenario A (the main job): the converged full model and the reduced model over 0.036 s,
-/// every channel sampled every 1e-5 s, rows discarded [ms], medians of `reps`.
-fn scenario_a_times(reps: usize) -> Result<(f64, f64), CliError> {
-    let a = builtin::by_name("A").expect("built-in");
+/// Built-in `name` (scenario A: the main job): the converged full model and the reduced model at
+/// its defaults over the scenario's horizon, every channel sampled every 1e-5 s, rows discarded
+/// [ms], medians of `reps`.
+fn scenario_times(name: &str, reps: usize) -> Result<(f64, f64), CliError> {
+    let a = builtin::by_name(name).expect("built-in");
     let time_a = |reduced: bool| -> Result<f64, CliError> {
         let mut times = Vec::new();
         for _ in 0..reps {

@@ -103,6 +103,12 @@ pub trait MicroJoint: Clearance + ContactModes + Clone + std::fmt::Debug {
     fn film_damping(&self) -> f64 {
         0.0
     }
+    /// |f_c| \[N\] in state `s`: |F_N n + F_T t| from the two orthogonal components (a
+    /// lubricated joint: the norm of its force on the journal, the film's included).
+    fn force_magnitude(&self, s: &Self::State) -> f64 {
+        let (n, t) = (Self::normal_force(s), Self::friction_force(s));
+        (n * n + t * t).sqrt()
+    }
     /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
     fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
     /// δ \[m\].
@@ -181,6 +187,14 @@ impl MicroJoint for ClearanceJoint {
             s.force_on_journal += self.film_force(e, e_dot, wj[0], wb[0]);
         }
         s
+    }
+    fn force_magnitude(&self, s: &ContactState) -> f64 {
+        if self.film.is_some() {
+            s.force_on_journal.norm()
+        } else {
+            let (n, t) = (s.normal_force, s.friction_force);
+            (n * n + t * t).sqrt()
+        }
     }
     fn film_damping(&self) -> f64 {
         self.film.map_or(0.0, |f| f.damping_bound((self.journal_radius, self.radial_clearance())))

@@ -643,13 +643,7 @@ fn read<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: 
             }),
             vr::IN_CONTACT => each_joint(out, |j| if m.joints[j].in_contact() { 1.0 } else { 0.0 }),
             vr::RADIAL_CLEARANCE => each_joint(out, |j| m.joints[j].radial_clearance()),
-            vr::CONTACT_FORCE_MAGNITUDE => {
-                // |F_N n + F_T t| from the two orthogonal components.
-                each_joint(out, |j| {
-                    let (n, t) = (J::normal_force(&s[j]), J::friction_force(&s[j]));
-                    (n * n + t * t).sqrt()
-                })
-            }
+            vr::CONTACT_FORCE_MAGNITUDE => each_joint(out, |j| m.joints[j].force_magnitude(&s[j])),
             vr::MICRO_STEPS => out[0] = micro_steps as f64,
             vr::CONTACT_NORMAL_FORCE | vr::CONTACT_PENETRATION => {
                 for (j, s) in s.iter().enumerate() {
