@@ -803,8 +803,8 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
 
     /// One RK4 step of size `h` from `t`; the joints' states at the step end are in `states`.
     /// With a lubricated joint whose film is too stiff for `h` on the interface's mass, the step
-    /// is made of as many equal RK4 steps as keep the film's damping stable
-    /// ([`InterfaceModel::film_substeps`]).
+    /// is made of as many equal RK4 steps as keep the film's damping stable (h λ ≤ 2.5, λ the
+    /// film's largest damping times tr(M̃⁻¹)).
     #[inline(always)]
     pub fn rk4_step(&mut self, t: f64, h: f64) {
         if self.film_damping > 0.0 {
