@@ -8,6 +8,7 @@
 //! resolved to the numbers the micro step uses (a stiffness left out is re-derived from the
 //! materials and the current radii).
 
+use crate::film::Film;
 use crate::friction::FrictionLaw;
 use crate::law::{ContactLaw, Material, NormalForce};
 
@@ -26,6 +27,8 @@ pub struct ClearanceDefinition {
     pub journal_material: Material,
     /// Bearing material.
     pub bearing_material: Material,
+    /// The oil film of a lubricated joint (none: dry); its numbers are parameters too.
+    pub film: Option<Film>,
 }
 
 /// Where a parameter lives in the definition.
@@ -35,6 +38,7 @@ enum Slot {
     BearingRadius,
     Contact(String),
     Friction(String),
+    Film(String),
 }
 
 /// One parameter: name, unit, description, slot.
@@ -79,7 +83,7 @@ fn with_field<T: serde::Serialize + serde::de::DeserializeOwned>(
 
 impl ClearanceDefinition {
     /// The parameters, in a fixed order: radii, then the contact law's, then the friction law's
-    /// numeric fields.
+    /// numeric fields, then a film's.
     pub fn parameters(&self) -> Vec<ParameterInfo> {
         let mut p = vec![
             ParameterInfo {
@@ -106,6 +110,9 @@ impl ClearanceDefinition {
                 slot: Slot::Friction(k),
             });
         }
+        for (k, v) in self.film.as_ref().map(numeric_fields).unwrap_or_default() {
+            p.push(ParameterInfo { name: format!("film.{k}"), unit: unit_of(&k), value: v, slot: Slot::Film(k) });
+        }
         p
     }
 
@@ -126,6 +133,11 @@ impl ClearanceDefinition {
                     Ok(law) => d.friction = law,
                     Err(e) => problems.push(info.name.clone(), e),
                 },
+                Slot::Film(f) => match d.film.as_ref().map(|film| with_field(film, f, v)) {
+                    Some(Ok(film)) => d.film = Some(film),
+                    Some(Err(e)) => problems.push(info.name.clone(), e),
+                    None => {}
+                },
             }
         }
         problems.positive("journal_radius", d.journal_radius);
@@ -137,6 +149,9 @@ impl ClearanceDefinition {
         }
         problems.extend_prefixed("contact", d.contact.validate());
         problems.extend_prefixed("friction", d.friction.validate());
+        if let Some(film) = &d.film {
+            problems.extend_prefixed("film", film.validate());
+        }
         problems.into_result().map(|()| d)
     }
 
@@ -159,6 +174,7 @@ mod tests {
             friction: FrictionLaw::Ambrosio { coefficient: 0.01, v0: 1e-4, v1: 1e-3 },
             journal_material: Material::STEEL,
             bearing_material: Material::STEEL,
+            film: None,
         }
     }
 
@@ -197,5 +213,29 @@ mod tests {
         let mut v: Vec<f64> = d.parameters().iter().map(|p| p.value).collect();
         v[1] = 0.009;
         assert_eq!(d.with_values(&v).unwrap_err().0[0].field, "bearing_radius");
+    }
+
+    #[test]
+    fn a_films_numbers_are_parameters_checked_by_name() {
+        let film = crate::film::Film {
+            viscosity: 0.2,
+            length: 0.005,
+            bearing: crate::film::BearingLength::Short,
+            mixed_fraction: 0.05,
+        };
+        let d = ClearanceDefinition { film: Some(film), ..ln() };
+        let p = d.parameters();
+        let unit = |n: &str| p.iter().find(|i| i.name == n).map(|i| i.unit);
+        assert_eq!(unit("film.viscosity"), Some("Pa.s"));
+        assert_eq!(unit("film.length"), Some("m"));
+        assert_eq!(unit("film.mixed_fraction"), Some("1"));
+        assert!(ln().parameters().iter().all(|i| !i.name.starts_with("film.")), "a dry joint has no film parameters");
+        let at = p.iter().position(|i| i.name == "film.viscosity").unwrap();
+        let mut values: Vec<f64> = p.iter().map(|i| i.value).collect();
+        values[at] = 0.05;
+        assert_eq!(d.with_values(&values).unwrap().film.unwrap().viscosity, 0.05);
+        values[at] = -1.0;
+        let e = d.with_values(&values).unwrap_err().to_string();
+        assert!(e.contains("film.viscosity"), "{e}");
     }
 }

@@ -24,9 +24,11 @@ pub fn field_unit(key: &str) -> &'static str {
         "force" | "forces" => "N",
         "torque" => "N.m",
         "young_modulus" => "Pa",
+        "viscosity" => "Pa.s",
         "stiffness" => "N/m^n",
         "damping" | "max_damping" => "N.s/m",
-        "restitution" | "exponent" | "coefficient" | "poisson_ratio" | "axis" | "static_coefficient" => "1",
+        "restitution" | "exponent" | "coefficient" | "poisson_ratio" | "axis" | "static_coefficient"
+        | "mixed_fraction" => "1",
         _ => "",
     }
 }

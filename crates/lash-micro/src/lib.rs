@@ -187,7 +187,7 @@ pub struct CoreBox(Core);
 /// [`CoreJoint`] of a clearance joint kind with radii and laws (its definition's), whose models
 /// of 1, 2, … joints are the `Core` variants listed.
 macro_rules! clearance_core_joint {
-    ($joint:ty, $($count:literal => $variant:ident),+) => {
+    ($joint:ty $(, $film:ident)?; $($count:literal => $variant:ident),+) => {
         impl CoreJoint for $joint {
             fn core(joints: Vec<Self>) -> Option<CoreBox> {
                 Some(CoreBox(match joints.len() {
@@ -200,13 +200,14 @@ macro_rules! clearance_core_joint {
                 self.bearing_radius = d.bearing_radius;
                 self.law = d.normal_force();
                 self.friction = d.friction;
+                $(self.$film = d.$film;)?
             }
         }
     };
 }
 
-clearance_core_joint!(ClearanceJoint, 1 => C2, 2 => C4, 3 => C6, 4 => C8, 5 => C10, 6 => C12);
-clearance_core_joint!(SphericalClearance, 1 => S3, 2 => S6, 3 => S9, 4 => S12);
+clearance_core_joint!(ClearanceJoint, film; 1 => C2, 2 => C4, 3 => C6, 4 => C8, 5 => C10, 6 => C12);
+clearance_core_joint!(SphericalClearance; 1 => S3, 2 => S6, 3 => S9, 4 => S12);
 
 impl CoreJoint for BushingJoint {
     fn core(joints: Vec<Self>) -> Option<CoreBox> {
@@ -1413,6 +1414,7 @@ mod tests {
             friction: FrictionLaw::Coulomb { coefficient: 0.1 },
             journal_material: lash_contact::Material::STEEL,
             bearing_material: lash_contact::Material::STEEL,
+            film: None,
         };
         let mut s = InterfaceSubsystem::with_definitions(
             vec![joint()],

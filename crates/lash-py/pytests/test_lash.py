@@ -223,6 +223,20 @@ def test_a_translational_clearance_joint_runs_and_edits_as_on_the_command_line(t
     assert [c["name"] for c in reduced.summary["clearances"]] == [f"slider_guide corner {k}" for k in range(1, 5)]
 
 
+def test_a_lubricated_joint_runs_and_edits_as_on_the_command_line(tmp_path):
+    # A-lubricated's crank pivot carries an oil film: the reduced model runs it from Python as
+    # `lash run` does, its film is edited by path, and a meaningless film names its field.
+    r = lash.run("A-lubricated", "reduced", horizon=0.01)
+    done = cli("run", "A-lubricated", "--model", "reduced", "--horizon", "0.01", "--out", str(tmp_path / "l"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    assert np.array_equal(r.samples, read_csv(tmp_path / "l" / "timeseries.csv")[1])
+    thin = lash.run(lash.load("A-lubricated").with_values({"clearances[0].film.viscosity": 0.02}), "reduced", horizon=0.01)
+    assert not np.array_equal(thin["crank_pivot.fx"], r["crank_pivot.fx"])
+    with pytest.raises(lash.ScenarioError) as e:
+        lash.load("A-lubricated").with_values({"clearances[0].film.viscosity": -1.0})
+    assert any(f == "clearances[0].film.viscosity" for f, _ in e.value.problems)
+
+
 # Sweeps and datasets.
 
 SWEEP = """

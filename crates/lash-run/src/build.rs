@@ -26,6 +26,7 @@ pub fn clearance_definition(s: &Scenario, c: &ClearanceSpec) -> lash_contact::Cl
             Some(b) => Material { young_modulus: b.material.young_modulus, poisson_ratio: b.material.poisson_ratio },
             None => material(&c.bearing_material),
         },
+        film: c.film,
     }
 }
 

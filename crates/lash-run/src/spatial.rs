@@ -584,6 +584,7 @@ impl SpatialReducedRun {
                 friction: c.friction,
                 journal_material: material(&c.journal_material),
                 bearing_material: material(&c.bearing_material),
+                film: None,
             })
             .collect();
         let micro_sub = lash_micro::InterfaceSubsystem::with_definitions(joints, integrator, definitions)
