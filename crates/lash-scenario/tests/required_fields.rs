@@ -78,3 +78,12 @@ fn repeated_names_and_missing_bodies_are_named_in_planar_and_spatial_files() {
         }
     }
 }
+
+/// An oil film is a planar revolute joint's: on a spherical clearance joint it is refused, named.
+#[test]
+fn a_film_on_a_spherical_joint_is_refused_by_name() {
+    let mut e = lash_scenario::builtin_spatial::spatial_by_name("E").unwrap();
+    e.clearances[1].film = lash_scenario::builtin::by_name("A-lubricated").unwrap().clearances[0].film;
+    let p = lash_scenario::validate_spatial(&e).to_string();
+    assert!(p.contains("clearances[1].film") && p.contains("spherical"), "{p}");
+}
