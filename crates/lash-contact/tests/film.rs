@@ -28,17 +28,14 @@ fn load_and_attitude(bearing: BearingLength, ratio: f64, angle: f64) -> (f64, f6
     (along.hypot(across), (-across).atan2(along))
 }
 
-#[test]
-fn short_bearing_matches_ocvirk() {
-    let u = RADIUS * OMEGA;
+/// The film's load and attitude against `closed` (ε → load, attitude) over ε = 0.1…0.95, with
+/// the line of centres along each of `angles`.
+fn matches_in_steady_running(bearing: BearingLength, angles: [f64; 3], closed: impl Fn(f64) -> (f64, f64)) {
     for k in 0..18 {
         let eps = 0.1 + 0.05 * k as f64;
-        let q = 1.0 - eps * eps;
-        let load = VISCOSITY * u * LENGTH.powi(3) / (4.0 * CLEARANCE.powi(2)) * eps / q.powi(2)
-            * (PI * PI * q + 16.0 * eps * eps).sqrt();
-        let attitude = (PI * q.sqrt() / (4.0 * eps)).atan();
-        for angle in [0.0, 2.0, -2.7] {
-            let (got, phi) = load_and_attitude(BearingLength::Short, eps, angle);
+        let (load, attitude) = closed(eps);
+        for angle in angles {
+            let (got, phi) = load_and_attitude(bearing, eps, angle);
             assert!((got / load - 1.0).abs() < 1e-10, "ε {eps}: load {got} vs {load}");
             assert!((phi - attitude).abs() < 1e-10, "ε {eps}: attitude {phi} vs {attitude}");
         }
@@ -46,21 +43,25 @@ fn short_bearing_matches_ocvirk() {
 }
 
 #[test]
+fn short_bearing_matches_ocvirk() {
+    let u = RADIUS * OMEGA;
+    matches_in_steady_running(BearingLength::Short, [0.0, 2.0, -2.7], |eps| {
+        let q = 1.0 - eps * eps;
+        let load = VISCOSITY * u * LENGTH.powi(3) / (4.0 * CLEARANCE.powi(2)) * eps / q.powi(2)
+            * (PI * PI * q + 16.0 * eps * eps).sqrt();
+        (load, (PI * q.sqrt() / (4.0 * eps)).atan())
+    });
+}
+
+#[test]
 fn long_bearing_matches_half_sommerfeld() {
     let u = RADIUS * OMEGA;
-    for k in 0..18 {
-        let eps = 0.1 + 0.05 * k as f64;
+    matches_in_steady_running(BearingLength::Long, [0.0, 1.1, 3.0], |eps| {
         let q = 1.0 - eps * eps;
         let scale = VISCOSITY * u * RADIUS * RADIUS * LENGTH / (CLEARANCE * CLEARANCE * (2.0 + eps * eps));
         let (radial, tangential) = (12.0 * scale * eps * eps / q, 6.0 * PI * scale * eps / q.sqrt());
-        let attitude = (PI * q.sqrt() / (2.0 * eps)).atan();
-        for angle in [0.0, 1.1, 3.0] {
-            let (got, phi) = load_and_attitude(BearingLength::Long, eps, angle);
-            let load = radial.hypot(tangential);
-            assert!((got / load - 1.0).abs() < 1e-10, "ε {eps}: load {got} vs {load}");
-            assert!((phi - attitude).abs() < 1e-10, "ε {eps}: attitude {phi} vs {attitude}");
-        }
-    }
+        (radial.hypot(tangential), (PI * q.sqrt() / (2.0 * eps)).atan())
+    });
 }
 
 /// A journal squeezed straight towards the bearing without rotation: the film's half is the one
