@@ -193,28 +193,27 @@ fn long_film(ratio: f64, w_u: f64, w_t: f64) -> (f64, f64) {
     let e = ratio;
     let (a, b) = (-w_t / (2.0 + e * e), -0.5 * w_u);
     let mean = 3.0 * e * w_u / (2.0 * (2.0 + 3.0 * e * e));
-    let pressure = |t: f64| {
+    let pressure_at = |(s, c): (f64, f64)| (2.0 + e * c) * (a * s + b * c) + mean * (1.0 + e * c) * (1.0 + e * c);
+    // P D² and its slope at θ, from one sin_cos.
+    let with_slope = |t: f64| {
         let (s, c) = t.sin_cos();
-        (2.0 + e * c) * (a * s + b * c) + mean * (1.0 + e * c) * (1.0 + e * c)
+        let slope = -e * s * (a * s + b * c) + (2.0 + e * c) * (a * c - b * s) - 2.0 * mean * e * s * (1.0 + e * c);
+        (pressure_at((s, c)), slope)
     };
-    let slope = |t: f64| {
-        let (s, c) = t.sin_cos();
-        -e * s * (a * s + b * c) + (2.0 + e * c) * (a * c - b * s) - 2.0 * mean * e * s * (1.0 + e * c)
-    };
-    const SAMPLES: usize = 64;
     let step = 2.0 * PI / SAMPLES as f64;
     // Sign changes of P around the circle: (angle, whether a pressed arc starts there).
     let (mut roots, mut count) = ([(0.0, false); 8], 0);
-    let first = pressure(0.0) > 0.0;
-    let mut previous = first;
+    let samples = &*SAMPLE_ANGLES;
+    let first_value = pressure_at(samples[0]);
+    let (first, mut previous) = (first_value > 0.0, first_value);
     for k in 1..=SAMPLES {
-        let now = if k == SAMPLES { first } else { pressure(k as f64 * step) > 0.0 };
-        if now != previous && count < roots.len() {
-            let t = refine_root(&pressure, &slope, (k - 1) as f64 * step, k as f64 * step);
-            roots[count] = (t, now);
+        let value = if k == SAMPLES { first_value } else { pressure_at(samples[k]) };
+        if (value > 0.0) != (previous > 0.0) && count < roots.len() {
+            let t = refine_root(&with_slope, ((k - 1) as f64 * step, k as f64 * step), (previous, value));
+            roots[count] = (t, value > 0.0);
             count += 1;
         }
-        previous = now;
+        previous = value;
     }
     // p′ = (12 μ R²/c³)(w_u sin θ − w_t cos θ + C₁)/D³, C₁ from the pressure's periodicity.
     let c1 = -3.0 * e * w_t / (2.0 + e * e);
@@ -239,21 +238,33 @@ fn long_film(ratio: f64, w_u: f64, w_t: f64) -> (f64, f64) {
     (f_u, f_t)
 }
 
-/// A root of `f` between `lo` and `hi`, where its sign differs: Newton steps kept in the bracket
-/// (bisection where a step would leave it).
-fn refine_root(f: &impl Fn(f64) -> f64, slope: &impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
-    let lo_positive = f(lo) > 0.0;
-    let mut t = 0.5 * (lo + hi);
-    for _ in 0..60 {
-        let v = f(t);
+/// Where the long bearing's pressure is sampled for its sign changes.
+const SAMPLES: usize = 64;
+
+/// (sin θ, cos θ) of the samples, θ = 2π k / [`SAMPLES`], computed once.
+static SAMPLE_ANGLES: std::sync::LazyLock<[(f64, f64); SAMPLES]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|k| (2.0 * PI * k as f64 / SAMPLES as f64).sin_cos()));
+
+/// A root of `f` (its value and slope at θ) between `lo` and `hi`, where its values `f_lo`
+/// and `f_hi` differ in sign: Newton steps from the secant's point, kept in the bracket (bisection
+/// where a step would leave it), to 1e-12 rad — the force's error is of the second order in the
+/// root's (the pressure is zero there), so far below rounding.
+fn refine_root(f: &impl Fn(f64) -> (f64, f64), (mut lo, mut hi): (f64, f64), (f_lo, f_hi): (f64, f64)) -> f64 {
+    let lo_positive = f_lo > 0.0;
+    let mut t = lo - f_lo * (hi - lo) / (f_hi - f_lo);
+    if !(t > lo && t < hi) {
+        t = 0.5 * (lo + hi);
+    }
+    for _ in 0..40 {
+        let (v, slope) = f(t);
         if (v > 0.0) == lo_positive {
             lo = t;
         } else {
             hi = t;
         }
-        let newton = t - v / slope(t);
+        let newton = t - v / slope;
         let next = if newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
-        if (next - t).abs() <= 4.0 * f64::EPSILON {
+        if (next - t).abs() <= 1e-12 {
             return next;
         }
         t = next;
