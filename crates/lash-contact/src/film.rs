@@ -99,11 +99,11 @@ impl Film {
     /// radius `radius` in a clearance `clearance` (both \[m\]).
     #[inline]
     pub fn force<R: Real>(&self, (radius, clearance): (f64, f64), e: [R; 2], e_dot: [R; 2], mean_rate: R) -> [R; 2] {
-        let length = match self.bearing {
-            BearingLength::Short => FilmIntegrals::short(self.viscosity, radius, self.length, clearance),
-            BearingLength::Long => FilmIntegrals::long(self.viscosity, radius, self.length, clearance),
+        let form = match self.bearing {
+            BearingLength::Short => FilmForm::short(self.viscosity, radius, self.length, clearance),
+            BearingLength::Long => FilmForm::long(self.viscosity, radius, self.length, clearance),
         };
-        film_force(length, clearance, 1.0 - self.mixed_fraction, e, e_dot, mean_rate)
+        film_force(form, clearance, 1.0 - self.mixed_fraction, e, e_dot, mean_rate)
     }
 }
 
@@ -123,12 +123,12 @@ impl Film {
 /// Which closed form, with its force scale: μ R L³ / c³ (short) or 12 μ R³ L / c³ (long), in
 /// N per (m/s) of w.
 #[derive(Debug, Clone, Copy)]
-enum FilmIntegrals {
+enum FilmForm {
     Short(f64),
     Long(f64),
 }
 
-impl FilmIntegrals {
+impl FilmForm {
     fn short(viscosity: f64, radius: f64, length: f64, clearance: f64) -> Self {
         Self::Short(viscosity * radius * length.powi(3) / clearance.powi(3))
     }
@@ -140,7 +140,7 @@ impl FilmIntegrals {
 /// The film force for eccentricity ratios up to `ratio_limit` (beyond: held there).
 #[inline]
 fn film_force<R: Real>(
-    model: FilmIntegrals,
+    model: FilmForm,
     clearance: f64,
     ratio_limit: f64,
     e: [R; 2],
@@ -160,12 +160,12 @@ fn film_force<R: Real>(
     let w_u = e_dot[0] * u[0] + e_dot[1] * u[1];
     let w_t = (e_dot[1] * u[0] - e_dot[0] * u[1]) - mean_rate * held_e;
     let (f_u, f_t) = match model {
-        FilmIntegrals::Short(scale) => {
+        FilmForm::Short(scale) => {
             let i = Integrals::half_film(ratio, w_u, w_t);
             let k = R::splat(-scale);
             (k * (w_u * i.cc + w_t * i.sc), k * (w_u * i.sc + w_t * i.ss))
         }
-        FilmIntegrals::Long(scale) => {
+        FilmForm::Long(scale) => {
             // The pressed arcs differ from lane to lane: found lane by lane.
             let mut per_lane = [(0.0, 0.0); lash_core::lane::LANES];
             for (l, f) in per_lane.iter_mut().enumerate().take(R::WIDTH) {
@@ -218,7 +218,7 @@ fn long_film(ratio: f64, w_u: f64, w_t: f64) -> (f64, f64) {
     // p′ = (12 μ R²/c³)(w_u sin θ − w_t cos θ + C₁)/D³, C₁ from the pressure's periodicity.
     let c1 = -3.0 * e * w_t / (2.0 + e * e);
     let arc = |from: f64, to: f64| {
-        let i = Integrals::<f64>::arc(e, from, to);
+        let i = Integrals::arc(e, from, to);
         (-(w_u * i.ss - w_t * i.sc + c1 * i.s), w_u * i.sc - w_t * i.cc + c1 * i.c)
     };
     if count == 0 {
@@ -302,21 +302,6 @@ impl<R: Real> Integrals<R> {
         Self::of_anomalies(ratio, start, end, span)
     }
 
-    /// The integrals from θ = `from` to `to` (`from` < `to` ≤ `from` + 2π), E unwrapped by
-    /// its distance from θ (less than π for ε < 1).
-    fn arc(ratio: f64, from: f64, to: f64) -> Integrals<f64> {
-        let root = (1.0 - ratio * ratio).sqrt();
-        let unwrapped = |t: f64| {
-            let (s, c) = t.sin_cos();
-            let (cos_e, sin_e) = anomaly(ratio, root, c, s);
-            let e = sin_e.atan2(cos_e);
-            (cos_e, sin_e, e + 2.0 * PI * ((t - e) / (2.0 * PI)).round())
-        };
-        let (c1, s1, e1) = unwrapped(from);
-        let (c2, s2, e2) = unwrapped(to);
-        Integrals::of_anomalies(ratio, (c1, s1), (c2, s2), e2 - e1)
-    }
-
     #[inline(always)]
     fn of_anomalies(ratio: R, (c1, s1): (R, R), (c2, s2): (R, R), span: R) -> Self {
         let (one, two, half) = (R::splat(1.0), R::splat(2.0), R::splat(0.5));
@@ -333,6 +318,23 @@ impl<R: Real> Integrals<R> {
             c: ((one + e2) * sin - e * (half * span + half * sin_cos) - e * span) / q52,
             s: (-cos - half * e * sin_sq) / q2,
         }
+    }
+}
+
+impl Integrals<f64> {
+    /// The integrals from θ = `from` to `to` (`from` < `to` ≤ `from` + 2π), E unwrapped by
+    /// its distance from θ (less than π for ε < 1).
+    fn arc(ratio: f64, from: f64, to: f64) -> Self {
+        let root = (1.0 - ratio * ratio).sqrt();
+        let unwrapped = |t: f64| {
+            let (s, c) = t.sin_cos();
+            let (cos_e, sin_e) = anomaly(ratio, root, c, s);
+            let e = sin_e.atan2(cos_e);
+            (cos_e, sin_e, e + 2.0 * PI * ((t - e) / (2.0 * PI)).round())
+        };
+        let (c1, s1, e1) = unwrapped(from);
+        let (c2, s2, e2) = unwrapped(to);
+        Self::of_anomalies(ratio, (c1, s1), (c2, s2), e2 - e1)
     }
 }
 
@@ -391,7 +393,7 @@ mod tests {
         };
         for &ratio in &[0.0, 0.3, 0.9] {
             for &(from, to) in &[(0.1, 0.2), (-1.0, 2.5), (2.0, 7.0), (3.0, 3.0 + 2.0 * PI), (5.5, 6.5)] {
-                let i = Integrals::<f64>::arc(ratio, from, to);
+                let i = Integrals::arc(ratio, from, to);
                 for (got, f) in [
                     (i.cc, &(|t: f64| t.cos().powi(2)) as &dyn Fn(f64) -> f64),
                     (i.sc, &|t: f64| t.sin() * t.cos()),

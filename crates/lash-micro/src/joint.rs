@@ -106,8 +106,7 @@ pub trait MicroJoint: Clearance + ContactModes + Clone + std::fmt::Debug {
     /// |f_c| \[N\] in state `s`: |F_N n + F_T t| from the two orthogonal components (a
     /// lubricated joint: the norm of its force on the journal, the film's included).
     fn force_magnitude(&self, s: &Self::State) -> f64 {
-        let (n, t) = (Self::normal_force(s), Self::friction_force(s));
-        (n * n + t * t).sqrt()
+        contact_force_magnitude(Self::normal_force(s), Self::friction_force(s))
     }
     /// The force on the journal (COORDINATES) and the friction loads (FRICTION_LOADS) of a state.
     fn loads(&self, s: &Self::State, force: &mut [f64], friction: &mut [f64]);
@@ -125,6 +124,12 @@ pub trait MicroJoint: Clearance + ContactModes + Clone + std::fmt::Debug {
     fn slip(s: &Self::State) -> f64;
     /// The force on the journal, component `i` \[N\].
     fn force_component(s: &Self::State, i: usize) -> f64;
+}
+
+/// |F_N n + F_T t| from the two orthogonal components.
+#[inline(always)]
+fn contact_force_magnitude(normal: f64, friction: f64) -> f64 {
+    (normal * normal + friction * friction).sqrt()
 }
 
 /// The accessors of a joint whose state holds its contact's quantities as fields of these names
@@ -192,8 +197,7 @@ impl MicroJoint for ClearanceJoint {
         if self.film.is_some() {
             s.force_on_journal.norm()
         } else {
-            let (n, t) = (s.normal_force, s.friction_force);
-            (n * n + t * t).sqrt()
+            contact_force_magnitude(s.normal_force, s.friction_force)
         }
     }
     fn film_damping(&self) -> f64 {

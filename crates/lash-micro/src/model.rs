@@ -600,7 +600,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
             end: None,
             film_damping: 0.0,
         };
-        m.film_damping = m.joints.iter().map(J::film_damping).fold(0.0, f64::max);
+        m.film_damping = m.largest_film_damping();
         m.refresh_states(0.0);
         m
     }
@@ -821,6 +821,11 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         for k in 0..n {
             self.rk4_step_once(t + k as f64 * dh, dh);
         }
+    }
+
+    /// The joints' largest film damping (0 without a lubricated joint).
+    fn largest_film_damping(&self) -> f64 {
+        self.joints.iter().map(J::film_damping).fold(0.0, f64::max)
     }
 
     /// How many RK4 steps the step from `t` of size `h` needs for the films: h λ ≤ 2.5 (RK4 is
@@ -1082,7 +1087,7 @@ impl<J: MicroJoint, const N: usize, const K: usize, const M: usize, const R: usi
         self.bush_deflection = SVector::zeros();
         self.end = None;
         // (Here as well as at construction: a definition applied since may change the radii.)
-        self.film_damping = self.joints.iter().map(J::film_damping).fold(0.0, f64::max);
+        self.film_damping = self.largest_film_damping();
         self.refresh_states(t);
     }
 
